@@ -1,0 +1,32 @@
+// Small helpers for absl::Status plumbing.
+//
+// Abseil 20220623 ships neither RETURN_IF_ERROR nor ASSIGN_OR_RETURN, so the
+// project keeps these two tiny macros. Usage:
+//
+//   absl::StatusOr<Esdf> BuildEsdf(...) {
+//     OAIPP_RETURN_IF_ERROR(ValidateConfig(config));
+//     OAIPP_ASSIGN_OR_RETURN(auto grid, MakeGrid(config));
+//     ...
+//   }
+#pragma once
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
+#define OAIPP_STATUS_CONCAT_INNER_(a, b) a##b
+#define OAIPP_STATUS_CONCAT_(a, b) OAIPP_STATUS_CONCAT_INNER_(a, b)
+
+#define OAIPP_RETURN_IF_ERROR(expr)                  \
+  do {                                               \
+    if (absl::Status oaipp_status_ = (expr); !oaipp_status_.ok()) { \
+      return oaipp_status_;                          \
+    }                                                \
+  } while (false)
+
+#define OAIPP_ASSIGN_OR_RETURN(lhs, expr) \
+  OAIPP_ASSIGN_OR_RETURN_IMPL_(OAIPP_STATUS_CONCAT_(oaipp_statusor_, __LINE__), lhs, expr)
+
+#define OAIPP_ASSIGN_OR_RETURN_IMPL_(tmp, lhs, expr) \
+  auto tmp = (expr);                                 \
+  if (!tmp.ok()) return std::move(tmp).status();     \
+  lhs = std::move(tmp).value()
