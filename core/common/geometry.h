@@ -15,6 +15,7 @@
 #include "Eigen/Core"
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
 
 namespace oaipp {
 
@@ -47,20 +48,20 @@ template <typename Derived>
 }
 
 // Returns InvalidArgument naming `field` unless `value` is finite.
-[[nodiscard]] inline absl::Status CheckFinite(std::string_view field, double value) {
+[[nodiscard]] inline absl::Status CheckFinite(absl::string_view field, double value) {
   if (std::isfinite(value)) return absl::OkStatus();
   return absl::InvalidArgumentError(absl::StrCat(field, ": must be finite, got ", value));
 }
 
 // Returns InvalidArgument naming `field` unless `value` > 0 and finite.
-[[nodiscard]] inline absl::Status CheckPositive(std::string_view field, double value) {
+[[nodiscard]] inline absl::Status CheckPositive(absl::string_view field, double value) {
   if (std::isfinite(value) && value > 0.0) return absl::OkStatus();
   return absl::InvalidArgumentError(
       absl::StrCat(field, ": must be positive and finite, got ", value));
 }
 
 // Returns InvalidArgument naming `field` unless every component is finite.
-[[nodiscard]] inline absl::Status CheckFinite(std::string_view field, const Vec3& v) {
+[[nodiscard]] inline absl::Status CheckFinite(absl::string_view field, const Vec3& v) {
   if (AllFinite(v)) return absl::OkStatus();
   return absl::InvalidArgumentError(
       absl::StrCat(field, ": must be finite, got (", v.x(), ", ", v.y(), ", ", v.z(), ")"));

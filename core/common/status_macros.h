@@ -16,11 +16,11 @@
 #define OAIPP_STATUS_CONCAT_INNER_(a, b) a##b
 #define OAIPP_STATUS_CONCAT_(a, b) OAIPP_STATUS_CONCAT_INNER_(a, b)
 
-#define OAIPP_RETURN_IF_ERROR(expr)                  \
-  do {                                               \
+#define OAIPP_RETURN_IF_ERROR(expr)                                 \
+  do {                                                              \
     if (absl::Status oaipp_status_ = (expr); !oaipp_status_.ok()) { \
-      return oaipp_status_;                          \
-    }                                                \
+      return oaipp_status_;                                         \
+    }                                                               \
   } while (false)
 
 #define OAIPP_ASSIGN_OR_RETURN(lhs, expr) \

@@ -1,0 +1,118 @@
+// Euclidean signed distance field (ESDF) on a voxel grid (DESIGN.md §2.2).
+//
+// The grid covers the flight volume padded by the truncation distance, so
+// that obstacles just outside the volume still shape the field inside it.
+// Values are signed distances to the nearest obstacle surface (negative
+// inside), clamped to [-truncation_m, truncation_m] as in Voxblox, whose
+// default 2 m truncation this follows: planning only asks "is this pose
+// within r_uav / 2 of an obstacle", so far-field values are not needed, and
+// truncation is what makes obstacle updates local.
+//
+// How it is built: voxels whose centre lies within half a voxel diagonal of a
+// surface ("surface voxels") store their exact signed distance; every other
+// voxel gets the exact Euclidean distance to the nearest surface-voxel centre
+// from the separable distance transform of Felzenszwalb & Huttenlocher
+// ("Distance Transforms of Sampled Functions", 2012), signed by an exact
+// inside test. The nearest surface point always lies within half a diagonal
+// of some surface-voxel centre, so every voxel value is within half a voxel
+// diagonal of the true (clamped) signed distance.
+//
+//   OAIPP_ASSIGN_OR_RETURN(Esdf esdf, Esdf::Create(volume, EsdfConfig{}));
+//   esdf.Rebuild(shapes);
+//   double d_m = esdf.Distance(p_W);              // trilinear interpolation
+//   esdf.Update(shapes, changed_region_W);        // after an obstacle change
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/common/geometry.h"
+#include "core/environment/obstacle.h"
+
+namespace oaipp {
+
+struct EsdfConfig {
+  // Edge length of a voxel, metres. Valid: (0, 10].
+  double voxel_size_m = 0.2;
+  // Values are clamped to +-truncation_m. Valid: >= voxel_size_m.
+  double truncation_m = 2.0;
+  // Refuse grids larger than this many voxels (memory: 4 bytes each).
+  std::int64_t max_voxels = 200'000'000;
+};
+
+// Half-open voxel index box [lo, hi).
+struct VoxelBox {
+  std::array<int, 3> lo{0, 0, 0};
+  std::array<int, 3> hi{0, 0, 0};
+  [[nodiscard]] std::int64_t Count() const {
+    std::int64_t n = 1;
+    for (int a = 0; a < 3; ++a) n *= std::max(0, hi[a] - lo[a]);
+    return n;
+  }
+};
+
+class Esdf {
+ public:
+  // Creates the grid over `volume` (padded by config.truncation_m) with every
+  // value at +truncation (an empty world). InvalidArgument on bad config or
+  // volume, ResourceExhausted when the grid would exceed config.max_voxels.
+  [[nodiscard]] static absl::StatusOr<Esdf> Create(const Aabb& volume, const EsdfConfig& config);
+
+  Esdf(Esdf&&) = default;
+  Esdf& operator=(Esdf&&) = default;
+  // The grid holds megabytes: copies are explicit.
+  Esdf(const Esdf&) = delete;
+  Esdf& operator=(const Esdf&) = delete;
+  [[nodiscard]] Esdf Clone() const;
+
+  // Recomputes every voxel from `shapes` (which must be valid).
+  void Rebuild(std::span<const Shape* const> shapes);
+
+  // Recomputes only the voxels whose value can change when the obstacle
+  // geometry inside `changed_W` changed (the union of the bounding boxes of
+  // removed and added shapes). `shapes` is the new complete set. The result
+  // equals Rebuild(shapes) voxel for voxel. Falls back to a full rebuild
+  // when the affected region is most of the grid.
+  void Update(std::span<const Shape* const> shapes, const Aabb& changed_W);
+
+  // Signed distance at p_W, metres, trilinearly interpolated between voxel
+  // centres; points outside the grid are clamped onto it.
+  [[nodiscard]] double Distance(const Vec3& p_W) const;
+  // As Distance, and the gradient of the interpolant in *gradient_W.
+  [[nodiscard]] double DistanceAndGradient(const Vec3& p_W, Vec3* gradient_W) const;
+
+  [[nodiscard]] const std::array<int, 3>& dims() const { return dims_; }
+  [[nodiscard]] double voxel_size_m() const { return voxel_m_; }
+  [[nodiscard]] double truncation_m() const { return truncation_m_; }
+  [[nodiscard]] const Vec3& origin_W() const { return origin_W_; }
+  [[nodiscard]] Vec3 VoxelCentre(int i, int j, int k) const {
+    return origin_W_ + voxel_m_ * Vec3(i + 0.5, j + 0.5, k + 0.5);
+  }
+  [[nodiscard]] float Value(int i, int j, int k) const { return values_[Index(i, j, k)]; }
+  [[nodiscard]] std::span<const float> values() const { return values_; }
+  // Voxels recomputed by the last Rebuild or Update (for statistics).
+  [[nodiscard]] std::int64_t last_recomputed_voxels() const { return last_recomputed_; }
+  // Bytes held by the grid.
+  [[nodiscard]] std::size_t MemoryBytes() const { return values_.capacity() * sizeof(float); }
+
+ private:
+  Esdf() = default;
+
+  [[nodiscard]] std::int64_t Index(int i, int j, int k) const {
+    return i + static_cast<std::int64_t>(dims_[0]) * (j + static_cast<std::int64_t>(dims_[1]) * k);
+  }
+  [[nodiscard]] VoxelBox BoxAround(const Aabb& region_W, double margin_m) const;
+  void Recompute(std::span<const Shape* const> shapes, const VoxelBox& out);
+
+  std::array<int, 3> dims_{0, 0, 0};
+  Vec3 origin_W_ = Vec3::Zero();
+  double voxel_m_ = 0.2;
+  double truncation_m_ = 2.0;
+  std::vector<float> values_;
+  std::int64_t last_recomputed_ = 0;
+};
+
+}  // namespace oaipp
