@@ -1,0 +1,120 @@
+#include "core/planning/cmaes_optimizer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "gtest/gtest.h"
+
+namespace oaipp {
+namespace {
+
+// Runs CMA-ES (lambda = 10, 10-D) on f from x0 with step sigma0 and returns
+// the number of evaluations until f <= 1e-10 first happened (or -1).
+std::int64_t EvaluationsToTarget(const std::function<double(const Eigen::VectorXd&)>& f, double x0,
+                                 double sigma0, std::uint32_t seed, std::int64_t budget) {
+  constexpr int kDim = 10;
+  std::int64_t count = 0, hit = -1;
+  auto counted = [&](const Eigen::VectorXd& x) {
+    const double v = f(x);
+    ++count;
+    if (hit < 0 && v <= 1e-10) hit = count;
+    return v;
+  };
+  const Eigen::VectorXd big = Eigen::VectorXd::Constant(kDim, 1e3);
+  auto result = MinimizeCmaes(counted, Eigen::VectorXd::Constant(kDim, x0),
+                              Eigen::VectorXd::Constant(kDim, sigma0), -big, big,
+                              {.population = 10, .max_evaluations = budget, .seed = seed});
+  EXPECT_TRUE(result.ok()) << result.status();
+  return hit;
+}
+
+double Sphere(const Eigen::VectorXd& x) { return x.squaredNorm(); }
+double Rosenbrock(const Eigen::VectorXd& x) {
+  double s = 0.0;
+  for (Eigen::Index i = 0; i + 1 < x.size(); ++i) {
+    s += 100.0 * std::pow(x[i + 1] - x[i] * x[i], 2) + std::pow(1.0 - x[i], 2);
+  }
+  return s;
+}
+
+// REFERENCE.md: sphere from x0 = 1, sigma0 = 1 needs a median of 1770
+// evaluations (1650-1900) over 25 seeds; assert below 2500.
+TEST(CmaesTest, SphereReachesTargetWithinReferenceEvaluations) {
+  std::vector<std::int64_t> evals;
+  for (std::uint32_t seed = 1; seed <= 25; ++seed) {
+    const std::int64_t e = EvaluationsToTarget(Sphere, 1.0, 1.0, seed, 10000);
+    ASSERT_GT(e, 0) << "seed " << seed;
+    evals.push_back(e);
+  }
+  std::nth_element(evals.begin(), evals.begin() + 12, evals.end());
+  EXPECT_LT(evals[12], 2500);
+  EXPECT_GT(evals[12], 1000);  // a far smaller count would mean a miscounted budget
+}
+
+// REFERENCE.md: Rosenbrock from x0 = 0, sigma0 = 0.5 succeeds in 24 of 25
+// seeds (median 6355 evaluations); assert >= 80 % within 10^4.
+TEST(CmaesTest, RosenbrockSucceedsOnMostSeeds) {
+  int successes = 0;
+  for (std::uint32_t seed = 1; seed <= 25; ++seed) {
+    successes += EvaluationsToTarget(Rosenbrock, 0.0, 0.5, seed, 10000) > 0;
+  }
+  EXPECT_GE(successes, 20);
+}
+
+TEST(CmaesTest, SameSeedSameRunAndNeverWorseThanStart) {
+  auto f = [](const Eigen::VectorXd& x) {
+    return std::sin(3 * x[0]) + std::cos(2 * x[1]) + x.squaredNorm() / 10;
+  };
+  const Eigen::VectorXd x0 = Eigen::Vector2d(1.0, -2.0);
+  const Eigen::VectorXd lo = Eigen::Vector2d(-5, -5), hi = Eigen::Vector2d(5, 5);
+  const Eigen::VectorXd steps = Eigen::Vector2d(1, 1);
+  auto a =
+      MinimizeCmaes(f, x0, steps, lo, hi, {.population = 8, .max_evaluations = 200, .seed = 3});
+  auto b =
+      MinimizeCmaes(f, x0, steps, lo, hi, {.population = 8, .max_evaluations = 200, .seed = 3});
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(a->best_x, b->best_x);
+  EXPECT_EQ(a->evaluations, b->evaluations);
+  EXPECT_LE(a->best_f, f(x0));
+  EXPECT_LE(a->evaluations, 200);
+  EXPECT_EQ(a->generations, (200 - 1) / 8);
+}
+
+TEST(CmaesTest, StaysInsideTheBox) {
+  // The unconstrained minimum (10, 10) lies outside the box.
+  bool outside = false;
+  auto f = [&](const Eigen::VectorXd& x) {
+    outside |= (x.array() < -1.0).any() || (x.array() > 2.0).any();
+    return (x - Eigen::Vector2d(10, 10)).squaredNorm();
+  };
+  auto r =
+      MinimizeCmaes(f, Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 1), Eigen::Vector2d(-1, -1),
+                    Eigen::Vector2d(2, 2), {.population = 10, .max_evaluations = 400, .seed = 1});
+  ASSERT_TRUE(r.ok());
+  EXPECT_FALSE(outside);
+  EXPECT_NEAR(r->best_x[0], 2.0, 1e-2);
+  EXPECT_NEAR(r->best_x[1], 2.0, 1e-2);
+}
+
+TEST(CmaesTest, PastDeadlineStopsAtOnceWithTheStart) {
+  auto r = MinimizeCmaes(Sphere, Eigen::VectorXd::Ones(3), Eigen::VectorXd::Ones(3),
+                         -Eigen::VectorXd::Ones(3) * 5, Eigen::VectorXd::Ones(3) * 5, {},
+                         absl::InfinitePast());
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->stop_reason, StopReason::kDeadline);
+  EXPECT_EQ(r->evaluations, 1);
+  EXPECT_EQ(r->best_f, 3.0);
+}
+
+TEST(CmaesTest, BadInputIsRefused) {
+  const Eigen::VectorXd one = Eigen::VectorXd::Ones(2);
+  EXPECT_FALSE(MinimizeCmaes(Sphere, one, -one, -one, one, {}).ok());
+  EXPECT_FALSE(MinimizeCmaes(Sphere, one, one, one, -one, {}).ok());
+  EXPECT_FALSE(MinimizeCmaes(Sphere, one, one, -one, one, {.population = 3}).ok());
+  EXPECT_FALSE(MinimizeCmaes(Sphere, Eigen::Vector2d(NAN, 0), one, -one, one, {}).ok());
+  EXPECT_FALSE(MinimizeCmaes(Sphere, Eigen::VectorXd(), one, -one, one, {}).ok());
+}
+
+}  // namespace
+}  // namespace oaipp
