@@ -1,0 +1,149 @@
+// The field map: a Gaussian process over the ground cells, updated by a
+// Kalman filter (DESIGN.md §2.3).
+//
+// The map holds the mean mu (n) and the dense covariance P (n x n) of the
+// target field over the cells of a FieldGrid. It starts from the published
+// code's prior P0 = K - K (K + sn2 I)^-1 K and fuses measurements with the
+// Kalman update
+//   S = P_JJ + R,  W = P_:J S^-1,  mu += W (z_J - mu_J),  P -= W P_J:
+// over the observed cells J. The covariance update does not depend on z, so
+// planners predict future covariance with the free functions below
+// (UpdateCovariance, TraceAfterUpdate, VariancesAfterUpdate) without values.
+//
+// P is 8 n^2 bytes (20 MB for the paper's 1600 cells): GpMap is movable but
+// copies only through Clone().
+//
+//   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, FieldGrid::FromBounds({-15, -15}, {15, 15}, 0.75));
+//   OAIPP_ASSIGN_OR_RETURN(GpMap map, GpMap::Create(grid, GpParams::PaperPreset(0.75)));
+//   OAIPP_RETURN_IF_ERROR(map.FuseNearCertainZeros(cells_under_buildings));
+//   std::vector<CellObservation> obs = {{.cell = 17, .value = 1.0, .variance = 0.39}};
+//   OAIPP_RETURN_IF_ERROR(map.Update(obs));
+//   double trace = map.Trace();
+//   // Planning: what would Tr(P) be after these (hypothetical) observations?
+//   OAIPP_ASSIGN_OR_RETURN(double predicted, TraceAfterUpdate(map.Covariance(), obs));
+#pragma once
+
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "Eigen/Core"
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/mapping/field_grid.h"
+#include "core/mapping/gp_params.h"
+
+namespace oaipp {
+
+// One measured cell: value z (a label in [0, 1] for the target detector,
+// though the filter accepts any finite value) with noise variance > 0.
+struct CellObservation {
+  int cell = 0;
+  double value = 0.0;
+  double variance = 1.0;
+};
+
+// Validates `observations` against a map of num_cells cells and merges
+// repeated cells into one observation each: precision = sum of the
+// precisions, value = the precision-weighted mean of the values. Fusing the
+// merged list equals fusing the originals one by one, for the covariance and
+// for the mean (independent Gaussian noise on one cell). The result is
+// sorted by cell. InvalidArgument naming the entry and field when a cell is
+// out of range, a variance is not positive and finite (or so small that its
+// precision overflows), or (when check_values) a value is not finite; also
+// when merging overflows. Without check_values the values are ignored and
+// returned as 0 (covariance-only use).
+[[nodiscard]] absl::StatusOr<std::vector<CellObservation>> MergeObservations(
+    std::span<const CellObservation> observations, int num_cells, bool check_values = true);
+
+// The published code's prior covariance P0 = K - K (K + sn2 I)^-1 K over the
+// cell centres (DESIGN.md §2.3), K_ij = Matern32(|c_i - c_j|), exactly
+// symmetric. InvalidArgument when params are invalid. Costs about n^3 flops
+// (0.2-0.4 s for 1600 cells, mapping_bench).
+[[nodiscard]] absl::StatusOr<Eigen::MatrixXd> PriorCovariance(const FieldGrid& grid,
+                                                              const GpParams& params);
+
+// Covariance-only Kalman update P -= P_:J S^-1 P_J: for planning: values are
+// ignored (the covariance update does not depend on them, DESIGN.md §2.3),
+// repeated cells are merged as in MergeObservations. `covariance` must be
+// square, symmetric and positive semi-definite. Returns InvalidArgument (as
+// MergeObservations, or for a non-square matrix) and Internal when S is not
+// positive definite (P was not PSD); on error `covariance` is unchanged.
+[[nodiscard]] absl::Status UpdateCovariance(std::span<const CellObservation> observations,
+                                            Eigen::MatrixXd& covariance);
+
+// Tr(P) after the covariance-only update, without forming the updated P:
+// Tr(P) - ||L^-1 P_J:||_F^2 with L L^T = S, O(n m^2) instead of O(n^2 m).
+// Errors as UpdateCovariance.
+[[nodiscard]] absl::StatusOr<double> TraceAfterUpdate(
+    const Eigen::MatrixXd& covariance, std::span<const CellObservation> observations);
+
+// The diagonal of P after the covariance-only update (per-cell predicted
+// variances), O(n m^2). Errors as UpdateCovariance.
+[[nodiscard]] absl::StatusOr<Eigen::VectorXd> VariancesAfterUpdate(
+    const Eigen::MatrixXd& covariance, std::span<const CellObservation> observations);
+
+class GpMap {
+ public:
+  // Variance given to the ground under obstacles by FuseNearCertainZeros.
+  // Small against every real observation (var(2 m) = 0.095) and the prior
+  // variances (0.23 .. 0.46 for the paper preset), so those cells end at mean
+  // ~0 with standard deviation ~1e-3, i.e. certain for the planner. Not
+  // smaller, because S = P_JJ + 1e-6 I must stay well conditioned for its
+  // Cholesky factor: cond(S) <= 1 + Tr(P_JJ) / 1e-6, about 5e7 for a
+  // 100-cell building, far from double precision's limit.
+  static constexpr double kNearCertainVariance = 1e-6;
+
+  // A map at the prior: mean params.prior_mean everywhere, covariance
+  // PriorCovariance(grid, params). InvalidArgument for invalid params.
+  [[nodiscard]] static absl::StatusOr<GpMap> Create(const FieldGrid& grid, const GpParams& params);
+
+  // A map with a given prior (e.g. a plain GP prior K, or a cached P0).
+  // InvalidArgument when the sizes do not match grid.num_cells(), an entry is
+  // not finite, or covariance is not symmetric (to 1e-9 relative; it is then
+  // made exactly symmetric).
+  [[nodiscard]] static absl::StatusOr<GpMap> FromPrior(const FieldGrid& grid, Eigen::VectorXd mean,
+                                                       Eigen::MatrixXd covariance);
+
+  // Movable; a moved-from map may only be assigned to or destroyed.
+  GpMap(GpMap&&) noexcept = default;
+  GpMap& operator=(GpMap&&) noexcept = default;
+  // The covariance is 8 n^2 bytes: copies are explicit.
+  GpMap(const GpMap&) = delete;
+  GpMap& operator=(const GpMap&) = delete;
+  [[nodiscard]] GpMap Clone() const { return GpMap(grid_, mean_, covariance_); }
+
+  // Fuses `observations` in one Kalman update (DESIGN.md §2.3), repeated
+  // cells merged first (MergeObservations). An empty span does nothing.
+  // Everything is validated before the map changes: on error the map is
+  // untouched. InvalidArgument naming the entry and field ("observations[2].
+  // variance: ..."); Internal if S is not positive definite (cannot happen
+  // while P is PSD).
+  [[nodiscard]] absl::Status Update(std::span<const CellObservation> observations);
+
+  // Fuses value 0 with variance kNearCertainVariance at each of `cells`: the
+  // ground under an obstacle's footprint cannot hold targets (DESIGN.md
+  // §2.2). The caller does this once per obstacle (fusing twice halves the
+  // variance again, harmlessly). Repeated cells count once. Errors as Update.
+  [[nodiscard]] absl::Status FuseNearCertainZeros(std::span<const int> cells);
+
+  [[nodiscard]] const FieldGrid& grid() const { return grid_; }
+  [[nodiscard]] int num_cells() const { return static_cast<int>(mean_.size()); }
+  [[nodiscard]] const Eigen::VectorXd& Mean() const { return mean_; }
+  [[nodiscard]] const Eigen::MatrixXd& Covariance() const { return covariance_; }
+  // Posterior variance of one cell. Precondition: grid().IsValidCell(cell).
+  [[nodiscard]] double Variance(int cell) const { return covariance_(cell, cell); }
+  [[nodiscard]] Eigen::VectorXd Variances() const { return covariance_.diagonal(); }
+  // Tr(P), the map's total uncertainty (the non-adaptive objective).
+  [[nodiscard]] double Trace() const { return covariance_.trace(); }
+
+ private:
+  GpMap(const FieldGrid& grid, Eigen::VectorXd mean, Eigen::MatrixXd covariance)
+      : grid_(grid), mean_(std::move(mean)), covariance_(std::move(covariance)) {}
+
+  FieldGrid grid_;
+  Eigen::VectorXd mean_;
+  Eigen::MatrixXd covariance_;
+};
+
+}  // namespace oaipp

@@ -1,0 +1,76 @@
+// Parameters of the field map's Gaussian process and of the sensor noise
+// (DESIGN.md §2.3).
+//
+// The map's prior is a GP with an isotropic Matérn 3/2 kernel over the cell
+// centres; a measurement taken from altitude h has noise variance
+// var(h) = A (1 - exp(-B h)): higher is noisier.
+//
+//   GpParams gp = GpParams::PaperPreset(/*resolution_m=*/0.75);  // l = 2.752 m
+//   double k = Matern32(/*distance_m=*/1.5, gp.length_scale_m, gp.signal_var);
+//   double var = SensorNoise{}.Variance(/*altitude_m=*/10.0);     // 0.393469
+#pragma once
+
+#include <cmath>
+
+#include "absl/status/status.h"
+
+namespace oaipp {
+
+// Matérn 3/2 kernel k(d) = sf2 (1 + sqrt(3) d / l) exp(-sqrt(3) d / l)
+// (DESIGN.md §2.3). distance and length scale share one unit (metres in this
+// project). Preconditions: distance >= 0, length_scale > 0.
+[[nodiscard]] inline double Matern32(double distance_m, double length_scale_m, double signal_var) {
+  const double r = std::sqrt(3.0) * distance_m / length_scale_m;
+  return signal_var * (1.0 + r) * std::exp(-r);
+}
+
+// Hyper-parameters of the field map. The defaults are PaperPreset(0.75).
+struct GpParams {
+  // Matérn length scale l, metres. Valid: > 0.
+  double length_scale_m = 2.7519725007144333;
+  // Kernel signal variance sf2 (label units squared). Valid: > 0.
+  double signal_var = 1.8221188003905089;
+  // Noise variance sn2 used only to build the prior P0 = K - K (K + sn2 I)^-1 K.
+  // Valid: > 0 (sn2 = 0 would make P0 zero).
+  double noise_var = 2.0137527074704766;
+  // Prior mean mu0 of every cell: targets are sparse. Valid: finite.
+  double prior_mean = 0.1;
+
+  // The published code's hyper-parameters, which measure distances in cells
+  // (DESIGN.md §2.3): l = e^1.3 cells = e^1.3 * resolution_m metres
+  // (2.751973 m at 0.75 m), sf2 = e^0.6, sn2 = e^0.7, mu0 = 0.1. The paper
+  // prints {sn2, sf2, l} = {1.42, 1.82, 3.67}, but 1.42 = e^0.35 is sigma_n,
+  // not its square, and 3.67 is in cells, not metres; read literally they
+  // give a different prior (REFERENCE.md).
+  // Precondition: resolution_m > 0.
+  [[nodiscard]] static GpParams PaperPreset(double resolution_m) {
+    return {.length_scale_m = std::exp(1.3) * resolution_m,
+            .signal_var = std::exp(0.6),
+            .noise_var = std::exp(0.7),
+            .prior_mean = 0.1};
+  }
+
+  // InvalidArgument naming the first bad field.
+  [[nodiscard]] absl::Status Validate() const;
+};
+
+// Altitude-dependent measurement noise var(h) = A (1 - exp(-B h))
+// (DESIGN.md §2.3; the paper's A = 1, B = 0.05).
+struct SensorNoise {
+  // Saturation variance A, label units squared. Valid: > 0.
+  double a_var = 1.0;
+  // Growth rate B, per metre of altitude. Valid: > 0.
+  double b_per_m = 0.05;
+
+  // var(h) for a camera at altitude_m above the ground. Precondition:
+  // altitude_m > 0 (var(0) = 0 is not a valid observation variance, and
+  // GpMap::Update refuses it).
+  [[nodiscard]] double Variance(double altitude_m) const {
+    return a_var * (1.0 - std::exp(-b_per_m * altitude_m));
+  }
+
+  // InvalidArgument naming the first bad field.
+  [[nodiscard]] absl::Status Validate() const;
+};
+
+}  // namespace oaipp

@@ -1,0 +1,400 @@
+#include "core/mapping/gp_map.h"
+
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <type_traits>
+#include <vector>
+
+#include "Eigen/Cholesky"
+#include "Eigen/Eigenvalues"
+#include "Eigen/LU"
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+
+namespace oaipp {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+using ::testing::HasSubstr;
+
+// REFERENCE.md tolerances are 1e-6 relative.
+void ExpectRel(double actual, double expected, double rel = 1e-6) {
+  EXPECT_NEAR(actual, expected, rel * std::abs(expected));
+}
+
+FieldGrid Grid(int nx, int ny, double res) {
+  auto grid = FieldGrid::Create(Vec2(-0.5 * nx * res, -0.5 * ny * res), nx, ny, res);
+  EXPECT_TRUE(grid.ok()) << grid.status();
+  return *grid;
+}
+
+// The block rows 15..24, cols 13..26 of the 40 x 40 grid (REFERENCE.md).
+std::vector<CellObservation> Block140(double variance, double value = 1.0) {
+  std::vector<CellObservation> obs;
+  for (int row = 15; row <= 24; ++row) {
+    for (int col = 13; col <= 26; ++col) {
+      obs.push_back({.cell = row * 40 + col, .value = value, .variance = variance});
+    }
+  }
+  return obs;
+}
+
+// Textbook dense formulas (no Cholesky, no merging), the brute-force twin.
+MatrixXd KernelMatrix(const FieldGrid& grid, const GpParams& p) {
+  const int n = grid.num_cells();
+  MatrixXd k(n, n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      k(i, j) = Matern32((grid.CellCentreXY(i) - grid.CellCentreXY(j)).norm(), p.length_scale_m,
+                         p.signal_var);
+    }
+  }
+  return k;
+}
+
+MatrixXd DensePrior(const FieldGrid& grid, const GpParams& p) {
+  const MatrixXd k = KernelMatrix(grid, p);
+  const MatrixXd a = k + p.noise_var * MatrixXd::Identity(k.rows(), k.cols());
+  return k - k * a.partialPivLu().solve(k);
+}
+
+TEST(MaternKernelTest, MatchesReferenceUnitParameters) {
+  const double d[] = {0, 0.5, 1, 2, 3};
+  const double k[] = {1, 0.784887654, 0.4833577246, 0.1397313502, 0.0343132432};
+  for (int i = 0; i < 5; ++i) ExpectRel(Matern32(d[i], 1.0, 1.0), k[i]);
+}
+
+TEST(MaternKernelTest, MatchesReferencePaperParameters) {
+  const double d[] = {0, 1, 2, 3, 4};
+  const double k[] = {1.8221188, 1.6729851, 1.3781058, 1.0682746, 0.7964925};
+  // REFERENCE.md gives these to 8 significant digits.
+  for (int i = 0; i < 5; ++i) ExpectRel(Matern32(d[i], std::exp(1.3), std::exp(0.6)), k[i], 1e-7);
+}
+
+TEST(GpParamsTest, PaperPresetAndDefaults) {
+  const GpParams p = GpParams::PaperPreset(0.75);
+  ExpectRel(p.length_scale_m, 2.751973);
+  ExpectRel(p.signal_var, 1.822119);
+  ExpectRel(p.noise_var, 2.013753);
+  EXPECT_EQ(p.prior_mean, 0.1);
+  const GpParams d;
+  EXPECT_DOUBLE_EQ(d.length_scale_m, p.length_scale_m);
+  EXPECT_DOUBLE_EQ(d.signal_var, p.signal_var);
+  EXPECT_DOUBLE_EQ(d.noise_var, p.noise_var);
+  EXPECT_TRUE(d.Validate().ok());
+  EXPECT_THAT(GpParams{.noise_var = 0}.Validate().message(), HasSubstr("noise_var"));
+  EXPECT_THAT(GpParams{.prior_mean = NAN}.Validate().message(), HasSubstr("prior_mean"));
+}
+
+// REFERENCE.md 1-D GP: kernel 2.0 * Matern32(l = 1.5), noise 0.1, X = [0, 1, 3],
+// y = [1, -1, 0.5], x* = [0.5, 2, 5]. Checked twice: with the textbook
+// formulas, and as a Kalman update of a map whose prior is K.
+TEST(GpPosteriorTest, OneDimensionalReference) {
+  const double mean_ref[] = {-0.0249323714, -0.456926368, 0.2403414202};
+  const double var_ref[] = {0.18489935, 0.6437667559, 1.7891775238};
+  const std::vector<double> x = {0, 1, 3}, y = {1, -1, 0.5}, xs = {0.5, 2, 5};
+  auto k = [](double a, double b) { return Matern32(std::abs(a - b), 1.5, 2.0); };
+
+  MatrixXd kxx(3, 3), ksx(3, 3);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      kxx(i, j) = k(x[i], x[j]) + (i == j ? 0.1 : 0.0);
+      ksx(i, j) = k(xs[i], x[j]);
+    }
+  }
+  const VectorXd alpha = kxx.ldlt().solve(Eigen::Map<const VectorXd>(y.data(), 3));
+  const MatrixXd v = kxx.ldlt().solve(ksx.transpose());
+  for (int i = 0; i < 3; ++i) {
+    ExpectRel(ksx.row(i).dot(alpha), mean_ref[i]);
+    ExpectRel(k(xs[i], xs[i]) - ksx.row(i).dot(v.col(i)), var_ref[i]);
+  }
+
+  // A 1 x 11 grid with centres at x = 0, 0.5, ..., 5.
+  auto grid = FieldGrid::Create(Vec2(-0.25, -0.25), 11, 1, 0.5);
+  ASSERT_TRUE(grid.ok());
+  MatrixXd prior(11, 11);
+  for (int i = 0; i < 11; ++i) {
+    for (int j = 0; j < 11; ++j) prior(i, j) = k(0.5 * i, 0.5 * j);
+  }
+  auto map = GpMap::FromPrior(*grid, VectorXd::Zero(11), prior);
+  ASSERT_TRUE(map.ok()) << map.status();
+  const std::vector<CellObservation> obs = {{.cell = 0, .value = 1, .variance = 0.1},
+                                            {.cell = 2, .value = -1, .variance = 0.1},
+                                            {.cell = 6, .value = 0.5, .variance = 0.1}};
+  ASSERT_TRUE(map->Update(obs).ok());
+  const int star[] = {1, 4, 10};
+  for (int i = 0; i < 3; ++i) {
+    ExpectRel(map->Mean()[star[i]], mean_ref[i]);
+    ExpectRel(map->Variance(star[i]), var_ref[i]);
+  }
+}
+
+// Shared 1600-cell paper map: the prior is built once for the suite.
+class PaperMapTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    const auto start = std::chrono::steady_clock::now();
+    auto map = GpMap::Create(Grid(40, 40, 0.75), GpParams::PaperPreset(0.75));
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ASSERT_TRUE(map.ok()) << map.status();
+    ::testing::Test::RecordProperty("prior_1600_cells_s", std::to_string(seconds));
+    map_ = new GpMap(std::move(map).value());
+  }
+  static void TearDownTestSuite() {
+    delete map_;
+    map_ = nullptr;
+  }
+  static const GpMap& Map() { return *map_; }
+
+ private:
+  static GpMap* map_;
+};
+GpMap* PaperMapTest::map_ = nullptr;
+
+TEST_F(PaperMapTest, PriorTraceAndDiagonalMatchReference) {
+  const GpMap& map = Map();
+  ExpectRel(map.Trace(), 387.319924);
+  EXPECT_NEAR(map.Covariance().diagonal().minCoeff(), 0.231517, 5e-7);
+  EXPECT_NEAR(map.Covariance().diagonal().maxCoeff(), 0.456205, 5e-7);
+  EXPECT_TRUE(map.Covariance() == map.Covariance().transpose()) << "P0 must be exactly symmetric";
+  EXPECT_TRUE((map.Mean().array() == 0.1).all());
+}
+
+TEST_F(PaperMapTest, OneUpdateTracesMatchReference) {
+  const double var_low = 0.05 * (1 - std::exp(-2.0));
+  const double var_10m = SensorNoise{}.Variance(10.0);
+  ExpectRel(var_low, 0.043233236);
+  ExpectRel(var_10m, 0.393469340);
+  for (auto [var, trace] : {std::pair{var_low, 351.422991}, std::pair{var_10m, 363.636877}}) {
+    GpMap map = Map().Clone();
+    ASSERT_TRUE(map.Update(Block140(var)).ok());
+    ExpectRel(map.Trace(), trace);
+    EXPECT_TRUE(map.Covariance() == map.Covariance().transpose());
+    // The cheap predictions agree with the full update.
+    auto predicted = TraceAfterUpdate(Map().Covariance(), Block140(var));
+    ASSERT_TRUE(predicted.ok());
+    ExpectRel(*predicted, trace);
+    auto variances = VariancesAfterUpdate(Map().Covariance(), Block140(var));
+    ASSERT_TRUE(variances.ok());
+    EXPECT_LT((*variances - map.Variances()).cwiseAbs().maxCoeff(), 1e-12);
+    MatrixXd p = Map().Covariance();
+    ASSERT_TRUE(UpdateCovariance(Block140(var, /*value=*/0.0), p).ok());
+    EXPECT_LT((p - map.Covariance()).cwiseAbs().maxCoeff(), 1e-15);
+  }
+}
+
+TEST_F(PaperMapTest, OriginalIsUntouchedByUpdatesOfAClone) {
+  const double trace = Map().Trace();
+  GpMap clone = Map().Clone();
+  ASSERT_TRUE(clone.Update(Block140(0.1)).ok());
+  EXPECT_EQ(Map().Trace(), trace);
+  EXPECT_LT(clone.Trace(), trace);
+}
+
+TEST(GpMapTest, CopyPolicyIsExplicit) {
+  static_assert(!std::is_copy_constructible_v<GpMap>);
+  static_assert(!std::is_copy_assignable_v<GpMap>);
+  static_assert(std::is_nothrow_move_constructible_v<GpMap>);
+  static_assert(std::is_nothrow_move_assignable_v<GpMap>);
+}
+
+// REFERENCE.md: the paper's printed numbers read literally (l = 3.67 m,
+// sn2 = 1.42, sf2 = 1.82) give a different prior.
+TEST(PriorCovarianceTest, LiteralPaperNumbersGiveReferenceTrace) {
+  auto p0 = PriorCovariance(Grid(40, 40, 0.75),
+                            {.length_scale_m = 3.67, .signal_var = 1.82, .noise_var = 1.42});
+  ASSERT_TRUE(p0.ok());
+  ExpectRel(p0->trace(), 235.606822);
+}
+
+// More cells than the 128-column panels of the blocked inverse, and an
+// uneven grid, against the textbook formula.
+TEST(PriorCovarianceTest, MatchesDenseFormulaOnSmallGrids) {
+  for (auto [nx, ny, res] :
+       {std::tuple{15, 12, 0.75}, std::tuple{7, 3, 2.0}, std::tuple{1, 1, 1.0}}) {
+    const FieldGrid grid = Grid(nx, ny, res);
+    const GpParams p = GpParams::PaperPreset(0.75);
+    auto p0 = PriorCovariance(grid, p);
+    ASSERT_TRUE(p0.ok());
+    EXPECT_LT((*p0 - DensePrior(grid, p)).cwiseAbs().maxCoeff(), 1e-12) << nx << " x " << ny;
+    EXPECT_TRUE(*p0 == p0->transpose());
+  }
+}
+
+std::vector<CellObservation> RandomObservations(std::mt19937& rng, int n, int count) {
+  std::uniform_int_distribution<int> cell(0, n - 1);
+  std::uniform_real_distribution<double> value(0, 1), log_var(std::log(1e-3), std::log(1.0));
+  std::vector<CellObservation> obs;
+  for (int i = 0; i < count; ++i) {
+    obs.push_back({.cell = cell(rng), .value = value(rng), .variance = std::exp(log_var(rng))});
+  }
+  return obs;
+}
+
+// Brute-force Kalman update with an explicit inverse, observations unmerged.
+void DenseUpdate(const std::vector<CellObservation>& obs, VectorXd& mu, MatrixXd& p) {
+  const int m = static_cast<int>(obs.size());
+  MatrixXd h = MatrixXd::Zero(m, p.rows());
+  VectorXd z(m);
+  MatrixXd r = MatrixXd::Zero(m, m);
+  for (int k = 0; k < m; ++k) {
+    h(k, obs[k].cell) = 1.0;
+    z[k] = obs[k].value;
+    r(k, k) = obs[k].variance;
+  }
+  const MatrixXd s = h * p * h.transpose() + r;
+  const MatrixXd w = p * h.transpose() * s.inverse();
+  mu += w * (z - h * mu);
+  p -= w * h * p;
+}
+
+TEST(GpMapTest, UpdateMatchesDenseKalmanAndSequentialUpdates) {
+  const FieldGrid grid = Grid(12, 10, 0.75);
+  auto base = GpMap::Create(grid, GpParams::PaperPreset(0.75));
+  ASSERT_TRUE(base.ok());
+  std::mt19937 rng(42);
+  for (int trial = 0; trial < 5; ++trial) {
+    // 60 readings over 120 cells: many cells are observed more than once.
+    const std::vector<CellObservation> obs = RandomObservations(rng, grid.num_cells(), 60);
+
+    GpMap merged = base->Clone();
+    ASSERT_TRUE(merged.Update(obs).ok());
+
+    GpMap sequential = base->Clone();
+    for (const CellObservation& o : obs) ASSERT_TRUE(sequential.Update({&o, 1}).ok());
+
+    VectorXd mu = base->Mean();
+    MatrixXd p = base->Covariance();
+    DenseUpdate(obs, mu, p);
+
+    EXPECT_LT((merged.Covariance() - sequential.Covariance()).cwiseAbs().maxCoeff(), 1e-10);
+    EXPECT_LT((merged.Mean() - sequential.Mean()).cwiseAbs().maxCoeff(), 1e-10);
+    EXPECT_LT((merged.Covariance() - p).cwiseAbs().maxCoeff(), 1e-10);
+    EXPECT_LT((merged.Mean() - mu).cwiseAbs().maxCoeff(), 1e-10);
+  }
+}
+
+TEST(MergeObservationsTest, PrecisionsAddAndValuesArePrecisionWeighted) {
+  const std::vector<CellObservation> obs = {{.cell = 3, .value = 1.0, .variance = 0.5},
+                                            {.cell = 1, .value = 0.2, .variance = 0.3},
+                                            {.cell = 3, .value = 0.0, .variance = 0.25}};
+  auto merged = MergeObservations(obs, 5);
+  ASSERT_TRUE(merged.ok());
+  ASSERT_EQ(merged->size(), 2u);
+  EXPECT_EQ((*merged)[0].cell, 1);
+  EXPECT_EQ((*merged)[0].value, 0.2);
+  EXPECT_EQ((*merged)[0].variance, 0.3);
+  EXPECT_EQ((*merged)[1].cell, 3);
+  EXPECT_DOUBLE_EQ((*merged)[1].variance, 1.0 / (2.0 + 4.0));
+  EXPECT_DOUBLE_EQ((*merged)[1].value, (1.0 * 2.0 + 0.0 * 4.0) / 6.0);
+}
+
+TEST(GpMapTest, StaysSymmetricAndPsdOverManyRandomUpdates) {
+  const FieldGrid grid = Grid(20, 20, 0.75);
+  auto map = GpMap::Create(grid, GpParams::PaperPreset(0.75));
+  ASSERT_TRUE(map.ok());
+  // A building first, as a mission would, then 300 footprint-like updates.
+  ASSERT_TRUE(map->FuseNearCertainZeros(grid.CellsInRectangle(Vec2(0, 0), Vec2(4, 7))).ok());
+  std::mt19937 rng(2024);
+  std::uniform_real_distribution<double> pos(-8, 8), size(0.5, 9), log_var(std::log(1e-4), 0.0);
+  for (int i = 0; i < 300; ++i) {
+    // Braced lists fix the order in which the generator is drawn.
+    const Vec2 centre{pos(rng), pos(rng)};
+    const Vec2 extent{size(rng), size(rng)};
+    const std::vector<int> cells = grid.CellsInRectangle(centre, extent, /*yaw_rad=*/pos(rng));
+    std::vector<CellObservation> obs;
+    const double var = std::exp(log_var(rng));
+    for (int c : cells)
+      obs.push_back({.cell = c, .value = static_cast<double>(rng() % 2), .variance = var});
+    ASSERT_TRUE(map->Update(obs).ok()) << "update " << i;
+    ASSERT_TRUE(map->Covariance() == map->Covariance().transpose()) << "update " << i;
+  }
+  Eigen::SelfAdjointEigenSolver<MatrixXd> eig(map->Covariance(), Eigen::EigenvaluesOnly);
+  EXPECT_GE(eig.eigenvalues().minCoeff(), -1e-9);
+  EXPECT_TRUE(AllFinite(map->Mean()));
+}
+
+TEST(GpMapTest, NearCertainZerosPinTheCells) {
+  const FieldGrid grid = Grid(16, 16, 0.75);
+  auto map = GpMap::Create(grid, GpParams::PaperPreset(0.75));
+  ASSERT_TRUE(map.ok());
+  const std::vector<int> building = grid.CellsInRectangle(Vec2(1, -1), Vec2(3, 7.5));
+  ASSERT_GT(building.size(), 30u);
+  ASSERT_TRUE(map->FuseNearCertainZeros(building).ok());
+  for (int c : building) {
+    EXPECT_LE(map->Variance(c), GpMap::kNearCertainVariance);
+    EXPECT_GT(map->Variance(c), 0.0);
+    EXPECT_NEAR(map->Mean()[c], 0.0, 1e-5);
+  }
+  auto bad = map->FuseNearCertainZeros(std::vector<int>{0, 256});
+  EXPECT_EQ(bad.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(bad.message(), HasSubstr("cells"));
+}
+
+TEST(GpMapTest, BadObservationsLeaveTheMapUntouched) {
+  const FieldGrid grid = Grid(8, 8, 0.75);
+  auto map = GpMap::Create(grid, GpParams::PaperPreset(0.75));
+  ASSERT_TRUE(map.ok());
+  const GpMap before = map->Clone();
+  const CellObservation good{.cell = 5, .value = 1.0, .variance = 0.2};
+  const struct {
+    CellObservation bad;
+    const char* field;
+  } cases[] = {
+      {{.cell = -1, .value = 1, .variance = 0.2}, "observations[1].cell"},
+      {{.cell = 64, .value = 1, .variance = 0.2}, "observations[1].cell"},
+      {{.cell = 3, .value = 1, .variance = 0.0}, "observations[1].variance"},
+      {{.cell = 3, .value = 1, .variance = -0.5}, "observations[1].variance"},
+      {{.cell = 3, .value = 1, .variance = NAN}, "observations[1].variance"},
+      {{.cell = 3, .value = 1, .variance = INFINITY}, "observations[1].variance"},
+      {{.cell = 3, .value = 1, .variance = 1e-320}, "observations[1].variance"},
+      {{.cell = 3, .value = NAN, .variance = 0.2}, "observations[1].value"},
+      {{.cell = 3, .value = -INFINITY, .variance = 0.2}, "observations[1].value"},
+  };
+  for (const auto& c : cases) {
+    const std::vector<CellObservation> obs = {good, c.bad, good};
+    const absl::Status status = map->Update(obs);
+    EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument) << c.field;
+    EXPECT_THAT(status.message(), HasSubstr(c.field));
+    ASSERT_TRUE(map->Mean() == before.Mean()) << c.field;
+    ASSERT_TRUE(map->Covariance() == before.Covariance()) << c.field;
+  }
+  // Merging that overflows is refused too.
+  const std::vector<CellObservation> huge = {{.cell = 1, .value = 1e300, .variance = 1e-10},
+                                             {.cell = 1, .value = 1e300, .variance = 1e-10}};
+  EXPECT_EQ(map->Update(huge).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(map->Covariance() == before.Covariance());
+  // Planning helpers ignore values but validate the rest.
+  MatrixXd p = before.Covariance();
+  const std::vector<CellObservation> nan_value = {{.cell = 1, .value = NAN, .variance = 0.2}};
+  EXPECT_TRUE(UpdateCovariance(nan_value, p).ok());
+  const std::vector<CellObservation> bad_cell = {{.cell = 99, .value = 0, .variance = 0.2}};
+  EXPECT_EQ(TraceAfterUpdate(p, bad_cell).status().code(), absl::StatusCode::kInvalidArgument);
+  MatrixXd not_square(3, 2);
+  EXPECT_THAT(UpdateCovariance(nan_value, not_square).message(), HasSubstr("covariance"));
+  // An empty update is a no-op.
+  EXPECT_TRUE(map->Update({}).ok());
+  EXPECT_TRUE(map->Covariance() == before.Covariance());
+}
+
+TEST(GpMapTest, FromPriorValidates) {
+  const FieldGrid grid = Grid(2, 2, 1.0);
+  EXPECT_THAT(
+      GpMap::FromPrior(grid, VectorXd::Zero(3), MatrixXd::Identity(4, 4)).status().message(),
+      HasSubstr("mean"));
+  EXPECT_THAT(
+      GpMap::FromPrior(grid, VectorXd::Zero(4), MatrixXd::Identity(3, 3)).status().message(),
+      HasSubstr("covariance"));
+  MatrixXd asym = MatrixXd::Identity(4, 4);
+  asym(0, 1) = 0.5;
+  EXPECT_THAT(GpMap::FromPrior(grid, VectorXd::Zero(4), asym).status().message(),
+              HasSubstr("symmetric"));
+  EXPECT_EQ(GpMap::Create(grid, {.length_scale_m = -1}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace oaipp
