@@ -1,0 +1,108 @@
+// Minimum-snap trajectories through waypoints (DESIGN.md §2.5).
+//
+// The unconstrained QP of Richter, Bry & Roy, "Polynomial trajectory
+// planning for aggressive quadrotor flight in dense indoor environments"
+// (ISRR 2013 / Springer 2016), Sec. 3: one degree-9 polynomial per segment
+// and axis, minimising the integral of the squared snap, with the position
+// fixed at every waypoint and derivatives 1..4 continuous but free at
+// interior waypoints. The start has the UAV's velocity and acceleration
+// (jerk and snap 0); the end is at rest (velocity .. snap 0).
+//
+// SolveMinSnap takes the segment durations as given. PlanMinSnap allocates
+// them from a velocity ramp (RampSegmentTime) and scales them so that the
+// speed and acceleration stay within TrajectoryLimits.
+//
+//   StartState start{.position_W = p_W, .velocity_W_m_s = v_W, .accel_W_m_s2 = a_W};
+//   OAIPP_ASSIGN_OR_RETURN(PolynomialTrajectory traj,
+//                          PlanMinSnap(start, {c2_W, c3_W}, TrajectoryLimits{}));
+//   // traj.MaxSpeed() <= 5 m/s, traj.MaxAcceleration() <= 3 m/s^2
+#pragma once
+
+#include <vector>
+
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+#include "core/common/geometry.h"
+#include "core/trajectory/polynomial_trajectory.h"
+
+namespace oaipp {
+
+// Dynamic limits of the UAV (DESIGN.md §2.5).
+struct TrajectoryLimits {
+  // Valid: positive and finite.
+  double max_speed_m_s = 5.0;
+  // Valid: positive and finite.
+  double max_accel_m_s2 = 3.0;
+};
+
+// OK, or InvalidArgument naming the first bad field.
+[[nodiscard]] absl::Status ValidateLimits(const TrajectoryLimits& limits);
+
+// The UAV's state when the trajectory starts, in W.
+struct StartState {
+  Vec3 position_W = Vec3::Zero();
+  Vec3 velocity_W_m_s = Vec3::Zero();
+  Vec3 accel_W_m_s2 = Vec3::Zero();
+};
+
+// Time to cover `distance_m` from rest to rest on a trapezoidal velocity
+// ramp (accelerate at a_max, cruise at v_max, decelerate at a_max):
+//   t(d) = 2 sqrt(d / a)                  if d < v^2 / a (never reaching v),
+//   t(d) = 2 v / a + (d - v^2 / a) / v    otherwise.
+// Preconditions (asserted): distance_m >= 0 and ValidateLimits(limits).ok().
+[[nodiscard]] double RampSegmentTime(double distance_m, const TrajectoryLimits& limits);
+
+// Solves the minimum-snap problem through `waypoints_W` (N + 1 points) with
+// the given N segment durations, starting with the given velocity and
+// acceleration (jerk and snap 0) and ending at rest. Waypoints may repeat.
+//
+// Each axis is an independent block-tridiagonal positive-definite system in
+// the 4 (N - 1) free interior derivatives, solved in O(N) by block Cholesky
+// after Jacobi scaling. Derivatives 0..4 are continuous to ~1e-12 relative
+// for durations within a factor of 20 of each other, and to ~1e-8 with
+// durations mixed freely over 0.1..60 s.
+//
+// Returns InvalidArgument (naming the field) for fewer than 2 waypoints, a
+// duration count other than waypoints - 1, a non-finite number, or a
+// duration that is not positive; Internal if the system is numerically
+// singular (durations spanning many orders of magnitude).
+[[nodiscard]] absl::StatusOr<PolynomialTrajectory> SolveMinSnap(
+    const std::vector<Vec3>& waypoints_W, const std::vector<double>& segment_durations_s,
+    const Vec3& start_velocity_W_m_s, const Vec3& start_accel_W_m_s2);
+
+// Plans the minimum-snap trajectory from `start` through
+// `waypoints_after_start_W` that meets `limits` (DESIGN.md §2.5):
+//  1. Consecutive waypoints closer than 1e-6 m are merged (also with the
+//     start position), so repeated points cost no time; Waypoints() of the
+//     result lists the merged points. If nothing but the start remains, the
+//     trajectory is one segment back to the start position (braking from
+//     the start velocity; zero-length if the UAV is at rest).
+//  2. Segment i gets RampSegmentTime of its straight-line length, floored
+//     at 0.1 s; the first segment gets |v_off| / a_max more, v_off being
+//     the part of the start velocity that does not point towards its end
+//     (the time to cancel it at full acceleration).
+//  3. All durations are scaled by one common factor k and the problem
+//     re-solved until max speed <= v_max and max acceleration <= a_max
+//     (both within 1e-6 relative, measured by MaxSpeed/MaxAcceleration) and
+//     max(speed / v_max, sqrt(accel / a_max)) >= 0.999, i.e. the fastest
+//     uniformly scaled trajectory to 0.1 %. From rest one step is exact
+//     (speed scales as 1/k, acceleration as 1/k^2: two solves in all, and
+//     a limit is met to rounding); with a non-zero start state it is not,
+//     so secant steps in log k (typically 3-5 solves) are followed, if they
+//     do not settle, by a scan and a bisection (at most ~70 solves).
+//
+// Returns InvalidArgument for a bad field (empty waypoints, non-finite
+// numbers, bad limits); FailedPrecondition if the start speed or
+// acceleration exceeds its limit by more than 1e-6 relative, or if no
+// common scaling meets the limits. From rest that never happens. A start
+// acceleration is the usual cause: min-snap lets it decay over the whole
+// first segment, so its contribution to the speed grows in proportion to
+// the durations and no scaling fits. Measured on random E1 waypoint sets:
+// ~20-40 % fail at |a0| = 1 m/s^2 and most at |a0| >= 2 m/s^2; with
+// a0 = 0, ~3 % fail at a start speed of 4 m/s and ~17 % at 5 m/s. The
+// caller may then hold the current plan or replan from rest.
+[[nodiscard]] absl::StatusOr<PolynomialTrajectory> PlanMinSnap(
+    const StartState& start, const std::vector<Vec3>& waypoints_after_start_W,
+    const TrajectoryLimits& limits);
+
+}  // namespace oaipp

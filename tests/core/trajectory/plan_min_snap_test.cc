@@ -1,0 +1,230 @@
+#include <cmath>
+#include <random>
+
+#include "core/trajectory/min_snap.h"
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "tests/core/trajectory/test_util.h"
+
+namespace oaipp {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::RandomPoint;
+using testing::RandomVector;
+using testing::RandomWaypoints;
+
+const TrajectoryLimits kPaperLimits{.max_speed_m_s = 5.0, .max_accel_m_s2 = 3.0};
+
+// REFERENCE.md "Segment time from a velocity ramp".
+TEST(RampSegmentTimeTest, MatchesReferenceValues) {
+  EXPECT_NEAR(RampSegmentTime(1.0, kPaperLimits), 1.1547, 1e-4);
+  EXPECT_NEAR(RampSegmentTime(5.0, kPaperLimits), 2.5820, 1e-4);
+  EXPECT_NEAR(RampSegmentTime(10.0, kPaperLimits), 3.6667, 1e-4);
+  EXPECT_NEAR(RampSegmentTime(20.0, kPaperLimits), 5.6667, 1e-4);
+  EXPECT_EQ(RampSegmentTime(0.0, kPaperLimits), 0.0);
+}
+
+TEST(RampSegmentTimeTest, ContinuousWhereCruiseBegins) {
+  const double d = 25.0 / 3.0;  // v^2 / a
+  EXPECT_NEAR(RampSegmentTime(d * (1 - 1e-12), kPaperLimits), RampSegmentTime(d, kPaperLimits),
+              1e-9);
+}
+
+// The limits checked by dense sampling (1000 per segment) through the
+// public Velocity/Acceleration, independent of MaxSpeed/MaxAcceleration.
+struct SampledMaxima {
+  double speed_m_s = 0.0;
+  double accel_m_s2 = 0.0;
+};
+SampledMaxima DenseMaxima(const PolynomialTrajectory& traj) {
+  SampledMaxima m;
+  for (int j = 0; j < traj.NumSegments(); ++j) {
+    for (int i = 0; i <= 1000; ++i) {
+      const double t = traj.SegmentStartTime(j) + traj.SegmentDurations()[j] * i / 1000.0;
+      m.speed_m_s = std::max(m.speed_m_s, traj.Velocity(t).norm());
+      m.accel_m_s2 = std::max(m.accel_m_s2, traj.Acceleration(t).norm());
+    }
+  }
+  return m;
+}
+
+// Paper settings (DESIGN.md §2.5): N = 3 control waypoints, and a few more.
+class PlanMinSnapFromRestTest : public ::testing::TestWithParam<unsigned> {};
+
+TEST_P(PlanMinSnapFromRestTest, MeetsLimitsOnDenseSamplingAndOneIsTight) {
+  std::mt19937 rng(GetParam());
+  for (int trial = 0; trial < 40; ++trial) {
+    const StartState start{RandomPoint(rng), Vec3::Zero(), Vec3::Zero()};
+    const auto traj = PlanMinSnap(start, RandomWaypoints(rng, 1 + trial % 6), kPaperLimits);
+    ASSERT_TRUE(traj.ok()) << traj.status();
+    const SampledMaxima m = DenseMaxima(*traj);
+    EXPECT_LE(m.speed_m_s, 5.0 * (1 + 1e-6)) << "trial " << trial;
+    EXPECT_LE(m.accel_m_s2, 3.0 * (1 + 1e-6)) << "trial " << trial;
+    // The fastest common scaling: one limit is reached (sampling may fall
+    // just short of the peak).
+    EXPECT_GE(std::max(m.speed_m_s / 5.0, m.accel_m_s2 / 3.0), 0.999) << "trial " << trial;
+  }
+}
+
+TEST_P(PlanMinSnapFromRestTest, DurationsAreOneCommonMultipleOfTheRampTimes) {
+  std::mt19937 rng(100 + GetParam());
+  const StartState start{RandomPoint(rng), Vec3::Zero(), Vec3::Zero()};
+  const auto w = RandomWaypoints(rng, 5);
+  const auto traj = PlanMinSnap(start, w, kPaperLimits);
+  ASSERT_TRUE(traj.ok()) << traj.status();
+  std::vector<Vec3> all{start.position_W};
+  all.insert(all.end(), w.begin(), w.end());
+  const double k =
+      traj->SegmentDurations()[0] / RampSegmentTime((all[1] - all[0]).norm(), kPaperLimits);
+  for (int j = 1; j < traj->NumSegments(); ++j) {
+    const double ramp_s = RampSegmentTime((all[j + 1] - all[j]).norm(), kPaperLimits);
+    EXPECT_NEAR(traj->SegmentDurations()[j], k * ramp_s, 1e-9 * k * ramp_s) << j;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds, PlanMinSnapFromRestTest, ::testing::Values(1u, 2u, 3u, 4u, 5u));
+
+// One rest-to-rest segment of length D has peak speed 2.4609375 D / T (at
+// s = 1/2) and peak acceleration 9.3719762184941 D / T^2 (at
+// s = 1/2 -+ sqrt(7)/14), from the REFERENCE.md polynomial (sympy), so the
+// fastest feasible duration is max(2.4609375 D / v, sqrt(9.3719762 D / a)).
+TEST(PlanMinSnapTest, SingleSegmentDurationMatchesClosedForm) {
+  for (double d : {0.5, 10.0, 40.0}) {
+    const auto traj = PlanMinSnap({}, {Vec3(d, 0, 0)}, kPaperLimits);
+    ASSERT_TRUE(traj.ok()) << traj.status();
+    const double expected = std::max(2.4609375 * d / 5.0, std::sqrt(9.3719762184941037 * d / 3.0));
+    EXPECT_NEAR(traj->Duration(), expected, 1e-7 * expected) << "D = " << d;
+  }
+}
+
+TEST(PlanMinSnapTest, StartsAtStartStateAndEndsAtRestOnLastWaypoint) {
+  const StartState start{{1, 2, 10}, {1.5, -1, 0.5}, {0.2, 0.1, 0}};
+  const std::vector<Vec3> w{{8, 4, 12}, {-3, 9, 15}, {0, -10, 6}};
+  const auto traj = PlanMinSnap(start, w, kPaperLimits);
+  ASSERT_TRUE(traj.ok()) << traj.status();
+  EXPECT_LE((traj->Position(0) - start.position_W).norm(), 1e-12);
+  EXPECT_LE((traj->Velocity(0) - start.velocity_W_m_s).norm(), 1e-12);
+  EXPECT_LE((traj->Acceleration(0) - start.accel_W_m_s2).norm(), 1e-12);
+  EXPECT_LE((traj->Position(traj->Duration()) - w.back()).norm(), 1e-9);
+  EXPECT_LE(traj->Velocity(traj->Duration()).norm(), 1e-9);
+  EXPECT_LE(traj->Acceleration(traj->Duration()).norm(), 1e-9);
+  ASSERT_EQ(traj->Waypoints().size(), 4u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_LE((traj->Position(traj->SegmentStartTime(i + 1)) - w[i]).norm(), 1e-9);
+  }
+}
+
+// A UAV cruising (no acceleration) at up to 3 m/s in any direction.
+TEST(PlanMinSnapTest, CruisingStartStatesSucceedWithinLimits) {
+  std::mt19937 rng(21);
+  for (int trial = 0; trial < 100; ++trial) {
+    const StartState start{RandomPoint(rng), RandomVector(rng, 3.0), Vec3::Zero()};
+    const auto traj = PlanMinSnap(start, RandomWaypoints(rng, 1 + trial % 4), kPaperLimits);
+    ASSERT_TRUE(traj.ok()) << "trial " << trial << ": " << traj.status();
+    const SampledMaxima m = DenseMaxima(*traj);
+    EXPECT_LE(m.speed_m_s, 5.0 * (1 + 1e-6)) << "trial " << trial;
+    EXPECT_LE(m.accel_m_s2, 3.0 * (1 + 1e-6)) << "trial " << trial;
+    EXPECT_LE((traj->Velocity(0) - start.velocity_W_m_s).norm(), 1e-12);
+  }
+}
+
+// Over the whole admissible start range the planner may refuse (see
+// min_snap.h) but must never return a trajectory that breaks the limits.
+TEST(PlanMinSnapTest, AnyStartStateWithinLimitsEitherMeetsLimitsOrFailsCleanly) {
+  std::mt19937 rng(22);
+  int succeeded = 0;
+  for (int trial = 0; trial < 150; ++trial) {
+    const StartState start{RandomPoint(rng), RandomVector(rng, 5.0), RandomVector(rng, 3.0)};
+    const auto traj = PlanMinSnap(start, RandomWaypoints(rng, 1 + trial % 4), kPaperLimits);
+    if (!traj.ok()) {
+      EXPECT_EQ(traj.status().code(), absl::StatusCode::kFailedPrecondition) << traj.status();
+      continue;
+    }
+    ++succeeded;
+    const SampledMaxima m = DenseMaxima(*traj);
+    EXPECT_LE(m.speed_m_s, 5.0 * (1 + 1e-6)) << "trial " << trial;
+    EXPECT_LE(m.accel_m_s2, 3.0 * (1 + 1e-6)) << "trial " << trial;
+    EXPECT_LE((traj->Velocity(0) - start.velocity_W_m_s).norm(), 1e-12);
+    EXPECT_LE((traj->Acceleration(0) - start.accel_W_m_s2).norm(), 1e-12);
+  }
+  EXPECT_GT(succeeded, 30);
+}
+
+TEST(PlanMinSnapTest, FullSpeedTowardsTheWaypointSucceeds) {
+  const StartState start{{0, 0, 10}, {5, 0, 0}, Vec3::Zero()};
+  const auto traj = PlanMinSnap(start, {{40, 0, 10}}, kPaperLimits);
+  ASSERT_TRUE(traj.ok()) << traj.status();
+  EXPECT_LE(DenseMaxima(*traj).speed_m_s, 5.0 * (1 + 1e-6));
+}
+
+TEST(PlanMinSnapTest, StartBeyondLimitsIsFailedPrecondition) {
+  const auto fast =
+      PlanMinSnap({{0, 0, 10}, {5.1, 0, 0}, Vec3::Zero()}, {{10, 0, 10}}, kPaperLimits);
+  EXPECT_EQ(fast.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(fast.status().message(), HasSubstr("start.velocity_W_m_s"));
+  const auto hard =
+      PlanMinSnap({{0, 0, 10}, Vec3::Zero(), {0, 3.1, 0}}, {{10, 0, 10}}, kPaperLimits);
+  EXPECT_EQ(hard.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(hard.status().message(), HasSubstr("start.accel_W_m_s2"));
+}
+
+TEST(PlanMinSnapTest, ConsecutiveDuplicateWaypointsAreMerged) {
+  const StartState start{{0, 0, 10}, Vec3::Zero(), Vec3::Zero()};
+  const Vec3 a(5, 5, 10), b(-5, 8, 12);
+  const auto merged = PlanMinSnap(start, {start.position_W, a, a, b, b}, kPaperLimits);
+  const auto plain = PlanMinSnap(start, {a, b}, kPaperLimits);
+  ASSERT_TRUE(merged.ok()) << merged.status();
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  ASSERT_EQ(merged->Waypoints().size(), 3u);
+  EXPECT_EQ(merged->SegmentDurations(), plain->SegmentDurations());
+  EXPECT_LE((merged->Position(1.3) - plain->Position(1.3)).norm(), 1e-12);
+}
+
+TEST(PlanMinSnapTest, AllWaypointsAtStartFromRestStaysStill) {
+  const StartState start{{1, 2, 3}, Vec3::Zero(), Vec3::Zero()};
+  const auto traj = PlanMinSnap(start, {start.position_W, start.position_W}, kPaperLimits);
+  ASSERT_TRUE(traj.ok()) << traj.status();
+  EXPECT_EQ(traj->NumSegments(), 1);
+  EXPECT_NEAR(traj->Duration(), 0.1, 1e-12);
+  EXPECT_EQ(traj->MaxSpeed(), 0.0);
+  EXPECT_LE((traj->Position(0.05) - start.position_W).norm(), 1e-12);
+}
+
+TEST(PlanMinSnapTest, AllWaypointsAtStartWhileMovingBrakesAndReturns) {
+  const StartState start{{1, 2, 10}, {2, 0, 0}, Vec3::Zero()};
+  const auto traj = PlanMinSnap(start, {start.position_W}, kPaperLimits);
+  ASSERT_TRUE(traj.ok()) << traj.status();
+  EXPECT_LE((traj->Position(traj->Duration()) - start.position_W).norm(), 1e-9);
+  const SampledMaxima m = DenseMaxima(*traj);
+  EXPECT_LE(m.speed_m_s, 5.0 * (1 + 1e-6));
+  EXPECT_LE(m.accel_m_s2, 3.0 * (1 + 1e-6));
+}
+
+TEST(PlanMinSnapInputTest, RejectsBadFieldsNamingThem) {
+  const StartState ok_start{{0, 0, 10}, Vec3::Zero(), Vec3::Zero()};
+  const Vec3 nan_v(std::nan(""), 0, 0);
+  const auto expect_invalid = [](const absl::StatusOr<PolynomialTrajectory>& r,
+                                 const std::string& field) {
+    EXPECT_EQ(r.status().code(), absl::StatusCode::kInvalidArgument) << field;
+    EXPECT_THAT(r.status().message(), HasSubstr(field));
+  };
+  expect_invalid(PlanMinSnap(ok_start, {}, kPaperLimits), "waypoints_after_start_W");
+  expect_invalid(PlanMinSnap(ok_start, {Vec3::Ones(), nan_v}, kPaperLimits),
+                 "waypoints_after_start_W[1]");
+  expect_invalid(PlanMinSnap({nan_v, Vec3::Zero(), Vec3::Zero()}, {Vec3::Ones()}, kPaperLimits),
+                 "start.position_W");
+  expect_invalid(PlanMinSnap({Vec3::Zero(), nan_v, Vec3::Zero()}, {Vec3::Ones()}, kPaperLimits),
+                 "start.velocity_W_m_s");
+  expect_invalid(PlanMinSnap({Vec3::Zero(), Vec3::Zero(), nan_v}, {Vec3::Ones()}, kPaperLimits),
+                 "start.accel_W_m_s2");
+  for (double bad : {0.0, -1.0, std::nan("")}) {
+    expect_invalid(PlanMinSnap(ok_start, {Vec3::Ones()}, {.max_speed_m_s = bad}),
+                   "limits.max_speed_m_s");
+    expect_invalid(PlanMinSnap(ok_start, {Vec3::Ones()}, {.max_accel_m_s2 = bad}),
+                   "limits.max_accel_m_s2");
+  }
+}
+
+}  // namespace
+}  // namespace oaipp
