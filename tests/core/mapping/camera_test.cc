@@ -6,6 +6,7 @@
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/core/mapping/paper_grid.h"
 #include "tests/core/mapping/fake_line_of_sight.h"
 
 namespace oaipp {
@@ -13,12 +14,8 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+using ::oaipp::testing::PaperGrid;
 
-FieldGrid PaperGrid() {
-  auto grid = FieldGrid::FromBounds(Vec2(-15, -15), Vec2(15, 15), 0.75);
-  EXPECT_TRUE(grid.ok());
-  return *grid;
-}
 
 TEST(SensorNoiseTest, MatchesReference) {
   const SensorNoise noise;  // A = 1, B = 0.05

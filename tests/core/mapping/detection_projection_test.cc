@@ -8,6 +8,7 @@
 #include "core/mapping/camera.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/core/mapping/paper_grid.h"
 #include "opencv2/calib3d.hpp"
 #include "opencv2/core.hpp"
 #include "tests/core/mapping/fake_line_of_sight.h"
@@ -17,12 +18,8 @@ namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+using ::oaipp::testing::PaperGrid;
 
-FieldGrid PaperGrid() {
-  auto grid = FieldGrid::FromBounds(Vec2(-15, -15), Vec2(15, 15), 0.75);
-  EXPECT_TRUE(grid.ok());
-  return *grid;
-}
 
 CameraIntrinsics Fov640x480() {
   auto k = IntrinsicsForFov(640, 480);

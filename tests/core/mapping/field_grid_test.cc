@@ -6,18 +6,15 @@
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/core/mapping/paper_grid.h"
 
 namespace oaipp {
 namespace {
 
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
+using ::oaipp::testing::PaperGrid;
 
-FieldGrid PaperGrid() {
-  auto grid = FieldGrid::FromBounds(Vec2(-15, -15), Vec2(15, 15), 0.75);
-  EXPECT_TRUE(grid.ok()) << grid.status();
-  return *grid;
-}
 
 TEST(FieldGridTest, PaperFieldIs40By40WithRowMajorNumbering) {
   const FieldGrid grid = PaperGrid();

@@ -1,0 +1,215 @@
+#include "core/planning/baseline_planners.h"
+
+#include <cmath>
+#include <limits>
+#include <queue>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.h"
+#include "core/planning/oaipp_planner.h"
+
+namespace oaipp {
+namespace {
+
+// Corners of a shape's footprint grown by `grow` metres, at height z.
+std::vector<Vec3> InflatedCorners(const Shape& shape, double grow, double z) {
+  std::vector<Vec3> corners;
+  if (const Box* box = std::get_if<Box>(&shape)) {
+    const double c = std::cos(box->yaw_rad), s = std::sin(box->yaw_rad);
+    // Corners of the box grown by `grow` and pushed out a little more along
+    // the diagonal so that the route's segments clear the rounded corner.
+    const double hx = 0.5 * box->size_m.x() + grow, hy = 0.5 * box->size_m.y() + grow;
+    for (int sx : {-1, 1}) {
+      for (int sy : {-1, 1}) {
+        const double lx = sx * hx, ly = sy * hy;
+        corners.emplace_back(box->centre_W.x() + c * lx - s * ly,
+                             box->centre_W.y() + s * lx + c * ly, z);
+      }
+    }
+    return corners;
+  }
+  const Cylinder& cyl = std::get<Cylinder>(shape);
+  // An octagon around the grown circle: its edges stay outside the circle.
+  const double r = (cyl.radius_m + grow) / std::cos(kPi / 8.0);
+  for (int k = 0; k < 8; ++k) {
+    const double a = kPi / 8.0 + k * kPi / 4.0;
+    corners.emplace_back(cyl.centre_W.x() + r * std::cos(a), cyl.centre_W.y() + r * std::sin(a), z);
+  }
+  return corners;
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<Vec3>> DetourAround(const Environment& environment, const Vec3& from,
+                                               const Vec3& to, double clearance_m,
+                                               const Aabb& box) {
+  if (environment.IsSegmentClear(from, to, clearance_m)) return std::vector<Vec3>{};
+  // Visibility graph over the grown corners of every obstacle, at the
+  // higher of the two heights; Dijkstra from `from` to `to`.
+  const double z = std::max(from.z(), to.z());
+  std::vector<Vec3> nodes{from, to};
+  for (const auto& [id, obstacle] : environment.obstacles()) {
+    for (const Vec3& c : InflatedCorners(obstacle.shape, clearance_m * 1.05 + 0.05, z)) {
+      if (box.Contains(c) && environment.SignedDistance(c) > clearance_m) nodes.push_back(c);
+    }
+  }
+  const int n = static_cast<int>(nodes.size());
+  std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+  std::vector<int> parent(n, -1);
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
+  dist[0] = 0.0;
+  queue.push({0.0, 0});
+  while (!queue.empty()) {
+    const auto [d, u] = queue.top();
+    queue.pop();
+    if (d > dist[u]) continue;
+    if (u == 1) break;
+    for (int v = 1; v < n; ++v) {
+      const double w = (nodes[v] - nodes[u]).norm();
+      if (dist[u] + w >= dist[v]) continue;
+      if (!environment.IsSegmentClear(nodes[u], nodes[v], clearance_m)) continue;
+      dist[v] = dist[u] + w;
+      parent[v] = u;
+      queue.push({dist[v], v});
+    }
+  }
+  if (parent[1] < 0) {
+    return absl::NotFoundError("no route around the obstacles between the two points");
+  }
+  std::vector<Vec3> route;
+  for (int v = parent[1]; v != 0; v = parent[v]) route.push_back(nodes[v]);
+  std::reverse(route.begin(), route.end());
+  return route;
+}
+
+absl::Status LawnmowerConfig::Validate() const {
+  OAIPP_RETURN_IF_ERROR(CheckPositive("lawnmower.altitude_m", altitude_m));
+  if (points_per_plan < 1)
+    return absl::InvalidArgumentError("lawnmower.points_per_plan: must be >= 1");
+  if (!(detour_margin_m >= 0.0) || !std::isfinite(detour_margin_m)) {
+    return absl::InvalidArgumentError("lawnmower.detour_margin_m: must be >= 0 and finite");
+  }
+  return common.Validate();
+}
+
+std::vector<Vec3> LawnmowerPlanner::Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
+                                            const DownwardCamera& camera, double altitude_m) {
+  const Vec2 footprint = camera.FootprintSize(altitude_m);
+  const Vec2 lo = grid.min_W(), hi = grid.max_W();
+  // Lanes along x, spaced by the footprint's y extent (the longer side for
+  // the default camera: fewer lanes, shorter pattern).
+  const int lanes =
+      std::max(1, static_cast<int>(std::ceil((hi.y() - lo.y()) / footprint.y() - 1e-9)));
+  const double spacing = (hi.y() - lo.y()) / lanes;
+  const double x_start = std::max(lo.x() + 0.5 * footprint.x(), waypoint_box.min_W.x());
+  const double x_end = std::min(hi.x() - 0.5 * footprint.x(), waypoint_box.max_W.x());
+  const double z = std::clamp(altitude_m, waypoint_box.min_W.z(), waypoint_box.max_W.z());
+  std::vector<Vec3> points;
+  for (int k = 0; k < lanes; ++k) {
+    const double y =
+        std::clamp(lo.y() + (k + 0.5) * spacing, waypoint_box.min_W.y(), waypoint_box.max_W.y());
+    const bool forward = k % 2 == 0;
+    points.emplace_back(forward ? x_start : x_end, y, z);
+    points.emplace_back(forward ? x_end : x_start, y, z);
+  }
+  return points;
+}
+
+absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
+                                                   const UavState& state, absl::Time deadline) {
+  const absl::Time started = absl::Now();
+  OAIPP_RETURN_IF_ERROR(config_.Validate());
+  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
+  const Environment& env = scorer.environment();
+  if (pattern_.empty()) {
+    pattern_ = Pattern(scorer.grid(), scorer.waypoint_box(), mission.camera, config_.altitude_m);
+  }
+  // Back and forth: after the last point the pattern is flown in reverse.
+  const int period = 2 * static_cast<int>(pattern_.size()) - 2;
+  auto point = [&](int index) {
+    if (period <= 0) return pattern_.front();
+    const int i = index % period;
+    return i < static_cast<int>(pattern_.size()) ? pattern_[i] : pattern_[period - i];
+  };
+  const double clearance = 0.5 * config_.common.limits.uav_radius_m;
+
+  // Points that cannot be reached (under a tall building, or walled off)
+  // are skipped. Detours keep detour_margin_m of extra clearance when they
+  // can, less in narrow passages.
+  absl::Status last_error = absl::OkStatus();
+  const double m = config_.detour_margin_m;
+  for (double margin : {m, 0.5 * m, 0.0}) {
+    std::vector<Vec3> route;
+    Vec3 previous = state.position_W;
+    int index = next_index_;
+    int reached = 0;
+    while (reached < config_.points_per_plan && index - next_index_ < std::max(period, 1)) {
+      const Vec3 target = point(index++);
+      if (env.SignedDistance(target) <= clearance + margin) continue;
+      absl::StatusOr<std::vector<Vec3>> detour =
+          DetourAround(env, previous, target, clearance + margin, scorer.waypoint_box());
+      if (!detour.ok()) continue;
+      route.insert(route.end(), detour->begin(), detour->end());
+      route.push_back(target);
+      previous = target;
+      ++reached;
+    }
+    if (route.empty()) {
+      last_error = absl::FailedPreconditionError("no pattern point reachable from the UAV");
+      continue;
+    }
+    ScoredPath scored = scorer.Score(route);
+    if (!scored.ok()) {
+      last_error = absl::FailedPreconditionError("no feasible trajectory along the pattern");
+      continue;
+    }
+    if (absl::Status exact = scorer.CheckExact(*scored.trajectory); !exact.ok()) {
+      last_error = exact;
+      continue;
+    }
+    next_index_ = index;
+    PlannerStats stats{.evaluations = 1,
+                       .wall_time_s = absl::ToDoubleSeconds(absl::Now() - started),
+                       .stop_reason = "pattern"};
+    return scorer.Finish(std::move(scored), route, std::move(stats));
+  }
+  if (absl::Now() >= deadline) return absl::DeadlineExceededError("lawnmower: deadline passed");
+  return absl::FailedPreconditionError(absl::StrCat("lawnmower: ", last_error.message()));
+}
+
+absl::Status RandomConfig::Validate() const {
+  if (max_attempts < 1) return absl::InvalidArgumentError("random.max_attempts: must be >= 1");
+  return common.Validate();
+}
+
+absl::StatusOr<PlannedPath> RandomPlanner::Plan(const MissionView& mission, const UavState& state,
+                                                absl::Time deadline) {
+  const absl::Time started = absl::Now();
+  OAIPP_RETURN_IF_ERROR(config_.Validate());
+  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
+  std::mt19937_64 rng(MixSeed(config_.common.seed, state.mission_time_s));
+  const Aabb& box = scorer.waypoint_box();
+  const Vec2 lo = scorer.grid().min_W().cwiseMax(box.min_W.head<2>());
+  const Vec2 hi = scorer.grid().max_W().cwiseMin(box.max_W.head<2>());
+  std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y()),
+      uz(box.min_W.z(), box.max_W.z());
+  const double clearance = 0.5 * config_.common.limits.uav_radius_m;
+  PlannerStats stats;
+  for (int attempt = 0; attempt < config_.max_attempts; ++attempt) {
+    if (absl::Now() >= deadline) return absl::DeadlineExceededError("random: deadline passed");
+    const Vec3 p(ux(rng), uy(rng), uz(rng));
+    if (scorer.environment().SignedDistance(p) <= clearance) continue;
+    ScoredPath scored = scorer.Score({p});
+    ++stats.evaluations;
+    if (!scored.ok() || !scorer.CheckExact(*scored.trajectory).ok()) continue;
+    stats.stop_reason = "sampled";
+    stats.wall_time_s = absl::ToDoubleSeconds(absl::Now() - started);
+    return scorer.Finish(std::move(scored), {p}, std::move(stats));
+  }
+  return absl::FailedPreconditionError(absl::StrCat("random: none of ", config_.max_attempts,
+                                                    " sampled destinations was reachable safely"));
+}
+
+}  // namespace oaipp

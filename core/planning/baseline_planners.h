@@ -1,0 +1,82 @@
+// Baseline planners for evaluation, also offered by the service
+// (DESIGN.md §2.8).
+//
+// Lawnmower: coverage at a fixed altitude (10 m in the paper). Lanes run
+// along x, spaced by the camera footprint's y extent so that neighbouring
+// footprints meet; obstacles taller than the altitude are flown around on
+// the shortest route through the corners of their inflated footprints. The
+// planner remembers where it is in its pattern across replans, and the
+// pattern runs back and forth for as long as the mission lasts.
+//
+// Random: a destination drawn uniformly over the field and the flight
+// altitudes, kept if the single-segment trajectory to it is collision-free.
+//
+//   LawnmowerPlanner mower(LawnmowerConfig{.altitude_m = 10});
+//   RandomPlanner random(RandomConfig{.common = {.seed = 3}});
+#pragma once
+
+#include <vector>
+
+#include "core/planning/path_scorer.h"
+#include "core/planning/planner.h"
+
+namespace oaipp {
+
+struct LawnmowerConfig {
+  // Flight altitude, metres. Valid: > 0, inside the flight volume.
+  double altitude_m = 10.0;
+  // Pattern points flown per replan. Valid: >= 1.
+  int points_per_plan = 2;
+  // Extra clearance around obstacles on detours, beyond uav_radius_m / 2;
+  // halved, then dropped, where a passage is too narrow for it.
+  double detour_margin_m = 1.0;
+  PlannerCommon common;
+  [[nodiscard]] absl::Status Validate() const;
+};
+
+class LawnmowerPlanner final : public Planner {
+ public:
+  explicit LawnmowerPlanner(LawnmowerConfig config) : config_(std::move(config)) {}
+  [[nodiscard]] absl::string_view name() const override { return "lawnmower"; }
+  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const MissionView& mission, const UavState& state,
+                                                 absl::Time deadline) override;
+  // The pattern's turning points for a field (exposed for tests).
+  [[nodiscard]] static std::vector<Vec3> Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
+                                                 const DownwardCamera& camera, double altitude_m);
+  // Index of the next pattern point to fly to (counts up for ever; the
+  // pattern is flown back and forth).
+  [[nodiscard]] int next_index() const { return next_index_; }
+
+ private:
+  LawnmowerConfig config_;
+  std::vector<Vec3> pattern_;
+  int next_index_ = 0;
+};
+
+struct RandomConfig {
+  // Destinations tried per replan before giving up. Valid: >= 1.
+  int max_attempts = 200;
+  PlannerCommon common;
+  [[nodiscard]] absl::Status Validate() const;
+};
+
+class RandomPlanner final : public Planner {
+ public:
+  explicit RandomPlanner(RandomConfig config) : config_(std::move(config)) {}
+  [[nodiscard]] absl::string_view name() const override { return "random"; }
+  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const MissionView& mission, const UavState& state,
+                                                 absl::Time deadline) override;
+
+ private:
+  RandomConfig config_;
+};
+
+// Shortest route at the height of `from` and `to` around obstacles, through
+// the corners of their footprints inflated by clearance_m: the points to
+// insert between `from` and `to` (empty when the straight segment is
+// clear). NotFound when no route exists inside `box`.
+[[nodiscard]] absl::StatusOr<std::vector<Vec3>> DetourAround(const Environment& environment,
+                                                             const Vec3& from, const Vec3& to,
+                                                             double clearance_m, const Aabb& box);
+
+}  // namespace oaipp

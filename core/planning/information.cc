@@ -1,0 +1,168 @@
+#include "core/planning/information.h"
+
+#include <cmath>
+#include <unordered_map>
+
+#include "Eigen/Cholesky"
+#include "absl/strings/str_cat.h"
+#include "core/common/geometry.h"
+
+namespace oaipp {
+namespace {
+
+// Observed cells with merged precisions, in first-seen order.
+class MergedCells {
+ public:
+  void Add(const PoseObservation& pose) {
+    for (int cell : pose.cells) {
+      auto [it, inserted] = slot_.try_emplace(cell, static_cast<int>(cells_.size()));
+      if (inserted) {
+        cells_.push_back(cell);
+        precision_.push_back(0.0);
+      }
+      precision_[it->second] += 1.0 / pose.variance;
+    }
+  }
+  [[nodiscard]] bool empty() const { return cells_.empty(); }
+  [[nodiscard]] const std::vector<int>& cells() const { return cells_; }
+
+  // Lower Cholesky factor of P_KK + diag(1 / precision).
+  [[nodiscard]] Eigen::LLT<Eigen::MatrixXd> Factor(const Eigen::MatrixXd& cov) const {
+    const auto m = static_cast<Eigen::Index>(cells_.size());
+    Eigen::MatrixXd s(m, m);
+    for (Eigen::Index b = 0; b < m; ++b) {
+      for (Eigen::Index a = b; a < m; ++a) s(a, b) = cov(cells_[a], cells_[b]);
+      s(b, b) += 1.0 / precision_[b];
+    }
+    return Eigen::LLT<Eigen::MatrixXd>(s);  // reads the lower triangle only
+  }
+
+ private:
+  std::vector<int> cells_;
+  std::vector<double> precision_;
+  std::unordered_map<int, int> slot_;
+};
+
+}  // namespace
+
+absl::Status InformationParams::Validate() const {
+  if (!(kappa >= 0.0) || !std::isfinite(kappa)) {
+    return absl::InvalidArgumentError(absl::StrCat("kappa: must be >= 0 and finite, got ", kappa));
+  }
+  if (auto s = CheckFinite("h_opt_m", h_opt_m); !s.ok()) return s;
+  if (auto s = CheckPositive("sigma1_m", sigma1_m); !s.ok()) return s;
+  return CheckPositive("h_sat_m", h_sat_m);
+}
+
+double InformationParams::AltitudeReward(double altitude_m) const {
+  if (altitude_m >= h_sat_m) return 0.0;
+  const double z = (altitude_m - h_opt_m) / sigma1_m;
+  return std::exp(-0.5 * z * z) / (sigma1_m * std::sqrt(2.0 * kPi));
+}
+
+double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) const {
+  return params_.kind == ObjectiveKind::kAdaptive ? Adaptive(poses) : NonAdaptive(poses);
+}
+
+double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses) const {
+  double total = 0.0;
+  MergedCells fused;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const PoseObservation& pose = poses[i];
+    const double reward = pose.scored ? params_.AltitudeReward(pose.altitude_m) : 0.0;
+    if (reward > 0.0 && !pose.cells.empty()) {
+      const auto m = static_cast<Eigen::Index>(pose.cells.size());
+      Eigen::VectorXd var(m);
+      for (Eigen::Index j = 0; j < m; ++j) var[j] = cov_(pose.cells[j], pose.cells[j]);
+      if (!fused.empty()) {
+        const std::vector<int>& k = fused.cells();
+        const auto mk = static_cast<Eigen::Index>(k.size());
+        Eigen::MatrixXd cross(mk, m);  // P_K,J
+        for (Eigen::Index j = 0; j < m; ++j) {
+          for (Eigen::Index a = 0; a < mk; ++a) cross(a, j) = cov_(k[a], pose.cells[j]);
+        }
+        fused.Factor(cov_).matrixL().solveInPlace(cross);
+        var -= cross.colwise().squaredNorm().transpose();
+      }
+      double av = 0.0;
+      for (Eigen::Index j = 0; j < m; ++j) {
+        av += mean_[pose.cells[j]] + params_.kappa * std::sqrt(std::max(var[j], 0.0));
+      }
+      total += av * reward;
+    }
+    if (i + 1 < poses.size()) fused.Add(pose);
+  }
+  return total;
+}
+
+double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses) const {
+  // Unscored poses set the baseline: the trace after them, not before.
+  MergedCells baseline, all;
+  for (const PoseObservation& pose : poses) {
+    all.Add(pose);
+    if (!pose.scored) baseline.Add(pose);
+  }
+  auto reduction = [&](const MergedCells& fused) {
+    if (fused.empty()) return 0.0;
+    const std::vector<int>& k = fused.cells();
+    const auto m = static_cast<Eigen::Index>(k.size());
+    const Eigen::LLT<Eigen::MatrixXd> factor = fused.Factor(cov_);
+    if (m < cov_.cols() / 2) {
+      // sum((P_KK + R)^-1 o (P^2)_KK): about m^3 once P^2 is known.
+      const Eigen::MatrixXd& g = CovarianceSquared();
+      const Eigen::MatrixXd s_inv = factor.solve(Eigen::MatrixXd::Identity(m, m));
+      double sum = 0.0;
+      for (Eigen::Index b = 0; b < m; ++b) {
+        for (Eigen::Index a = 0; a < m; ++a) sum += s_inv(a, b) * g(k[a], k[b]);
+      }
+      return sum;
+    }
+    // |L^-1 P_K,:|_F^2: m^2 n, cheaper when K is most of the field.
+    Eigen::MatrixXd rows(m, cov_.cols());  // P_K,:
+    for (Eigen::Index a = 0; a < m; ++a) rows.row(a) = cov_.col(k[a]).transpose();
+    factor.matrixL().solveInPlace(rows);
+    return rows.squaredNorm();
+  };
+  return reduction(all) - reduction(baseline);
+}
+
+const Eigen::MatrixXd& InformationEvaluator::CovarianceSquared() const {
+  if (cov_squared_.size() == 0) {
+    // P symmetric: P^2 = P P^T, a symmetric rank-n update (half a product).
+    cov_squared_ = Eigen::MatrixXd::Zero(cov_.rows(), cov_.cols());
+    cov_squared_.selfadjointView<Eigen::Lower>().rankUpdate(cov_);
+    cov_squared_.triangularView<Eigen::StrictlyUpper>() = cov_squared_.transpose();
+  }
+  return cov_squared_;
+}
+
+double ReferenceInformation(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
+                            const InformationParams& params,
+                            std::span<const PoseObservation> poses) {
+  Eigen::MatrixXd p = covariance;  // the copy the fast path avoids
+  double total = 0.0;
+  double trace_start = p.trace();
+  for (const PoseObservation& pose : poses) {
+    const auto m = static_cast<Eigen::Index>(pose.cells.size());
+    if (params.kind == ObjectiveKind::kAdaptive && pose.scored) {
+      const double reward = params.AltitudeReward(pose.altitude_m);
+      double av = 0.0;
+      for (int c : pose.cells) av += mean[c] + params.kappa * std::sqrt(std::max(p(c, c), 0.0));
+      total += av * reward;
+    }
+    if (m == 0) continue;
+    // Kalman covariance update: P -= P_:J (P_JJ + var I)^-1 P_J:.
+    Eigen::MatrixXd pj(p.rows(), m);
+    for (Eigen::Index j = 0; j < m; ++j) pj.col(j) = p.col(pose.cells[j]);
+    Eigen::MatrixXd s(m, m);
+    for (Eigen::Index j = 0; j < m; ++j) s.col(j) = pj.col(j)(pose.cells);
+    s.diagonal().array() += pose.variance;
+    const Eigen::MatrixXd gain = Eigen::LLT<Eigen::MatrixXd>(s).solve(pj.transpose());  // S^-1 P_J:
+    p -= pj * gain;
+    if (!pose.scored) trace_start = p.trace();
+  }
+  if (params.kind == ObjectiveKind::kNonAdaptive) return trace_start - p.trace();
+  return total;
+}
+
+}  // namespace oaipp

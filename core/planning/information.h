@@ -1,0 +1,101 @@
+// The information objectives O_info of DESIGN.md §2.6, evaluated fast.
+//
+// A candidate path is reduced to its measurement poses, each a set of
+// visible ground cells observed with one noise variance. Two objectives:
+//  - adaptive (the paper's Eq. 9): for each pose i below h_sat,
+//      AV_i = sum over its cells x of mu(x) + kappa * sigma_i(x),
+//    where sigma_i is the predicted standard deviation after fusing poses
+//    1 .. i-1, weighted by the altitude reward N(h_i; h_opt, sigma1);
+//  - non-adaptive (Eq. 8): Tr(P) before minus Tr(P) after fusing every pose.
+//
+// Neither needs the n x n covariance to be copied or updated. Fusing
+// observations of the cells K with noise R changes the covariance by
+// -P_:K (P_KK + R)^-1 P_K: (information form: repeated cells merge by adding
+// precisions), so with L the Cholesky factor of P_KK + R
+//   sigma_i^2(x) = P_xx - |L^-1 P_K,x|^2            (only cells x of pose i)
+//   Tr reduction = |L^-1 P_K,:|_F^2 = sum((P_KK + R)^-1 o (P^2)_KK)
+// The trace form costs m^2 n per candidate (m observed cells); with P^2
+// computed once per evaluator (a symmetric product, n^3 flops) it costs
+// about m^3, which
+// pays when many candidates are scored against one map.
+// The plain reference (full Kalman updates on a copy, as the published code
+// does) is kept beside it as the test oracle.
+//
+//   InformationEvaluator info(map.Mean(), map.Covariance(), params);
+//   double o = info.Evaluate(poses);          // fast
+//   double r = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "Eigen/Core"
+#include "absl/status/status.h"
+
+namespace oaipp {
+
+enum class ObjectiveKind { kAdaptive, kNonAdaptive };
+
+struct InformationParams {
+  ObjectiveKind kind = ObjectiveKind::kAdaptive;
+  // UCB exploration weight kappa (Eq. 7). Valid: >= 0.
+  double kappa = 1.0;
+  // Detector reward N(h; h_opt, sigma1) (Eq. 9), metres. Valid: sigma1 > 0.
+  double h_opt_m = 10.0;
+  double sigma1_m = 7.0;
+  // Poses at or above h_sat earn nothing (Eq. 9), metres.
+  double h_sat_m = 26.0;
+
+  // InvalidArgument naming the first bad field.
+  [[nodiscard]] absl::Status Validate() const;
+  // N(h; h_opt, sigma1), or 0 at and above h_sat.
+  [[nodiscard]] double AltitudeReward(double altitude_m) const;
+};
+
+// One measurement: the visible ground cells it observes (distinct indices),
+// the observation noise variance var(h) and the camera altitude.
+struct PoseObservation {
+  std::vector<int> cells;
+  double variance = 1.0;
+  double altitude_m = 10.0;
+  // When false the pose is fused (it conditions later poses) but earns
+  // nothing itself: used for a shot the candidate cannot influence (taken
+  // where the UAV already is). Unscored poses come before scored ones.
+  bool scored = true;
+};
+
+class InformationEvaluator {
+ public:
+  // Holds references: mean (n) and covariance (n x n, symmetric) must
+  // outlive the evaluator and stay unchanged while it is used. Not safe for
+  // concurrent use (it caches P^2).
+  InformationEvaluator(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
+                       const InformationParams& params)
+      : mean_(mean), cov_(covariance), params_(params) {}
+
+  // O_info of fusing `poses` in order. Preconditions: valid cell indices,
+  // positive variances (the planner builds them; not re-checked here).
+  [[nodiscard]] double Evaluate(std::span<const PoseObservation> poses) const;
+
+ private:
+  [[nodiscard]] double Adaptive(std::span<const PoseObservation> poses) const;
+  [[nodiscard]] double NonAdaptive(std::span<const PoseObservation> poses) const;
+
+  // (P^2), computed on first need by the non-adaptive objective.
+  const Eigen::MatrixXd& CovarianceSquared() const;
+
+  const Eigen::VectorXd& mean_;
+  const Eigen::MatrixXd& cov_;
+  InformationParams params_;
+  mutable Eigen::MatrixXd cov_squared_;
+};
+
+// The oracle: sequential full Kalman covariance updates on a copy of the
+// covariance, reading the variances before each pose (adaptive) or the trace
+// before and after (non-adaptive). O(n^2) memory and O(n^2 m) time per pose.
+[[nodiscard]] double ReferenceInformation(const Eigen::VectorXd& mean,
+                                          const Eigen::MatrixXd& covariance,
+                                          const InformationParams& params,
+                                          std::span<const PoseObservation> poses);
+
+}  // namespace oaipp

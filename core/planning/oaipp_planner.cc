@@ -1,0 +1,176 @@
+#include "core/planning/oaipp_planner.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.h"
+#include "core/planning/cmaes_optimizer.h"
+
+namespace oaipp {
+namespace {
+
+struct Candidate {
+  double score;
+  Eigen::VectorXd x;
+};
+
+std::vector<Vec3> ToWaypoints(const Eigen::VectorXd& x) {
+  std::vector<Vec3> w(static_cast<std::size_t>(x.size() / 3));
+  for (std::size_t i = 0; i < w.size(); ++i) w[i] = x.segment<3>(3 * static_cast<Eigen::Index>(i));
+  return w;
+}
+
+Eigen::VectorXd FromWaypoints(const std::vector<Vec3>& w) {
+  Eigen::VectorXd x(3 * static_cast<Eigen::Index>(w.size()));
+  for (std::size_t i = 0; i < w.size(); ++i) x.segment<3>(3 * static_cast<Eigen::Index>(i)) = w[i];
+  return x;
+}
+
+}  // namespace
+
+std::uint64_t MixSeed(std::uint64_t seed, double mission_time_s) {
+  std::uint64_t z = seed ^ std::bit_cast<std::uint64_t>(mission_time_s);
+  z += 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+absl::Status OaIppConfig::Validate() const {
+  if (num_waypoints < 2 || num_waypoints > 20) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("num_waypoints: must be in [2, 20], got ", num_waypoints));
+  }
+  if (greedy_altitudes_m.empty()) {
+    return absl::InvalidArgumentError("greedy_altitudes_m: needs at least one layer");
+  }
+  for (double h : greedy_altitudes_m) OAIPP_RETURN_IF_ERROR(CheckPositive("greedy_altitudes_m", h));
+  if (greedy_candidates_per_layer < 1) {
+    return absl::InvalidArgumentError("greedy_candidates_per_layer: must be >= 1");
+  }
+  if (population < 5) {
+    return absl::InvalidArgumentError(absl::StrCat("population: must be >= 5, got ", population));
+  }
+  if (generations < 0) return absl::InvalidArgumentError("generations: must be >= 0");
+  for (int a = 0; a < 3; ++a) OAIPP_RETURN_IF_ERROR(CheckPositive("step_m", step_m[a]));
+  if (exact_check_candidates < 1) {
+    return absl::InvalidArgumentError("exact_check_candidates: must be >= 1");
+  }
+  return common.Validate();
+}
+
+std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint64_t seed,
+                                            std::int64_t* evaluations) const {
+  std::mt19937_64 rng(seed);
+  const Aabb& box = scorer.waypoint_box();
+  const FieldGrid& grid = scorer.grid();
+  // Viewpoints above the field, inside the box.
+  const Vec2 lo = grid.min_W().cwiseMax(box.min_W.head<2>());
+  const Vec2 hi = grid.max_W().cwiseMin(box.max_W.head<2>());
+  std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y());
+  const double clearance = 0.5 * config_.common.limits.uav_radius_m;
+
+  std::vector<PoseObservation> fused = scorer.start_observations();
+  std::vector<Vec3> waypoints;
+  Vec3 previous = scorer.state().position_W;
+  for (int w = 1; w < config_.num_waypoints; ++w) {
+    double best_score = -std::numeric_limits<double>::infinity();
+    Vec3 best = previous;  // hovering is the fallback when nothing is reachable
+    for (double h : config_.greedy_altitudes_m) {
+      const double z = std::clamp(h, box.min_W.z(), box.max_W.z());
+      for (int k = 0; k < config_.greedy_candidates_per_layer; ++k) {
+        const Vec3 p(ux(rng), uy(rng), z);
+        if (!scorer.environment().IsSegmentClear(previous, p, clearance)) continue;
+        std::vector<PoseObservation> poses = fused;
+        poses.push_back(scorer.Observe(p));
+        ++*evaluations;
+        const double t =
+            std::max(RampSegmentTime((p - previous).norm(), config_.common.limits.dynamics),
+                     scorer.weights().min_flight_time_s);
+        const double score = scorer.weights().k1 * scorer.Information(poses) / t;
+        if (score > best_score) {
+          best_score = score;
+          best = p;
+        }
+      }
+    }
+    fused.push_back(scorer.Observe(best, /*scored=*/false));
+    waypoints.push_back(best);
+    previous = best;
+  }
+  return waypoints;
+}
+
+absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const UavState& state,
+                                               absl::Time deadline) {
+  const absl::Time started = absl::Now();
+  OAIPP_RETURN_IF_ERROR(config_.Validate());
+  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
+  const std::uint64_t seed = MixSeed(config_.common.seed, state.mission_time_s);
+  PlannerStats stats;
+  const std::vector<Vec3> greedy = GreedyStart(scorer, seed, &stats.evaluations);
+
+  // Every evaluated candidate without ESDF collisions competes for the
+  // exact check; keep the best few.
+  std::vector<Candidate> safe;
+  auto remember = [&](double score, const Eigen::VectorXd& x) {
+    safe.push_back({score, x});
+    std::sort(safe.begin(), safe.end(),
+              [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
+    if (safe.size() > static_cast<std::size_t>(config_.exact_check_candidates)) safe.pop_back();
+  };
+  const Eigen::VectorXd x0 = FromWaypoints(greedy);
+  const ScoredPath greedy_scored = scorer.Score(greedy);
+  ++stats.evaluations;
+  stats.initial_objective = greedy_scored.score;
+  if (greedy_scored.ok() && greedy_scored.collision_samples == 0) remember(greedy_scored.score, x0);
+
+  stats.stop_reason = "greedy_only";
+  if (config_.refine && config_.generations > 0) {
+    const auto n = x0.size();
+    Eigen::VectorXd lower(n), upper(n), steps(n);
+    for (Eigen::Index i = 0; i < n; i += 3) {
+      lower.segment<3>(i) = scorer.waypoint_box().min_W;
+      upper.segment<3>(i) = scorer.waypoint_box().max_W;
+      steps.segment<3>(i) = config_.step_m;
+    }
+    auto objective = [&](const Eigen::VectorXd& x) {
+      const ScoredPath s = scorer.Score(ToWaypoints(x));
+      if (s.ok() && s.collision_samples == 0) remember(s.score, x);
+      return -s.score;
+    };
+    const CmaesOptions options{
+        .population = config_.population,
+        .max_evaluations = static_cast<std::int64_t>(config_.population) * config_.generations + 1,
+        .seed = static_cast<std::uint32_t>(seed >> 32)};
+    OAIPP_ASSIGN_OR_RETURN(CmaesResult result,
+                           MinimizeCmaes(objective, x0, steps, lower, upper, options, deadline));
+    stats.evaluations += result.evaluations - 1;  // x0 was scored above already
+    stats.generations = result.generations;
+    stats.stop_reason = StopReasonName(result.stop_reason);
+  }
+
+  // Last resort: the first greedy viewpoint alone. It was chosen in straight
+  // line of sight with clearance r / 2, and from rest a single minimum-snap
+  // segment is that straight line.
+  if (greedy.size() > 1)
+    safe.push_back({-std::numeric_limits<double>::infinity(), FromWaypoints({greedy.front()})});
+  for (const Candidate& c : safe) {
+    std::vector<Vec3> waypoints = ToWaypoints(c.x);
+    ScoredPath s = scorer.Score(waypoints);
+    if (!s.ok() || !scorer.CheckExact(*s.trajectory).ok()) continue;
+    stats.wall_time_s = absl::ToDoubleSeconds(absl::Now() - started);
+    return scorer.Finish(std::move(s), waypoints, std::move(stats));
+  }
+  if (absl::Now() >= deadline) {
+    return absl::DeadlineExceededError("deadline passed before a collision-free path was found");
+  }
+  return absl::FailedPreconditionError(
+      absl::StrCat("no collision-free path among ", safe.size(),
+                   " candidates without ESDF collisions; the UAV may be boxed in"));
+}
+
+}  // namespace oaipp

@@ -1,0 +1,190 @@
+#include "core/planning/path_scorer.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.h"
+#include "core/trajectory/measurement_schedule.h"
+
+namespace oaipp {
+namespace {
+
+// Shots closer than this to the start are taken where the UAV already is.
+constexpr double kStartShotTolerance_s = 1e-9;
+
+}  // namespace
+
+absl::Status PlannerLimits::Validate() const {
+  OAIPP_RETURN_IF_ERROR(ValidateLimits(dynamics));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("limits.uav_radius_m", uav_radius_m));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("limits.sensor_rate_hz", sensor_rate_hz));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("limits.collision_sample_rate_hz", collision_sample_rate_hz));
+  return CheckPositive("limits.exact_check_spacing_m", exact_check_spacing_m);
+}
+
+PathScorer::PathScorer(const MissionView& mission, const UavState& state,
+                       const PlannerLimits& limits, const InformationParams& information,
+                       const ScoreWeights& weights)
+    : mission_(mission),
+      state_(state),
+      limits_(limits),
+      weights_(weights),
+      evaluator_(mission.map->Mean(), mission.map->Covariance(), information),
+      waypoint_box_(mission.environment->flight_volume().Inflated(-0.5 * limits.uav_radius_m)) {}
+
+absl::Status PlannerCommon::Validate() const {
+  OAIPP_RETURN_IF_ERROR(limits.Validate());
+  OAIPP_RETURN_IF_ERROR(information.Validate());
+  if (!(weights.k1 >= 0) || !(weights.k2 >= 0) || !std::isfinite(weights.k1) ||
+      !std::isfinite(weights.k2)) {
+    return absl::InvalidArgumentError("weights.k1, weights.k2: must be >= 0 and finite");
+  }
+  return CheckPositive("weights.min_flight_time_s", weights.min_flight_time_s);
+}
+
+absl::StatusOr<PathScorer> PathScorer::Create(const MissionView& mission, const UavState& state,
+                                              const PlannerCommon& common) {
+  const PlannerLimits& limits = common.limits;
+  if (mission.environment == nullptr)
+    return absl::InvalidArgumentError("mission.environment: missing");
+  if (mission.map == nullptr) return absl::InvalidArgumentError("mission.map: missing");
+  if (mission.map->num_cells() == 0) return absl::InvalidArgumentError("mission.map: empty field");
+  OAIPP_RETURN_IF_ERROR(common.Validate());
+  OAIPP_RETURN_IF_ERROR(mission.camera.Validate());
+
+  const Aabb& volume = mission.environment->flight_volume();
+  const FieldGrid& grid = mission.map->grid();
+  if ((grid.max_W().array() <= volume.min_W.head<2>().array()).any() ||
+      (grid.min_W().array() >= volume.max_W.head<2>().array()).any()) {
+    return absl::InvalidArgumentError("mission.map: the field lies outside the flight volume");
+  }
+  OAIPP_RETURN_IF_ERROR(CheckFinite("state.position_W", state.position_W));
+  OAIPP_RETURN_IF_ERROR(CheckFinite("state.velocity_W_m_s", state.velocity_W_m_s));
+  OAIPP_RETURN_IF_ERROR(CheckFinite("state.accel_W_m_s2", state.accel_W_m_s2));
+  OAIPP_RETURN_IF_ERROR(CheckFinite("state.mission_time_s", state.mission_time_s));
+  OAIPP_RETURN_IF_ERROR(CheckFinite("state.next_shot_mission_s", state.next_shot_mission_s));
+  if (!(state.remaining_budget_s > 0.0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "state.remaining_budget_s: no flight time left (", state.remaining_budget_s, " s)"));
+  }
+  if (state.next_shot_mission_s < state.mission_time_s - 1e-9) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("state.next_shot_mission_s: ", state.next_shot_mission_s,
+                     " lies before state.mission_time_s ", state.mission_time_s));
+  }
+  if (!volume.Contains(state.position_W, 1e-6)) {
+    const Vec3& p = state.position_W;
+    return absl::InvalidArgumentError(absl::StrCat("state.position_W: (", p.x(), ", ", p.y(), ", ",
+                                                   p.z(), ") lies outside the flight volume"));
+  }
+  const double clearance = mission.environment->SignedDistance(state.position_W);
+  if (clearance < 0.0) {
+    return absl::InvalidArgumentError("state.position_W: lies inside an obstacle");
+  }
+  if (clearance < 0.5 * limits.uav_radius_m) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "state.position_W: only ", clearance,
+        " m from an obstacle, closer than uav_radius_m / 2 = ", 0.5 * limits.uav_radius_m));
+  }
+  if (state.velocity_W_m_s.norm() > limits.dynamics.max_speed_m_s * (1 + 1e-6)) {
+    return absl::InvalidArgumentError("state.velocity_W_m_s: faster than limits.max_speed_m_s");
+  }
+  if (state.accel_W_m_s2.norm() > limits.dynamics.max_accel_m_s2 * (1 + 1e-6)) {
+    return absl::InvalidArgumentError("state.accel_W_m_s2: beyond limits.max_accel_m_s2");
+  }
+  PathScorer scorer(mission, state, limits, common.information, common.weights);
+  if (state.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
+    scorer.start_observations_.push_back(scorer.Observe(state.position_W, /*scored=*/false));
+  }
+  return scorer;
+}
+
+PoseObservation PathScorer::Observe(const Vec3& p_W, bool scored) const {
+  PoseObservation obs;
+  obs.altitude_m = p_W.z();
+  obs.variance = mission_.noise.Variance(std::max(p_W.z(), 1e-3));
+  obs.cells = mission_.camera.VisibleFootprintCells(grid(), p_W, mission_.environment);
+  obs.scored = scored;
+  return obs;
+}
+
+ScoredPath PathScorer::Score(const std::vector<Vec3>& waypoints_W) const {
+  ScoredPath out;
+  StartState start{state_.position_W, state_.velocity_W_m_s, state_.accel_W_m_s2};
+  absl::StatusOr<PolynomialTrajectory> traj = PlanMinSnap(start, waypoints_W, limits_.dynamics);
+  if (!traj.ok()) return out;
+  absl::StatusOr<MeasurementSchedule> shots = ScheduleMeasurements(
+      {.trajectory_start_mission_s = state_.mission_time_s,
+       .duration_s = traj->Duration(),
+       .rate_hz = limits_.sensor_rate_hz,
+       .next_shot_mission_s = std::max(state_.next_shot_mission_s, state_.mission_time_s)});
+  if (!shots.ok()) return out;
+
+  std::vector<PoseObservation> observations;
+  for (double t : shots->times_s) {
+    const Vec3 p = traj->Position(t);
+    out.poses.push_back({t, state_.mission_time_s + t, p});
+    observations.push_back(Observe(p, /*scored=*/t >= kStartShotTolerance_s));
+  }
+  out.information = evaluator_.Evaluate(observations);
+
+  // C_coll (Eq. 3): samples closer than r / 2 by the ESDF, or outside the
+  // flight volume.
+  const Environment& env = *mission_.environment;
+  const double dt = 1.0 / limits_.collision_sample_rate_hz;
+  const int samples = static_cast<int>(std::floor(traj->Duration() / dt)) + 1;
+  for (int i = 0; i <= samples; ++i) {
+    const Vec3 p = traj->Position(std::min(i * dt, traj->Duration()));
+    if (!env.flight_volume().Contains(p) || env.InCollision(p, limits_.uav_radius_m)) {
+      ++out.collision_samples;
+    }
+  }
+  const double t_flight = std::max(traj->Duration(), weights_.min_flight_time_s);
+  out.score = (weights_.k1 * out.information - weights_.k2 * out.collision_samples) / t_flight;
+  out.next_shot_mission_s = shots->next_shot_mission_s;
+  out.trajectory = std::move(traj).value();
+  return out;
+}
+
+absl::Status PathScorer::CheckExact(const PolynomialTrajectory& trajectory) const {
+  const Environment& env = *mission_.environment;
+  const double speed = std::max(trajectory.MaxSpeed(), 1e-3);
+  const double dt = limits_.exact_check_spacing_m / speed;
+  // A curve with |acceleration| <= a leaves its chord over dt by at most
+  // a dt^2 / 8.
+  const double bulge = trajectory.MaxAcceleration() * dt * dt / 8.0;
+  const double clearance = 0.5 * limits_.uav_radius_m + bulge;
+  const int steps = static_cast<int>(std::ceil(trajectory.Duration() / dt));
+  Vec3 previous = trajectory.Position(0.0);
+  for (int i = 1; i <= steps; ++i) {
+    const double t = std::min(i * trajectory.Duration() / steps, trajectory.Duration());
+    const Vec3 p = trajectory.Position(t);
+    if (!env.flight_volume().Contains(p, -bulge)) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("path leaves the flight volume at t = ", t, " s"));
+    }
+    if (!env.IsSegmentClear(previous, p, clearance)) {
+      return absl::FailedPreconditionError(absl::StrCat(
+          "path comes closer than uav_radius_m / 2 to an obstacle near t = ", t, " s"));
+    }
+    previous = p;
+  }
+  return absl::OkStatus();
+}
+
+PlannedPath PathScorer::Finish(ScoredPath scored, const std::vector<Vec3>& waypoints_W,
+                               PlannerStats stats) const {
+  std::vector<Vec3> control{state_.position_W};
+  control.insert(control.end(), waypoints_W.begin(), waypoints_W.end());
+  return PlannedPath{.trajectory = std::move(*scored.trajectory),
+                     .control_waypoints_W = std::move(control),
+                     .measurement_poses = std::move(scored.poses),
+                     .objective = scored.score,
+                     .information = scored.information,
+                     .collision_samples = scored.collision_samples,
+                     .collision_free = true,
+                     .next_shot_mission_s = scored.next_shot_mission_s,
+                     .stats = std::move(stats)};
+}
+
+}  // namespace oaipp

@@ -1,0 +1,110 @@
+// Scoring candidate paths for every planner (DESIGN.md §2.6, Eq. 1):
+//   score = (k1 O_info - k2 C_coll) / t_flight.
+//
+// PathScorer validates the mission and the UAV state once per replan, then
+// turns control waypoints into a minimum-snap trajectory, its measurement
+// poses, their visible cells, the information value and the collision cost.
+// It also runs the final exact collision check.
+//
+//   OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(view, state, common));
+//   ScoredPath s = scorer.Score({c2_W, c3_W});
+//   if (s.ok() && scorer.CheckExact(*s.trajectory).ok()) ...
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/planning/information.h"
+#include "core/planning/planner.h"
+
+namespace oaipp {
+
+struct ScoreWeights {
+  double k1 = 1.0;    // weight of O_info. Valid: >= 0.
+  double k2 = 100.0;  // weight of C_coll, per colliding sample. Valid: >= 0.
+  // Floor of t_flight in the score, seconds: keeps a near-zero-length path
+  // from dividing by almost nothing. Valid: > 0.
+  double min_flight_time_s = 0.5;
+};
+
+struct ScoredPath {
+  std::optional<PolynomialTrajectory> trajectory;  // empty when infeasible
+  std::vector<MeasurementPose> poses;
+  double next_shot_mission_s = 0.0;
+  double information = 0.0;
+  int collision_samples = 0;
+  double score = -1e18;  // very low when infeasible
+  [[nodiscard]] bool ok() const { return trajectory.has_value(); }
+};
+
+// Settings every planner takes.
+struct PlannerCommon {
+  PlannerLimits limits;
+  InformationParams information;  // the objective (planners that don't optimise it report it)
+  ScoreWeights weights;
+  // Seed of every random choice; mixed with the mission time per replan.
+  std::uint32_t seed = 1;
+  [[nodiscard]] absl::Status Validate() const;
+};
+
+class PathScorer {
+ public:
+  // Validates everything a plan depends on. InvalidArgument naming the field
+  // for: missing environment or map, a map whose field misses the flight
+  // volume, bad limits or parameters, a non-finite state, a start outside
+  // the flight volume, inside an obstacle or closer than r_uav / 2 to one, a
+  // start speed or acceleration beyond the limits, a next shot before now.
+  [[nodiscard]] static absl::StatusOr<PathScorer> Create(const MissionView& mission,
+                                                         const UavState& state,
+                                                         const PlannerCommon& common);
+
+  // The trajectory from the UAV state through `waypoints_W` (after the
+  // start) and its score.
+  [[nodiscard]] ScoredPath Score(const std::vector<Vec3>& waypoints_W) const;
+
+  // The measurement taken at p_W: visible footprint cells and var(h).
+  [[nodiscard]] PoseObservation Observe(const Vec3& p_W, bool scored = true) const;
+  // O_info of `poses` given the map.
+  [[nodiscard]] double Information(std::span<const PoseObservation> poses) const {
+    return evaluator_.Evaluate(poses);
+  }
+
+  // OK when every point of the trajectory stays inside the flight volume
+  // and at least r_uav / 2 from every obstacle under the exact geometry
+  // (chords between samples <= exact_check_spacing_m apart, widened by the
+  // largest possible bulge of the curve over a chord); otherwise
+  // FailedPrecondition saying where.
+  [[nodiscard]] absl::Status CheckExact(const PolynomialTrajectory& trajectory) const;
+
+  // Assembles the returned path (after CheckExact passed).
+  [[nodiscard]] PlannedPath Finish(ScoredPath scored, const std::vector<Vec3>& waypoints_W,
+                                   PlannerStats stats) const;
+
+  [[nodiscard]] const UavState& state() const { return state_; }
+  [[nodiscard]] const PlannerLimits& limits() const { return limits_; }
+  [[nodiscard]] const ScoreWeights& weights() const { return weights_; }
+  [[nodiscard]] const Environment& environment() const { return *mission_.environment; }
+  [[nodiscard]] const FieldGrid& grid() const { return mission_.map->grid(); }
+  // Where waypoints may go: the flight volume shrunk by r_uav / 2.
+  [[nodiscard]] const Aabb& waypoint_box() const { return waypoint_box_; }
+  // Unscored observation of a shot due right at the start, if any.
+  [[nodiscard]] const std::vector<PoseObservation>& start_observations() const {
+    return start_observations_;
+  }
+
+ private:
+  PathScorer(const MissionView& mission, const UavState& state, const PlannerLimits& limits,
+             const InformationParams& information, const ScoreWeights& weights);
+
+  MissionView mission_;
+  UavState state_;
+  PlannerLimits limits_;
+  ScoreWeights weights_;
+  InformationEvaluator evaluator_;
+  Aabb waypoint_box_;
+  std::vector<PoseObservation> start_observations_;
+};
+
+}  // namespace oaipp

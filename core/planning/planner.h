@@ -1,0 +1,117 @@
+// The planner interface and what every planner shares (DESIGN.md §2.5-2.8).
+//
+// A planner reads the mission (environment, field grid, GP map, camera and
+// sensor models), the UAV's state and a deadline, and returns a trajectory
+// with its control waypoints, measurement poses, objective value, exact
+// collision verdict and statistics. Planners may keep state between calls
+// (the lawnmower's place in its pattern, a random stream), so a mission
+// owns its own planner object.
+//
+//   std::unique_ptr<Planner> planner = MakePlanner(config);  // planners.h
+//   MissionView view{&env, &map, camera, noise};
+//   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, planner->Plan(view, state, absl::Now() +
+//   absl::Seconds(1)));
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
+#include "absl/time/time.h"
+#include "core/environment/environment.h"
+#include "core/mapping/camera.h"
+#include "core/mapping/gp_map.h"
+#include "core/planning/information.h"
+#include "core/trajectory/min_snap.h"
+
+namespace oaipp {
+
+// What a planner reads. The pointers must outlive the Plan call.
+struct MissionView {
+  const Environment* environment = nullptr;
+  const GpMap* map = nullptr;
+  DownwardCamera camera;
+  SensorNoise noise;
+};
+
+// The UAV when planning starts.
+struct UavState {
+  Vec3 position_W = Vec3::Zero();
+  Vec3 velocity_W_m_s = Vec3::Zero();
+  Vec3 accel_W_m_s2 = Vec3::Zero();
+  // Mission clock, seconds since the mission started.
+  double mission_time_s = 0.0;
+  // When the camera fires next (mission clock): the sensor phase carries
+  // over across replans (DESIGN.md §2.4). Valid: >= mission_time_s.
+  double next_shot_mission_s = 0.0;
+  // Flight time left in the mission's budget, seconds. Valid: > 0.
+  double remaining_budget_s = std::numeric_limits<double>::infinity();
+};
+
+// Settings shared by every planner; defaults from DESIGN.md.
+struct PlannerLimits {
+  TrajectoryLimits dynamics;  // 5 m/s, 3 m/s^2
+  // Radius of the smallest sphere holding the UAV; a pose collides when
+  // ESDF < r / 2 (Eq. 2). Metres, valid: > 0.
+  double uav_radius_m = 1.0;
+  // Camera rate, Hz (0.15 in the paper). Valid: > 0.
+  double sensor_rate_hz = 0.15;
+  // Samples per second for the collision cost C_coll (Eq. 3). Valid: > 0.
+  double collision_sample_rate_hz = 20.0;
+  // Spacing of the final exact collision check along the path, metres.
+  double exact_check_spacing_m = 0.1;
+  // Lowest altitude a waypoint may take (the flight volume's floor is
+  // usually the ground). Metres.
+  double min_altitude_m = 2.0;
+
+  [[nodiscard]] absl::Status Validate() const;
+};
+
+// A measurement the camera will take along the path.
+struct MeasurementPose {
+  double t_s = 0.0;             // since the trajectory start
+  double mission_time_s = 0.0;  // on the mission clock
+  Vec3 position_W = Vec3::Zero();
+};
+
+struct PlannerStats {
+  std::int64_t evaluations = 0;  // objective evaluations, greedy included
+  int generations = 0;           // CMA-ES generations
+  double wall_time_s = 0.0;
+  std::string stop_reason;         // e.g. "evaluation_budget", "deadline", "pattern"
+  double initial_objective = 0.0;  // the greedy start's score (OA-IPP)
+};
+
+struct PlannedPath {
+  PolynomialTrajectory trajectory;
+  std::vector<Vec3> control_waypoints_W;  // c1 (the UAV's position) .. cN
+  std::vector<MeasurementPose> measurement_poses;
+  double objective = 0.0;            // (k1 O_info - k2 C_coll) / t_flight
+  double information = 0.0;          // O_info
+  int collision_samples = 0;         // C_coll: ESDF samples closer than r / 2
+  bool collision_free = false;       // the exact check; always true for a returned path
+  double next_shot_mission_s = 0.0;  // sensor phase after the path
+  PlannerStats stats;
+};
+
+class Planner {
+ public:
+  virtual ~Planner() = default;
+  [[nodiscard]] virtual absl::string_view name() const = 0;
+  // Plans from `state`. Returns InvalidArgument for bad input (non-finite
+  // state, start outside the volume or inside an obstacle, empty field, no
+  // budget left),
+  // DeadlineExceeded when the deadline passed before any safe path was
+  // found, and FailedPrecondition when no collision-free path exists among
+  // those tried. A returned path is always collision-free under the exact
+  // check.
+  [[nodiscard]] virtual absl::StatusOr<PlannedPath> Plan(const MissionView& mission,
+                                                         const UavState& state,
+                                                         absl::Time deadline) = 0;
+};
+
+}  // namespace oaipp

@@ -1,0 +1,145 @@
+// Planner benchmarks (issue: the OA-IPP planner and its baselines).
+//
+//   build/tests/bench/planning/planning_bench --benchmark_repetitions=5
+//     (add --benchmark_report_aggregates_only=true for medians only)
+//
+// - BM_ObjectiveSpeedup: the fast objective against the plain reference
+//   (sequential full Kalman updates on a copy), same run, same paths; the
+//   `speedup` counter is the ratio of evaluation rates.
+// - BM_ReplanE1: one full OA-IPP replan on the E1 world (1600 cells, N = 3,
+//   12 x 45 = 540 CMA-ES evaluations after the greedy start), one thread.
+// - BM_ReplanScaling: the same replan for N = 3, 5, 8 waypoints and square
+//   fields of 20 to 60 m at 0.75 m cells.
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+#include <random>
+
+#include "core/planning/planners.h"
+
+namespace oaipp {
+namespace {
+
+struct World {
+  std::unique_ptr<Environment> env;
+  std::unique_ptr<GpMap> map;
+  MissionView View() const { return {env.get(), map.get(), DownwardCamera{}, SensorNoise{}}; }
+};
+
+// A field of side_m x side_m at 0.75 m cells with the E1 building scaled to
+// its centre-south, 26 m ceiling.
+World MakeWorld(double side_m) {
+  const double h = side_m / 2;
+  World w;
+  auto env = Environment::Create({{-h, -h, 2}, {h, h, 26}}, {.voxel_size_m = 0.2});
+  (void)env->Apply({.add = {{"building", Box{{0, -1, 13}, {10, 4, 26}, 0.0}}}});
+  w.env = std::make_unique<Environment>(std::move(env).value());
+  auto grid = FieldGrid::FromBounds({-h, -h}, {h, h}, 0.75);
+  auto map = GpMap::Create(*grid, GpParams::PaperPreset(0.75));
+  w.map = std::make_unique<GpMap>(std::move(map).value());
+  std::vector<int> covered;
+  for (int c = 0; c < grid->num_cells(); ++c) {
+    if (w.env->IsInsideObstacle(grid->CellCentre(c) + Vec3(0, 0, 1e-3))) covered.push_back(c);
+  }
+  (void)w.map->FuseNearCertainZeros(covered);
+  return w;
+}
+
+const World& E1() {
+  static const World* world = new World(MakeWorld(30.0));
+  return *world;
+}
+
+// Measurement poses of seeded random candidate paths over E1: 1-3 shots at
+// altitudes 3-25 m, as CMA-ES candidates produce them.
+std::vector<std::vector<PoseObservation>> CandidatePaths(int count) {
+  const World& w = E1();
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> xy(-14, 14), z(3, 25);
+  std::uniform_int_distribution<int> shots(1, 3);
+  const DownwardCamera camera;
+  const SensorNoise noise;
+  std::vector<std::vector<PoseObservation>> paths;
+  for (int i = 0; i < count; ++i) {
+    std::vector<PoseObservation> poses;
+    for (int s = shots(rng); s > 0; --s) {
+      const Vec3 p(xy(rng), xy(rng), z(rng));
+      poses.push_back({camera.VisibleFootprintCells(w.map->grid(), p, w.env.get()),
+                       noise.Variance(p.z()), p.z(), true});
+    }
+    paths.push_back(std::move(poses));
+  }
+  return paths;
+}
+
+void BM_ObjectiveSpeedup(benchmark::State& state) {
+  const InformationParams params{.kind = state.range(0) == 0 ? ObjectiveKind::kAdaptive
+                                                             : ObjectiveKind::kNonAdaptive};
+  const World& w = E1();
+  const auto paths = CandidatePaths(40);
+  const InformationEvaluator fast(w.map->Mean(), w.map->Covariance(), params);
+  (void)fast.Evaluate(paths[0]);  // the non-adaptive cache of P^2 is built once per map
+  double fast_s = 0, reference_s = 0, checksum = 0;
+  for (auto _ : state) {
+    auto t0 = std::chrono::steady_clock::now();
+    for (const auto& p : paths) checksum += fast.Evaluate(p);
+    auto t1 = std::chrono::steady_clock::now();
+    for (const auto& p : paths)
+      checksum -= ReferenceInformation(w.map->Mean(), w.map->Covariance(), params, p);
+    auto t2 = std::chrono::steady_clock::now();
+    fast_s += std::chrono::duration<double>(t1 - t0).count();
+    reference_s += std::chrono::duration<double>(t2 - t1).count();
+    state.SetIterationTime(std::chrono::duration<double>(t1 - t0).count());
+  }
+  benchmark::DoNotOptimize(checksum);
+  const double evals = static_cast<double>(state.iterations()) * paths.size();
+  state.counters["fast_evals_per_s"] = evals / fast_s;
+  state.counters["reference_evals_per_s"] = evals / reference_s;
+  state.counters["speedup"] = reference_s / fast_s;
+  state.SetLabel(params.kind == ObjectiveKind::kAdaptive ? "adaptive" : "non-adaptive");
+}
+BENCHMARK(BM_ObjectiveSpeedup)
+    ->Arg(0)
+    ->Arg(1)
+    ->UseManualTime()
+    ->Iterations(3)
+    ->Unit(benchmark::kMillisecond);
+
+void Replan(benchmark::State& state, const World& w, int waypoints) {
+  OaIppConfig config;
+  config.num_waypoints = waypoints;
+  UavState start;
+  start.position_W = Vec3(10, 0, 7);
+  std::int64_t evaluations = 0;
+  for (auto _ : state) {
+    OaIppPlanner planner(config);
+    auto path = planner.Plan(w.View(), start, absl::InfiniteFuture());
+    if (!path.ok()) state.SkipWithError(std::string(path.status().message()).c_str());
+    evaluations = path->stats.evaluations;
+  }
+  state.counters["evaluations"] = static_cast<double>(evaluations);
+  state.counters["cells"] = w.map->num_cells();
+}
+
+void BM_ReplanE1(benchmark::State& state) { Replan(state, E1(), 3); }
+BENCHMARK(BM_ReplanE1)->Unit(benchmark::kMillisecond)->Iterations(5);
+
+void BM_ReplanScaling(benchmark::State& state) {
+  static std::map<int, World>* worlds = new std::map<int, World>();
+  const int side = static_cast<int>(state.range(1));
+  if (!worlds->contains(side)) worlds->emplace(side, MakeWorld(side));
+  Replan(state, worlds->at(side), static_cast<int>(state.range(0)));
+}
+BENCHMARK(BM_ReplanScaling)
+    ->ArgNames({"waypoints", "field_m"})
+    ->Args({3, 30})
+    ->Args({5, 30})
+    ->Args({8, 30})
+    ->Args({3, 21})
+    ->Args({3, 45})
+    ->Args({3, 60})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
+
+}  // namespace
+}  // namespace oaipp
