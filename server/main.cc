@@ -1,0 +1,112 @@
+// oaipp-server: the OA-IPP planning service.
+//
+//   oaipp-server --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464
+//
+// Health checking (grpc.health.v1) and server reflection are on. SIGTERM or
+// SIGINT: stop accepting calls, let in-flight calls finish (up to
+// --shutdown_grace_s), exit 0.
+#include <csignal>
+#include <memory>
+#include <thread>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "grpcpp/ext/proto_server_reflection_plugin.h"
+#include "grpcpp/grpcpp.h"
+#include "grpcpp/health_check_service_interface.h"
+#include "prometheus/exposer.h"
+#include "server/service.h"
+#include "spdlog/spdlog.h"
+
+ABSL_FLAG(std::string, listen, "127.0.0.1:50051", "gRPC listen address (host:port)");
+ABSL_FLAG(int, worker_threads, 16, "most threads serving RPCs at once");
+ABSL_FLAG(int, planning_threads, 2, "plans that may run at once");
+ABSL_FLAG(int, planning_queue, 16, "plans that may wait; more are refused (RESOURCE_EXHAUSTED)");
+ABSL_FLAG(int, max_missions, 64, "missions held at once");
+ABSL_FLAG(int64_t, max_cells, 4096,
+          "cells per mission map (its covariance takes 8 n^2 bytes: 4096 cells = 134 MB)");
+ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error or off");
+ABSL_FLAG(std::string, metrics_listen, "127.0.0.1:9464",
+          "Prometheus metrics address (host:port); empty disables");
+ABSL_FLAG(double, shutdown_grace_s, 10.0, "time in-flight calls get to finish on SIGTERM");
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage("OA-IPP planning service (oaipp.v1.MissionService)");
+  absl::ParseCommandLine(argc, argv);
+  spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
+  spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
+
+  const int threads = absl::GetFlag(FLAGS_worker_threads);
+  const int planning_threads = absl::GetFlag(FLAGS_planning_threads);
+  const int planning_queue = absl::GetFlag(FLAGS_planning_queue);
+  if (threads < 2 || planning_threads < 1 || planning_queue < 0 ||
+      absl::GetFlag(FLAGS_max_missions) < 1 || absl::GetFlag(FLAGS_max_cells) < 1) {
+    spdlog::error(
+        "bad flags: need worker_threads >= 2, planning_threads >= 1, "
+        "planning_queue >= 0, max_missions >= 1, max_cells >= 1");
+    return 2;
+  }
+
+  // Signals are taken by a thread of ours, not by whichever thread runs.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  oaipp::server::MissionRegistry registry(
+      {.max_missions = absl::GetFlag(FLAGS_max_missions),
+       .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells)});
+  oaipp::server::PlanningGate gate(planning_threads, planning_queue);
+  oaipp::server::Metrics metrics;
+  std::unique_ptr<prometheus::Exposer> exposer;
+  if (const std::string address = absl::GetFlag(FLAGS_metrics_listen); !address.empty()) {
+    try {
+      exposer = std::make_unique<prometheus::Exposer>(address);
+      exposer->RegisterCollectable(metrics.registry());
+    } catch (const std::exception& e) {
+      spdlog::error("metrics: cannot listen on {}: {}", address, e.what());
+      return 1;
+    }
+  }
+  oaipp::server::MissionServiceImpl service(&registry, &gate, &metrics);
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), grpc::InsecureServerCredentials(), &port);
+  grpc::ResourceQuota quota("oaipp-server");
+  quota.SetMaxThreads(threads);
+  builder.SetResourceQuota(quota);
+  builder.SetMaxReceiveMessageSize(64 << 20);
+  // Idle serving threads wake up this often; it bounds how long shutdown
+  // waits for them once the last call has finished.
+  builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::CQ_TIMEOUT_MSEC, 200);
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  if (server == nullptr || port == 0) {
+    spdlog::error("cannot listen on {}", absl::GetFlag(FLAGS_listen));
+    return 1;
+  }
+  server->GetHealthCheckService()->SetServingStatus("oaipp.v1.MissionService", true);
+  server->GetHealthCheckService()->SetServingStatus(true);
+  spdlog::info(
+      "oaipp-server listening on {} (metrics on {})", absl::GetFlag(FLAGS_listen),
+      absl::GetFlag(FLAGS_metrics_listen).empty() ? "-" : absl::GetFlag(FLAGS_metrics_listen));
+
+  std::thread waiter([&] {
+    int signal = 0;
+    sigwait(&signals, &signal);
+    spdlog::info("signal {}: no new calls; finishing the ones in flight", signal);
+    server->GetHealthCheckService()->SetServingStatus(false);
+    const auto grace = std::chrono::milliseconds(
+        static_cast<int64_t>(absl::GetFlag(FLAGS_shutdown_grace_s) * 1000));
+    server->Shutdown(std::chrono::system_clock::now() + grace);
+  });
+  server->Wait();
+  waiter.join();
+  spdlog::info("oaipp-server stopped");
+  return 0;
+}

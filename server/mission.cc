@@ -1,0 +1,308 @@
+#include "server/mission.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.h"
+#include "core/mapping/camera.h"
+
+namespace oaipp::server {
+namespace {
+
+constexpr std::size_t kRememberedRequests = 4096;
+
+// Image size assumed for detections sent without intrinsics.
+constexpr int kDefaultImageWidthPx = 480;
+constexpr int kDefaultImageHeightPx = 640;
+
+}  // namespace
+
+void EventQueue::Push(MissionEventData event) {
+  absl::MutexLock lock(&mu_);
+  if (closed_) return;
+  if (events_.size() >= capacity_) {
+    events_.pop_front();
+    ++dropped_;
+  }
+  events_.push_back(std::move(event));
+}
+
+std::optional<MissionEventData> EventQueue::Pop(absl::Time until) {
+  absl::MutexLock lock(&mu_);
+  auto ready = [this]() ABSL_SHARED_LOCKS_REQUIRED(mu_) { return !events_.empty() || closed_; };
+  mu_.AwaitWithDeadline(absl::Condition(&ready), until);
+  if (events_.empty()) return std::nullopt;
+  MissionEventData event = std::move(events_.front());
+  events_.pop_front();
+  return event;
+}
+
+void EventQueue::Close() {
+  absl::MutexLock lock(&mu_);
+  closed_ = true;
+}
+
+bool EventQueue::closed() const {
+  absl::MutexLock lock(&mu_);
+  return closed_ && events_.empty();
+}
+
+std::int64_t EventQueue::dropped() const {
+  absl::MutexLock lock(&mu_);
+  return dropped_;
+}
+
+template <typename T>
+std::optional<absl::StatusOr<T>> Mission::Recall(const std::string& request_id) {
+  if (request_id.empty()) return std::nullopt;
+  absl::MutexLock lock(&idempotency_mu_);
+  auto it = done_.find(request_id);
+  if (it == done_.end()) return std::nullopt;
+  if (const T* result = std::get_if<T>(&it->second)) return absl::StatusOr<T>(*result);
+  return absl::StatusOr<T>(absl::InvalidArgumentError(
+      absl::StrCat("request_id: '", request_id, "' was used by another kind of call")));
+}
+
+void Mission::Remember(const std::string& request_id, Result result) {
+  if (request_id.empty()) return;
+  absl::MutexLock lock(&idempotency_mu_);
+  done_.emplace(request_id, std::move(result));
+  done_order_.push_back(request_id);
+  if (done_order_.size() > kRememberedRequests) {
+    done_.erase(done_order_.front());
+    done_order_.pop_front();
+  }
+}
+
+Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap map,
+                 std::unique_ptr<Planner> planner)
+    : id_(std::move(id)),
+      config_(std::move(config)),
+      create_time_(absl::Now()),
+      env_(std::move(env)),
+      map_(std::move(map)),
+      planner_(std::move(planner)) {}
+
+absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config) {
+  OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
+  OAIPP_RETURN_IF_ERROR(env.Apply({.add = config.obstacles}));
+  OAIPP_ASSIGN_OR_RETURN(
+      FieldGrid grid,
+      FieldGrid::FromBounds(config.field_min_W, config.field_max_W, config.resolution_m));
+  OAIPP_ASSIGN_OR_RETURN(GpMap map, GpMap::Create(grid, config.gp));
+  OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
+  std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
+                                               std::move(map), std::move(planner)));
+  absl::MutexLock lock(&mission->mu_);
+  OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
+  mission->mission_time_s_ = mission->config_.start.mission_time_s;
+  return mission;
+}
+
+absl::StatusOr<std::shared_ptr<Mission>> Mission::Replay(std::string id, MissionConfig config,
+                                                         const std::vector<LogEntry>& log) {
+  OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
+                         Create(std::move(id), std::move(config)));
+  for (const LogEntry& entry : log) {
+    if (const auto* change = std::get_if<ObstacleChange>(&entry)) {
+      OAIPP_RETURN_IF_ERROR(mission->UpdateObstacles(*change, "").status());
+    } else {
+      OAIPP_RETURN_IF_ERROR(
+          mission->AddMeasurement(std::get<MeasurementInput>(entry), "").status());
+    }
+  }
+  return mission;
+}
+
+absl::Status Mission::FuseCoveredCells() {
+  const FieldGrid& grid = map_.grid();
+  std::vector<int> fresh;
+  for (int c = 0; c < grid.num_cells(); ++c) {
+    // Just above the ground: a cell under a building is inside it.
+    if (!covered_cells_.contains(c) &&
+        env_.IsInsideObstacle(grid.CellCentre(c) + Vec3(0, 0, 1e-3))) {
+      fresh.push_back(c);
+    }
+  }
+  if (fresh.empty()) return absl::OkStatus();
+  OAIPP_RETURN_IF_ERROR(map_.FuseNearCertainZeros(fresh));
+  covered_cells_.insert(fresh.begin(), fresh.end());
+  return absl::OkStatus();
+}
+
+absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& change,
+                                                        const std::string& request_id) {
+  ObstacleResult result;
+  {
+    absl::MutexLock lock(&mu_);
+    if (auto done = Recall<ObstacleResult>(request_id)) return *std::move(done);
+    OAIPP_RETURN_IF_ERROR(env_.Apply(change));
+    // Ground newly under a building holds no targets. (Ground uncovered by a
+    // removal keeps what was fused: the map cannot forget a measurement.)
+    OAIPP_RETURN_IF_ERROR(FuseCoveredCells());
+    log_.push_back(change);
+    result.obstacle_count = static_cast<int>(env_.obstacles().size());
+    result.esdf_voxels_recomputed = env_.esdf().last_recomputed_voxels();
+    Remember(request_id, result);
+  }
+  Emit(MissionEventData::ObstaclesChanged{result.obstacle_count});
+  return result;
+}
+
+absl::StatusOr<MeasurementResult> Mission::ApplyMeasurement(const MeasurementInput& input) {
+  const FieldGrid& grid = map_.grid();
+  const Vec3& p = input.pose.p_WC;
+  if (!env_.flight_volume().Contains(p, 1e-6)) {
+    return absl::InvalidArgumentError(absl::StrCat("camera_position_m: (", p.x(), ", ", p.y(), ", ",
+                                                   p.z(), ") lies outside the flight volume"));
+  }
+  CellLabels labels;
+  if (input.labels.has_value()) {
+    labels = *input.labels;
+    for (std::size_t i = 0; i < labels.cells.size(); ++i) {
+      if (!grid.IsValidCell(labels.cells[i])) {
+        return absl::InvalidArgumentError(absl::StrCat("labels.cells[", i, "]: ", labels.cells[i],
+                                                       " is not a cell of the ", grid.nx(), " x ",
+                                                       grid.ny(), " field"));
+      }
+    }
+  } else if (input.detections.has_value()) {
+    CameraIntrinsics intrinsics;
+    if (input.detections->intrinsics.has_value()) {
+      intrinsics = *input.detections->intrinsics;
+    } else {
+      OAIPP_ASSIGN_OR_RETURN(intrinsics,
+                             IntrinsicsForFov(kDefaultImageWidthPx, kDefaultImageHeightPx,
+                                              config_.camera.fov_x_deg, config_.camera.fov_y_deg));
+    }
+    absl::StatusOr<CellLabels> projected =
+        DetectionsToLabels(grid, intrinsics, input.pose, input.detections->boxes,
+                           input.detections->min_confidence, &env_);
+    if (!projected.ok()) {
+      return absl::InvalidArgumentError(absl::StrCat("detections.", projected.status().message()));
+    }
+    labels = std::move(projected).value();
+  } else {
+    return absl::InvalidArgumentError("data: set labels or detections");
+  }
+  OAIPP_ASSIGN_OR_RETURN(
+      std::vector<CellObservation> observations,
+      LabelsToObservations(grid, config_.noise, p.z(), labels.cells, labels.labels));
+  OAIPP_RETURN_IF_ERROR(map_.Update(observations));
+  ++measurements_fused_;
+  mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
+  return MeasurementResult{static_cast<int>(labels.cells.size()), map_.Trace(),
+                           measurements_fused_};
+}
+
+absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput& input,
+                                                          const std::string& request_id) {
+  MeasurementResult result;
+  {
+    absl::MutexLock lock(&mu_);
+    if (auto done = Recall<MeasurementResult>(request_id)) return *std::move(done);
+    OAIPP_ASSIGN_OR_RETURN(result, ApplyMeasurement(input));
+    log_.push_back(input);
+    Remember(request_id, result);
+  }
+  Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused, result.trace});
+  return result;
+}
+
+absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
+                                          std::optional<double> next_shot_mission_s,
+                                          absl::Time deadline, const std::string& request_id,
+                                          PlanningGate* gate) {
+  absl::MutexLock planner_lock(&planner_mu_);
+  if (auto done = Recall<PlannedPath>(request_id)) return *std::move(done);
+  const double elapsed = state.mission_time_s - config_.start.mission_time_s;
+  if (elapsed >= config_.budget_s) {
+    return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
+                                                      config_.budget_s, " s is spent"));
+  }
+  UavState planning_state = state;
+  planning_state.remaining_budget_s = config_.budget_s - elapsed;
+  if (next_shot_mission_s.has_value()) {
+    planning_state.next_shot_mission_s = *next_shot_mission_s;
+  } else {
+    // The camera fires every 1 / rate seconds on the mission clock.
+    const double period = 1.0 / config_.sensor_rate_hz();
+    planning_state.next_shot_mission_s = period * std::ceil(state.mission_time_s / period - 1e-9);
+  }
+  if (gate != nullptr) OAIPP_RETURN_IF_ERROR(gate->Acquire(deadline));
+  absl::StatusOr<PlannedPath> path;
+  {
+    absl::ReaderMutexLock lock(&mu_);
+    const MissionView view{&env_, &map_, config_.camera, config_.noise};
+    path = planner_->Plan(view, planning_state, deadline);
+  }
+  if (gate != nullptr) gate->Release();
+  if (!path.ok()) return path.status();
+  ++paths_planned_;
+  Remember(request_id, *path);
+  {
+    absl::MutexLock lock(&mu_);
+    mission_time_s_ = std::max(mission_time_s_, state.mission_time_s);
+  }
+  Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
+                                     path->objective, path->control_waypoints_W});
+  return path;
+}
+
+MissionSnapshot Mission::Snapshot() const {
+  MissionSnapshot s;
+  s.id = id_;
+  s.config = config_;
+  s.create_time = create_time_;
+  {
+    absl::ReaderMutexLock lock(&mu_);
+    for (const auto& [id, o] : env_.obstacles()) s.obstacles.push_back(o);
+    s.trace = map_.Trace();
+    s.measurements_fused = measurements_fused_;
+    s.mission_time_s = mission_time_s_;
+    const auto n = static_cast<std::int64_t>(map_.num_cells());
+    s.memory_bytes = 8 * n * n + 8 * n + static_cast<std::int64_t>(env_.esdf().MemoryBytes());
+  }
+  {
+    absl::MutexLock lock(&planner_mu_);
+    s.paths_planned = paths_planned_;
+  }
+  return s;
+}
+
+void Mission::ReadMap(const std::function<void(const GpMap&)>& reader) const {
+  absl::ReaderMutexLock lock(&mu_);
+  reader(map_);
+}
+
+std::vector<LogEntry> Mission::Log() const {
+  absl::ReaderMutexLock lock(&mu_);
+  return log_;
+}
+
+std::shared_ptr<EventQueue> Mission::Subscribe() {
+  auto queue = std::make_shared<EventQueue>(1024);
+  absl::MutexLock lock(&events_mu_);
+  watchers_.push_back(queue);
+  return queue;
+}
+
+void Mission::Unsubscribe(const std::shared_ptr<EventQueue>& queue) {
+  absl::MutexLock lock(&events_mu_);
+  std::erase(watchers_, queue);
+}
+
+void Mission::MarkDeleted() {
+  Emit(MissionEventData::Deleted{});
+  absl::MutexLock lock(&events_mu_);
+  for (const auto& w : watchers_) w->Close();
+  watchers_.clear();
+}
+
+void Mission::Emit(decltype(MissionEventData::event) event) {
+  absl::MutexLock lock(&events_mu_);
+  MissionEventData data{++sequence_, absl::Now(), std::move(event)};
+  for (const auto& w : watchers_) w->Push(data);
+}
+
+}  // namespace oaipp::server

@@ -1,0 +1,189 @@
+// One mission's state: its world (obstacles + ESDF), field map, planner,
+// the ordered log of what was applied to it, and its event subscribers.
+//
+// Mutations (obstacle changes, measurements) take the mission's writer lock,
+// so they are applied one at a time in arrival order; planning and reads
+// take the reader lock and run beside each other. Each mutation is
+// validated completely before it touches anything: on error nothing
+// changes. A mutation that carries a request_id is applied at most once;
+// a retry gets the first result back.
+//
+//   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> m, Mission::Create("m1", config));
+//   OAIPP_ASSIGN_OR_RETURN(MeasurementResult r, m->AddMeasurement(input, "req-17"));
+//   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, m->Plan(state, std::nullopt, deadline, "req-18"));
+#pragma once
+
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "absl/time/time.h"
+#include "core/environment/environment.h"
+#include "core/mapping/gp_map.h"
+#include "core/planning/planners.h"
+#include "server/mission_config.h"
+#include "server/planning_gate.h"
+
+namespace oaipp::server {
+
+struct ObstacleResult {
+  int obstacle_count = 0;
+  std::int64_t esdf_voxels_recomputed = 0;
+};
+
+struct MeasurementResult {
+  int cells_fused = 0;
+  double trace = 0.0;
+  std::int64_t measurements_fused = 0;
+};
+
+// What happened to a mission, in order (for WatchMission).
+struct MissionEventData {
+  std::int64_t sequence = 0;
+  absl::Time time;
+  struct MeasurementFused {
+    double mission_time_s;
+    int cells_fused;
+    double trace;
+  };
+  struct ObstaclesChanged {
+    int obstacle_count;
+  };
+  struct PathPlanned {
+    double mission_time_s;
+    double duration_s;
+    double objective;
+    std::vector<Vec3> control_waypoints_W;
+  };
+  struct Deleted {};
+  std::variant<MeasurementFused, ObstaclesChanged, PathPlanned, Deleted> event;
+};
+
+// The ordered log: the spec is the mission's config; then every applied
+// obstacle change and measurement.
+using LogEntry = std::variant<ObstacleChange, MeasurementInput>;
+
+// A bounded queue of events for one watcher.
+class EventQueue {
+ public:
+  explicit EventQueue(std::size_t capacity) : capacity_(capacity) {}
+  // Adds an event; when full the oldest is dropped and counted.
+  void Push(MissionEventData event);
+  // Waits until an event is there or `until`; nullopt on timeout.
+  std::optional<MissionEventData> Pop(absl::Time until);
+  void Close();
+  [[nodiscard]] bool closed() const;
+  [[nodiscard]] std::int64_t dropped() const;
+
+ private:
+  mutable absl::Mutex mu_;
+  std::deque<MissionEventData> events_ ABSL_GUARDED_BY(mu_);
+  bool closed_ ABSL_GUARDED_BY(mu_) = false;
+  std::int64_t dropped_ ABSL_GUARDED_BY(mu_) = 0;
+  std::size_t capacity_;
+};
+
+struct MissionSnapshot {
+  std::string id;
+  MissionConfig config;
+  std::vector<Obstacle> obstacles;
+  double trace = 0.0;
+  std::int64_t measurements_fused = 0;
+  std::int64_t paths_planned = 0;
+  double mission_time_s = 0.0;
+  std::int64_t memory_bytes = 0;
+  absl::Time create_time;
+};
+
+class Mission {
+ public:
+  // Builds the world, the prior map (ground under obstacles fused as
+  // near-certain zeros) and the planner. Errors: InvalidArgument for a
+  // config the core refuses, ResourceExhausted for grids too large.
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(std::string id,
+                                                                       MissionConfig config);
+  // A fresh mission with `log` applied in order (what persistence would do).
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Replay(
+      std::string id, MissionConfig config, const std::vector<LogEntry>& log);
+
+  Mission(const Mission&) = delete;
+  Mission& operator=(const Mission&) = delete;
+
+  [[nodiscard]] absl::StatusOr<ObstacleResult> UpdateObstacles(const ObstacleChange& change,
+                                                               const std::string& request_id);
+  [[nodiscard]] absl::StatusOr<MeasurementResult> AddMeasurement(const MeasurementInput& input,
+                                                                 const std::string& request_id);
+  // Plans from `state` (validated by the planner). next_shot: the sensor
+  // phase; unset, the next multiple of 1 / rate at or after the state's
+  // mission time. FailedPrecondition when the budget is spent.
+  // The plan runs once `gate` (if any) admits it; the gate is entered after
+  // this mission's previous plan finished, so a mission queues behind
+  // itself, not in front of others.
+  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
+                                                 std::optional<double> next_shot_mission_s,
+                                                 absl::Time deadline, const std::string& request_id,
+                                                 PlanningGate* gate = nullptr);
+
+  [[nodiscard]] MissionSnapshot Snapshot() const;
+  // Reads the map under the reader lock.
+  void ReadMap(const std::function<void(const GpMap&)>& reader) const;
+  [[nodiscard]] std::vector<LogEntry> Log() const;
+  [[nodiscard]] const std::string& id() const { return id_; }
+  [[nodiscard]] const MissionConfig& config() const { return config_; }
+
+  // Watchers get every event after they subscribe.
+  [[nodiscard]] std::shared_ptr<EventQueue> Subscribe();
+  void Unsubscribe(const std::shared_ptr<EventQueue>& queue);
+  // Tells watchers the mission is gone and closes their queues.
+  void MarkDeleted();
+
+ private:
+  Mission(std::string id, MissionConfig config, Environment env, GpMap map,
+          std::unique_ptr<Planner> planner);
+  // Fuses, once, the cells under obstacles that were not fused before.
+  absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  absl::StatusOr<MeasurementResult> ApplyMeasurement(const MeasurementInput& input)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  void Emit(decltype(MissionEventData::event) event);
+  using Result = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
+  // The first result of a request_id, if it was applied before. Callers
+  // hold the lock of the operation, so check and apply are one step.
+  template <typename T>
+  std::optional<absl::StatusOr<T>> Recall(const std::string& request_id);
+  void Remember(const std::string& request_id, Result result);
+
+  const std::string id_;
+  const MissionConfig config_;
+  const absl::Time create_time_;
+
+  mutable absl::Mutex mu_;
+  Environment env_ ABSL_GUARDED_BY(mu_);
+  GpMap map_ ABSL_GUARDED_BY(mu_);
+  std::set<int> covered_cells_ ABSL_GUARDED_BY(mu_);
+  std::vector<LogEntry> log_ ABSL_GUARDED_BY(mu_);
+  std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
+  double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
+  // request_id -> first result (bounded, oldest forgotten first).
+  std::map<std::string, Result> done_ ABSL_GUARDED_BY(idempotency_mu_);
+  std::deque<std::string> done_order_ ABSL_GUARDED_BY(idempotency_mu_);
+  mutable absl::Mutex idempotency_mu_;
+
+  // The planner keeps state (lawnmower pattern): one plan at a time.
+  mutable absl::Mutex planner_mu_;
+  std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
+  std::int64_t paths_planned_ ABSL_GUARDED_BY(planner_mu_) = 0;
+
+  absl::Mutex events_mu_;
+  std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;
+  std::vector<std::shared_ptr<EventQueue>> watchers_ ABSL_GUARDED_BY(events_mu_);
+};
+
+}  // namespace oaipp::server

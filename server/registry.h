@@ -1,0 +1,67 @@
+// The server's missions by id, with the limits that protect the machine.
+//
+//   MissionRegistry registry({.max_missions = 64});
+//   OAIPP_ASSIGN_OR_RETURN(auto mission, registry.Create("", config, request_id));
+//   OAIPP_ASSIGN_OR_RETURN(auto same, registry.Get("missions/" + mission->id()));
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "server/mission.h"
+
+namespace oaipp::server {
+
+struct RegistryLimits {
+  // Missions held at once. Valid: >= 1.
+  int max_missions = 64;
+  // Cells of one mission's map: its covariance costs 8 n^2 bytes (1600 cells:
+  // 20 MB; 4096 cells: 134 MB). Valid: >= 1.
+  std::int64_t max_cells_per_mission = 4096;
+};
+
+class MissionRegistry {
+ public:
+  explicit MissionRegistry(RegistryLimits limits) : limits_(limits) {}
+
+  // Creates a mission. mission_id: [a-z0-9-]{1,63}, or empty for a new one.
+  // InvalidArgument for a bad id, AlreadyExists for a taken one,
+  // ResourceExhausted past max_missions or max_cells_per_mission. A retry
+  // with the same non-empty request_id returns the mission first created.
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Create(std::string mission_id,
+                                                                MissionConfig config,
+                                                                const std::string& request_id);
+  // name: "missions/{mission_id}". InvalidArgument if malformed, NotFound.
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Get(absl::string_view name) const;
+  // Missions in creation order from `offset`, at most `limit`.
+  [[nodiscard]] std::vector<std::shared_ptr<Mission>> List(std::size_t offset,
+                                                           std::size_t limit) const;
+  // Removes a mission (watchers are told). NotFound unless it exists or the
+  // same request_id deleted it before.
+  [[nodiscard]] absl::Status Delete(absl::string_view name, const std::string& request_id);
+  [[nodiscard]] std::size_t size() const;
+  [[nodiscard]] std::int64_t MemoryBytes() const;
+
+  // "missions/{id}" -> id, or InvalidArgument naming `field`.
+  [[nodiscard]] static absl::StatusOr<std::string> ParseName(absl::string_view name,
+                                                             absl::string_view field = "name");
+
+ private:
+  const RegistryLimits limits_;
+  mutable absl::Mutex mu_;
+  // nullptr while a mission is being built (its id is reserved).
+  std::map<std::string, std::shared_ptr<Mission>> missions_ ABSL_GUARDED_BY(mu_);
+  std::vector<std::string> order_ ABSL_GUARDED_BY(mu_);
+  std::int64_t next_id_ ABSL_GUARDED_BY(mu_) = 1;
+  std::map<std::string, std::string> created_by_request_ ABSL_GUARDED_BY(mu_);
+  std::map<std::string, std::string> deleted_by_request_ ABSL_GUARDED_BY(mu_);
+  std::deque<std::string> request_order_ ABSL_GUARDED_BY(mu_);
+};
+
+}  // namespace oaipp::server

@@ -1,0 +1,243 @@
+#include "server/service.h"
+
+#include <chrono>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "core/common/status_macros.h"
+#include "google/protobuf/util/time_util.h"
+#include "server/convert.h"
+#include "spdlog/spdlog.h"
+
+namespace oaipp::server {
+namespace {
+
+using google::protobuf::util::TimeUtil;
+
+// The call's deadline as absl::Time (infinite when the client set none).
+absl::Time Deadline(const grpc::ServerContext* context) {
+  const auto deadline = context->deadline();
+  if (deadline == std::chrono::system_clock::time_point::max()) return absl::InfiniteFuture();
+  return absl::FromChrono(deadline);
+}
+
+void FillMission(const Mission& mission, v1::Mission* out) {
+  const MissionSnapshot s = mission.Snapshot();
+  out->set_name(absl::StrCat("missions/", s.id));
+  *out->mutable_spec() = ConfigToMissionSpec(s.config);
+  for (const Obstacle& o : s.obstacles) *out->add_obstacles() = ObstacleToProto(o);
+  out->set_trace(s.trace);
+  out->set_measurements_fused(s.measurements_fused);
+  out->set_paths_planned(s.paths_planned);
+  out->set_mission_time_s(s.mission_time_s);
+  out->set_map_bytes(s.memory_bytes);
+  *out->mutable_create_time() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(s.create_time));
+}
+
+void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
+  out->set_sequence(e.sequence);
+  *out->mutable_time() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(e.time));
+  if (const auto* m = std::get_if<MissionEventData::MeasurementFused>(&e.event)) {
+    auto* f = out->mutable_measurement_fused();
+    f->set_mission_time_s(m->mission_time_s);
+    f->set_cells_fused(m->cells_fused);
+    f->set_trace(m->trace);
+  } else if (const auto* o = std::get_if<MissionEventData::ObstaclesChanged>(&e.event)) {
+    out->mutable_obstacles_changed()->set_obstacle_count(o->obstacle_count);
+  } else if (const auto* p = std::get_if<MissionEventData::PathPlanned>(&e.event)) {
+    auto* f = out->mutable_path_planned();
+    f->set_mission_time_s(p->mission_time_s);
+    f->set_duration_s(p->duration_s);
+    f->set_objective(p->objective);
+    for (const Vec3& w : p->control_waypoints_W) *f->add_control_waypoints_m() = ToProto(w);
+  } else {
+    out->mutable_mission_deleted();
+  }
+}
+
+}  // namespace
+
+template <typename Body>
+grpc::Status MissionServiceImpl::Call(const char* method, Body body) {
+  const absl::Time start = absl::Now();
+  absl::Status status;
+  try {
+    status = body();
+  } catch (const std::exception& e) {
+    // A bug must not take the server down with every other mission.
+    status = absl::InternalError(absl::StrCat(method, ": ", e.what()));
+  }
+  const double seconds = absl::ToDoubleSeconds(absl::Now() - start);
+  if (metrics_ != nullptr) {
+    metrics_->RecordCall(method, static_cast<int>(status.code()), seconds);
+  }
+  if (status.ok()) {
+    spdlog::debug("{} ok in {:.1f} ms", method, seconds * 1e3);
+  } else {
+    spdlog::info("{} {}: {}", method, absl::StatusCodeToString(status.code()),
+                 std::string(status.message()));
+  }
+  return ToGrpcStatus(status);
+}
+
+grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext*,
+                                               const v1::CreateMissionRequest* request,
+                                               v1::Mission* response) {
+  return Call("CreateMission", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(MissionConfig config, MissionSpecToConfig(request->spec()));
+    OAIPP_ASSIGN_OR_RETURN(
+        std::shared_ptr<Mission> mission,
+        registry_->Create(request->mission_id(), std::move(config), request->request_id()));
+    FillMission(*mission, response);
+    if (metrics_ != nullptr) {
+      metrics_->SetMissions(static_cast<double>(registry_->size()),
+                            static_cast<double>(registry_->MemoryBytes()));
+    }
+    spdlog::info("created {}", response->name());
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::GetMission(grpc::ServerContext*,
+                                            const v1::GetMissionRequest* request,
+                                            v1::Mission* response) {
+  return Call("GetMission", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    FillMission(*mission, response);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext*,
+                                              const v1::ListMissionsRequest* request,
+                                              v1::ListMissionsResponse* response) {
+  return Call("ListMissions", [&]() -> absl::Status {
+    if (request->page_size() < 0 || request->page_size() > 1000) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("page_size: must be in [0, 1000], got ", request->page_size()));
+    }
+    const std::size_t size = request->page_size() == 0 ? 50 : request->page_size();
+    std::size_t offset = 0;
+    if (!request->page_token().empty() && !absl::SimpleAtoi(request->page_token(), &offset)) {
+      return absl::InvalidArgumentError("page_token: not a token this server gave out");
+    }
+    const auto missions = registry_->List(offset, size + 1);
+    for (std::size_t i = 0; i < missions.size() && i < size; ++i) {
+      FillMission(*missions[i], response->add_missions());
+    }
+    if (missions.size() > size) response->set_next_page_token(std::to_string(offset + size));
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::DeleteMission(grpc::ServerContext*,
+                                               const v1::DeleteMissionRequest* request,
+                                               v1::DeleteMissionResponse*) {
+  return Call("DeleteMission", [&]() -> absl::Status {
+    OAIPP_RETURN_IF_ERROR(registry_->Delete(request->name(), request->request_id()));
+    if (metrics_ != nullptr) {
+      metrics_->SetMissions(static_cast<double>(registry_->size()),
+                            static_cast<double>(registry_->MemoryBytes()));
+    }
+    spdlog::info("deleted {}", request->name());
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext*,
+                                                 const v1::UpdateObstaclesRequest* request,
+                                                 v1::UpdateObstaclesResponse* response) {
+  return Call("UpdateObstacles", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
+    OAIPP_ASSIGN_OR_RETURN(ObstacleResult result,
+                           mission->UpdateObstacles(change, request->request_id()));
+    response->set_obstacle_count(result.obstacle_count);
+    response->set_esdf_voxels_recomputed(result.esdf_voxels_recomputed);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
+                                                const v1::AddMeasurementRequest* request,
+                                                v1::AddMeasurementResponse* response) {
+  return Call("AddMeasurement", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
+    OAIPP_ASSIGN_OR_RETURN(MeasurementResult result,
+                           mission->AddMeasurement(input, request->request_id()));
+    response->set_cells_fused(result.cells_fused);
+    response->set_trace(result.trace);
+    response->set_measurements_fused(result.measurements_fused);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
+                                          const v1::PlanPathRequest* request,
+                                          v1::PlanPathResponse* response) {
+  return Call("PlanPath", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    if (!request->has_state()) return absl::InvalidArgumentError("state: required");
+    OAIPP_ASSIGN_OR_RETURN(UavState state, UavStateFromProto(request->state(), "state"));
+    std::optional<double> next_shot;
+    if (request->has_next_shot_mission_s()) next_shot = request->next_shot_mission_s();
+    if (context->IsCancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
+    OAIPP_ASSIGN_OR_RETURN(PlannedPath path, mission->Plan(state, next_shot, Deadline(context),
+                                                           request->request_id(), gate_));
+    if (metrics_ != nullptr) {
+      metrics_->RecordPlan(path.stats.wall_time_s, static_cast<double>(path.stats.evaluations));
+    }
+    PlannedPathToProto(path, response);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
+                                        v1::GetMapResponse* response) {
+  return Call("GetMap", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    absl::Status status;
+    mission->ReadMap([&](const GpMap& map) {
+      MapToProto(map, request->include_cells(), response);
+      if (request->include_png()) {
+        absl::StatusOr<std::string> png = MapToPng(map);
+        if (png.ok()) {
+          response->set_png(*std::move(png));
+        } else {
+          status = png.status();
+        }
+      }
+    });
+    return status;
+  });
+}
+
+grpc::Status MissionServiceImpl::WatchMission(grpc::ServerContext* context,
+                                              const v1::WatchMissionRequest* request,
+                                              grpc::ServerWriter<v1::MissionEvent>* writer) {
+  std::shared_ptr<Mission> mission;
+  grpc::Status opened = Call("WatchMission", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(mission, registry_->Get(request->name()));
+    return absl::OkStatus();
+  });
+  if (!opened.ok()) return opened;
+  std::shared_ptr<EventQueue> queue = mission->Subscribe();
+  // Wake up now and then to notice a client that went away.
+  while (!context->IsCancelled()) {
+    std::optional<MissionEventData> event = queue->Pop(absl::Now() + absl::Milliseconds(200));
+    if (!event.has_value()) {
+      if (queue->closed()) break;
+      continue;
+    }
+    v1::MissionEvent out;
+    FillEvent(*event, &out);
+    if (!writer->Write(out)) break;
+    if (std::holds_alternative<MissionEventData::Deleted>(event->event)) break;
+  }
+  mission->Unsubscribe(queue);
+  return grpc::Status::OK;
+}
+
+}  // namespace oaipp::server

@@ -1,0 +1,294 @@
+// A table of bad requests, each with its expected status code and the field
+// its message must name; the server keeps serving afterwards.
+#include <functional>
+
+#include "gtest/gtest.h"
+#include "tests/server/service_fixture.h"
+
+namespace oaipp::server {
+namespace {
+
+using testing::CreateSmall;
+using testing::InProcessService;
+using testing::LabelMeasurement;
+using testing::SmallSpec;
+
+struct BadCase {
+  std::string name;
+  grpc::StatusCode code;
+  std::string field;  // substring the message must contain
+  std::function<grpc::Status(v1::MissionService::Stub&)> call;
+};
+
+grpc::Status Create(v1::MissionService::Stub& stub, const std::string& id,
+                    const std::function<void(v1::MissionSpec&)>& edit) {
+  grpc::ClientContext context;
+  v1::CreateMissionRequest request;
+  request.set_mission_id(id);
+  *request.mutable_spec() = SmallSpec();
+  edit(*request.mutable_spec());
+  v1::Mission m;
+  return stub.CreateMission(&context, request, &m);
+}
+
+grpc::Status Measure(v1::MissionService::Stub& stub,
+                     const std::function<void(v1::AddMeasurementRequest&)>& edit) {
+  grpc::ClientContext context;
+  v1::AddMeasurementRequest request = LabelMeasurement("missions/ok", 2, 2, 10, 5, 1);
+  edit(request);
+  v1::AddMeasurementResponse r;
+  return stub.AddMeasurement(&context, request, &r);
+}
+
+grpc::Status Plan(v1::MissionService::Stub& stub,
+                  const std::function<void(v1::PlanPathRequest&)>& edit) {
+  grpc::ClientContext context;
+  v1::PlanPathRequest request;
+  request.set_name("missions/ok");
+  request.mutable_state()->mutable_position_m()->set_x(-4);
+  request.mutable_state()->mutable_position_m()->set_y(4);
+  request.mutable_state()->mutable_position_m()->set_z(8);
+  edit(request);
+  v1::PlanPathResponse r;
+  return stub.PlanPath(&context, request, &r);
+}
+
+grpc::Status Obstacles(v1::MissionService::Stub& stub,
+                       const std::function<void(v1::UpdateObstaclesRequest&)>& edit) {
+  grpc::ClientContext context;
+  v1::UpdateObstaclesRequest request;
+  request.set_name("missions/ok");
+  edit(request);
+  v1::UpdateObstaclesResponse r;
+  return stub.UpdateObstacles(&context, request, &r);
+}
+
+v1::Obstacle BoxAt(const std::string& id, double x, double y, double sx) {
+  v1::Obstacle o;
+  o.set_id(id);
+  o.mutable_box()->mutable_centre_m()->set_x(x);
+  o.mutable_box()->mutable_centre_m()->set_y(y);
+  o.mutable_box()->mutable_centre_m()->set_z(3);
+  o.mutable_box()->mutable_size_m()->set_x(sx);
+  o.mutable_box()->mutable_size_m()->set_y(1);
+  o.mutable_box()->mutable_size_m()->set_z(6);
+  return o;
+}
+
+const auto kInvalid = grpc::StatusCode::INVALID_ARGUMENT;
+
+std::vector<BadCase> Cases() {
+  return {
+      {"bad id", kInvalid, "mission_id", [](auto& s) { return Create(s, "Bad_Id", [](auto&) {}); }},
+      {"taken id", grpc::StatusCode::ALREADY_EXISTS, "mission_id",
+       [](auto& s) { return Create(s, "ok", [](auto&) {}); }},
+      {"unknown preset", kInvalid, "spec.preset",
+       [](auto& s) { return Create(s, "x1", [](auto& p) { p.set_preset("moon"); }); }},
+      {"zero resolution", kInvalid, "resolution_m",
+       [](auto& s) {
+         return Create(s, "x2", [](auto& p) { p.mutable_field()->set_resolution_m(0); });
+       }},
+      {"NaN field", kInvalid, "field",
+       [](auto& s) {
+         return Create(s, "x3", [](auto& p) { p.mutable_field()->set_x_max_m(NAN); });
+       }},
+      {"inverted field", kInvalid, "field",
+       [](auto& s) {
+         return Create(s, "x4", [](auto& p) { p.mutable_field()->set_x_max_m(-10); });
+       }},
+      {"fractional cells", kInvalid, "field",
+       [](auto& s) {
+         return Create(s, "x5", [](auto& p) { p.mutable_field()->set_resolution_m(0.7); });
+       }},
+      {"negative length scale", kInvalid, "length_scale_m",
+       [](auto& s) {
+         return Create(s, "x6", [](auto& p) { p.mutable_gp()->set_length_scale_m(-1); });
+       }},
+      {"zero sensor rate", kInvalid, "rate_hz",
+       [](auto& s) {
+         return Create(s, "x7", [](auto& p) { p.mutable_sensor()->set_rate_hz(0); });
+       }},
+      {"fov 200 deg", kInvalid, "fov",
+       [](auto& s) {
+         return Create(s, "x8", [](auto& p) { p.mutable_sensor()->set_fov_x_deg(200); });
+       }},
+      {"altitudes inverted", kInvalid, "altitude",
+       [](auto& s) {
+         return Create(s, "x9", [](auto& p) { p.mutable_flight()->set_min_altitude_m(30); });
+       }},
+      {"zero speed", kInvalid, "max_speed_m_s",
+       [](auto& s) {
+         return Create(s, "x10", [](auto& p) { p.mutable_flight()->set_max_speed_m_s(0); });
+       }},
+      {"tiny population", kInvalid, "population",
+       [](auto& s) {
+         return Create(s, "x11", [](auto& p) { p.mutable_planner()->set_population(2); });
+       }},
+      {"one waypoint", kInvalid, "num_waypoints",
+       [](auto& s) {
+         return Create(s, "x12", [](auto& p) { p.mutable_planner()->set_num_waypoints(1); });
+       }},
+      {"unknown planner kind", kInvalid, "kind",
+       [](auto& s) {
+         return Create(s, "x13", [](auto& p) {
+           p.mutable_planner()->set_kind(static_cast<v1::PlannerKind>(42));
+         });
+       }},
+      {"zero budget", kInvalid, "budget_s",
+       [](auto& s) { return Create(s, "x14", [](auto& p) { p.set_budget_s(0); }); }},
+      {"duplicate obstacle ids", kInvalid, "obstacles",
+       [](auto& s) {
+         return Create(s, "x15", [](auto& p) { *p.add_obstacles() = p.obstacles(0); });
+       }},
+      {"zero-size box", kInvalid, "size_m",
+       [](auto& s) {
+         return Create(s, "x16", [](auto& p) {
+           p.mutable_obstacles(0)->mutable_box()->mutable_size_m()->set_x(0);
+         });
+       }},
+      {"obstacle without shape", kInvalid, "obstacles",
+       [](auto& s) {
+         return Create(s, "x17", [](auto& p) { p.add_obstacles()->set_id("empty"); });
+       }},
+      {"NaN start", kInvalid, "start",
+       [](auto& s) {
+         return Create(s, "x18",
+                       [](auto& p) { p.mutable_start()->mutable_position_m()->set_z(NAN); });
+       }},
+      {"malformed name", kInvalid, "name",
+       [](auto& s) { return Measure(s, [](auto& r) { r.set_name("mission/ok"); }); }},
+      {"unknown mission", grpc::StatusCode::NOT_FOUND, "name",
+       [](auto& s) { return Measure(s, [](auto& r) { r.set_name("missions/nope"); }); }},
+      {"measurement without data", kInvalid, "data",
+       [](auto& s) { return Measure(s, [](auto& r) { r.clear_labels(); }); }},
+      {"label length mismatch", kInvalid, "labels",
+       [](auto& s) { return Measure(s, [](auto& r) { r.mutable_labels()->add_cells(399); }); }},
+      {"label out of [0, 1]", kInvalid, "labels",
+       [](auto& s) { return Measure(s, [](auto& r) { r.mutable_labels()->set_labels(0, 3); }); }},
+      {"cell outside the field", kInvalid, "cells",
+       [](auto& s) { return Measure(s, [](auto& r) { r.mutable_labels()->set_cells(0, 400); }); }},
+      {"NaN camera", kInvalid, "camera_position_m",
+       [](auto& s) {
+         return Measure(s, [](auto& r) { r.mutable_camera_position_m()->set_x(NAN); });
+       }},
+      {"camera above the volume", kInvalid, "camera_position_m",
+       [](auto& s) {
+         return Measure(s, [](auto& r) { r.mutable_camera_position_m()->set_z(80); });
+       }},
+      {"negative time", kInvalid, "mission_time_s",
+       [](auto& s) { return Measure(s, [](auto& r) { r.set_mission_time_s(-1); }); }},
+      {"box outside image", kInvalid, "x_max_px",
+       [](auto& s) {
+         return Measure(s, [](auto& r) {
+           auto* b = r.mutable_detections()->add_boxes();
+           b->set_x_min_px(10);
+           b->set_y_min_px(10);
+           b->set_x_max_px(5000);
+           b->set_y_max_px(20);
+         });
+       }},
+      {"bad focal length", kInvalid, "fx_px",
+       [](auto& s) {
+         return Measure(s, [](auto& r) {
+           auto* d = r.mutable_detections();
+           d->mutable_intrinsics()->set_fx_px(-5);
+           d->mutable_intrinsics()->set_fy_px(500);
+           d->mutable_intrinsics()->set_width_px(480);
+           d->mutable_intrinsics()->set_height_px(640);
+         });
+       }},
+      {"plan without state", kInvalid, "state",
+       [](auto& s) { return Plan(s, [](auto& r) { r.clear_state(); }); }},
+      {"plan from NaN", kInvalid, "state",
+       [](auto& s) {
+         return Plan(s, [](auto& r) { r.mutable_state()->mutable_velocity_m_s()->set_y(NAN); });
+       }},
+      {"plan from inside the building", kInvalid, "inside an obstacle",
+       [](auto& s) {
+         return Plan(s, [](auto& r) {
+           r.mutable_state()->mutable_position_m()->set_x(0);
+           r.mutable_state()->mutable_position_m()->set_y(-2);
+         });
+       }},
+      {"plan from outside the volume", kInvalid, "outside the flight volume",
+       [](auto& s) {
+         return Plan(s, [](auto& r) { r.mutable_state()->mutable_position_m()->set_x(30); });
+       }},
+      {"plan too fast", kInvalid, "max_speed",
+       [](auto& s) {
+         return Plan(s, [](auto& r) { r.mutable_state()->mutable_velocity_m_s()->set_x(20); });
+       }},
+      {"shot in the past", kInvalid, "next_shot_mission_s",
+       [](auto& s) {
+         return Plan(s, [](auto& r) {
+           r.mutable_state()->set_mission_time_s(10);
+           r.set_next_shot_mission_s(2);
+         });
+       }},
+      {"remove unknown obstacle", grpc::StatusCode::NOT_FOUND, "remove",
+       [](auto& s) { return Obstacles(s, [](auto& r) { r.add_remove("ghost"); }); }},
+      {"add existing obstacle", grpc::StatusCode::ALREADY_EXISTS, "b1",
+       [](auto& s) { return Obstacles(s, [](auto& r) { *r.add_add() = BoxAt("b1", 5, 5, 1); }); }},
+      {"add twice in one change", kInvalid, "twin",
+       [](auto& s) {
+         return Obstacles(s, [](auto& r) {
+           *r.add_add() = BoxAt("twin", 5, 5, 1);
+           *r.add_add() = BoxAt("twin", 6, 6, 1);
+         });
+       }},
+      {"negative box size", kInvalid, "size_m",
+       [](auto& s) {
+         return Obstacles(s, [](auto& r) { *r.add_add() = BoxAt("neg", 5, 5, -1); });
+       }},
+      {"list page too big", kInvalid, "page_size",
+       [](auto& s) {
+         grpc::ClientContext c;
+         v1::ListMissionsRequest r;
+         r.set_page_size(5000);
+         v1::ListMissionsResponse out;
+         return s.ListMissions(&c, r, &out);
+       }},
+      {"list bad token", kInvalid, "page_token",
+       [](auto& s) {
+         grpc::ClientContext c;
+         v1::ListMissionsRequest r;
+         r.set_page_token("zzz");
+         v1::ListMissionsResponse out;
+         return s.ListMissions(&c, r, &out);
+       }},
+      {"delete unknown", grpc::StatusCode::NOT_FOUND, "name",
+       [](auto& s) {
+         grpc::ClientContext c;
+         v1::DeleteMissionRequest r;
+         r.set_name("missions/ghost");
+         v1::DeleteMissionResponse out;
+         return s.DeleteMission(&c, r, &out);
+       }},
+  };
+}
+
+TEST(BadRequestTest, EachGetsItsCodeAndNamesTheField) {
+  InProcessService s;
+  const v1::Mission ok = CreateSmall(s.stub(), "ok");
+  const std::vector<BadCase> cases = Cases();
+  ASSERT_GE(cases.size(), 30u);
+  for (const BadCase& c : cases) {
+    const grpc::Status status = c.call(s.stub());
+    EXPECT_EQ(status.error_code(), c.code) << c.name << ": " << status.error_message();
+    EXPECT_NE(status.error_message().find(c.field), std::string::npos)
+        << c.name << ": message \"" << status.error_message() << "\" should name " << c.field;
+  }
+  // Nothing was half-applied, and the server still serves.
+  grpc::ClientContext context;
+  v1::GetMissionRequest get;
+  get.set_name("missions/ok");
+  v1::Mission after;
+  ASSERT_TRUE(s.stub().GetMission(&context, get, &after).ok());
+  EXPECT_EQ(after.measurements_fused(), 0);
+  EXPECT_EQ(after.obstacles_size(), 1);
+  EXPECT_DOUBLE_EQ(after.trace(), ok.trace());
+  EXPECT_TRUE(Plan(s.stub(), [](auto&) {}).ok());
+}
+
+}  // namespace
+}  // namespace oaipp::server

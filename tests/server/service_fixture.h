@@ -1,0 +1,107 @@
+// An in-process MissionService for tests: no network, real registry,
+// planning gate and service.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "grpcpp/grpcpp.h"
+#include "gtest/gtest.h"
+#include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/service.h"
+
+namespace oaipp::server::testing {
+
+class InProcessService {
+ public:
+  explicit InProcessService(RegistryLimits limits = {.max_missions = 64,
+                                                     .max_cells_per_mission = 1600},
+                            int planning_threads = 2, int planning_queue = 64)
+      : registry_(limits),
+        gate_(planning_threads, planning_queue),
+        service_(&registry_, &gate_, &metrics_) {
+    grpc::ServerBuilder builder;
+    builder.RegisterService(&service_);
+    server_ = builder.BuildAndStart();
+    stub_ = v1::MissionService::NewStub(server_->InProcessChannel(grpc::ChannelArguments()));
+  }
+  ~InProcessService() {
+    server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
+  }
+
+  v1::MissionService::Stub& stub() { return *stub_; }
+  MissionRegistry& registry() { return registry_; }
+
+ private:
+  MissionRegistry registry_;
+  PlanningGate gate_;
+  Metrics metrics_;
+  MissionServiceImpl service_;
+  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<v1::MissionService::Stub> stub_;
+};
+
+// A small, quick mission: 15 x 15 m field at 0.75 m (400 cells), one
+// building, a short CMA-ES.
+//
+//   y ^     +---+        building "b1": x in [-1, 1], y in [-4, 0], 20 m tall
+//     |     | b1|
+//     |  S  +---+        start S = (-4, 4, 8)
+//     +------------> x
+inline v1::MissionSpec SmallSpec() {
+  v1::MissionSpec spec;
+  spec.set_preset("paper");
+  spec.mutable_field()->set_x_min_m(-7.5);
+  spec.mutable_field()->set_y_min_m(-7.5);
+  spec.mutable_field()->set_x_max_m(7.5);
+  spec.mutable_field()->set_y_max_m(7.5);
+  spec.mutable_planner()->set_generations(2);
+  spec.mutable_planner()->set_seed(5);
+  v1::Obstacle* b = spec.add_obstacles();
+  b->set_id("b1");
+  b->mutable_box()->mutable_centre_m()->set_x(0);
+  b->mutable_box()->mutable_centre_m()->set_y(-2);
+  b->mutable_box()->mutable_centre_m()->set_z(10);
+  b->mutable_box()->mutable_size_m()->set_x(2);
+  b->mutable_box()->mutable_size_m()->set_y(4);
+  b->mutable_box()->mutable_size_m()->set_z(20);
+  spec.mutable_start()->mutable_position_m()->set_x(-4);
+  spec.mutable_start()->mutable_position_m()->set_y(4);
+  spec.mutable_start()->mutable_position_m()->set_z(8);
+  spec.set_budget_s(60);
+  return spec;
+}
+
+inline v1::Mission CreateSmall(v1::MissionService::Stub& stub, const std::string& id) {
+  grpc::ClientContext context;
+  v1::CreateMissionRequest request;
+  request.set_mission_id(id);
+  *request.mutable_spec() = SmallSpec();
+  v1::Mission mission;
+  const grpc::Status status = stub.CreateMission(&context, request, &mission);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  return mission;
+}
+
+// Labels for the cells under a camera at (x, y): a 3 x 3 block of cells
+// around the cell holding (x, y) on the 20 x 20 small field.
+inline v1::AddMeasurementRequest LabelMeasurement(const std::string& name, double x, double y,
+                                                  double z, double time_s, double label) {
+  v1::AddMeasurementRequest request;
+  request.set_name(name);
+  request.set_mission_time_s(time_s);
+  request.mutable_camera_position_m()->set_x(x);
+  request.mutable_camera_position_m()->set_y(y);
+  request.mutable_camera_position_m()->set_z(z);
+  const int col = std::clamp(static_cast<int>((x + 7.5) / 0.75), 1, 18);
+  const int row = std::clamp(static_cast<int>((y + 7.5) / 0.75), 1, 18);
+  for (int dr = -1; dr <= 1; ++dr) {
+    for (int dc = -1; dc <= 1; ++dc) {
+      request.mutable_labels()->add_cells((row + dr) * 20 + col + dc);
+      request.mutable_labels()->add_labels(label);
+    }
+  }
+  return request;
+}
+
+}  // namespace oaipp::server::testing

@@ -1,0 +1,262 @@
+// Every RPC through an in-process channel: success and each error code.
+#include <thread>
+
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "tests/server/service_fixture.h"
+
+namespace oaipp::server {
+namespace {
+
+using testing::CreateSmall;
+using ::testing::HasSubstr;
+using testing::InProcessService;
+using testing::LabelMeasurement;
+using testing::SmallSpec;
+
+TEST(ServiceTest, CreateGetListDelete) {
+  InProcessService s;
+  const v1::Mission created = CreateSmall(s.stub(), "alpha");
+  EXPECT_EQ(created.name(), "missions/alpha");
+  EXPECT_EQ(created.obstacles_size(), 1);
+  // The effective spec has every default filled in.
+  EXPECT_TRUE(created.spec().sensor().has_rate_hz());
+  EXPECT_DOUBLE_EQ(created.spec().sensor().rate_hz(), 0.15);
+  EXPECT_GT(created.trace(), 0.0);
+  EXPECT_GT(created.map_bytes(), 8 * 400 * 400);
+
+  grpc::ClientContext get_context;
+  v1::GetMissionRequest get;
+  get.set_name("missions/alpha");
+  v1::Mission got;
+  ASSERT_TRUE(s.stub().GetMission(&get_context, get, &got).ok());
+  EXPECT_EQ(got.spec().SerializeAsString(), created.spec().SerializeAsString());
+
+  CreateSmall(s.stub(), "beta");
+  CreateSmall(s.stub(), "gamma");
+  std::vector<std::string> names;
+  std::string token;
+  do {
+    grpc::ClientContext context;
+    v1::ListMissionsRequest list;
+    list.set_page_size(2);
+    list.set_page_token(token);
+    v1::ListMissionsResponse page;
+    ASSERT_TRUE(s.stub().ListMissions(&context, list, &page).ok());
+    for (const auto& m : page.missions()) names.push_back(m.name());
+    token = page.next_page_token();
+  } while (!token.empty());
+  EXPECT_EQ(names, (std::vector<std::string>{"missions/alpha", "missions/beta", "missions/gamma"}));
+
+  grpc::ClientContext delete_context;
+  v1::DeleteMissionRequest del;
+  del.set_name("missions/beta");
+  v1::DeleteMissionResponse deleted;
+  ASSERT_TRUE(s.stub().DeleteMission(&delete_context, del, &deleted).ok());
+  grpc::ClientContext again;
+  v1::GetMissionRequest gone;
+  gone.set_name("missions/beta");
+  EXPECT_EQ(s.stub().GetMission(&again, gone, &got).error_code(), grpc::StatusCode::NOT_FOUND);
+}
+
+TEST(ServiceTest, MeasurementsShrinkTheMapAndRequestIdsFuseOnce) {
+  InProcessService s;
+  CreateSmall(s.stub(), "m");
+  const v1::AddMeasurementRequest request = LabelMeasurement("missions/m", 3, 3, 10, 1.0, 1.0);
+  v1::AddMeasurementRequest with_id = request;
+  with_id.set_request_id("shot-1");
+  v1::AddMeasurementResponse first, second;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(s.stub().AddMeasurement(&context, with_id, &first).ok());
+  }
+  {
+    grpc::ClientContext context;  // a retry of the same call
+    ASSERT_TRUE(s.stub().AddMeasurement(&context, with_id, &second).ok());
+  }
+  EXPECT_EQ(first.measurements_fused(), 1);
+  EXPECT_EQ(second.measurements_fused(), 1);
+  EXPECT_EQ(first.trace(), second.trace());
+  EXPECT_EQ(first.cells_fused(), 9);
+  grpc::ClientContext context;
+  v1::GetMissionRequest get;
+  get.set_name("missions/m");
+  v1::Mission m;
+  ASSERT_TRUE(s.stub().GetMission(&context, get, &m).ok());
+  EXPECT_EQ(m.measurements_fused(), 1);
+  EXPECT_DOUBLE_EQ(m.trace(), first.trace());
+}
+
+TEST(ServiceTest, DetectionsAreProjectedToCells) {
+  InProcessService s;
+  CreateSmall(s.stub(), "d");
+  v1::AddMeasurementRequest request;
+  request.set_name("missions/d");
+  request.set_mission_time_s(2.0);
+  request.mutable_camera_position_m()->set_x(4);
+  request.mutable_camera_position_m()->set_y(3);
+  request.mutable_camera_position_m()->set_z(10);
+  // A 120 x 120 px box at the centre of the default 480 x 640 image: about
+  // 2 x 2 m on the ground at 10 m, under the camera.
+  v1::PixelBox* box = request.mutable_detections()->add_boxes();
+  box->set_x_min_px(180);
+  box->set_y_min_px(260);
+  box->set_x_max_px(300);
+  box->set_y_max_px(380);
+  box->set_confidence(0.9);
+  v1::AddMeasurementResponse response;
+  grpc::ClientContext context;
+  const grpc::Status status = s.stub().AddMeasurement(&context, request, &response);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_GT(response.cells_fused(), 50);  // the whole visible image footprint is labelled
+
+  grpc::ClientContext map_context;
+  v1::GetMapRequest get;
+  get.set_name("missions/d");
+  get.set_include_cells(true);
+  v1::GetMapResponse map;
+  ASSERT_TRUE(s.stub().GetMap(&map_context, get, &map).ok());
+  // The cell under the camera (4, 3) holds a target now; a far corner no more
+  // than the prior.
+  const int col = static_cast<int>((4 + 7.5) / 0.75), row = static_cast<int>((3 + 7.5) / 0.75);
+  EXPECT_GT(map.mean(row * 20 + col), 0.5);
+  EXPECT_LE(map.mean(2 * 20 + 2), 0.1 + 1e-9);
+}
+
+TEST(ServiceTest, PlanPathReturnsASafeTrajectoryAndObstaclesMatter) {
+  InProcessService s;
+  CreateSmall(s.stub(), "p");
+  v1::PlanPathRequest request;
+  request.set_name("missions/p");
+  request.mutable_state()->mutable_position_m()->set_x(-4);
+  request.mutable_state()->mutable_position_m()->set_y(4);
+  request.mutable_state()->mutable_position_m()->set_z(8);
+  v1::PlanPathResponse path;
+  {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+  EXPECT_TRUE(path.collision_free());
+  EXPECT_GT(path.trajectory().duration_s(), 0.0);
+  ASSERT_GT(path.trajectory().samples_size(), 1);
+  EXPECT_NEAR(path.trajectory().samples(0).position_m().x(), -4, 1e-9);
+  EXPECT_EQ(path.control_waypoints_m_size(), 3);
+  EXPECT_GT(path.stats().evaluations(), 0);
+
+  // Moving the building onto the start makes the start invalid.
+  v1::UpdateObstaclesRequest update;
+  update.set_name("missions/p");
+  v1::Obstacle* moved = update.add_replace();
+  moved->set_id("b1");
+  moved->mutable_cylinder()->mutable_centre_m()->set_x(-4);
+  moved->mutable_cylinder()->mutable_centre_m()->set_y(4);
+  moved->mutable_cylinder()->mutable_centre_m()->set_z(10);
+  moved->mutable_cylinder()->set_radius_m(1);
+  moved->mutable_cylinder()->set_height_m(20);
+  v1::UpdateObstaclesResponse updated;
+  {
+    grpc::ClientContext context;
+    ASSERT_TRUE(s.stub().UpdateObstacles(&context, update, &updated).ok());
+  }
+  EXPECT_EQ(updated.obstacle_count(), 1);
+  EXPECT_GT(updated.esdf_voxels_recomputed(), 0);
+  grpc::ClientContext context;
+  const grpc::Status blocked = s.stub().PlanPath(&context, request, &path);
+  EXPECT_EQ(blocked.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(blocked.error_message(), HasSubstr("inside an obstacle"));
+}
+
+TEST(ServiceTest, SpentBudgetIsAFailedPrecondition) {
+  InProcessService s;
+  CreateSmall(s.stub(), "b");  // 60 s budget
+  v1::PlanPathRequest request;
+  request.set_name("missions/b");
+  request.mutable_state()->mutable_position_m()->set_x(-4);
+  request.mutable_state()->mutable_position_m()->set_y(4);
+  request.mutable_state()->mutable_position_m()->set_z(8);
+  request.mutable_state()->set_mission_time_s(61);
+  v1::PlanPathResponse path;
+  grpc::ClientContext context;
+  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_THAT(status.error_message(), HasSubstr("budget"));
+}
+
+TEST(ServiceTest, GetMapGivesCellsTraceAndAPng) {
+  InProcessService s;
+  const v1::Mission m = CreateSmall(s.stub(), "g");
+  grpc::ClientContext context;
+  v1::GetMapRequest request;
+  request.set_name("missions/g");
+  request.set_include_cells(true);
+  request.set_include_png(true);
+  v1::GetMapResponse map;
+  ASSERT_TRUE(s.stub().GetMap(&context, request, &map).ok());
+  EXPECT_EQ(map.nx(), 20);
+  EXPECT_EQ(map.ny(), 20);
+  EXPECT_EQ(map.mean_size(), 400);
+  EXPECT_EQ(map.variance_size(), 400);
+  double trace = 0;
+  for (double v : map.variance()) trace += v;
+  EXPECT_NEAR(trace, map.trace(), 1e-9);
+  EXPECT_DOUBLE_EQ(map.trace(), m.trace());
+  ASSERT_GT(map.png().size(), 8u);
+  EXPECT_EQ(map.png().substr(1, 3), "PNG");
+}
+
+TEST(ServiceTest, WatchMissionStreamsEventsUntilDeleted) {
+  InProcessService s;
+  CreateSmall(s.stub(), "w");
+  grpc::ClientContext watch_context;
+  v1::WatchMissionRequest watch;
+  watch.set_name("missions/w");
+  auto reader = s.stub().WatchMission(&watch_context, watch);
+  // Give the stream time to subscribe, then make two events.
+  std::thread actor([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    grpc::ClientContext c1;
+    v1::AddMeasurementResponse r;
+    EXPECT_TRUE(
+        s.stub().AddMeasurement(&c1, LabelMeasurement("missions/w", 1, 1, 9, 3, 0), &r).ok());
+    grpc::ClientContext c2;
+    v1::DeleteMissionRequest del;
+    del.set_name("missions/w");
+    v1::DeleteMissionResponse d;
+    EXPECT_TRUE(s.stub().DeleteMission(&c2, del, &d).ok());
+  });
+  std::vector<v1::MissionEvent> events;
+  v1::MissionEvent event;
+  while (reader->Read(&event)) events.push_back(event);
+  actor.join();
+  EXPECT_TRUE(reader->Finish().ok());
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_TRUE(events[0].has_measurement_fused());
+  EXPECT_EQ(events[0].measurement_fused().cells_fused(), 9);
+  EXPECT_TRUE(events[1].has_mission_deleted());
+  EXPECT_LT(events[0].sequence(), events[1].sequence());
+}
+
+TEST(ServiceTest, LimitsAreResourceExhausted) {
+  InProcessService s({.max_missions = 2, .max_cells_per_mission = 400});
+  CreateSmall(s.stub(), "one");
+  CreateSmall(s.stub(), "two");
+  grpc::ClientContext context;
+  v1::CreateMissionRequest request;
+  request.set_mission_id("three");
+  *request.mutable_spec() = SmallSpec();
+  v1::Mission m;
+  EXPECT_EQ(s.stub().CreateMission(&context, request, &m).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+  // A 40 x 40 field is 1600 cells: over this server's 400.
+  grpc::ClientContext big_context;
+  request.set_mission_id("big");
+  request.mutable_spec()->clear_field();
+  const grpc::Status big = s.stub().CreateMission(&big_context, request, &m);
+  EXPECT_EQ(big.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(big.error_message(), HasSubstr("cells"));
+}
+
+}  // namespace
+}  // namespace oaipp::server
