@@ -10,7 +10,7 @@ Metrics::Metrics()
                  .Register(*registry_)),
       latency_(prometheus::BuildHistogram()
                    .Name("oaipp_rpc_latency_seconds")
-                   .Help("RPC latency by method")
+                   .Help("RPC latency by method and gRPC status code")
                    .Register(*registry_)),
       plan_seconds_(prometheus::BuildHistogram()
                         .Name("oaipp_plan_seconds")
@@ -40,7 +40,7 @@ void Metrics::RecordCall(const std::string& method, int status_code, double seco
   // for the same labels.
   calls_.Add({{"method", method}, {"code", std::to_string(status_code)}}).Increment();
   latency_
-      .Add({{"method", method}},
+      .Add({{"method", method}, {"code", std::to_string(status_code)}},
            prometheus::Histogram::BucketBoundaries{0.001, 0.005, 0.01, 0.05, 0.1, 0.5, 1, 5})
       .Observe(seconds);
 }

@@ -20,7 +20,8 @@ namespace oaipp::server {
 class Metrics {
  public:
   Metrics();
-  // One finished RPC: counted by method and status code, latency by method.
+  // One finished RPC: counted, and its latency observed, by method and status
+  // code.
   void RecordCall(const std::string& method, int status_code, double seconds);
   // One plan: wall time and objective evaluations.
   void RecordPlan(double seconds, double evaluations);

@@ -212,7 +212,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
 absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           std::optional<double> next_shot_mission_s,
                                           absl::Time deadline, const std::string& request_id,
-                                          PlanningGate* gate) {
+                                          PlanningGate* gate, std::function<bool()> cancelled) {
   absl::MutexLock planner_lock(&planner_mu_);
   if (auto done = Recall<PlannedPath>(request_id)) return *std::move(done);
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
@@ -233,7 +233,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   absl::StatusOr<PlannedPath> path;
   {
     absl::ReaderMutexLock lock(&mu_);
-    const MissionView view{&env_, &map_, config_.camera, config_.noise};
+    const MissionView view{&env_, &map_, config_.camera, config_.noise, std::move(cancelled)};
     path = planner_->Plan(view, planning_state, deadline);
   }
   if (gate != nullptr) gate->Release();

@@ -124,13 +124,15 @@ class Mission {
   // Plans from `state` (validated by the planner). next_shot: the sensor
   // phase; unset, the next multiple of 1 / rate at or after the state's
   // mission time. FailedPrecondition when the budget is spent.
+  // `cancelled` (if any) is asked between CMA-ES generations.
   // The plan runs once `gate` (if any) admits it; the gate is entered after
   // this mission's previous plan finished, so a mission queues behind
   // itself, not in front of others.
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,
                                                  absl::Time deadline, const std::string& request_id,
-                                                 PlanningGate* gate = nullptr);
+                                                 PlanningGate* gate = nullptr,
+                                                 std::function<bool()> cancelled = nullptr);
 
   [[nodiscard]] MissionSnapshot Snapshot() const;
   // Reads the map under the reader lock.

@@ -72,10 +72,12 @@ grpc::Status MissionServiceImpl::Call(const char* method, Body body) {
   if (metrics_ != nullptr) {
     metrics_->RecordCall(method, static_cast<int>(status.code()), seconds);
   }
+  // One line per call, key=value, so that logs can be filtered and parsed.
   if (status.ok()) {
-    spdlog::debug("{} ok in {:.1f} ms", method, seconds * 1e3);
+    spdlog::debug("rpc method={} code=OK ms={:.2f}", method, seconds * 1e3);
   } else {
-    spdlog::info("{} {}: {}", method, absl::StatusCodeToString(status.code()),
+    spdlog::info("rpc method={} code={} ms={:.2f} error=\"{}\"", method,
+                 absl::StatusCodeToString(status.code()), seconds * 1e3,
                  std::string(status.message()));
   }
   return ToGrpcStatus(status);
@@ -94,7 +96,7 @@ grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext*,
       metrics_->SetMissions(static_cast<double>(registry_->size()),
                             static_cast<double>(registry_->MemoryBytes()));
     }
-    spdlog::info("created {}", response->name());
+    spdlog::info("mission event=created name={}", response->name());
     return absl::OkStatus();
   });
 }
@@ -140,7 +142,7 @@ grpc::Status MissionServiceImpl::DeleteMission(grpc::ServerContext*,
       metrics_->SetMissions(static_cast<double>(registry_->size()),
                             static_cast<double>(registry_->MemoryBytes()));
     }
-    spdlog::info("deleted {}", request->name());
+    spdlog::info("mission event=deleted name={}", request->name());
     return absl::OkStatus();
   });
 }

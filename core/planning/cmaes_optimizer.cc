@@ -71,6 +71,8 @@ std::string StopReasonName(StopReason reason) {
       return "evaluation_budget";
     case StopReason::kDeadline:
       return "deadline";
+    case StopReason::kCancelled:
+      return "cancelled";
   }
   return "unknown";
 }
@@ -130,6 +132,10 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
     while (shared->evaluations + options.population <= options.max_evaluations) {
       if (absl::Now() >= deadline) {
         result.stop_reason = StopReason::kDeadline;
+        break;
+      }
+      if (options.cancelled && options.cancelled()) {
+        result.stop_reason = StopReason::kCancelled;
         break;
       }
       population = cmaes.evolve(population);

@@ -32,9 +32,11 @@ struct CmaesOptions {
   std::int64_t max_evaluations = 540;
   // Seed of the sampling: the same seed gives the same run.
   std::uint32_t seed = 1;
+  // Asked between generations; true stops the run (e.g. a cancelled call).
+  std::function<bool()> cancelled = nullptr;
 };
 
-enum class StopReason { kEvaluationBudget, kDeadline };
+enum class StopReason { kEvaluationBudget, kDeadline, kCancelled };
 [[nodiscard]] std::string StopReasonName(StopReason reason);
 
 struct CmaesResult {

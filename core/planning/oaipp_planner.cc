@@ -145,12 +145,16 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const
     const CmaesOptions options{
         .population = config_.population,
         .max_evaluations = static_cast<std::int64_t>(config_.population) * config_.generations + 1,
-        .seed = static_cast<std::uint32_t>(seed >> 32)};
+        .seed = static_cast<std::uint32_t>(seed >> 32),
+        .cancelled = mission.cancelled};
     OAIPP_ASSIGN_OR_RETURN(CmaesResult result,
                            MinimizeCmaes(objective, x0, steps, lower, upper, options, deadline));
     stats.evaluations += result.evaluations - 1;  // x0 was scored above already
     stats.generations = result.generations;
     stats.stop_reason = StopReasonName(result.stop_reason);
+    if (result.stop_reason == StopReason::kCancelled) {
+      return absl::CancelledError("planning cancelled by the caller");
+    }
   }
 
   // Last resort: the first greedy viewpoint alone. It was chosen in straight

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -36,6 +37,9 @@ struct MissionView {
   const GpMap* map = nullptr;
   DownwardCamera camera;
   SensorNoise noise;
+  // Asked now and then while planning; true abandons the plan with
+  // Cancelled (e.g. the caller went away). May be empty.
+  std::function<bool()> cancelled = nullptr;
 };
 
 // The UAV when planning starts.
@@ -106,9 +110,9 @@ class Planner {
   // state, start outside the volume or inside an obstacle, empty field, no
   // budget left),
   // DeadlineExceeded when the deadline passed before any safe path was
-  // found, and FailedPrecondition when no collision-free path exists among
-  // those tried. A returned path is always collision-free under the exact
-  // check.
+  // found, Cancelled when mission.cancelled() said so, and FailedPrecondition when no
+  // collision-free path exists among those tried. A returned path is always collision-free under
+  // the exact check.
   [[nodiscard]] virtual absl::StatusOr<PlannedPath> Plan(const MissionView& mission,
                                                          const UavState& state,
                                                          absl::Time deadline) = 0;

@@ -107,6 +107,19 @@ TEST(CmaesTest, PastDeadlineStopsAtOnceWithTheStart) {
   EXPECT_EQ(r->best_f, 3.0);
 }
 
+TEST(CmaesTest, CancelledStopsBetweenGenerations) {
+  int calls = 0;
+  auto r = MinimizeCmaes(Sphere, Eigen::VectorXd::Ones(3), Eigen::VectorXd::Ones(3),
+                         -Eigen::VectorXd::Ones(3) * 5, Eigen::VectorXd::Ones(3) * 5,
+                         {.population = 6, .max_evaluations = 600, .seed = 2, .cancelled = [&] {
+                            return ++calls > 3;
+                          }});
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->stop_reason, StopReason::kCancelled);
+  EXPECT_EQ(r->generations, 3);
+  EXPECT_EQ(r->evaluations, 1 + 3 * 6);
+}
+
 TEST(CmaesTest, BadInputIsRefused) {
   const Eigen::VectorXd one = Eigen::VectorXd::Ones(2);
   EXPECT_FALSE(MinimizeCmaes(Sphere, one, -one, -one, one, {}).ok());

@@ -1,0 +1,110 @@
+// What the RPC layer costs: AddMeasurement and PlanPath on the E1 mission,
+// called in-process on the mission object and over a loopback TCP channel,
+// interleaved in the same run.
+//
+//   build/tests/bench/server/rpc_overhead_bench --benchmark_repetitions=5
+//     (add --benchmark_report_aggregates_only=true for medians only)
+#include <benchmark/benchmark.h>
+
+#include <chrono>
+
+#include "grpcpp/grpcpp.h"
+#include "server/convert.h"
+#include "server/service.h"
+#include "tests/bench/server/e1_mission.h"
+
+namespace oaipp {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Loopback {
+  server::MissionRegistry registry{{}};
+  server::PlanningGate gate{2, 16};
+  server::MissionServiceImpl service{&registry, &gate, nullptr};
+  std::unique_ptr<grpc::Server> server;
+  std::unique_ptr<v1::MissionService::Stub> stub;
+  std::shared_ptr<server::Mission> direct;  // a twin mission called in-process
+
+  Loopback() {
+    grpc::ServerBuilder builder;
+    int port = 0;
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+    builder.RegisterService(&service);
+    server = builder.BuildAndStart();
+    stub = v1::MissionService::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(port),
+                                                           grpc::InsecureChannelCredentials()));
+    grpc::ClientContext context;
+    v1::CreateMissionRequest request;
+    request.set_mission_id("rpc");
+    *request.mutable_spec() = bench::E1Spec();
+    v1::Mission mission;
+    (void)stub->CreateMission(&context, request, &mission);
+    direct = *server::Mission::Create("direct", *server::MissionSpecToConfig(bench::E1Spec()));
+  }
+};
+
+Loopback& World() {
+  static Loopback* world = new Loopback();
+  return *world;
+}
+
+void BM_AddMeasurement(benchmark::State& state) {
+  Loopback& w = World();
+  const std::vector<double> truth = bench::E1Truth();
+  v1::Vector3 p;
+  p.set_x(2);
+  p.set_y(-5);
+  p.set_z(10);
+  const v1::AddMeasurementRequest request = bench::E1Measurement("missions/rpc", p, 1.0, truth);
+  const server::MeasurementInput input = *server::MeasurementFromProto(request);
+  double direct_s = 0, rpc_s = 0;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    (void)w.direct->AddMeasurement(input, "");
+    const auto t1 = Clock::now();
+    grpc::ClientContext context;
+    v1::AddMeasurementResponse response;
+    (void)w.stub->AddMeasurement(&context, request, &response);
+    const auto t2 = Clock::now();
+    direct_s += std::chrono::duration<double>(t1 - t0).count();
+    rpc_s += std::chrono::duration<double>(t2 - t1).count();
+    state.SetIterationTime(std::chrono::duration<double>(t2 - t1).count());
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["in_process_ms"] = 1e3 * direct_s / n;
+  state.counters["rpc_ms"] = 1e3 * rpc_s / n;
+  state.counters["overhead_ms"] = 1e3 * (rpc_s - direct_s) / n;
+  state.counters["cells"] = request.labels().cells_size();
+}
+BENCHMARK(BM_AddMeasurement)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(20);
+
+void BM_PlanPath(benchmark::State& state) {
+  Loopback& w = World();
+  v1::PlanPathRequest request;
+  request.set_name("missions/rpc");
+  request.mutable_state()->mutable_position_m()->set_x(10);
+  request.mutable_state()->mutable_position_m()->set_z(7);
+  const UavState uav = *server::UavStateFromProto(request.state(), "state");
+  double direct_s = 0, rpc_s = 0;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    (void)w.direct->Plan(uav, std::nullopt, absl::InfiniteFuture(), "");
+    const auto t1 = Clock::now();
+    grpc::ClientContext context;
+    v1::PlanPathResponse response;
+    (void)w.stub->PlanPath(&context, request, &response);
+    const auto t2 = Clock::now();
+    direct_s += std::chrono::duration<double>(t1 - t0).count();
+    rpc_s += std::chrono::duration<double>(t2 - t1).count();
+    state.SetIterationTime(std::chrono::duration<double>(t2 - t1).count());
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["in_process_ms"] = 1e3 * direct_s / n;
+  state.counters["rpc_ms"] = 1e3 * rpc_s / n;
+  state.counters["overhead_ms"] = 1e3 * (rpc_s - direct_s) / n;
+}
+BENCHMARK(BM_PlanPath)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(5);
+
+}  // namespace
+}  // namespace oaipp

@@ -1,0 +1,157 @@
+// Many missions at once on one server: each flies the E1 mission for its
+// budget (plan, fly the path in simulated time, measure at the sensor's
+// shots, replan), all concurrently over loopback TCP. Prints throughput,
+// per-method latency percentiles and memory per mission.
+//
+//   build/tests/bench/server/server_load --missions=50 --budget_s=150
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/strings/str_cat.h"
+#include "grpcpp/grpcpp.h"
+#include "server/service.h"
+#include "spdlog/spdlog.h"
+#include "tests/bench/server/e1_mission.h"
+
+ABSL_FLAG(int, missions, 50, "missions flown at once");
+ABSL_FLAG(double, budget_s, 150.0, "flight budget per mission, seconds");
+ABSL_FLAG(int, generations, 45, "CMA-ES generations per plan");
+ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+class Latencies {
+ public:
+  void Add(const std::string& method, double ms, bool ok) {
+    std::lock_guard<std::mutex> lock(mu_);
+    samples_[method].push_back(ms);
+    if (!ok) ++errors_[method];
+  }
+  void Print(double wall_s) {
+    std::lock_guard<std::mutex> lock(mu_);
+    std::printf("%-16s %8s %10s %10s %10s %10s %8s\n", "method", "calls", "calls/s", "p50 ms",
+                "p99 ms", "max ms", "errors");
+    for (auto& [method, v] : samples_) {
+      std::sort(v.begin(), v.end());
+      auto pct = [&](double q) {
+        return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
+      };
+      std::printf("%-16s %8zu %10.1f %10.2f %10.2f %10.2f %8d\n", method.c_str(), v.size(),
+                  v.size() / wall_s, pct(0.5), pct(0.99), v.back(), errors_[method]);
+    }
+  }
+
+ private:
+  std::mutex mu_;
+  std::map<std::string, std::vector<double>> samples_;
+  std::map<std::string, int> errors_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::ParseCommandLine(argc, argv);
+  spdlog::set_level(spdlog::level::warn);
+  const int missions = absl::GetFlag(FLAGS_missions);
+  const double budget = absl::GetFlag(FLAGS_budget_s);
+  using namespace oaipp;
+  server::MissionRegistry registry({.max_missions = missions + 1});
+  server::PlanningGate gate(absl::GetFlag(FLAGS_planning_threads), 4 * missions);
+  server::MissionServiceImpl service(&registry, &gate, nullptr);
+  grpc::ServerBuilder builder;
+  int port = 0;
+  builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  auto channel =
+      grpc::CreateChannel(absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials());
+  auto stub = v1::MissionService::NewStub(channel);
+  const std::vector<double> truth = bench::E1Truth();
+
+  Latencies latencies;
+  std::atomic<int> done{0};
+  std::atomic<std::int64_t> map_bytes{0};
+  auto timed = [&](const char* method, auto call) {
+    const auto t0 = Clock::now();
+    const grpc::Status status = call();
+    latencies.Add(method, std::chrono::duration<double, std::milli>(Clock::now() - t0).count(),
+                  status.ok());
+    return status;
+  };
+  const auto start = Clock::now();
+  std::vector<std::thread> threads;
+  for (int m = 0; m < missions; ++m) {
+    threads.emplace_back([&, m] {
+      const std::string id = absl::StrCat("load-", m);
+      const std::string name = "missions/" + id;
+      v1::Mission created;
+      timed("CreateMission", [&] {
+        grpc::ClientContext c;
+        v1::CreateMissionRequest r;
+        r.set_mission_id(id);
+        *r.mutable_spec() = bench::E1Spec(absl::GetFlag(FLAGS_generations));
+        r.mutable_spec()->mutable_planner()->set_seed(static_cast<std::uint32_t>(m + 1));
+        r.mutable_spec()->set_budget_s(budget);
+        return stub->CreateMission(&c, r, &created);
+      });
+      map_bytes += created.map_bytes();
+      v1::UavState state = created.spec().start();
+      int shots = 0;
+      while (state.mission_time_s() < budget) {
+        v1::PlanPathResponse path;
+        const grpc::Status planned = timed("PlanPath", [&] {
+          grpc::ClientContext c;
+          c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+          v1::PlanPathRequest r;
+          r.set_name(name);
+          *r.mutable_state() = state;
+          r.set_request_id(absl::StrCat("plan-", state.mission_time_s()));
+          return stub->PlanPath(&c, r, &path);
+        });
+        if (!planned.ok()) break;
+        const double fly =
+            std::min(path.trajectory().duration_s(), budget - state.mission_time_s());
+        for (const auto& pose : path.measurement_poses()) {
+          if (pose.t_s() > fly) break;
+          timed("AddMeasurement", [&] {
+            grpc::ClientContext c;
+            v1::AddMeasurementRequest r =
+                bench::E1Measurement(name, pose.position_m(), pose.mission_time_s(), truth);
+            r.set_request_id(absl::StrCat("shot-", shots++));
+            v1::AddMeasurementResponse out;
+            return stub->AddMeasurement(&c, r, &out);
+          });
+        }
+        const auto& last = path.trajectory().samples(path.trajectory().samples_size() - 1);
+        *state.mutable_position_m() = last.position_m();
+        state.set_mission_time_s(state.mission_time_s() + path.trajectory().duration_s());
+      }
+      timed("GetMap", [&] {
+        grpc::ClientContext c;
+        v1::GetMapRequest r;
+        r.set_name(name);
+        v1::GetMapResponse out;
+        return stub->GetMap(&c, r, &out);
+      });
+      ++done;
+    });
+  }
+  for (auto& t : threads) t.join();
+  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+  std::printf("%d missions of %.0f s flight each, %d finished, wall %.1f s, %d planning threads\n",
+              missions, budget, done.load(), wall, absl::GetFlag(FLAGS_planning_threads));
+  std::printf("memory per mission (map + ESDF): %.1f MB\n",
+              static_cast<double>(map_bytes.load()) / missions / 1e6);
+  latencies.Print(wall);
+  server->Shutdown();
+  return 0;
+}
