@@ -1,0 +1,116 @@
+#include "client/client.h"
+
+#include <random>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace oaipp::client {
+namespace {
+
+absl::Status FromGrpc(const char* what, const grpc::Status& status) {
+  if (status.ok()) return absl::OkStatus();
+  return absl::Status(static_cast<absl::StatusCode>(status.error_code()),
+                      absl::StrCat(what, ": ", status.error_message()));
+}
+
+}  // namespace
+
+Client Client::Connect(const std::string& address, ClientOptions options) {
+  return Client(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()), options);
+}
+
+Client::Client(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
+    : channel_(std::move(channel)),
+      stub_(v1::MissionService::NewStub(channel_)),
+      options_(options) {
+  std::random_device device;
+  id_prefix_ = absl::StrFormat("c%08x", device());
+}
+
+std::string Client::NextRequestId() { return absl::StrCat(id_prefix_, "-", next_id_++); }
+
+template <typename Request, typename Response, typename Method>
+absl::StatusOr<Response> Client::Call(const char* what, Method method, const Request& request,
+                                      absl::Duration timeout) {
+  absl::Duration backoff = options_.first_backoff;
+  grpc::Status status;
+  for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
+    grpc::ClientContext context;
+    context.set_deadline(absl::ToChronoTime(absl::Now() + timeout));
+    Response response;
+    status = (stub_.get()->*method)(&context, request, &response);
+    if (status.ok()) return response;
+    if (status.error_code() != grpc::StatusCode::UNAVAILABLE) break;
+    std::this_thread::sleep_for(absl::ToChronoMilliseconds(backoff));
+    backoff *= 2;
+  }
+  return FromGrpc(what, status);
+}
+
+absl::Status Client::WaitUntilServing(absl::Duration timeout) {
+  const absl::Time until = absl::Now() + timeout;
+  while (absl::Now() < until) {
+    if (channel_->WaitForConnected(absl::ToChronoTime(absl::Now() + absl::Milliseconds(500)))) {
+      grpc::ClientContext context;
+      context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(2)));
+      v1::ListMissionsRequest request;
+      request.set_page_size(1);
+      v1::ListMissionsResponse response;
+      if (stub_->ListMissions(&context, request, &response).ok()) return absl::OkStatus();
+    }
+  }
+  return absl::UnavailableError("server: not serving within the timeout");
+}
+
+absl::StatusOr<v1::Mission> Client::CreateMission(const v1::MissionSpec& spec,
+                                                  const std::string& mission_id) {
+  v1::CreateMissionRequest request;
+  request.set_mission_id(mission_id);
+  *request.mutable_spec() = spec;
+  request.set_request_id(NextRequestId());
+  return Call<v1::CreateMissionRequest, v1::Mission>(
+      "CreateMission", &v1::MissionService::Stub::CreateMission, request, options_.call_timeout);
+}
+
+absl::StatusOr<v1::Mission> Client::GetMission(const std::string& name) {
+  v1::GetMissionRequest request;
+  request.set_name(name);
+  return Call<v1::GetMissionRequest, v1::Mission>(
+      "GetMission", &v1::MissionService::Stub::GetMission, request, options_.call_timeout);
+}
+
+absl::Status Client::DeleteMission(const std::string& name) {
+  v1::DeleteMissionRequest request;
+  request.set_name(name);
+  request.set_request_id(NextRequestId());
+  return Call<v1::DeleteMissionRequest, v1::DeleteMissionResponse>(
+             "DeleteMission", &v1::MissionService::Stub::DeleteMission, request,
+             options_.call_timeout)
+      .status();
+}
+
+absl::StatusOr<v1::AddMeasurementResponse> Client::AddMeasurement(
+    v1::AddMeasurementRequest request) {
+  if (request.request_id().empty()) request.set_request_id(NextRequestId());
+  return Call<v1::AddMeasurementRequest, v1::AddMeasurementResponse>(
+      "AddMeasurement", &v1::MissionService::Stub::AddMeasurement, request, options_.call_timeout);
+}
+
+absl::StatusOr<v1::PlanPathResponse> Client::PlanPath(v1::PlanPathRequest request) {
+  if (request.request_id().empty()) request.set_request_id(NextRequestId());
+  return Call<v1::PlanPathRequest, v1::PlanPathResponse>(
+      "PlanPath", &v1::MissionService::Stub::PlanPath, request, options_.plan_timeout);
+}
+
+absl::StatusOr<v1::GetMapResponse> Client::GetMap(const std::string& name, bool cells, bool png) {
+  v1::GetMapRequest request;
+  request.set_name(name);
+  request.set_include_cells(cells);
+  request.set_include_png(png);
+  return Call<v1::GetMapRequest, v1::GetMapResponse>("GetMap", &v1::MissionService::Stub::GetMap,
+                                                     request, options_.call_timeout);
+}
+
+}  // namespace oaipp::client

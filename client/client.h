@@ -1,0 +1,62 @@
+// A client library over the generated MissionService stub: a deadline on
+// every call, retries of UNAVAILABLE with the same request_id (so a retried
+// mutation is never applied twice), and absl::Status errors that keep the
+// server's message.
+//
+//   OAIPP_ASSIGN_OR_RETURN(Client client, Client::Connect("127.0.0.1:50051"));
+//   OAIPP_ASSIGN_OR_RETURN(v1::Mission m, client.CreateMission(spec));
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "absl/time/time.h"
+#include "grpcpp/grpcpp.h"
+#include "oaipp/v1/mission_service.grpc.pb.h"
+
+namespace oaipp::client {
+
+struct ClientOptions {
+  absl::Duration call_timeout = absl::Seconds(30);  // every call but PlanPath
+  absl::Duration plan_timeout = absl::Seconds(60);  // PlanPath (the planner is anytime)
+  int max_attempts = 4;                             // for UNAVAILABLE
+  absl::Duration first_backoff = absl::Milliseconds(200);
+};
+
+class Client {
+ public:
+  // A channel to `address` (host:port); does not wait for the server.
+  [[nodiscard]] static Client Connect(const std::string& address, ClientOptions options = {});
+  // Uses an existing channel (e.g. an in-process one in tests).
+  Client(std::shared_ptr<grpc::Channel> channel, ClientOptions options);
+
+  // OK when the server answers the health check with SERVING within `timeout`.
+  [[nodiscard]] absl::Status WaitUntilServing(absl::Duration timeout);
+
+  [[nodiscard]] absl::StatusOr<v1::Mission> CreateMission(const v1::MissionSpec& spec,
+                                                          const std::string& mission_id = "");
+  [[nodiscard]] absl::StatusOr<v1::Mission> GetMission(const std::string& name);
+  [[nodiscard]] absl::Status DeleteMission(const std::string& name);
+  [[nodiscard]] absl::StatusOr<v1::AddMeasurementResponse> AddMeasurement(
+      v1::AddMeasurementRequest request);
+  [[nodiscard]] absl::StatusOr<v1::PlanPathResponse> PlanPath(v1::PlanPathRequest request);
+  [[nodiscard]] absl::StatusOr<v1::GetMapResponse> GetMap(const std::string& name, bool cells,
+                                                          bool png);
+
+ private:
+  // A request id unique to this client process.
+  std::string NextRequestId();
+  template <typename Request, typename Response, typename Method>
+  absl::StatusOr<Response> Call(const char* what, Method method, const Request& request,
+                                absl::Duration timeout);
+
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::MissionService::Stub> stub_;
+  ClientOptions options_;
+  std::string id_prefix_;
+  std::atomic<std::int64_t> next_id_{1};
+};
+
+}  // namespace oaipp::client

@@ -1,0 +1,164 @@
+#include "client/simulation.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.h"
+#include "server/convert.h"
+
+namespace oaipp::client {
+namespace {
+
+// Images of 480 x 640 px, as the server assumes for detections without
+// intrinsics.
+constexpr int kWidthPx = 480;
+constexpr int kHeightPx = 640;
+
+// Projects a ground point into a downward camera at p (yaw 0) with pinhole
+// intrinsics K; false when behind the camera.
+bool Project(const CameraIntrinsics& k, const Vec3& camera_W, const Vec3& point_W, Vec2* px) {
+  const Eigen::Matrix3d r_wc = RotationWorldFromCamera(0.0);
+  const Vec3 p_c = r_wc.transpose() * (point_W - camera_W);
+  if (p_c.z() <= 1e-9) return false;
+  *px = Vec2(k.fx_px * p_c.x() / p_c.z() + k.cx_px, k.fy_px * p_c.y() / p_c.z() + k.cy_px);
+  return true;
+}
+
+}  // namespace
+
+double DetectorParams::DetectionProbability(double altitude_m) const {
+  const double z = (altitude_m - h_best_m) / width_m;
+  return p_max * std::exp(-0.5 * z * z);
+}
+
+double DetectorParams::FalsePositiveRate(double altitude_m) const {
+  return fp_per_image_at_10m * (altitude_m / 10.0) * (altitude_m / 10.0);
+}
+
+absl::StatusOr<Simulation> Simulation::Create(const v1::Scenario& scenario) {
+  Simulation sim;
+  OAIPP_ASSIGN_OR_RETURN(sim.config_, server::MissionSpecToConfig(scenario.mission()));
+  const server::MissionConfig& c = sim.config_;
+  OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(c.FlightVolume(), c.esdf));
+  OAIPP_RETURN_IF_ERROR(env.Apply({.add = c.obstacles}));
+  sim.env_ = std::make_shared<Environment>(std::move(env));
+  OAIPP_ASSIGN_OR_RETURN(FieldGrid grid,
+                         FieldGrid::FromBounds(c.field_min_W, c.field_max_W, c.resolution_m));
+  sim.grid_ = std::make_shared<FieldGrid>(grid);
+  OAIPP_ASSIGN_OR_RETURN(sim.intrinsics_, IntrinsicsForFov(kWidthPx, kHeightPx, c.camera.fov_x_deg,
+                                                           c.camera.fov_y_deg));
+  const v1::DetectorModel& d = scenario.detector();
+  DetectorParams& p = sim.detector_;
+  if (d.has_p_max()) p.p_max = d.p_max();
+  if (d.has_h_best_m()) p.h_best_m = d.h_best_m();
+  if (d.has_width_m()) p.width_m = d.width_m();
+  if (d.has_fp_per_image_at_10m()) p.fp_per_image_at_10m = d.fp_per_image_at_10m();
+  if (d.has_min_confidence()) p.min_confidence = d.min_confidence();
+  if (!(p.p_max >= 0 && p.p_max <= 1)) {
+    return absl::InvalidArgumentError("detector.p_max: must be in [0, 1]");
+  }
+  if (!(p.width_m > 0) || !std::isfinite(p.width_m) || !std::isfinite(p.h_best_m)) {
+    return absl::InvalidArgumentError(
+        "detector.width_m, detector.h_best_m: must be finite, width > 0");
+  }
+  if (!(p.fp_per_image_at_10m >= 0) || !std::isfinite(p.fp_per_image_at_10m)) {
+    return absl::InvalidArgumentError("detector.fp_per_image_at_10m: must be >= 0 and finite");
+  }
+  if (!(p.min_confidence >= 0 && p.min_confidence <= 1)) {
+    return absl::InvalidArgumentError("detector.min_confidence: must be in [0, 1]");
+  }
+  sim.truth_.assign(static_cast<std::size_t>(grid.num_cells()), 0.0);
+  for (int i = 0; i < scenario.targets_size(); ++i) {
+    const v1::Target& t = scenario.targets(i);
+    const std::string field = absl::StrCat("targets[", i, "]");
+    if (!(t.x_max_m() > t.x_min_m()) || !(t.y_max_m() > t.y_min_m())) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": max must exceed min"));
+    }
+    std::vector<int> cells =
+        grid.CellsOverlapping({t.x_min_m(), t.y_min_m()}, {t.x_max_m(), t.y_max_m()});
+    if (cells.empty()) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": lies outside the field"));
+    }
+    for (int cell : cells) sim.truth_[static_cast<std::size_t>(cell)] = 1.0;
+    sim.targets_.push_back(t);
+    sim.target_cells_.push_back(std::move(cells));
+  }
+  return sim;
+}
+
+std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng) const {
+  std::vector<PixelBox> boxes;
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double h = p_W.z();
+  for (const v1::Target& t : targets_) {
+    const Vec3 centre(0.5 * (t.x_min_m() + t.x_max_m()), 0.5 * (t.y_min_m() + t.y_max_m()), 0.0);
+    const double draw = unit(rng);  // drawn for every target: one stream whatever is visible
+    if (!env_->IsClear(p_W, centre)) continue;
+    Vec2 lo(1e18, 1e18), hi(-1e18, -1e18);
+    bool in_front = true;
+    for (double x : {t.x_min_m(), t.x_max_m()}) {
+      for (double y : {t.y_min_m(), t.y_max_m()}) {
+        Vec2 px;
+        in_front &= Project(intrinsics_, p_W, Vec3(x, y, 0), &px);
+        lo = lo.cwiseMin(px);
+        hi = hi.cwiseMax(px);
+      }
+    }
+    Vec2 c;
+    if (!in_front || !Project(intrinsics_, p_W, centre, &c)) continue;
+    if (c.x() < 0 || c.y() < 0 || c.x() > kWidthPx || c.y() > kHeightPx) continue;
+    if (draw >= detector_.DetectionProbability(h)) continue;
+    lo = lo.cwiseMax(Vec2(0, 0));
+    hi = hi.cwiseMin(Vec2(kWidthPx, kHeightPx));
+    boxes.push_back({lo.x(), lo.y(), hi.x(), hi.y(), 0.5 + 0.5 * unit(rng)});
+  }
+  std::poisson_distribution<int> false_positives(detector_.FalsePositiveRate(h));
+  const int n = false_positives(rng);
+  // A person's size in pixels at this altitude.
+  const double w = intrinsics_.fx_px * 0.75 / h, l = intrinsics_.fy_px * 2.0 / h;
+  for (int i = 0; i < n; ++i) {
+    const double x = unit(rng) * std::max(1.0, kWidthPx - w),
+                 y = unit(rng) * std::max(1.0, kHeightPx - l);
+    boxes.push_back({x, y, std::min<double>(x + w, kWidthPx), std::min<double>(y + l, kHeightPx),
+                     0.5 + 0.5 * unit(rng)});
+  }
+  return boxes;
+}
+
+absl::StatusOr<CellLabels> Simulation::Labels(const Vec3& p_W,
+                                              const std::vector<PixelBox>& boxes) const {
+  return DetectionsToLabels(*grid_, intrinsics_, CameraPose{p_W, 0.0}, boxes,
+                            detector_.min_confidence, env_.get());
+}
+
+double Simulation::Rse(const std::vector<double>& mean) const {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < truth_.size() && i < mean.size(); ++i) {
+    sum += (mean[i] - truth_[i]) * (mean[i] - truth_[i]);
+  }
+  return std::sqrt(sum);
+}
+
+double Simulation::Rmse(const std::vector<double>& mean) const {
+  return Rse(mean) / std::sqrt(static_cast<double>(truth_.size()));
+}
+
+int Simulation::TargetsFound(const std::vector<double>& mean) const {
+  int found = 0;
+  for (const std::vector<int>& cells : target_cells_) {
+    for (int c : cells) {
+      if (mean[static_cast<std::size_t>(c)] > 0.5) {
+        ++found;
+        break;
+      }
+    }
+  }
+  return found;
+}
+
+bool Simulation::Collides(const Vec3& p_W) const {
+  return !env_->flight_volume().Contains(p_W, 1e-9) ||
+         env_->SignedDistance(p_W) < 0.5 * config_.planner.common.limits.uav_radius_m;
+}
+
+}  // namespace oaipp::client

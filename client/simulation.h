@@ -1,0 +1,75 @@
+// The simulated world the client flies in: ground-truth targets, a
+// simulated detector and the metrics of DESIGN.md §3.2.
+//
+//   OAIPP_ASSIGN_OR_RETURN(Simulation sim, Simulation::Create(scenario));
+//   std::vector<PixelBox> boxes = sim.Detect(camera_W, rng);   // what a camera sees
+//   double rse = sim.Rse(map_mean);
+#pragma once
+
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/environment/environment.h"
+#include "core/mapping/detection_projection.h"
+#include "core/mapping/field_grid.h"
+#include "oaipp/v1/scenario.pb.h"
+#include "server/mission_config.h"
+
+namespace oaipp::client {
+
+struct DetectorParams {
+  double p_max = 0.95;
+  double h_best_m = 10.0;
+  double width_m = 7.0;
+  double fp_per_image_at_10m = 0.3;
+  double min_confidence = 0.5;
+  // p(h) of detecting a visible target from altitude h.
+  [[nodiscard]] double DetectionProbability(double altitude_m) const;
+  // Mean number of false positives in one image from altitude h.
+  [[nodiscard]] double FalsePositiveRate(double altitude_m) const;
+};
+
+class Simulation {
+ public:
+  // Validates the scenario (targets inside the field, detector ranges) and
+  // builds the exact world for visibility. InvalidArgument naming the field.
+  [[nodiscard]] static absl::StatusOr<Simulation> Create(const v1::Scenario& scenario);
+
+  // The boxes a downward camera at p_W (yaw 0) reports: each visible target
+  // (its centre in line of sight, inside the image) with probability p(h),
+  // plus Poisson false positives of a person's size at random places.
+  [[nodiscard]] std::vector<PixelBox> Detect(const Vec3& p_W, std::mt19937_64& rng) const;
+  // Per-cell labels of the same detections over the visible image footprint.
+  [[nodiscard]] absl::StatusOr<CellLabels> Labels(const Vec3& p_W,
+                                                  const std::vector<PixelBox>& boxes) const;
+
+  // RSE = sqrt(sum (mu - truth)^2) and RMSE over the cells.
+  [[nodiscard]] double Rse(const std::vector<double>& mean) const;
+  [[nodiscard]] double Rmse(const std::vector<double>& mean) const;
+  // Targets whose cells reach a map mean above 0.5.
+  [[nodiscard]] int TargetsFound(const std::vector<double>& mean) const;
+  // Closer than r_uav / 2 to an obstacle under the exact geometry, or
+  // outside the flight volume.
+  [[nodiscard]] bool Collides(const Vec3& p_W) const;
+
+  [[nodiscard]] const server::MissionConfig& config() const { return config_; }
+  [[nodiscard]] const CameraIntrinsics& intrinsics() const { return intrinsics_; }
+  [[nodiscard]] const DetectorParams& detector() const { return detector_; }
+  [[nodiscard]] int num_targets() const { return static_cast<int>(target_cells_.size()); }
+  [[nodiscard]] const Environment& environment() const { return *env_; }
+
+ private:
+  Simulation() = default;
+  server::MissionConfig config_;
+  std::shared_ptr<Environment> env_;
+  std::shared_ptr<FieldGrid> grid_;
+  CameraIntrinsics intrinsics_;
+  DetectorParams detector_;
+  std::vector<v1::Target> targets_;
+  std::vector<std::vector<int>> target_cells_;
+  std::vector<double> truth_;
+};
+
+}  // namespace oaipp::client

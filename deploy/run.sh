@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Sets up everything on a fresh Debian 12 machine (as root), builds the
+# server and the client, starts oaipp-server on loopback, flies the E1
+# scenario against it (client/scenarios/e1.json) and stops the server.
+#   bash deploy/run.sh                         # E1, results in out/e1
+#   bash deploy/run.sh client/scenarios/X.json # another scenario
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${BUILD_DIR:-$root/build}"
+scenario="${1:-$root/client/scenarios/e1.json}"
+address="127.0.0.1:${OAIPP_PORT:-50051}"
+
+bash "$root/deploy/install-deps.sh"
+cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+echo "run: building oaipp-server and oaipp-client"
+cmake --build "$build" -j "$(nproc)" --target oaipp-server oaipp-client >/dev/null
+
+"$build/server/oaipp-server" --listen="$address" --metrics_listen= --log_level=warn &
+server=$!
+trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null || true' EXIT
+cd "$root"
+"$build/client/oaipp-client" run "$scenario" --server="$address"
