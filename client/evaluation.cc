@@ -1,0 +1,147 @@
+#include "client/evaluation.h"
+
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "client/simulation.h"
+#include "server/convert.h"
+
+namespace oaipp::client {
+namespace {
+
+struct Moments {
+  double n = 0, sum = 0, sum2 = 0;
+  void Add(double x) {
+    ++n;
+    sum += x;
+    sum2 += x * x;
+  }
+  [[nodiscard]] double Mean() const { return n > 0 ? sum / n : 0.0; }
+  [[nodiscard]] double Std() const {
+    return n > 1 ? std::sqrt(std::max(0.0, (sum2 - sum * sum / n) / (n - 1))) : 0.0;
+  }
+};
+
+}  // namespace
+
+std::vector<StepRecord> Resample(const std::vector<StepRecord>& steps,
+                                 const std::vector<double>& grid_s) {
+  // The value at t is the map after every measurement taken before t (so
+  // t = 0 is the prior, and the end of the budget holds the final map).
+  std::vector<StepRecord> out;
+  std::size_t i = 0;
+  for (double t : grid_s) {
+    while (i + 1 < steps.size() && steps[i + 1].mission_time_s < t - 1e-9) ++i;
+    StepRecord r = steps.empty() ? StepRecord{} : steps[i];
+    r.mission_time_s = t;
+    out.push_back(r);
+  }
+  return out;
+}
+
+absl::StatusOr<EvalResult> RunEvaluation(const std::string& address, const v1::Scenario& scenario,
+                                         const std::vector<PlannerKind>& planners,
+                                         const EvalOptions& options,
+                                         const std::function<void(int, int)>& progress) {
+  if (options.trials < 1 || options.parallel < 1 || !(options.grid_s > 0)) {
+    return absl::InvalidArgumentError("eval: trials, parallel and grid_s must be positive");
+  }
+  struct Job {
+    PlannerKind planner;
+    int trial;
+  };
+  std::vector<Job> jobs;
+  for (int t = 1; t <= options.trials; ++t) {
+    for (PlannerKind p : planners) jobs.push_back({p, t});
+  }
+  EvalResult result;
+  result.trials.resize(jobs.size());
+  const double budget = scenario.mission().has_budget_s() ? scenario.mission().budget_s() : 150.0;
+  for (double t = 0; t <= budget + 1e-9; t += options.grid_s) result.grid_s.push_back(t);
+
+  std::atomic<std::size_t> next{0};
+  std::atomic<int> done{0};
+  std::mutex progress_mu;
+  ClientOptions client_options;
+  if (options.plan_deadline_s > 0)
+    client_options.plan_timeout = absl::Seconds(options.plan_deadline_s);
+  auto worker = [&] {
+    Client client = Client::Connect(address, client_options);
+    for (std::size_t j = next++; j < jobs.size(); j = next++) {
+      TrialResult& out = result.trials[j];
+      out.planner = jobs[j].planner;
+      out.trial = jobs[j].trial;
+      v1::Scenario s = scenario;
+      s.set_seed(static_cast<std::uint64_t>(jobs[j].trial));
+      v1::PlannerSpec* planner = s.mutable_mission()->mutable_planner();
+      planner->set_kind(server::PlannerKindToProto(jobs[j].planner));
+      planner->set_seed(static_cast<std::uint32_t>(jobs[j].trial));
+      absl::StatusOr<Simulation> sim = Simulation::Create(s);
+      absl::StatusOr<RunResult> run =
+          sim.ok() ? RunScenario(client, s, *sim) : absl::StatusOr<RunResult>(sim.status());
+      if (run.ok()) {
+        out.steps = Resample(run->steps, result.grid_s);
+        out.plans = run->plans;
+        out.planning_time_s = run->planning_time_s;
+      } else {
+        out.error = std::string(run.status().message());
+      }
+      const int finished = ++done;
+      std::lock_guard<std::mutex> lock(progress_mu);
+      if (progress) progress(finished, static_cast<int>(jobs.size()));
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int i = 0; i < options.parallel; ++i) threads.emplace_back(worker);
+  for (auto& t : threads) t.join();
+  return result;
+}
+
+std::string TrialsCsv(const EvalResult& result) {
+  std::string csv = "planner,trial,time_s,rse,rmse,trace,targets_found,path_length_m,collisions\n";
+  for (const TrialResult& t : result.trials) {
+    for (const StepRecord& s : t.steps) {
+      absl::StrAppendFormat(&csv, "%s,%d,%.1f,%.6f,%.6f,%.6f,%d,%.3f,%d\n",
+                            PlannerKindName(t.planner), t.trial, s.mission_time_s, s.rse, s.rmse,
+                            s.trace, s.targets_found, s.path_length_m, s.collisions);
+    }
+  }
+  return csv;
+}
+
+std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
+  std::map<std::string, std::vector<const TrialResult*>> by_planner;
+  for (const TrialResult& t : result.trials) by_planner[PlannerKindName(t.planner)].push_back(&t);
+  std::string md = absl::StrFormat(
+      "| planner | trials | failed | RSE at 0 s | RSE at %.0f s (mean +- std) | std error | "
+      "targets found | collisions | planning s / plan |\n| --- | --- | --- | --- | --- | --- | --- "
+      "| --- | --- |\n",
+      budget_s);
+  for (const auto& [name, trials] : by_planner) {
+    Moments start, end, found, per_plan;
+    int failed = 0, collisions = 0;
+    for (const TrialResult* t : trials) {
+      if (!t->error.empty() || t->steps.empty()) {
+        ++failed;
+        continue;
+      }
+      start.Add(t->steps.front().rse);
+      end.Add(t->steps.back().rse);
+      found.Add(t->steps.back().targets_found);
+      collisions += t->steps.back().collisions;
+      if (t->plans > 0) per_plan.Add(t->planning_time_s / t->plans);
+    }
+    absl::StrAppendFormat(&md, "| %s | %d | %d | %.3f | %.3f +- %.3f | %.3f | %.2f | %d | %.3f |\n",
+                          name, static_cast<int>(trials.size()), failed, start.Mean(), end.Mean(),
+                          end.Std(), end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, found.Mean(),
+                          collisions, per_plan.Mean());
+  }
+  return md;
+}
+
+}  // namespace oaipp::client

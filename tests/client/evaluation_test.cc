@@ -1,0 +1,48 @@
+#include "client/evaluation.h"
+
+#include "gtest/gtest.h"
+
+namespace oaipp::client {
+namespace {
+
+StepRecord At(double t, double rse) {
+  StepRecord r;
+  r.mission_time_s = t;
+  r.rse = rse;
+  return r;
+}
+
+// The grid value at t is the map after every measurement before t: the
+// prior at 0 even when a shot is taken at 0, the final map at the budget.
+TEST(EvaluationTest, ResampleTakesTheMapBeforeEachGridTime) {
+  const std::vector<StepRecord> steps = {At(0, 7.0), At(0, 6.9), At(6.7, 6.5), At(13.3, 6.0),
+                                         At(150, 5.0)};
+  const std::vector<StepRecord> r = Resample(steps, {0, 5, 10, 15, 150});
+  ASSERT_EQ(r.size(), 5u);
+  EXPECT_DOUBLE_EQ(r[0].rse, 7.0);
+  EXPECT_DOUBLE_EQ(r[1].rse, 6.9);
+  EXPECT_DOUBLE_EQ(r[2].rse, 6.5);
+  EXPECT_DOUBLE_EQ(r[3].rse, 6.0);
+  EXPECT_DOUBLE_EQ(r[4].rse, 6.0);  // the record at 150 is not before 150
+  EXPECT_DOUBLE_EQ(r[4].mission_time_s, 150);
+}
+
+TEST(EvaluationTest, SummaryReportsMeanStdAndStandardError) {
+  EvalResult result;
+  result.grid_s = {0, 150};
+  for (int k = 0; k < 3; ++k) {
+    TrialResult t;
+    t.planner = PlannerKind::kRandom;
+    t.trial = k + 1;
+    t.steps = {At(0, 7.0), At(150, 5.0 + k)};  // 5, 6, 7: mean 6, std 1
+    t.plans = 2;
+    t.planning_time_s = 1.0;
+    result.trials.push_back(t);
+  }
+  const std::string md = SummaryMarkdown(result, 150);
+  EXPECT_NE(md.find("| random | 3 | 0 | 7.000 | 6.000 +- 1.000 | 0.577 |"), std::string::npos)
+      << md;
+}
+
+}  // namespace
+}  // namespace oaipp::client
