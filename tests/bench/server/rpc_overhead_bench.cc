@@ -49,23 +49,16 @@ Loopback& World() {
   return *world;
 }
 
-void BM_AddMeasurement(benchmark::State& state) {
-  Loopback& w = World();
-  const std::vector<double> truth = bench::E1Truth();
-  v1::Vector3 p;
-  p.set_x(2);
-  p.set_y(-5);
-  p.set_z(10);
-  const v1::AddMeasurementRequest request = bench::E1Measurement("missions/rpc", p, 1.0, truth);
-  const server::MeasurementInput input = *server::MeasurementFromProto(request);
+// Times `in_process` and `rpc` alternately each iteration (the RPC time is
+// the benchmark's); counters give both means and their difference.
+template <typename InProcess, typename Rpc>
+void CompareInProcessAndRpc(benchmark::State& state, InProcess in_process, Rpc rpc) {
   double direct_s = 0, rpc_s = 0;
   for (auto _ : state) {
     const auto t0 = Clock::now();
-    (void)w.direct->AddMeasurement(input, "");
+    in_process();
     const auto t1 = Clock::now();
-    grpc::ClientContext context;
-    v1::AddMeasurementResponse response;
-    (void)w.stub->AddMeasurement(&context, request, &response);
+    rpc();
     const auto t2 = Clock::now();
     direct_s += std::chrono::duration<double>(t1 - t0).count();
     rpc_s += std::chrono::duration<double>(t2 - t1).count();
@@ -75,6 +68,24 @@ void BM_AddMeasurement(benchmark::State& state) {
   state.counters["in_process_ms"] = 1e3 * direct_s / n;
   state.counters["rpc_ms"] = 1e3 * rpc_s / n;
   state.counters["overhead_ms"] = 1e3 * (rpc_s - direct_s) / n;
+}
+
+void BM_AddMeasurement(benchmark::State& state) {
+  Loopback& w = World();
+  const std::vector<double> truth = bench::E1Truth();
+  v1::Vector3 p;
+  p.set_x(2);
+  p.set_y(-5);
+  p.set_z(10);
+  const v1::AddMeasurementRequest request = bench::E1Measurement("missions/rpc", p, 1.0, truth);
+  const server::MeasurementInput input = *server::MeasurementFromProto(request);
+  CompareInProcessAndRpc(
+      state, [&] { (void)w.direct->AddMeasurement(input, ""); },
+      [&] {
+        grpc::ClientContext context;
+        v1::AddMeasurementResponse response;
+        (void)w.stub->AddMeasurement(&context, request, &response);
+      });
   state.counters["cells"] = request.labels().cells_size();
 }
 BENCHMARK(BM_AddMeasurement)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(20);
@@ -86,23 +97,13 @@ void BM_PlanPath(benchmark::State& state) {
   request.mutable_state()->mutable_position_m()->set_x(10);
   request.mutable_state()->mutable_position_m()->set_z(7);
   const UavState uav = *server::UavStateFromProto(request.state(), "state");
-  double direct_s = 0, rpc_s = 0;
-  for (auto _ : state) {
-    const auto t0 = Clock::now();
-    (void)w.direct->Plan(uav, std::nullopt, absl::InfiniteFuture(), "");
-    const auto t1 = Clock::now();
-    grpc::ClientContext context;
-    v1::PlanPathResponse response;
-    (void)w.stub->PlanPath(&context, request, &response);
-    const auto t2 = Clock::now();
-    direct_s += std::chrono::duration<double>(t1 - t0).count();
-    rpc_s += std::chrono::duration<double>(t2 - t1).count();
-    state.SetIterationTime(std::chrono::duration<double>(t2 - t1).count());
-  }
-  const double n = static_cast<double>(state.iterations());
-  state.counters["in_process_ms"] = 1e3 * direct_s / n;
-  state.counters["rpc_ms"] = 1e3 * rpc_s / n;
-  state.counters["overhead_ms"] = 1e3 * (rpc_s - direct_s) / n;
+  CompareInProcessAndRpc(
+      state, [&] { (void)w.direct->Plan(uav, std::nullopt, absl::InfiniteFuture(), ""); },
+      [&] {
+        grpc::ClientContext context;
+        v1::PlanPathResponse response;
+        (void)w.stub->PlanPath(&context, request, &response);
+      });
 }
 BENCHMARK(BM_PlanPath)->UseManualTime()->Unit(benchmark::kMillisecond)->Iterations(5);
 
