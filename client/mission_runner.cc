@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "client/map_image.h"
 #include "core/common/status_macros.h"
 #include "server/convert.h"
 
@@ -147,8 +148,9 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   if (result.steps.back().mission_time_s < record.mission_time_s)
     OAIPP_RETURN_IF_ERROR(measure_record());
   OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse final_map,
-                         client.GetMap(result.mission_name, false, true));
-  result.final_map_png = final_map.png();
+                         client.GetMap(result.mission_name, true, false));
+  OAIPP_ASSIGN_OR_RETURN(result.final_map_png,
+                         RenderMissionPng(final_map, sim, result.flown_path_W));
   if (!keep_mission) OAIPP_RETURN_IF_ERROR(client.DeleteMission(result.mission_name));
   return result;
 }

@@ -156,6 +156,14 @@ int Simulation::TargetsFound(const std::vector<double>& mean) const {
   return found;
 }
 
+std::vector<std::pair<Vec2, Vec2>> Simulation::TargetRectangles() const {
+  std::vector<std::pair<Vec2, Vec2>> out;
+  for (const v1::Target& t : targets_) {
+    out.emplace_back(Vec2(t.x_min_m(), t.y_min_m()), Vec2(t.x_max_m(), t.y_max_m()));
+  }
+  return out;
+}
+
 bool Simulation::Collides(const Vec3& p_W) const {
   return !env_->flight_volume().Contains(p_W, 1e-9) ||
          env_->SignedDistance(p_W) < 0.5 * config_.planner.common.limits.uav_radius_m;

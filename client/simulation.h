@@ -59,6 +59,8 @@ class Simulation {
   [[nodiscard]] const DetectorParams& detector() const { return detector_; }
   [[nodiscard]] int num_targets() const { return static_cast<int>(target_cells_.size()); }
   [[nodiscard]] const Environment& environment() const { return *env_; }
+  // The targets' ground rectangles (min, max corners), metres.
+  [[nodiscard]] std::vector<std::pair<Vec2, Vec2>> TargetRectangles() const;
 
  private:
   Simulation() = default;

@@ -1,0 +1,24 @@
+// A picture of a mission for people: the map's mean and standard deviation
+// side by side (viridis, both on [0, 1], north up), with the obstacles'
+// footprints (grey), the true targets (green boxes) and the flown path
+// (red, white dot at the start) drawn over both.
+//
+//   OAIPP_ASSIGN_OR_RETURN(std::string png, RenderMissionPng(map, sim, path_W));
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "client/simulation.h"
+#include "oaipp/v1/mission_service.pb.h"
+
+namespace oaipp::client {
+
+// `map` must carry its cells (GetMap with include_cells). InvalidArgument
+// when it does not.
+[[nodiscard]] absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
+                                                           const Simulation& simulation,
+                                                           const std::vector<Vec3>& path_W);
+
+}  // namespace oaipp::client
