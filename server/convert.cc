@@ -174,7 +174,6 @@ absl::Status FillFlight(const v1::FlightSpec& f, MissionConfig& c) {
   l.dynamics.max_accel_m_s2 =
       OrDefault(f.has_max_accel_m_s2(), f.max_accel_m_s2(), limits.dynamics.max_accel_m_s2);
   l.uav_radius_m = OrDefault(f.has_uav_radius_m(), f.uav_radius_m(), limits.uav_radius_m);
-  l.min_altitude_m = c.min_altitude_m;
   c.esdf.voxel_size_m = OrDefault(f.has_esdf_voxel_m(), f.esdf_voxel_m(), esdf.voxel_size_m);
   c.esdf.truncation_m =
       OrDefault(f.has_esdf_truncation_m(), f.esdf_truncation_m(), esdf.truncation_m);

@@ -58,7 +58,7 @@ namespace oaipp::server {
 // preset "" and "paper" mean the same defaults, the GP length scale default
 // e^1.3 * resolution_m follows the chosen resolution). The planner's common
 // settings carry the flight limits (limits.dynamics, uav_radius_m,
-// sensor_rate_hz, and limits.min_altitude_m = the flight volume's floor) and
+// sensor_rate_hz) and
 // the information parameters, whose objective kind follows the planner kind.
 // Settings the API does not expose (ESDF max_voxels, OA-IPP greedy layers,
 // CMA-ES steps, score weights, ...) keep their core defaults. The start

@@ -68,9 +68,6 @@ struct PlannerLimits {
   double collision_sample_rate_hz = 20.0;
   // Spacing of the final exact collision check along the path, metres.
   double exact_check_spacing_m = 0.1;
-  // Lowest altitude a waypoint may take (the flight volume's floor is
-  // usually the ground). Metres.
-  double min_altitude_m = 2.0;
 
   [[nodiscard]] absl::Status Validate() const;
 };

@@ -84,7 +84,6 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
   EXPECT_EQ(a.limits.sensor_rate_hz, b.limits.sensor_rate_hz) << what;
   EXPECT_EQ(a.limits.collision_sample_rate_hz, b.limits.collision_sample_rate_hz) << what;
   EXPECT_EQ(a.limits.exact_check_spacing_m, b.limits.exact_check_spacing_m) << what;
-  EXPECT_EQ(a.limits.min_altitude_m, b.limits.min_altitude_m) << what;
   EXPECT_EQ(a.information.kind, b.information.kind) << what;
   EXPECT_EQ(a.information.kappa, b.information.kappa) << what;
   EXPECT_EQ(a.information.h_opt_m, b.information.h_opt_m) << what;
@@ -241,7 +240,6 @@ TEST(MissionSpecTest, DefaultSpecTakesTheProtoDocumentedDefaults) {
   EXPECT_EQ(c->planner.common.limits.dynamics.max_speed_m_s, 5);
   EXPECT_EQ(c->planner.common.limits.dynamics.max_accel_m_s2, 3);
   EXPECT_EQ(c->planner.common.limits.uav_radius_m, 1);
-  EXPECT_EQ(c->planner.common.limits.min_altitude_m, 2);
   EXPECT_EQ(c->esdf.voxel_size_m, 0.2);
   EXPECT_EQ(c->esdf.truncation_m, 2);
   EXPECT_EQ(c->planner.kind, PlannerKind::kOaIpp);
@@ -296,7 +294,6 @@ TEST(MissionSpecTest, FullyCustomSpecConvertsEveryFieldAndRoundTrips) {
   EXPECT_EQ(c->sensor_rate_hz(), 0.5);
   EXPECT_EQ(c->min_altitude_m, 3);
   EXPECT_EQ(c->max_altitude_m, 30);
-  EXPECT_EQ(c->planner.common.limits.min_altitude_m, 3);
   EXPECT_EQ(c->planner.common.limits.dynamics.max_speed_m_s, 7);
   EXPECT_EQ(c->planner.common.limits.dynamics.max_accel_m_s2, 4);
   EXPECT_EQ(c->planner.common.limits.uav_radius_m, 0.8);

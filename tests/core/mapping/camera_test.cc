@@ -6,16 +6,15 @@
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
-#include "tests/core/mapping/paper_grid.h"
 #include "tests/core/mapping/fake_line_of_sight.h"
+#include "tests/core/mapping/paper_grid.h"
 
 namespace oaipp {
 namespace {
 
+using ::oaipp::testing::PaperGrid;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using ::oaipp::testing::PaperGrid;
-
 
 TEST(SensorNoiseTest, MatchesReference) {
   const SensorNoise noise;  // A = 1, B = 0.05

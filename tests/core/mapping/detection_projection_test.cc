@@ -8,18 +8,17 @@
 #include "core/mapping/camera.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
-#include "tests/core/mapping/paper_grid.h"
 #include "opencv2/calib3d.hpp"
 #include "opencv2/core.hpp"
 #include "tests/core/mapping/fake_line_of_sight.h"
+#include "tests/core/mapping/paper_grid.h"
 
 namespace oaipp {
 namespace {
 
+using ::oaipp::testing::PaperGrid;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using ::oaipp::testing::PaperGrid;
-
 
 CameraIntrinsics Fov640x480() {
   auto k = IntrinsicsForFov(640, 480);

@@ -11,10 +11,9 @@
 namespace oaipp {
 namespace {
 
+using ::oaipp::testing::PaperGrid;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
-using ::oaipp::testing::PaperGrid;
-
 
 TEST(FieldGridTest, PaperFieldIs40By40WithRowMajorNumbering) {
   const FieldGrid grid = PaperGrid();
