@@ -168,6 +168,31 @@ TEST(ServiceTest, PlanPathReturnsASafeTrajectoryAndObstaclesMatter) {
   EXPECT_THAT(blocked.error_message(), HasSubstr("inside an obstacle"));
 }
 
+// The planner is anytime: with far more generations than fit before the
+// call's deadline, the best path found by then still reaches the client.
+TEST(ServiceTest, PlanPathAnswersWithinTheCallsDeadline) {
+  InProcessService s;
+  grpc::ClientContext create_context;
+  v1::CreateMissionRequest create;
+  create.set_mission_id("slow");
+  *create.mutable_spec() = SmallSpec();
+  create.mutable_spec()->mutable_planner()->set_generations(1000000);
+  v1::Mission mission;
+  ASSERT_TRUE(s.stub().CreateMission(&create_context, create, &mission).ok());
+  v1::PlanPathRequest request;
+  request.set_name("missions/slow");
+  request.mutable_state()->mutable_position_m()->set_x(-4);
+  request.mutable_state()->mutable_position_m()->set_y(4);
+  request.mutable_state()->mutable_position_m()->set_z(8);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::milliseconds(1500));
+  v1::PlanPathResponse path;
+  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(path.stats().stop_reason(), "deadline");
+  EXPECT_TRUE(path.collision_free());
+}
+
 TEST(ServiceTest, SpentBudgetIsAFailedPrecondition) {
   InProcessService s;
   CreateSmall(s.stub(), "b");  // 60 s budget
