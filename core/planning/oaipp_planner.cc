@@ -63,7 +63,7 @@ absl::Status OaIppConfig::Validate() const {
 }
 
 std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint64_t seed,
-                                            std::int64_t* evaluations) const {
+                                            absl::Time deadline, std::int64_t* evaluations) const {
   std::mt19937_64 rng(seed);
   const Aabb& box = scorer.waypoint_box();
   const FieldGrid& grid = scorer.grid();
@@ -76,13 +76,19 @@ std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint6
   std::vector<PoseObservation> fused = scorer.start_observations();
   std::vector<Vec3> waypoints;
   Vec3 previous = scorer.state().position_W;
-  for (int w = 1; w < config_.num_waypoints; ++w) {
+  bool out_of_time = false;
+  for (int w = 1; w < config_.num_waypoints && !out_of_time; ++w) {
     double best_score = -std::numeric_limits<double>::infinity();
     Vec3 best = previous;  // hovering is the fallback when nothing is reachable
-    for (double h : config_.greedy_altitudes_m) {
-      const double z = std::clamp(h, box.min_W.z(), box.max_W.z());
-      for (int k = 0; k < config_.greedy_candidates_per_layer; ++k) {
+    // Layers take turns, so that a deadline cuts every layer alike.
+    for (int k = 0; k < config_.greedy_candidates_per_layer && !out_of_time; ++k) {
+      for (double h : config_.greedy_altitudes_m) {
+        const double z = std::clamp(h, box.min_W.z(), box.max_W.z());
         const Vec3 p(ux(rng), uy(rng), z);
+        if (best_score > -std::numeric_limits<double>::infinity() && absl::Now() >= deadline) {
+          out_of_time = true;
+          break;
+        }
         if (!scorer.environment().IsSegmentClear(previous, p, clearance)) continue;
         std::vector<PoseObservation> poses = fused;
         poses.push_back(scorer.Observe(p));
@@ -111,7 +117,7 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const
   OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
   const std::uint64_t seed = MixSeed(config_.common.seed, state.mission_time_s);
   PlannerStats stats;
-  const std::vector<Vec3> greedy = GreedyStart(scorer, seed, &stats.evaluations);
+  const std::vector<Vec3> greedy = GreedyStart(scorer, seed, deadline, &stats.evaluations);
 
   // Every evaluated candidate without ESDF collisions competes for the
   // exact check; keep the best few.

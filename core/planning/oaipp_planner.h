@@ -6,6 +6,7 @@
 //    straight collision-free line from the previous waypoint are scored by
 //    the objective of a measurement taken there over the time to fly there;
 //    the best is kept and its predicted measurement conditions the next.
+//    Past the deadline it stops with the waypoints it has.
 // 2. CMA-ES over the 3 (N - 1) coordinates inside the flight volume, started
 //    at the greedy path with steps of a few metres, until the evaluation
 //    budget or the deadline (anytime: the best path so far is kept).
@@ -59,11 +60,11 @@ class OaIppPlanner final : public Planner {
                                                  absl::Time deadline) override;
   [[nodiscard]] const OaIppConfig& config() const { return config_; }
 
-  // The greedy start alone (exposed for tests): N - 1 waypoints. It is
-  // bounded (layers x candidates x (N - 1) evaluations), so it ignores the
-  // deadline.
+  // The greedy start alone (exposed for tests): N - 1 waypoints, or fewer
+  // when the deadline passes (it stops once the current waypoint has a
+  // reachable candidate, and the path ends there).
   [[nodiscard]] std::vector<Vec3> GreedyStart(const PathScorer& scorer, std::uint64_t seed,
-                                              std::int64_t* evaluations) const;
+                                              absl::Time deadline, std::int64_t* evaluations) const;
 
  private:
   OaIppConfig config_;

@@ -157,6 +157,8 @@ TEST(OaIppTest, DeadlineGivesAnAnytimeResult) {
   ASSERT_TRUE(path.ok()) << path.status();
   EXPECT_EQ(path->stats.stop_reason, "deadline");
   EXPECT_EQ(path->stats.generations, 0);
+  // The greedy start stopped after its first reachable viewpoint.
+  EXPECT_EQ(path->control_waypoints_W.size(), 2u);
 }
 
 TEST(LawnmowerTest, PatternCoversTheFieldAtTenMetres) {
