@@ -141,6 +141,12 @@ std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
                           end.Std(), end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, found.Mean(),
                           collisions, per_plan.Mean());
   }
+  for (const TrialResult& t : result.trials) {
+    if (!t.error.empty()) {
+      absl::StrAppendFormat(&md, "\n- %s trial %d failed: %s", PlannerKindName(t.planner), t.trial,
+                            t.error);
+    }
+  }
   return md;
 }
 

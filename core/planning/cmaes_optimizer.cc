@@ -24,6 +24,11 @@ struct Shared {
   Eigen::VectorXd best_x;
   double best_f = std::numeric_limits<double>::infinity();
   std::int64_t evaluations = 0;
+  // Past the deadline (or once cancelled) the rest of a generation is not
+  // evaluated: an expensive objective would overrun by a whole generation.
+  absl::Time deadline = absl::InfiniteFuture();
+  std::function<bool()> cancelled;
+  bool stopped = false;
 
   // Maps a scaled candidate to the real box; returns the squared distance
   // (in step units) by which it lay outside.
@@ -45,6 +50,11 @@ struct ScaledProblem {
   std::shared_ptr<Shared> shared;
 
   pagmo::vector_double fitness(const pagmo::vector_double& u) const {
+    if (shared->evaluations > 0 && (shared->stopped || absl::Now() >= shared->deadline ||
+                                    (shared->cancelled && shared->cancelled()))) {
+      shared->stopped = true;
+      return {std::numeric_limits<double>::max()};
+    }
     Eigen::VectorXd x;
     const double outside2 = shared->ToBox(u, x);
     const double fx = shared->f(x);
@@ -112,6 +122,8 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
   shared->steps = steps;
   shared->lower = lower;
   shared->upper = upper;
+  shared->deadline = deadline;
+  shared->cancelled = options.cancelled;
 
   CmaesResult result;
   try {
@@ -139,6 +151,11 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
         break;
       }
       population = cmaes.evolve(population);
+      if (shared->stopped) {  // cut short inside the generation
+        const bool late = absl::Now() >= deadline;
+        result.stop_reason = late ? StopReason::kDeadline : StopReason::kCancelled;
+        break;
+      }
       ++result.generations;
     }
   } catch (const std::exception& e) {

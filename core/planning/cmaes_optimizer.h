@@ -8,7 +8,8 @@
 // before evaluating them (plus a small penalty on the distance outside, so
 // the mean is pulled back in). It runs one generation at a time, so it stops
 // at the evaluation budget or the deadline, whichever comes first, and keeps
-// the best point ever evaluated.
+// the best point ever evaluated. Once the deadline passes (or the run is
+// cancelled) no further point is evaluated, even within a generation.
 //
 //   CmaesOptions options{.population = 12, .max_evaluations = 540, .seed = 7};
 //   auto result = MinimizeCmaes(f, x0, steps, lower, upper, options, deadline);
@@ -43,7 +44,7 @@ struct CmaesResult {
   Eigen::VectorXd best_x;  // inside the box
   double best_f = 0.0;
   std::int64_t evaluations = 0;  // counts the evaluation of x0
-  int generations = 0;
+  int generations = 0;           // completed generations
   StopReason stop_reason = StopReason::kEvaluationBudget;
 };
 

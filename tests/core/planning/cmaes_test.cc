@@ -107,17 +107,24 @@ TEST(CmaesTest, PastDeadlineStopsAtOnceWithTheStart) {
   EXPECT_EQ(r->best_f, 3.0);
 }
 
-TEST(CmaesTest, CancelledStopsBetweenGenerations) {
-  int calls = 0;
-  auto r = MinimizeCmaes(Sphere, Eigen::VectorXd::Ones(3), Eigen::VectorXd::Ones(3),
+// Cancellation is noticed before every evaluation, even inside a
+// generation: an expensive objective does not run a generation on.
+TEST(CmaesTest, CancelledStopsAtOnceEvenWithinAGeneration) {
+  int evaluated = 0;
+  auto f = [&](const Eigen::VectorXd& x) {
+    ++evaluated;
+    return Sphere(x);
+  };
+  auto r = MinimizeCmaes(f, Eigen::VectorXd::Ones(3), Eigen::VectorXd::Ones(3),
                          -Eigen::VectorXd::Ones(3) * 5, Eigen::VectorXd::Ones(3) * 5,
                          {.population = 6, .max_evaluations = 600, .seed = 2, .cancelled = [&] {
-                            return ++calls > 3;
+                            return evaluated >= 10;
                           }});
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->stop_reason, StopReason::kCancelled);
-  EXPECT_EQ(r->generations, 3);
-  EXPECT_EQ(r->evaluations, 1 + 3 * 6);
+  EXPECT_EQ(evaluated, 10);  // x0, one generation of 6, then 3 of the next
+  EXPECT_EQ(r->evaluations, 10);
+  EXPECT_EQ(r->generations, 1);
 }
 
 TEST(CmaesTest, BadInputIsRefused) {
