@@ -12,9 +12,11 @@
 namespace oaipp {
 namespace {
 
+// A scored path kept for the exact check, so it is not scored again.
 struct Candidate {
   double score;
   Eigen::VectorXd x;
+  ScoredPath path;
 };
 
 std::vector<Vec3> ToWaypoints(const Eigen::VectorXd& x) {
@@ -122,8 +124,8 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const
   // Every evaluated candidate without ESDF collisions competes for the
   // exact check; keep the best few.
   std::vector<Candidate> safe;
-  auto remember = [&](double score, const Eigen::VectorXd& x) {
-    safe.push_back({score, x});
+  auto remember = [&](const ScoredPath& path, const Eigen::VectorXd& x) {
+    safe.push_back({path.score, x, path});
     std::sort(safe.begin(), safe.end(),
               [](const Candidate& a, const Candidate& b) { return a.score > b.score; });
     if (safe.size() > static_cast<std::size_t>(config_.exact_check_candidates)) safe.pop_back();
@@ -132,7 +134,7 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const
   const ScoredPath greedy_scored = scorer.Score(greedy);
   ++stats.evaluations;
   stats.initial_objective = greedy_scored.score;
-  if (greedy_scored.ok() && greedy_scored.collision_samples == 0) remember(greedy_scored.score, x0);
+  if (greedy_scored.ok() && greedy_scored.collision_samples == 0) remember(greedy_scored, x0);
 
   stats.stop_reason = "greedy_only";
   if (config_.refine && config_.generations > 0) {
@@ -145,7 +147,7 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const
     }
     auto objective = [&](const Eigen::VectorXd& x) {
       const ScoredPath s = scorer.Score(ToWaypoints(x));
-      if (s.ok() && s.collision_samples == 0) remember(s.score, x);
+      if (s.ok() && s.collision_samples == 0) remember(s, x);
       return -s.score;
     };
     const CmaesOptions options{
@@ -167,10 +169,12 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const
   // line of sight with clearance r / 2, and from rest a single minimum-snap
   // segment is that straight line.
   if (greedy.size() > 1)
-    safe.push_back({-std::numeric_limits<double>::infinity(), FromWaypoints({greedy.front()})});
-  for (const Candidate& c : safe) {
+    safe.push_back({-std::numeric_limits<double>::infinity(), FromWaypoints({greedy.front()}), {}});
+  for (Candidate& c : safe) {
     std::vector<Vec3> waypoints = ToWaypoints(c.x);
-    ScoredPath s = scorer.Score(waypoints);
+    // Kept candidates carry their scored path; the fallback is scored only
+    // if it is reached.
+    ScoredPath s = c.path.ok() ? std::move(c.path) : scorer.Score(waypoints);
     if (!s.ok() || !scorer.CheckExact(*s.trajectory).ok()) continue;
     stats.wall_time_s = absl::ToDoubleSeconds(absl::Now() - started);
     return scorer.Finish(std::move(s), waypoints, std::move(stats));
