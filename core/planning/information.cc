@@ -60,11 +60,79 @@ double InformationParams::AltitudeReward(double altitude_m) const {
   return std::exp(-0.5 * z * z) / (sigma1_m * std::sqrt(2.0 * kPi));
 }
 
-double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) const {
-  return params_.kind == ObjectiveKind::kAdaptive ? Adaptive(poses) : NonAdaptive(poses);
+absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix) {
+  for (std::size_t i = 0; i < prefix.size(); ++i) {
+    if (prefix[i].scored) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("prefix[", i, "].scored: a conditioned prefix earns nothing, must be false"));
+    }
+  }
+  prefix_.clear();
+  conditioned_.resize(0, 0);
+  base_squared_.resize(0, 0);
+  MergedCells fused;
+  for (const PoseObservation& pose : prefix) fused.Add(pose);
+  if (fused.empty()) return absl::OkStatus();
+  const std::vector<int>& k = fused.cells();
+  const auto m = static_cast<Eigen::Index>(k.size());
+  Eigen::MatrixXd w(m, cov_.cols());  // L^-1 P_K:
+  for (Eigen::Index a = 0; a < m; ++a) w.row(a) = cov_.col(k[a]).transpose();
+  fused.Factor(cov_).matrixL().solveInPlace(w);
+  conditioned_ = cov_;
+  conditioned_.selfadjointView<Eigen::Lower>().rankUpdate(w.transpose(), -1.0);
+  conditioned_.triangularView<Eigen::StrictlyUpper>() = conditioned_.transpose();
+  prefix_ = std::move(prefix);
+  return absl::OkStatus();
 }
 
-double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses) const {
+std::size_t InformationEvaluator::PrefixLength(std::span<const PoseObservation> poses) const {
+  if (prefix_.empty() || poses.size() < prefix_.size()) return 0;
+  for (std::size_t i = 0; i < prefix_.size(); ++i) {
+    const PoseObservation& a = poses[i];
+    const PoseObservation& b = prefix_[i];
+    if (a.scored || a.variance != b.variance || a.cells != b.cells) return 0;
+  }
+  return prefix_.size();
+}
+
+double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) const {
+  const std::size_t skip = PrefixLength(poses);
+  const Eigen::MatrixXd& base = skip > 0 ? conditioned_ : cov_;
+  const auto rest = poses.subspan(skip);
+  return params_.kind == ObjectiveKind::kAdaptive ? Adaptive(rest, base)
+                                                  : NonAdaptive(rest, base, skip > 0 || prefix_.empty());
+}
+
+Eigen::VectorXd InformationEvaluator::PosteriorVariances(
+    std::span<const PoseObservation> poses) const {
+  const std::size_t skip = PrefixLength(poses);
+  const Eigen::MatrixXd& base = skip > 0 ? conditioned_ : cov_;
+  MergedCells fused;
+  for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
+  Eigen::VectorXd var = base.diagonal();
+  if (fused.empty()) return var;
+  const std::vector<int>& k = fused.cells();
+  const auto m = static_cast<Eigen::Index>(k.size());
+  Eigen::MatrixXd w(m, base.cols());  // L^-1 B_K:
+  for (Eigen::Index a = 0; a < m; ++a) w.row(a) = base.col(k[a]).transpose();
+  fused.Factor(base).matrixL().solveInPlace(w);
+  var -= w.colwise().squaredNorm().transpose();
+  return var;
+}
+
+double InformationEvaluator::PoseValue(const PoseObservation& pose,
+                                       const Eigen::VectorXd& variances) const {
+  const double reward = pose.scored ? params_.AltitudeReward(pose.altitude_m) : 0.0;
+  if (reward <= 0.0) return 0.0;
+  double av = 0.0;
+  for (int c : pose.cells) {
+    av += mean_[c] + params_.kappa * std::sqrt(std::max(variances[c], 0.0));
+  }
+  return av * reward;
+}
+
+double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
+                                      const Eigen::MatrixXd& base) const {
   double total = 0.0;
   MergedCells fused;
   for (std::size_t i = 0; i < poses.size(); ++i) {
@@ -73,15 +141,15 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses) co
     if (reward > 0.0 && !pose.cells.empty()) {
       const auto m = static_cast<Eigen::Index>(pose.cells.size());
       Eigen::VectorXd var(m);
-      for (Eigen::Index j = 0; j < m; ++j) var[j] = cov_(pose.cells[j], pose.cells[j]);
+      for (Eigen::Index j = 0; j < m; ++j) var[j] = base(pose.cells[j], pose.cells[j]);
       if (!fused.empty()) {
         const std::vector<int>& k = fused.cells();
         const auto mk = static_cast<Eigen::Index>(k.size());
-        Eigen::MatrixXd cross(mk, m);  // P_K,J
+        Eigen::MatrixXd cross(mk, m);  // B_K,J
         for (Eigen::Index j = 0; j < m; ++j) {
-          for (Eigen::Index a = 0; a < mk; ++a) cross(a, j) = cov_(k[a], pose.cells[j]);
+          for (Eigen::Index a = 0; a < mk; ++a) cross(a, j) = base(k[a], pose.cells[j]);
         }
-        fused.Factor(cov_).matrixL().solveInPlace(cross);
+        fused.Factor(base).matrixL().solveInPlace(cross);
         var -= cross.colwise().squaredNorm().transpose();
       }
       double av = 0.0;
@@ -95,7 +163,8 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses) co
   return total;
 }
 
-double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses) const {
+double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
+                                         const Eigen::MatrixXd& base, bool base_is_cached) const {
   // Unscored poses set the baseline: the trace after them, not before.
   MergedCells baseline, all;
   for (const PoseObservation& pose : poses) {
@@ -106,10 +175,10 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses)
     if (fused.empty()) return 0.0;
     const std::vector<int>& k = fused.cells();
     const auto m = static_cast<Eigen::Index>(k.size());
-    const Eigen::LLT<Eigen::MatrixXd> factor = fused.Factor(cov_);
-    if (m < cov_.cols() / 2) {
-      // sum((P_KK + R)^-1 o (P^2)_KK): about m^3 once P^2 is known.
-      const Eigen::MatrixXd& g = CovarianceSquared();
+    const Eigen::LLT<Eigen::MatrixXd> factor = fused.Factor(base);
+    if (base_is_cached && m < base.cols() / 2) {
+      // sum((B_KK + R)^-1 o (B^2)_KK): about m^3 once B^2 is known.
+      const Eigen::MatrixXd& g = BaseSquared();
       const Eigen::MatrixXd s_inv = factor.solve(Eigen::MatrixXd::Identity(m, m));
       double sum = 0.0;
       for (Eigen::Index b = 0; b < m; ++b) {
@@ -117,23 +186,24 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses)
       }
       return sum;
     }
-    // |L^-1 P_K,:|_F^2: m^2 n, cheaper when K is most of the field.
-    Eigen::MatrixXd rows(m, cov_.cols());  // P_K,:
-    for (Eigen::Index a = 0; a < m; ++a) rows.row(a) = cov_.col(k[a]).transpose();
+    // |L^-1 B_K,:|_F^2: m^2 n, cheaper when K is most of the field.
+    Eigen::MatrixXd rows(m, base.cols());  // B_K,:
+    for (Eigen::Index a = 0; a < m; ++a) rows.row(a) = base.col(k[a]).transpose();
     factor.matrixL().solveInPlace(rows);
     return rows.squaredNorm();
   };
   return reduction(all) - reduction(baseline);
 }
 
-const Eigen::MatrixXd& InformationEvaluator::CovarianceSquared() const {
-  if (cov_squared_.size() == 0) {
-    // P symmetric: P^2 = P P^T, a symmetric rank-n update (half a product).
-    cov_squared_ = Eigen::MatrixXd::Zero(cov_.rows(), cov_.cols());
-    cov_squared_.selfadjointView<Eigen::Lower>().rankUpdate(cov_);
-    cov_squared_.triangularView<Eigen::StrictlyUpper>() = cov_squared_.transpose();
+const Eigen::MatrixXd& InformationEvaluator::BaseSquared() const {
+  if (base_squared_.size() == 0) {
+    // B symmetric: B^2 = B B^T, a symmetric rank-n update (half a product).
+    const Eigen::MatrixXd& base = prefix_.empty() ? cov_ : conditioned_;
+    base_squared_ = Eigen::MatrixXd::Zero(base.rows(), base.cols());
+    base_squared_.selfadjointView<Eigen::Lower>().rankUpdate(base);
+    base_squared_.triangularView<Eigen::StrictlyUpper>() = base_squared_.transpose();
   }
-  return cov_squared_;
+  return base_squared_;
 }
 
 double ReferenceInformation(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,

@@ -73,21 +73,48 @@ class InformationEvaluator {
                        const InformationParams& params)
       : mean_(mean), cov_(covariance), params_(params) {}
 
+  // Fuses `prefix` (unscored poses, e.g. the shot due where the UAV is now,
+  // which every candidate of a replan shares) into a private copy of the
+  // covariance, once: P_c = P - P_:K (P_KK + R)^-1 P_K:. Later Evaluate and
+  // PosteriorVariances calls whose poses begin with exactly these poses start
+  // from P_c and skip them; others take the plain path. About k n^2 flops
+  // for k prefix cells, n^2 doubles of memory. InvalidArgument if a prefix
+  // pose is scored.
+  absl::Status Condition(std::vector<PoseObservation> prefix);
+
   // O_info of fusing `poses` in order. Preconditions: valid cell indices,
   // positive variances (the planner builds them; not re-checked here).
   [[nodiscard]] double Evaluate(std::span<const PoseObservation> poses) const;
 
- private:
-  [[nodiscard]] double Adaptive(std::span<const PoseObservation> poses) const;
-  [[nodiscard]] double NonAdaptive(std::span<const PoseObservation> poses) const;
+  // Predicted variance of every cell after fusing all of `poses` (n values).
+  // With it, a single further pose is valued in O(cells) by PoseValue: the
+  // greedy start scores many one-shot candidates against one history so.
+  [[nodiscard]] Eigen::VectorXd PosteriorVariances(std::span<const PoseObservation> poses) const;
+  // The adaptive value of one scored `pose` whose cells have the predicted
+  // `variances`: N(h) * sum over cells of mu + kappa sigma. Equals
+  // Evaluate(history + {pose}) with variances = PosteriorVariances(history).
+  [[nodiscard]] double PoseValue(const PoseObservation& pose,
+                                 const Eigen::VectorXd& variances) const;
 
-  // (P^2), computed on first need by the non-adaptive objective.
-  const Eigen::MatrixXd& CovarianceSquared() const;
+ private:
+  // Number of leading poses covered by the conditioned prefix: prefix_.size()
+  // when `poses` begins with it, else 0.
+  [[nodiscard]] std::size_t PrefixLength(std::span<const PoseObservation> poses) const;
+  [[nodiscard]] double Adaptive(std::span<const PoseObservation> poses,
+                                const Eigen::MatrixXd& base) const;
+  [[nodiscard]] double NonAdaptive(std::span<const PoseObservation> poses,
+                                   const Eigen::MatrixXd& base, bool base_is_cached) const;
+
+  // (B^2) of the base the non-adaptive objective starts from (P_c when a
+  // prefix is conditioned, else P), computed on first need.
+  const Eigen::MatrixXd& BaseSquared() const;
 
   const Eigen::VectorXd& mean_;
   const Eigen::MatrixXd& cov_;
   InformationParams params_;
-  mutable Eigen::MatrixXd cov_squared_;
+  std::vector<PoseObservation> prefix_;
+  Eigen::MatrixXd conditioned_;  // P_c, empty without a prefix
+  mutable Eigen::MatrixXd base_squared_;
 };
 
 // The oracle: sequential full Kalman covariance updates on a copy of the

@@ -82,6 +82,10 @@ std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint6
   for (int w = 1; w < config_.num_waypoints && !out_of_time; ++w) {
     double best_score = -std::numeric_limits<double>::infinity();
     Vec3 best = previous;  // hovering is the fallback when nothing is reachable
+    // Adaptive: every candidate is one scored shot after `fused`, valued from
+    // the variances predicted once per waypoint.
+    Eigen::VectorXd variances;
+    if (scorer.adaptive()) variances = scorer.PosteriorVariances(fused);
     // Layers take turns, so that a deadline cuts every layer alike.
     for (int k = 0; k < config_.greedy_candidates_per_layer && !out_of_time; ++k) {
       for (double h : config_.greedy_altitudes_m) {
@@ -92,13 +96,20 @@ std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint6
           break;
         }
         if (!scorer.environment().IsSegmentClear(previous, p, clearance)) continue;
-        std::vector<PoseObservation> poses = fused;
-        poses.push_back(scorer.Observe(p));
+        PoseObservation shot = scorer.Observe(p);
+        double information;
+        if (scorer.adaptive()) {
+          information = scorer.PoseValue(shot, variances);
+        } else {
+          std::vector<PoseObservation> poses = fused;
+          poses.push_back(std::move(shot));
+          information = scorer.Information(poses);
+        }
         ++*evaluations;
         const double t =
             std::max(RampSegmentTime((p - previous).norm(), config_.common.limits.dynamics),
                      scorer.weights().min_flight_time_s);
-        const double score = scorer.weights().k1 * scorer.Information(poses) / t;
+        const double score = scorer.weights().k1 * information / t;
         if (score > best_score) {
           best_score = score;
           best = p;

@@ -30,6 +30,7 @@ PathScorer::PathScorer(const MissionView& mission, const UavState& state,
       limits_(limits),
       weights_(weights),
       evaluator_(mission.map->Mean(), mission.map->Covariance(), information),
+      adaptive_(information.kind == ObjectiveKind::kAdaptive),
       waypoint_box_(mission.environment->flight_volume().Inflated(-0.5 * limits.uav_radius_m)) {}
 
 absl::Status PlannerCommon::Validate() const {
@@ -95,6 +96,8 @@ absl::StatusOr<PathScorer> PathScorer::Create(const MissionView& mission, const 
   PathScorer scorer(mission, state, limits, common.information, common.weights);
   if (state.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
     scorer.start_observations_.push_back(scorer.Observe(state.position_W, /*scored=*/false));
+    // Every candidate fuses this shot first: condition on it once.
+    OAIPP_RETURN_IF_ERROR(scorer.evaluator_.Condition(scorer.start_observations_));
   }
   return scorer;
 }

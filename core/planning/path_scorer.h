@@ -70,6 +70,18 @@ class PathScorer {
   [[nodiscard]] double Information(std::span<const PoseObservation> poses) const {
     return evaluator_.Evaluate(poses);
   }
+  // For valuing many single scored shots after one fused `history` (adaptive
+  // objective only): PoseValue(shot, PosteriorVariances(history)) equals
+  // Information(history + {shot}).
+  [[nodiscard]] bool adaptive() const { return adaptive_; }
+  [[nodiscard]] Eigen::VectorXd PosteriorVariances(
+      std::span<const PoseObservation> history) const {
+    return evaluator_.PosteriorVariances(history);
+  }
+  [[nodiscard]] double PoseValue(const PoseObservation& shot,
+                                 const Eigen::VectorXd& variances) const {
+    return evaluator_.PoseValue(shot, variances);
+  }
 
   // OK when every point of the trajectory stays inside the flight volume
   // and at least r_uav / 2 from every obstacle under the exact geometry
@@ -103,6 +115,7 @@ class PathScorer {
   PlannerLimits limits_;
   ScoreWeights weights_;
   InformationEvaluator evaluator_;
+  bool adaptive_;
   Aabb waypoint_box_;
   std::vector<PoseObservation> start_observations_;
 };

@@ -82,8 +82,83 @@ TEST_P(InformationAgreementTest, FastEqualsReferenceOnThePaperMap) {
   }
 }
 
+// Conditioned on a shared unscored prefix (as every replan is, on the shot
+// due at the start): paths that begin with the prefix take the conditioned
+// path, others the plain one; both agree with the oracle to 1e-9 relative.
+TEST_P(InformationAgreementTest, ConditionedPrefixEqualsReference) {
+  const GpMap map = RandomPosterior(16, 6);
+  const InformationParams params{.kind = GetParam(), .kappa = 0.8};
+  std::mt19937 rng(29);
+  std::vector<PoseObservation> prefix = RandomPoses(map.grid(), rng);
+  for (PoseObservation& pose : prefix) pose.scored = false;
+  InformationEvaluator fast(map.Mean(), map.Covariance(), params);
+  ASSERT_TRUE(fast.Condition(prefix).ok());
+  int with_prefix = 0;
+  for (int path = 0; path < 200; ++path) {
+    std::vector<PoseObservation> poses = RandomPoses(map.grid(), rng);
+    if (path % 4 != 0) {
+      for (PoseObservation& pose : poses) pose.scored = true;
+      poses.insert(poses.begin(), prefix.begin(), prefix.end());
+      ++with_prefix;
+    }
+    const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
+    EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference) + 1e-12)
+        << "path " << path;
+  }
+  EXPECT_EQ(with_prefix, 150);
+}
+
 INSTANTIATE_TEST_SUITE_P(BothObjectives, InformationAgreementTest,
                          ::testing::Values(ObjectiveKind::kAdaptive, ObjectiveKind::kNonAdaptive));
+
+// PosteriorVariances against the oracle's full covariance update, and
+// PoseValue(shot, variances) against Evaluate(history + shot), with and
+// without a conditioned prefix.
+TEST(InformationTest, PosteriorVariancesMatchFullUpdates) {
+  const GpMap map = RandomPosterior(16, 8);
+  const InformationParams params{.kappa = 1.1};
+  std::mt19937 rng(31);
+  std::vector<PoseObservation> prefix = RandomPoses(map.grid(), rng);
+  for (PoseObservation& pose : prefix) pose.scored = false;
+  InformationEvaluator plain(map.Mean(), map.Covariance(), params);
+  InformationEvaluator conditioned(map.Mean(), map.Covariance(), params);
+  ASSERT_TRUE(conditioned.Condition(prefix).ok());
+  for (int trial = 0; trial < 20; ++trial) {
+    std::vector<PoseObservation> history = prefix;
+    for (PoseObservation pose : RandomPoses(map.grid(), rng)) {
+      pose.scored = false;
+      history.push_back(std::move(pose));
+    }
+    Eigen::MatrixXd p = map.Covariance();
+    for (const PoseObservation& pose : history) {
+      std::vector<CellObservation> obs;
+      for (int c : pose.cells) obs.push_back({c, 0.0, pose.variance});
+      ASSERT_TRUE(UpdateCovariance(obs, p).ok());
+    }
+    const Eigen::VectorXd expected = p.diagonal();
+    for (const InformationEvaluator* e : {&plain, &conditioned}) {
+      const Eigen::VectorXd var = e->PosteriorVariances(history);
+      ASSERT_EQ(var.size(), expected.size());
+      for (Eigen::Index c = 0; c < var.size(); ++c) EXPECT_NEAR(var[c], expected[c], 1e-12);
+      PoseObservation shot = RandomPoses(map.grid(), rng).back();
+      shot.scored = true;
+      shot.altitude_m = 9.0;
+      std::vector<PoseObservation> path = history;
+      path.push_back(shot);
+      const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, path);
+      EXPECT_NEAR(e->PoseValue(shot, var), reference, 1e-9 * std::abs(reference));
+    }
+  }
+}
+
+TEST(InformationTest, ConditionRejectsAScoredPrefix) {
+  const GpMap map = RandomPosterior(8, 3);
+  InformationEvaluator e(map.Mean(), map.Covariance(), {});
+  PoseObservation pose{.cells = {1, 2}, .variance = 0.3, .altitude_m = 10, .scored = true};
+  const absl::Status s = e.Condition({pose});
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("prefix[0].scored"), std::string::npos) << s;
+}
 
 // Closed forms on a single cell: prior variance v, mean m, noise r.
 //   adaptive, one pose:  (m + kappa sqrt(v)) N(h; 10, 7)
