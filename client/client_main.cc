@@ -3,6 +3,7 @@
 //   oaipp-client run client/scenarios/e1.json --out=out/e1
 //   oaipp-client health
 //   oaipp-client map missions/m-000001 --png=map.png
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -13,8 +14,12 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_format.h"
 #include "client/evaluation.h"
+#include "client/map_image.h"
 #include "client/mission_runner.h"
+#include "client/random_world.h"
 #include "client/scenario.h"
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "address of the oaipp-server (host:port)");
@@ -25,7 +30,11 @@ ABSL_FLAG(std::string, png, "", "map: file to write the map image to");
 ABSL_FLAG(int, trials, 25, "eval: trials per planner (seeds 1..trials)");
 ABSL_FLAG(int, parallel, 2, "eval: missions flown at once");
 ABSL_FLAG(double, plan_deadline_s, 0.0, "eval: deadline of each PlanPath call (0: none)");
-ABSL_FLAG(std::string, scenario, "client/scenarios/e1.json", "eval: the scenario file");
+ABSL_FLAG(std::string, scenario, "",
+          "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
+ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
+ABSL_FLAG(std::string, frames, "",
+          "run: folder for an image sequence of the mission (a map PNG per measurement)");
 
 namespace {
 
@@ -34,18 +43,27 @@ constexpr char kUsage[] = R"(oaipp-client COMMAND [ARGS] [FLAGS]
 Commands:
   run SCENARIO.json   fly the scenario's mission against the server; prints a
                       progress line per measurement (time, RSE, Tr(P), targets
-                      found) and writes steps.csv and map.png to --out
+                      found) and writes steps.csv and map.png to --out; with
+                      --frames=DIR also a map image per measurement and
+                      DIR/sequence.png (six of them side by side)
   health              check that the server answers
   map MISSION --png=FILE
                       write a mission's map image (mean | std deviation)
-  eval E1|E2          many trials as concurrent missions (with a progress bar):
-                      E1 = OA-IPP, lawnmower and random; E2 = adaptive against
-                      non-adaptive OA-IPP; on --scenario (default the E1 file).
-                      Writes trials.csv, summary.md and rse.png to --out
-                      (default out/eval/E1 or E2).
+  eval E1|E2|E3|E4|E5 many trials as concurrent missions (with a progress bar
+                      and an ETA); trial k uses seed k:
+                      E1 = OA-IPP, lawnmower and random on the E1 world;
+                      E2 = adaptive against non-adaptive OA-IPP on E1;
+                      E3 = OA-IPP over random worlds, low-/high-rise 4 x 4 m
+                           buildings at densities 5, 10, 15 (trial k flies
+                           world k), --e3_budget_s (300) each;
+                      E4, E5 = OA-IPP and lawnmower on e4.json / e5.json.
+                      Writes trials.csv, summary.md, a figure over time
+                      (rse.png, or trace.png for E3) and map_<variant>.png
+                      (trial 1) to --out (default out/eval/<experiment>).
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
-       --trials (25), --parallel (2), --plan_deadline_s (0: none), --scenario.)";
+       --frames (run), --trials (25), --parallel (2), --plan_deadline_s
+       (0: none), --scenario, --e3_budget_s.)";
 
 using oaipp::client::Client;
 
@@ -73,12 +91,47 @@ int Run(const std::string& path) {
                 s.targets_found, sim->num_targets(), s.path_length_m, s.collisions);
     std::fflush(stdout);
   };
-  absl::StatusOr<oaipp::client::RunResult> result =
-      oaipp::client::RunScenario(client, *scenario, *sim, progress, absl::GetFlag(FLAGS_keep));
+  // --frames: a map image per measurement, kept with its caption.
+  const std::string frames_dir = absl::GetFlag(FLAGS_frames);
+  std::vector<std::string> frames, captions;
+  std::string caption;
+  auto on_step = [&](const oaipp::client::StepRecord& s) {
+    progress(s);
+    caption = absl::StrFormat("t = %.0f s, RSE %.2f, found %d/%d", s.mission_time_s, s.rse,
+                              s.targets_found, sim->num_targets());
+  };
+  std::function<void(const std::string&)> on_frame;
+  if (!frames_dir.empty()) {
+    std::filesystem::create_directories(frames_dir);
+    on_frame = [&](const std::string& png) {
+      std::ofstream(absl::StrFormat("%s/frame_%03d.png", frames_dir, frames.size()),
+                    std::ios::binary)
+          << png;
+      frames.push_back(png);
+      captions.push_back(caption);
+    };
+  }
+  absl::StatusOr<oaipp::client::RunResult> result = oaipp::client::RunScenario(
+      client, *scenario, *sim, on_step, absl::GetFlag(FLAGS_keep), on_frame);
   if (!result.ok()) return Fail(result.status());
   std::string out = absl::GetFlag(FLAGS_out);
   if (out.empty()) out = absl::StrCat("out/", scenario->name().empty() ? "run" : scenario->name());
   std::filesystem::create_directories(out);
+  if (!frames.empty()) {
+    // Six frames evenly spread over the mission, first and last included.
+    std::vector<std::string> picked, picked_captions;
+    const int count = std::min<int>(6, static_cast<int>(frames.size()));
+    for (int i = 0; i < count; ++i) {
+      const std::size_t k =
+          count == 1 ? 0 : static_cast<std::size_t>(i) * (frames.size() - 1) / (count - 1);
+      picked.push_back(frames[k]);
+      picked_captions.push_back(captions[k]);
+    }
+    absl::StatusOr<std::string> sheet = oaipp::client::MontagePng(picked, picked_captions, 2);
+    if (!sheet.ok()) return Fail(sheet.status());
+    std::ofstream(frames_dir + "/sequence.png", std::ios::binary) << *sheet;
+    std::printf("wrote %zu frames and sequence.png to %s\n", frames.size(), frames_dir.c_str());
+  }
   std::ofstream(out + "/steps.csv") << oaipp::client::StepsCsv(result->steps);
   std::ofstream(out + "/map.png", std::ios::binary) << result->final_map_png;
   const oaipp::client::StepRecord& last = result->steps.back();
@@ -90,23 +143,76 @@ int Run(const std::string& path) {
   return last.collisions == 0 ? 0 : 3;
 }
 
-int Eval(const std::string& experiment) {
-  std::vector<oaipp::PlannerKind> planners;
-  std::string paper;
-  if (experiment == "E1") {
-    planners = {oaipp::PlannerKind::kOaIpp, oaipp::PlannerKind::kLawnmower,
-                oaipp::PlannerKind::kRandom};
-    paper = "oaipp=5.17 lawnmower=5.85 random=6.22";
-  } else if (experiment == "E2") {
-    planners = {oaipp::PlannerKind::kOaIpp, oaipp::PlannerKind::kOaIppNonAdaptive};
-    paper = "oaipp=5.17 oaipp_nonadaptive=5.29";
+// The variants of an experiment and the paper's values at the end.
+struct Experiment {
+  std::vector<oaipp::client::Variant> variants;
+  std::string paper;   // label=value pairs for the figure
+  std::string column;  // plotted over time
+};
+
+absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
+                                          const oaipp::v1::Scenario& scenario) {
+  using oaipp::PlannerKind;
+  using oaipp::client::PlannerVariants;
+  Experiment e;
+  e.column = "rse";
+  if (name == "E1") {
+    e.variants = PlannerVariants(
+        scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom});
+    e.paper = "oaipp=5.17 lawnmower=5.85 random=6.22";
+  } else if (name == "E2") {
+    e.variants =
+        PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kOaIppNonAdaptive});
+    e.paper = "oaipp=5.17 oaipp_nonadaptive=5.29";
+  } else if (name == "E3") {
+    // OA-IPP over seeded random worlds: trial k flies world k.
+    e.column = "trace";
+    oaipp::v1::Scenario base = scenario;
+    base.mutable_mission()->set_budget_s(absl::GetFlag(FLAGS_e3_budget_s));
+    for (auto kind : {oaipp::client::BuildingKind::kLowRise,
+                      oaipp::client::BuildingKind::kHighRise}) {
+      for (int count : {5, 10, 15}) {
+        const std::string label =
+            absl::StrCat(oaipp::client::BuildingKindName(kind), " ", count);
+        e.variants.push_back(
+            {label, [base, kind, count](int trial) -> absl::StatusOr<oaipp::v1::Scenario> {
+               absl::StatusOr<oaipp::v1::Scenario> s = oaipp::client::RandomWorld(
+                   base, {.kind = kind,
+                          .count = count,
+                          .seed = static_cast<std::uint64_t>(1000 * count + trial)});
+               if (!s.ok()) return s.status();
+               s->set_name(absl::StrCat("e3-", count, "-", trial));
+               s->set_seed(static_cast<std::uint64_t>(trial));
+               s->mutable_mission()->mutable_planner()->set_kind(
+                   oaipp::v1::PLANNER_KIND_OAIPP);
+               s->mutable_mission()->mutable_planner()->set_seed(
+                   static_cast<std::uint32_t>(trial));
+               return s;
+             }});
+      }
+    }
+  } else if (name == "E4" || name == "E5") {
+    e.variants = PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower});
   } else {
-    return Fail(absl::InvalidArgumentError(
-        absl::StrCat("eval: unknown experiment '", experiment, "' (E1 or E2)")));
+    return absl::InvalidArgumentError(
+        absl::StrCat("eval: unknown experiment '", name, "' (E1, E2, E3, E4 or E5)"));
   }
-  absl::StatusOr<oaipp::v1::Scenario> scenario =
-      oaipp::client::LoadScenarioFile(absl::GetFlag(FLAGS_scenario));
+  return e;
+}
+
+std::string DefaultScenario(const std::string& experiment) {
+  if (experiment == "E4") return "client/scenarios/e4.json";
+  if (experiment == "E5") return "client/scenarios/e5.json";
+  return "client/scenarios/e1.json";
+}
+
+int Eval(const std::string& experiment) {
+  std::string scenario_path = absl::GetFlag(FLAGS_scenario);
+  if (scenario_path.empty()) scenario_path = DefaultScenario(experiment);
+  absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::client::LoadScenarioFile(scenario_path);
   if (!scenario.ok()) return Fail(scenario.status());
+  absl::StatusOr<Experiment> e = MakeExperiment(experiment, *scenario);
+  if (!e.ok()) return Fail(e.status());
   Client probe = Client::Connect(absl::GetFlag(FLAGS_server));
   if (absl::Status up = probe.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
   oaipp::client::EvalOptions options{.trials = absl::GetFlag(FLAGS_trials),
@@ -123,7 +229,7 @@ int Eval(const std::string& experiment) {
     if (done == total) std::fprintf(stderr, "\n");
   };
   absl::StatusOr<oaipp::client::EvalResult> result = oaipp::client::RunEvaluation(
-      absl::GetFlag(FLAGS_server), *scenario, planners, options, progress);
+      absl::GetFlag(FLAGS_server), e->variants, options, progress);
   if (!result.ok()) return Fail(result.status());
   std::string out = absl::GetFlag(FLAGS_out);
   if (out.empty()) out = "out/eval/" + experiment;
@@ -133,14 +239,28 @@ int Eval(const std::string& experiment) {
   const std::string summary = oaipp::client::SummaryMarkdown(*result, budget);
   std::ofstream(out + "/summary.md") << summary;
   std::printf("%s\n", summary.c_str());
-  const std::string plot = absl::StrCat("/usr/bin/python3 client/plots/plot_curves.py ", out,
-                                        "/trials.csv rse ", out, "/rse.png --title '", experiment,
-                                        ": RSE over time, mean +- std' --paper ", paper);
+  std::vector<std::string> written = {"trials.csv", "summary.md"};
+  // The final map of trial 1 of each variant, with its flown path.
+  for (const oaipp::client::TrialResult& t : result->trials) {
+    if (t.map_png.empty()) continue;
+    std::string file = absl::StrCat("map_", t.variant, ".png");
+    std::replace(file.begin(), file.end(), ' ', '_');
+    std::ofstream(out + "/" + file, std::ios::binary) << t.map_png;
+    written.push_back(file);
+  }
+  const std::string figure = e->column + ".png";
+  const std::string title = e->column == "rse" ? ": RSE over time, mean +- std"
+                                               : ": Tr(P) over time, mean +- std";
+  std::string plot = absl::StrCat("/usr/bin/python3 client/plots/plot_curves.py ", out,
+                                  "/trials.csv ", e->column, " ", out, "/", figure, " --title '",
+                                  experiment, title, "'");
+  if (!e->paper.empty()) absl::StrAppend(&plot, " --paper ", e->paper);
   if (std::system(plot.c_str()) != 0) {
     std::fprintf(stderr, "warning: the figure was not drawn (%s)\n", plot.c_str());
+  } else {
+    written.push_back(figure);
   }
-  std::printf("wrote %s/trials.csv, %s/summary.md, %s/rse.png\n", out.c_str(), out.c_str(),
-              out.c_str());
+  std::printf("wrote to %s: %s\n", out.c_str(), absl::StrJoin(written, ", ").c_str());
   return 0;
 }
 

@@ -44,24 +44,43 @@ std::vector<StepRecord> Resample(const std::vector<StepRecord>& steps,
   return out;
 }
 
-absl::StatusOr<EvalResult> RunEvaluation(const std::string& address, const v1::Scenario& scenario,
-                                         const std::vector<PlannerKind>& planners,
+std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
+                                     const std::vector<PlannerKind>& planners) {
+  std::vector<Variant> variants;
+  for (PlannerKind kind : planners) {
+    variants.push_back({PlannerKindName(kind), [scenario, kind](int trial) {
+                          v1::Scenario s = scenario;
+                          s.set_seed(static_cast<std::uint64_t>(trial));
+                          v1::PlannerSpec* planner = s.mutable_mission()->mutable_planner();
+                          planner->set_kind(server::PlannerKindToProto(kind));
+                          planner->set_seed(static_cast<std::uint32_t>(trial));
+                          return absl::StatusOr<v1::Scenario>(std::move(s));
+                        }});
+  }
+  return variants;
+}
+
+absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
+                                         const std::vector<Variant>& variants,
                                          const EvalOptions& options,
                                          const std::function<void(int, int)>& progress) {
   if (options.trials < 1 || options.parallel < 1 || !(options.grid_s > 0)) {
     return absl::InvalidArgumentError("eval: trials, parallel and grid_s must be positive");
   }
+  if (variants.empty()) return absl::InvalidArgumentError("eval: no variants");
   struct Job {
-    PlannerKind planner;
+    const Variant* variant;
     int trial;
   };
   std::vector<Job> jobs;
   for (int t = 1; t <= options.trials; ++t) {
-    for (PlannerKind p : planners) jobs.push_back({p, t});
+    for (const Variant& v : variants) jobs.push_back({&v, t});
   }
   EvalResult result;
   result.trials.resize(jobs.size());
-  const double budget = scenario.mission().has_budget_s() ? scenario.mission().budget_s() : 150.0;
+  absl::StatusOr<v1::Scenario> first = variants.front().scenario(1);
+  if (!first.ok()) return first.status();
+  const double budget = first->mission().has_budget_s() ? first->mission().budget_s() : 150.0;
   for (double t = 0; t <= budget + 1e-9; t += options.grid_s) result.grid_s.push_back(t);
 
   std::atomic<std::size_t> next{0};
@@ -74,20 +93,19 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address, const v1::S
     Client client = Client::Connect(address, client_options);
     for (std::size_t j = next++; j < jobs.size(); j = next++) {
       TrialResult& out = result.trials[j];
-      out.planner = jobs[j].planner;
+      out.variant = jobs[j].variant->label;
       out.trial = jobs[j].trial;
-      v1::Scenario s = scenario;
-      s.set_seed(static_cast<std::uint64_t>(jobs[j].trial));
-      v1::PlannerSpec* planner = s.mutable_mission()->mutable_planner();
-      planner->set_kind(server::PlannerKindToProto(jobs[j].planner));
-      planner->set_seed(static_cast<std::uint32_t>(jobs[j].trial));
-      absl::StatusOr<Simulation> sim = Simulation::Create(s);
+      absl::StatusOr<v1::Scenario> s = jobs[j].variant->scenario(jobs[j].trial);
+      absl::StatusOr<Simulation> sim =
+          s.ok() ? Simulation::Create(*s) : absl::StatusOr<Simulation>(s.status());
       absl::StatusOr<RunResult> run =
-          sim.ok() ? RunScenario(client, s, *sim) : absl::StatusOr<RunResult>(sim.status());
+          sim.ok() ? RunScenario(client, *s, *sim) : absl::StatusOr<RunResult>(sim.status());
       if (run.ok()) {
+        out.num_targets = sim->num_targets();
         out.steps = Resample(run->steps, result.grid_s);
         out.plans = run->plans;
         out.planning_time_s = run->planning_time_s;
+        if (out.trial == 1) out.map_png = std::move(run->final_map_png);
       } else {
         out.error = std::string(run.status().message());
       }
@@ -103,28 +121,33 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address, const v1::S
 }
 
 std::string TrialsCsv(const EvalResult& result) {
-  std::string csv = "planner,trial,time_s,rse,rmse,trace,targets_found,path_length_m,collisions\n";
+  std::string csv = "variant,trial,time_s,rse,rmse,trace,targets_found,path_length_m,collisions\n";
   for (const TrialResult& t : result.trials) {
     for (const StepRecord& s : t.steps) {
-      absl::StrAppendFormat(&csv, "%s,%d,%.1f,%.6f,%.6f,%.6f,%d,%.3f,%d\n",
-                            PlannerKindName(t.planner), t.trial, s.mission_time_s, s.rse, s.rmse,
-                            s.trace, s.targets_found, s.path_length_m, s.collisions);
+      absl::StrAppendFormat(&csv, "%s,%d,%.1f,%.6f,%.6f,%.6f,%d,%.3f,%d\n", t.variant, t.trial,
+                            s.mission_time_s, s.rse, s.rmse, s.trace, s.targets_found,
+                            s.path_length_m, s.collisions);
     }
   }
   return csv;
 }
 
 std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
-  std::map<std::string, std::vector<const TrialResult*>> by_planner;
-  for (const TrialResult& t : result.trials) by_planner[PlannerKindName(t.planner)].push_back(&t);
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<const TrialResult*>> by_variant;
+  for (const TrialResult& t : result.trials) {
+    if (!by_variant.contains(t.variant)) order.push_back(t.variant);
+    by_variant[t.variant].push_back(&t);
+  }
   std::string md = absl::StrFormat(
-      "| planner | trials | failed | RSE at 0 s | RSE at %.0f s (mean +- std) | std error | "
-      "targets found | collisions | planning s / plan |\n| --- | --- | --- | --- | --- | --- | --- "
-      "| --- | --- |\n",
-      budget_s);
-  for (const auto& [name, trials] : by_planner) {
-    Moments start, end, found, per_plan;
-    int failed = 0, collisions = 0;
+      "| variant | trials | failed | RSE at 0 s | RSE at %.0f s (mean +- std) | std error | "
+      "Tr(P) at %.0f s | targets found | all found | collisions | planning s / plan |\n"
+      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+      budget_s, budget_s);
+  for (const std::string& name : order) {
+    const std::vector<const TrialResult*>& trials = by_variant[name];
+    Moments start, end, trace, found, per_plan;
+    int failed = 0, collisions = 0, all_found = 0;
     for (const TrialResult* t : trials) {
       if (!t->error.empty() || t->steps.empty()) {
         ++failed;
@@ -132,19 +155,21 @@ std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
       }
       start.Add(t->steps.front().rse);
       end.Add(t->steps.back().rse);
+      trace.Add(t->steps.back().trace);
       found.Add(t->steps.back().targets_found);
+      all_found += t->num_targets > 0 && t->steps.back().targets_found == t->num_targets;
       collisions += t->steps.back().collisions;
       if (t->plans > 0) per_plan.Add(t->planning_time_s / t->plans);
     }
-    absl::StrAppendFormat(&md, "| %s | %d | %d | %.3f | %.3f +- %.3f | %.3f | %.2f | %d | %.3f |\n",
-                          name, static_cast<int>(trials.size()), failed, start.Mean(), end.Mean(),
-                          end.Std(), end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, found.Mean(),
-                          collisions, per_plan.Mean());
+    absl::StrAppendFormat(
+        &md, "| %s | %d | %d | %.3f | %.3f +- %.3f | %.3f | %.1f +- %.1f | %.2f | %.0f %% | %d | %.3f |\n",
+        name, static_cast<int>(trials.size()), failed, start.Mean(), end.Mean(), end.Std(),
+        end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, trace.Mean(), trace.Std(), found.Mean(),
+        end.n > 0 ? 100.0 * all_found / end.n : 0.0, collisions, per_plan.Mean());
   }
   for (const TrialResult& t : result.trials) {
     if (!t.error.empty()) {
-      absl::StrAppendFormat(&md, "\n- %s trial %d failed: %s", PlannerKindName(t.planner), t.trial,
-                            t.error);
+      absl::StrAppendFormat(&md, "\n- %s trial %d failed: %s", t.variant, t.trial, t.error);
     }
   }
   return md;

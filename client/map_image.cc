@@ -66,4 +66,45 @@ absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
   return std::string(png.begin(), png.end());
 }
 
+absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
+                                       const std::vector<std::string>& captions, int columns) {
+  if (frames.empty()) return absl::InvalidArgumentError("frames: none");
+  if (captions.size() != frames.size()) {
+    return absl::InvalidArgumentError("captions: one per frame needed");
+  }
+  if (columns < 1) return absl::InvalidArgumentError("columns: must be >= 1");
+  constexpr int kCaptionPx = 36;
+  std::vector<cv::Mat> tiles;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const std::vector<std::uint8_t> bytes(frames[i].begin(), frames[i].end());
+    cv::Mat image = cv::imdecode(bytes, cv::IMREAD_COLOR);
+    if (image.empty()) {
+      return absl::InvalidArgumentError("frames[" + std::to_string(i) + "]: not an image");
+    }
+    if (!tiles.empty() && image.cols != tiles.front().cols) {
+      const double scale = static_cast<double>(tiles.front().cols) / image.cols;
+      cv::resize(image, image, cv::Size(), scale, scale, cv::INTER_AREA);
+    }
+    cv::Mat tile(image.rows + kCaptionPx, image.cols, CV_8UC3, cv::Scalar(255, 255, 255));
+    image.copyTo(tile(cv::Rect(0, kCaptionPx, image.cols, image.rows)));
+    cv::putText(tile, captions[i], cv::Point(8, kCaptionPx - 10), cv::FONT_HERSHEY_SIMPLEX, 0.9,
+                cv::Scalar(0, 0, 0), 2, cv::LINE_AA);
+    tiles.push_back(std::move(tile));
+  }
+  const int cols = std::min<int>(columns, static_cast<int>(tiles.size()));
+  const int rows = (static_cast<int>(tiles.size()) + cols - 1) / cols;
+  int tile_h = 0;
+  for (const cv::Mat& t : tiles) tile_h = std::max(tile_h, t.rows);
+  const int tile_w = tiles.front().cols;
+  cv::Mat sheet(rows * tile_h, cols * tile_w, CV_8UC3, cv::Scalar(255, 255, 255));
+  for (std::size_t i = 0; i < tiles.size(); ++i) {
+    const int r = static_cast<int>(i) / cols, c = static_cast<int>(i) % cols;
+    tiles[i].copyTo(sheet(cv::Rect(c * tile_w, r * tile_h, tiles[i].cols, tiles[i].rows)));
+  }
+  std::vector<std::uint8_t> png;
+  if (!cv::imencode(".png", sheet, png))
+    return absl::InternalError("montage: PNG encoding failed");
+  return std::string(png.begin(), png.end());
+}
+
 }  // namespace oaipp::client

@@ -21,4 +21,12 @@ namespace oaipp::client {
                                                            const Simulation& simulation,
                                                            const std::vector<Vec3>& path_W);
 
+// Frames (PNG bytes, e.g. RenderMissionPng's) tiled `columns` wide, each
+// scaled to the first one's width, with its caption written above it.
+// InvalidArgument for no frames, a frame that does not decode, or a caption
+// count that differs from the frame count.
+[[nodiscard]] absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
+                                                     const std::vector<std::string>& captions,
+                                                     int columns);
+
 }  // namespace oaipp::client

@@ -38,19 +38,14 @@ void Evaluate(const v1::Trajectory& traj, double t, Vec3* p, Vec3* v) {
   *v = Vec3(dx, dy, dz);
 }
 
-absl::StatusOr<std::vector<double>> MapMean(Client& client, const std::string& name,
-                                            double* trace) {
-  OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map, client.GetMap(name, true, false));
-  *trace = map.trace();
-  return std::vector<double>(map.mean().begin(), map.mean().end());
-}
 
 }  // namespace
 
 absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenario,
                                       const Simulation& sim,
                                       const std::function<void(const StepRecord&)>& progress,
-                                      bool keep_mission) {
+                                      bool keep_mission,
+                                      const std::function<void(const std::string&)>& frame) {
   RunResult result;
   OAIPP_ASSIGN_OR_RETURN(v1::Mission mission, client.CreateMission(scenario.mission()));
   result.mission_name = mission.name();
@@ -61,19 +56,24 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   StepRecord record;
   record.mission_time_s = t0;
   auto measure_record = [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(std::vector<double> mean,
-                           MapMean(client, result.mission_name, &record.trace));
+    OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map,
+                           client.GetMap(result.mission_name, true, false));
+    const std::vector<double> mean(map.mean().begin(), map.mean().end());
+    record.trace = map.trace();
     record.rse = sim.Rse(mean);
     record.rmse = sim.Rmse(mean);
     record.targets_found = sim.TargetsFound(mean);
     result.steps.push_back(record);
     if (progress) progress(record);
+    if (frame) {
+      OAIPP_ASSIGN_OR_RETURN(std::string png, RenderMissionPng(map, sim, result.flown_path_W));
+      frame(png);
+    }
     return absl::OkStatus();
   };
-  OAIPP_RETURN_IF_ERROR(measure_record());
-
   Vec3 previous = server::FromProto(state.position_m());
   result.flown_path_W.push_back(previous);
+  OAIPP_RETURN_IF_ERROR(measure_record());
   while (state.mission_time_s() - t0 < budget - 1e-9) {
     v1::PlanPathRequest request;
     request.set_name(result.mission_name);

@@ -36,9 +36,13 @@ struct RunResult {
   std::string final_map_png;  // map mean | std with obstacles, targets and the flown path
 };
 
+// progress: called with the metrics after each measurement. frame: when
+// set, called with a PNG of the map (as final_map_png, path flown so far)
+// at the start and after each measurement: an image sequence of the mission.
 [[nodiscard]] absl::StatusOr<RunResult> RunScenario(
     Client& client, const v1::Scenario& scenario, const Simulation& simulation,
-    const std::function<void(const StepRecord&)>& progress = nullptr, bool keep_mission = false);
+    const std::function<void(const StepRecord&)>& progress = nullptr, bool keep_mission = false,
+    const std::function<void(const std::string& png)>& frame = nullptr);
 
 // "time_s,rse,rmse,trace,targets_found,path_length_m,collisions" and a row
 // per step.

@@ -224,6 +224,8 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   c.planner.oaipp.generations = OrDefault(p.has_generations(), p.generations(), oaipp.generations);
   c.planner.lawnmower.altitude_m =
       OrDefault(p.has_lawnmower_altitude_m(), p.lawnmower_altitude_m(), lawnmower.altitude_m);
+  c.planner.lawnmower.start_corner = OrDefault(p.has_lawnmower_start_corner(),
+                                               p.lawnmower_start_corner(), lawnmower.start_corner);
 
   OAIPP_RETURN_IF_ERROR(
       CheckIntRange("spec.planner.num_waypoints", c.planner.oaipp.num_waypoints, 2, 20));
@@ -235,6 +237,8 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.h_sat_m", common.information.h_sat_m));
   OAIPP_RETURN_IF_ERROR(
       CheckPositive("spec.planner.lawnmower_altitude_m", c.planner.lawnmower.altitude_m));
+  OAIPP_RETURN_IF_ERROR(CheckIntRange("spec.planner.lawnmower_start_corner",
+                                      c.planner.lawnmower.start_corner, -1, 3));
   // The core's own checks, as a backstop for anything above missed.
   return Prefixed("spec.planner.", MakePlanner(c.planner).status());
 }
@@ -400,6 +404,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   p.set_sigma1_m(common.information.sigma1_m);
   p.set_h_sat_m(common.information.h_sat_m);
   p.set_lawnmower_altitude_m(c.planner.lawnmower.altitude_m);
+  p.set_lawnmower_start_corner(c.planner.lawnmower.start_corner);
 
   for (const Obstacle& o : c.obstacles) *spec.add_obstacles() = ObstacleToProto(o);
   *spec.mutable_start() = UavStateToProto(c.start);

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Mean +- std curves per planner from `oaipp-client eval` trials.csv.
+"""Mean +- std curves per variant (planner or world) from `oaipp-client eval` trials.csv.
 
     python3 client/plots/plot_curves.py out/eval/E1/trials.csv rse out/eval/E1/rse.png \
         --paper oaipp=5.17 lawnmower=5.85 random=6.22
@@ -22,28 +22,28 @@ def main():
     parser.add_argument("png")
     parser.add_argument("--title", default="")
     parser.add_argument("--paper", nargs="*", default=[],
-                        help="planner=value pairs: the paper's value at the end, drawn as markers")
+                        help="variant=value pairs: the paper's value at the end, drawn as markers")
     args = parser.parse_args()
 
-    series = defaultdict(lambda: defaultdict(list))  # planner -> time -> values
+    series = defaultdict(lambda: defaultdict(list))  # variant -> time -> values
     with open(args.csv) as f:
         for row in csv.DictReader(f):
-            series[row["planner"]][float(row["time_s"])].append(float(row[args.column]))
+            series[row["variant"]][float(row["time_s"])].append(float(row[args.column]))
 
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for planner in sorted(series):
-        times = sorted(series[planner])
-        values = [np.array(series[planner][t]) for t in times]
+    for variant in series:  # in the order the CSV lists them
+        times = sorted(series[variant])
+        values = [np.array(series[variant][t]) for t in times]
         mean = np.array([v.mean() for v in values])
         std = np.array([v.std(ddof=1) if len(v) > 1 else 0.0 for v in values])
         n = len(values[0])
-        line, = ax.plot(times, mean, label=f"{planner} (n={n})")
+        line, = ax.plot(times, mean, label=f"{variant} (n={n})")
         ax.fill_between(times, mean - std, mean + std, color=line.get_color(), alpha=0.2)
     end = max(max(s) for s in series.values())
     for pair in args.paper:
-        planner, value = pair.split("=")
+        variant, value = pair.split("=")
         ax.plot([end], [float(value)], marker="*", markersize=12, linestyle="none",
-                label=f"paper, {planner}: {value}")
+                label=f"paper, {variant}: {value}")
     ax.set_xlabel("mission time (s)")
     ax.set_ylabel(args.column)
     ax.set_title(args.title or f"{args.column} over time, mean +- std")

@@ -88,6 +88,10 @@ absl::Status LawnmowerConfig::Validate() const {
   OAIPP_RETURN_IF_ERROR(CheckPositive("lawnmower.altitude_m", altitude_m));
   if (points_per_plan < 1)
     return absl::InvalidArgumentError("lawnmower.points_per_plan: must be >= 1");
+  if (start_corner < -1 || start_corner > 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("lawnmower.start_corner: must be -1 (seeded) or 0-3, got ", start_corner));
+  }
   if (!(detour_margin_m >= 0.0) || !std::isfinite(detour_margin_m)) {
     return absl::InvalidArgumentError("lawnmower.detour_margin_m: must be >= 0 and finite");
   }
@@ -95,7 +99,8 @@ absl::Status LawnmowerConfig::Validate() const {
 }
 
 std::vector<Vec3> LawnmowerPlanner::Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
-                                            const DownwardCamera& camera, double altitude_m) {
+                                            const DownwardCamera& camera, double altitude_m,
+                                            int corner) {
   const Vec2 footprint = camera.FootprintSize(altitude_m);
   const Vec2 lo = grid.min_W(), hi = grid.max_W();
   // Lanes along x, spaced by the footprint's y extent (the longer side for
@@ -107,10 +112,13 @@ std::vector<Vec3> LawnmowerPlanner::Pattern(const FieldGrid& grid, const Aabb& w
   const double x_end = std::min(hi.x() - 0.5 * footprint.x(), waypoint_box.max_W.x());
   const double z = std::clamp(altitude_m, waypoint_box.min_W.z(), waypoint_box.max_W.z());
   std::vector<Vec3> points;
+  const bool from_top = (corner & 1) != 0;
+  const bool from_high_x = (corner & 2) != 0;
   for (int k = 0; k < lanes; ++k) {
+    const int lane = from_top ? lanes - 1 - k : k;
     const double y =
-        std::clamp(lo.y() + (k + 0.5) * spacing, waypoint_box.min_W.y(), waypoint_box.max_W.y());
-    const bool forward = k % 2 == 0;
+        std::clamp(lo.y() + (lane + 0.5) * spacing, waypoint_box.min_W.y(), waypoint_box.max_W.y());
+    const bool forward = (k % 2 == 0) != from_high_x;
     points.emplace_back(forward ? x_start : x_end, y, z);
     points.emplace_back(forward ? x_end : x_start, y, z);
   }
@@ -124,7 +132,11 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
   OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
   const Environment& env = scorer.environment();
   if (pattern_.empty()) {
-    pattern_ = Pattern(scorer.grid(), scorer.waypoint_box(), mission.camera, config_.altitude_m);
+    const int corner = config_.start_corner >= 0
+                           ? config_.start_corner
+                           : static_cast<int>(MixSeed(config_.common.seed, 0.0) & 3U);
+    pattern_ = Pattern(scorer.grid(), scorer.waypoint_box(), mission.camera, config_.altitude_m,
+                       corner);
   }
   // Back and forth: after the last point the pattern is flown in reverse.
   const int period = 2 * static_cast<int>(pattern_.size()) - 2;

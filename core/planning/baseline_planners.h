@@ -30,6 +30,11 @@ struct LawnmowerConfig {
   // Extra clearance around obstacles on detours, beyond uav_radius_m / 2;
   // halved, then dropped, where a passage is too narrow for it.
   double detour_margin_m = 1.0;
+  // Corner the pattern starts from: 0-3 fixed (bit 0: the highest-y lane
+  // first, bit 1: each first lane flown from high x), or -1: drawn from
+  // common.seed, so that a benchmark over seeds does not hinge on which side
+  // of the field the targets lie. Valid: -1 .. 3.
+  int start_corner = -1;
   PlannerCommon common;
   [[nodiscard]] absl::Status Validate() const;
 };
@@ -42,7 +47,8 @@ class LawnmowerPlanner final : public Planner {
                                                  absl::Time deadline) override;
   // The pattern's turning points for a field (exposed for tests).
   [[nodiscard]] static std::vector<Vec3> Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
-                                                 const DownwardCamera& camera, double altitude_m);
+                                                 const DownwardCamera& camera, double altitude_m,
+                                                 int corner = 0);
   // Index of the next pattern point to fly to (counts up for ever; the
   // pattern is flown back and forth).
   [[nodiscard]] int next_index() const { return next_index_; }

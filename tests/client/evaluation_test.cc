@@ -32,15 +32,21 @@ TEST(EvaluationTest, SummaryReportsMeanStdAndStandardError) {
   result.grid_s = {0, 150};
   for (int k = 0; k < 3; ++k) {
     TrialResult t;
-    t.planner = PlannerKind::kRandom;
+    t.variant = "random";
+    t.num_targets = 7;
     t.trial = k + 1;
     t.steps = {At(0, 7.0), At(150, 5.0 + k)};  // 5, 6, 7: mean 6, std 1
+    t.steps.back().targets_found = k == 0 ? 7 : 5;
+    t.steps.back().trace = 100.0 + 10 * k;
     t.plans = 2;
     t.planning_time_s = 1.0;
     result.trials.push_back(t);
   }
   const std::string md = SummaryMarkdown(result, 150);
-  EXPECT_NE(md.find("| random | 3 | 0 | 7.000 | 6.000 +- 1.000 | 0.577 |"), std::string::npos)
+  // Tr(P) 100, 110, 120: mean 110, std 10; one trial of three found all 7.
+  EXPECT_NE(md.find("| random | 3 | 0 | 7.000 | 6.000 +- 1.000 | 0.577 | 110.0 +- 10.0 | 5.67 | "
+                    "33 % | 0 |"),
+            std::string::npos)
       << md;
 }
 

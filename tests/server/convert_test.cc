@@ -129,6 +129,7 @@ void ExpectConfigsEqual(const MissionConfig& a, const MissionConfig& b) {
   EXPECT_EQ(p.oaipp.exact_check_candidates, q.oaipp.exact_check_candidates);
   ExpectCommonEqual(p.oaipp.common, q.oaipp.common, "planner.oaipp.common");
   EXPECT_EQ(p.lawnmower.altitude_m, q.lawnmower.altitude_m);
+  EXPECT_EQ(p.lawnmower.start_corner, q.lawnmower.start_corner);
   EXPECT_EQ(p.lawnmower.points_per_plan, q.lawnmower.points_per_plan);
   EXPECT_EQ(p.lawnmower.detour_margin_m, q.lawnmower.detour_margin_m);
   ExpectCommonEqual(p.lawnmower.common, q.lawnmower.common, "planner.lawnmower.common");
@@ -195,6 +196,7 @@ v1::MissionSpec CustomSpec() {
   p.set_sigma1_m(5);
   p.set_h_sat_m(28);
   p.set_lawnmower_altitude_m(14);
+  p.set_lawnmower_start_corner(2);
   v1::Obstacle& tower = *spec.add_obstacles();
   tower.set_id("tower");
   *tower.mutable_box()->mutable_centre_m() = V(2, -1, 13);
@@ -253,6 +255,7 @@ TEST(MissionSpecTest, DefaultSpecTakesTheProtoDocumentedDefaults) {
   EXPECT_EQ(c->planner.common.information.sigma1_m, 7);
   EXPECT_EQ(c->planner.common.information.h_sat_m, 26);
   EXPECT_EQ(c->planner.lawnmower.altitude_m, 10);
+  EXPECT_EQ(c->planner.lawnmower.start_corner, -1);
   EXPECT_TRUE(c->obstacles.empty());
   // "default (field centre x, y, 10 m) at rest, time 0"
   ExpectVecEq(c->start.position_W, Vec3(0, 0, 10), "start");
@@ -709,6 +712,9 @@ std::vector<BadCase> BadCases() {
       {"zero lawnmower altitude",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_lawnmower_altitude_m(0); }); },
        kInvalid, "spec.planner.lawnmower_altitude_m: "},
+      {"lawnmower start corner 4",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_lawnmower_start_corner(4); }); },
+       kInvalid, "spec.planner.lawnmower_start_corner: "},
       {"flat box",
        [] {
          return CustomSpecWith(

@@ -2,6 +2,7 @@
 // paths start at the UAV state, stay inside the flight volume, are
 // collision-free under an independent exact check, respect the dynamic
 // limits, and are identical for the same seed.
+#include <set>
 #include <map>
 #include <memory>
 
@@ -172,6 +173,42 @@ TEST(LawnmowerTest, PatternCoversTheFieldAtTenMetres) {
   EXPECT_NEAR(pattern[2].y(), 0.0, 1e-9);
   EXPECT_NEAR(pattern[0].x(), -15 + 8.284271 / 2, 1e-6);
   for (const Vec3& p : pattern) EXPECT_DOUBLE_EQ(p.z(), 10.0);
+}
+
+// Corner bit 0 starts at the highest-y lane, bit 1 flies the first lane
+// from high x; the seeded default draws every corner over a few seeds.
+TEST(LawnmowerTest, StartCorners) {
+  const Scene& scene = CachedScene("E1");
+  const Aabb box = scene.env->flight_volume().Inflated(-0.5);
+  const double x_lo = -15 + 8.284271 / 2, x_hi = 15 - 8.284271 / 2;
+  const struct {
+    int corner;
+    double first_x, first_y, last_y;
+  } cases[] = {{0, x_lo, -10, 10}, {1, x_lo, 10, -10}, {2, x_hi, -10, 10}, {3, x_hi, 10, -10}};
+  for (const auto& c : cases) {
+    const std::vector<Vec3> pattern =
+        LawnmowerPlanner::Pattern(scene.map->grid(), box, DownwardCamera{}, 10.0, c.corner);
+    ASSERT_EQ(pattern.size(), 6u) << c.corner;
+    EXPECT_NEAR(pattern.front().x(), c.first_x, 1e-6) << c.corner;
+    EXPECT_NEAR(pattern.front().y(), c.first_y, 1e-9) << c.corner;
+    EXPECT_NEAR(pattern[1].x(), c.first_x == x_lo ? x_hi : x_lo, 1e-6) << c.corner;
+    EXPECT_NEAR(pattern.back().y(), c.last_y, 1e-9) << c.corner;
+  }
+  std::set<std::pair<double, double>> first_points;
+  for (std::uint32_t seed = 1; seed <= 16; ++seed) {
+    LawnmowerConfig config;
+    config.common.seed = seed;
+    LawnmowerPlanner planner(config);
+    absl::StatusOr<PlannedPath> path =
+        planner.Plan(scene.View(), scene.start, absl::InfiniteFuture());
+    ASSERT_TRUE(path.ok()) << path.status();
+    const Vec3 first = path->control_waypoints_W.back();
+    first_points.insert({std::round(first.x()), std::round(first.y())});
+  }
+  EXPECT_GE(first_points.size(), 3u);
+  LawnmowerConfig bad;
+  bad.start_corner = 4;
+  EXPECT_NE(bad.Validate().message().find("lawnmower.start_corner"), std::string::npos);
 }
 
 TEST(LawnmowerTest, DetoursAroundTheBuildingAndKeepsItsPlace) {
