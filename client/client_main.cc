@@ -29,7 +29,9 @@ ABSL_FLAG(bool, keep, false, "run: keep the mission on the server afterwards");
 ABSL_FLAG(std::string, png, "", "map: file to write the map image to");
 ABSL_FLAG(int, trials, 25, "eval: trials per planner (seeds 1..trials)");
 ABSL_FLAG(int, parallel, 2, "eval: missions flown at once");
-ABSL_FLAG(double, plan_deadline_s, 0.0, "eval: deadline of each PlanPath call (0: none)");
+ABSL_FLAG(double, plan_budget_s, 0.0,
+          "eval: wall-clock seconds each replan may take (0: the planner's full evaluation "
+          "budget); the planner is anytime and returns its best path at the budget");
 ABSL_FLAG(std::string, scenario, "",
           "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
 ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
@@ -62,7 +64,7 @@ Commands:
                       (trial 1) to --out (default out/eval/<experiment>).
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
-       --frames (run), --trials (25), --parallel (2), --plan_deadline_s
+       --frames (run), --trials (25), --parallel (2), --plan_budget_s
        (0: none), --scenario, --e3_budget_s.)";
 
 using oaipp::client::Client;
@@ -217,7 +219,7 @@ int Eval(const std::string& experiment) {
   if (absl::Status up = probe.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
   oaipp::client::EvalOptions options{.trials = absl::GetFlag(FLAGS_trials),
                                      .parallel = absl::GetFlag(FLAGS_parallel),
-                                     .plan_deadline_s = absl::GetFlag(FLAGS_plan_deadline_s)};
+                                     .plan_budget_s = absl::GetFlag(FLAGS_plan_budget_s)};
   const auto start = absl::Now();
   auto progress = [&](int done, int total) {
     const double elapsed = absl::ToDoubleSeconds(absl::Now() - start);

@@ -68,6 +68,9 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
     return absl::InvalidArgumentError("eval: trials, parallel and grid_s must be positive");
   }
   if (variants.empty()) return absl::InvalidArgumentError("eval: no variants");
+  if (!(options.plan_budget_s >= 0)) {
+    return absl::InvalidArgumentError("eval: plan_budget_s must be >= 0");
+  }
   struct Job {
     const Variant* variant;
     int trial;
@@ -86,16 +89,14 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
   std::atomic<std::size_t> next{0};
   std::atomic<int> done{0};
   std::mutex progress_mu;
-  ClientOptions client_options;
-  if (options.plan_deadline_s > 0)
-    client_options.plan_timeout = absl::Seconds(options.plan_deadline_s);
   auto worker = [&] {
-    Client client = Client::Connect(address, client_options);
+    Client client = Client::Connect(address);
     for (std::size_t j = next++; j < jobs.size(); j = next++) {
       TrialResult& out = result.trials[j];
       out.variant = jobs[j].variant->label;
       out.trial = jobs[j].trial;
       absl::StatusOr<v1::Scenario> s = jobs[j].variant->scenario(jobs[j].trial);
+      if (s.ok() && options.plan_budget_s > 0) s->set_planning_budget_s(options.plan_budget_s);
       absl::StatusOr<Simulation> sim =
           s.ok() ? Simulation::Create(*s) : absl::StatusOr<Simulation>(s.status());
       absl::StatusOr<RunResult> run =

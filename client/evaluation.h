@@ -21,7 +21,9 @@ struct EvalOptions {
   int trials = 25;               // per planner; trial k uses seed k for planner and detector
   int parallel = 2;              // missions flown at once
   double grid_s = 5.0;           // time grid of the resampled curves
-  double plan_deadline_s = 0.0;  // per PlanPath call; 0: no deadline (full budget)
+  // Wall-clock seconds per replan (sets Scenario.planning_budget_s);
+  // 0: the scenario's own setting.
+  double plan_budget_s = 0.0;
 };
 
 // What is compared: a label and the scenario of each trial.

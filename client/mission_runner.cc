@@ -78,6 +78,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     v1::PlanPathRequest request;
     request.set_name(result.mission_name);
     *request.mutable_state() = state;
+    if (scenario.has_planning_budget_s()) request.set_planning_budget_s(scenario.planning_budget_s());
     const auto plan_start = std::chrono::steady_clock::now();
     OAIPP_ASSIGN_OR_RETURN(v1::PlanPathResponse path, client.PlanPath(request));
     result.planning_time_s +=

@@ -189,16 +189,25 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
 grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
                                           const v1::PlanPathRequest* request,
                                           v1::PlanPathResponse* response) {
+  const absl::Time arrival = absl::Now();
   return Call("PlanPath", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     if (!request->has_state()) return absl::InvalidArgumentError("state: required");
     OAIPP_ASSIGN_OR_RETURN(UavState state, UavStateFromProto(request->state(), "state"));
     std::optional<double> next_shot;
     if (request->has_next_shot_mission_s()) next_shot = request->next_shot_mission_s();
+    absl::Time deadline = PlanningDeadline(context);
+    if (request->has_planning_budget_s()) {
+      const double budget = request->planning_budget_s();
+      if (!(budget > 0.0) || !std::isfinite(budget)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("planning_budget_s: must be > 0 and finite, got ", budget));
+      }
+      deadline = std::min(deadline, arrival + absl::Seconds(budget));
+    }
     if (context->IsCancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
-    OAIPP_ASSIGN_OR_RETURN(
-        PlannedPath path,
-        mission->Plan(state, next_shot, PlanningDeadline(context), request->request_id(), gate_));
+    OAIPP_ASSIGN_OR_RETURN(PlannedPath path, mission->Plan(state, next_shot, deadline,
+                                                           request->request_id(), gate_));
     if (metrics_ != nullptr) {
       metrics_->RecordPlan(path.stats.wall_time_s, static_cast<double>(path.stats.evaluations));
     }

@@ -1,4 +1,5 @@
 // Every RPC through an in-process channel: success and each error code.
+#include <cmath>
 #include <thread>
 
 #include "gmock/gmock.h"
@@ -191,6 +192,42 @@ TEST(ServiceTest, PlanPathAnswersWithinTheCallsDeadline) {
   ASSERT_TRUE(status.ok()) << status.error_message();
   EXPECT_EQ(path.stats().stop_reason(), "deadline");
   EXPECT_TRUE(path.collision_free());
+}
+
+// planning_budget_s bounds the planner without a call deadline: the best
+// path at the budget comes back, and a bad budget names the field.
+TEST(ServiceTest, PlanningBudgetStopsThePlannerWithoutADeadline) {
+  InProcessService s;
+  grpc::ClientContext create_context;
+  v1::CreateMissionRequest create;
+  create.set_mission_id("budget");
+  *create.mutable_spec() = SmallSpec();
+  create.mutable_spec()->mutable_planner()->set_generations(1000000);
+  v1::Mission mission;
+  ASSERT_TRUE(s.stub().CreateMission(&create_context, create, &mission).ok());
+  v1::PlanPathRequest request;
+  request.set_name("missions/budget");
+  request.mutable_state()->mutable_position_m()->set_x(-4);
+  request.mutable_state()->mutable_position_m()->set_y(4);
+  request.mutable_state()->mutable_position_m()->set_z(8);
+  request.set_planning_budget_s(0.5);
+  {
+    grpc::ClientContext context;  // no deadline
+    v1::PlanPathResponse path;
+    const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(path.stats().stop_reason(), "deadline");
+    EXPECT_TRUE(path.collision_free());
+    EXPECT_LT(path.stats().generations(), 1000000);
+  }
+  for (double bad : {0.0, -1.0, std::nan("")}) {
+    request.set_planning_budget_s(bad);
+    grpc::ClientContext context;
+    v1::PlanPathResponse path;
+    const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << bad;
+    EXPECT_THAT(status.error_message(), HasSubstr("planning_budget_s: must be > 0"));
+  }
 }
 
 TEST(ServiceTest, SpentBudgetIsAFailedPrecondition) {
