@@ -90,7 +90,8 @@ double RampSegmentTime(double distance_m, const TrajectoryLimits& limits) {
 absl::StatusOr<PolynomialTrajectory> SolveMinSnap(const std::vector<Vec3>& waypoints_W,
                                                   const std::vector<double>& segment_durations_s,
                                                   const Vec3& start_velocity_W_m_s,
-                                                  const Vec3& start_accel_W_m_s2) {
+                                                  const Vec3& start_accel_W_m_s2,
+                                                  bool free_start_jerk_snap) {
   if (waypoints_W.size() < 2) {
     return absl::InvalidArgumentError(
         absl::StrCat("waypoints_W: need at least 2 waypoints, got ", waypoints_W.size()));
@@ -124,6 +125,25 @@ absl::StatusOr<PolynomialTrajectory> SolveMinSnap(const std::vector<Vec3>& waypo
   }
   fixed[0].row(1) = start_velocity_W_m_s.transpose();
   fixed[0].row(2) = start_accel_W_m_s2.transpose();
+
+  // Free start jerk and snap (rows 3, 4 of segment 0) touch only that
+  // segment's cost, so they are minimised out in closed form: with F = {3, 4}
+  // and G = M_FF^-1 M_F,rest, the optimum is d_F = -G d_rest and the cost
+  // of the rest is the Schur complement M - M_:F G.
+  Eigen::Matrix<double, 2, kNumCoefficients> start_gain =
+      Eigen::Matrix<double, 2, kNumCoefficients>::Zero();
+  if (free_start_jerk_snap) {
+    const Eigen::Matrix2d m_ff = cost[0].block<2, 2>(3, 3);
+    const Eigen::LLT<Eigen::Matrix2d> llt(m_ff);
+    if (llt.info() != Eigen::Success) {
+      return absl::InternalError("SolveMinSnap: degenerate first segment (duration out of range?)");
+    }
+    start_gain = llt.solve(cost[0].block<2, kNumCoefficients>(3, 0));
+    start_gain.block<2, 2>(0, 3).setZero();
+    cost[0] -= cost[0].block<kNumCoefficients, 2>(0, 3) * start_gain;
+    cost[0].block<2, kNumCoefficients>(3, 0).setZero();
+    cost[0].block<kNumCoefficients, 2>(0, 3).setZero();
+  }
 
   // Stationarity of sum_j d_j^T M_j d_j in the free derivatives (Richter et
   // al. 2016, unconstrained QP: d_P = -R_PP^-1 R_FP^T d_F) is a block
@@ -173,6 +193,7 @@ absl::StatusOr<PolynomialTrajectory> SolveMinSnap(const std::vector<Vec3>& waypo
     Endpoints d = fixed[j];
     if (j >= 1) d.block<kFree, 3>(1, 0) = scale[j - 1].asDiagonal() * rhs[j - 1];
     if (j + 1 <= num_free) d.block<kFree, 3>(6, 0) = scale[j].asDiagonal() * rhs[j];
+    if (j == 0 && free_start_jerk_snap) d.block<2, 3>(3, 0) = -start_gain * d;
     const long double T = segment_durations_s[j];
     EndpointsL d_s = d.cast<long double>();
     long double t_power = 1.0L;  // T^r
@@ -218,11 +239,14 @@ struct Evaluation {
 class ScaleSearch {
  public:
   ScaleSearch(const StartState& start, std::vector<Vec3> waypoints_W,
-              std::vector<double> base_durations_s, const TrajectoryLimits& limits)
+              std::vector<double> base_durations_s, const TrajectoryLimits& limits,
+              bool free_start_jerk_snap, bool fixed_first = false)
       : start_(start),
         waypoints_W_(std::move(waypoints_W)),
         base_durations_s_(std::move(base_durations_s)),
-        limits_(limits) {}
+        limits_(limits),
+        free_start_jerk_snap_(free_start_jerk_snap),
+        fixed_first_(fixed_first) {}
 
   absl::StatusOr<PolynomialTrajectory> Run() {
     // From rest the speed scales as 1/k and the acceleration as 1/k^2, so
@@ -293,10 +317,11 @@ class ScaleSearch {
   // the trajectory when it is the fastest feasible so far.
   absl::StatusOr<Evaluation> Evaluate(double k) {
     std::vector<double> durations_s = base_durations_s_;
-    for (double& d : durations_s) d *= k;
+    for (std::size_t i = fixed_first_ ? 1 : 0; i < durations_s.size(); ++i) durations_s[i] *= k;
     OAIPP_ASSIGN_OR_RETURN(
         PolynomialTrajectory trajectory,
-        SolveMinSnap(waypoints_W_, durations_s, start_.velocity_W_m_s, start_.accel_W_m_s2));
+        SolveMinSnap(waypoints_W_, durations_s, start_.velocity_W_m_s, start_.accel_W_m_s2,
+                     free_start_jerk_snap_));
     const double speed_ratio = trajectory.MaxSpeed() / limits_.max_speed_m_s;
     const double accel_ratio = trajectory.MaxAcceleration() / limits_.max_accel_m_s2;
     const Evaluation e{
@@ -325,6 +350,8 @@ class ScaleSearch {
   const std::vector<Vec3> waypoints_W_;
   const std::vector<double> base_durations_s_;
   const TrajectoryLimits limits_;
+  const bool free_start_jerk_snap_;
+  const bool fixed_first_;  // the first segment keeps its duration
   std::optional<Feasible> best_feasible_;
   std::vector<double> infeasible_scales_;
 };
@@ -381,7 +408,40 @@ absl::StatusOr<PolynomialTrajectory> PlanMinSnap(const StartState& start,
   const Vec3 off_velocity_W_m_s =
       start.velocity_W_m_s - std::max(0.0, start.velocity_W_m_s.dot(towards_W)) * towards_W;
   durations_s[0] += off_velocity_W_m_s.norm() / limits.max_accel_m_s2;
-  return ScaleSearch(start, std::move(waypoints_W), std::move(durations_s), limits).Run();
+  absl::StatusOr<PolynomialTrajectory> planned =
+      ScaleSearch(start, waypoints_W, durations_s, limits, /*free_start_jerk_snap=*/false).Run();
+  const bool moving = !start.velocity_W_m_s.isZero(0.0) || !start.accel_W_m_s2.isZero(0.0);
+  if (planned.ok() || !moving || planned.status().code() != absl::StatusCode::kFailedPrecondition) {
+    return planned;
+  }
+  // From a moving start a common scaling can fail: with jerk 0 at the start
+  // the start acceleration lasts a fixed fraction of the first segment, so
+  // long durations overshoot the speed while short ones break the
+  // acceleration limit. Freeing the start jerk and snap lets it fade fast.
+  absl::StatusOr<PolynomialTrajectory> free_jerk =
+      ScaleSearch(start, waypoints_W, durations_s, limits, /*free_start_jerk_snap=*/true).Run();
+  if (free_jerk.ok()) return free_jerk;
+  // A minimum-snap segment cannot cruise: a fast start and a long first
+  // segment still overshoot. A transition segment of fixed duration tau then
+  // carries on at the current velocity, to p + v tau (the free start jerk
+  // lets the start acceleration fade within it), and only the segments
+  // after it are scaled.
+  for (double tau_s : {1.0, 2.0}) {
+    std::vector<Vec3> via{start.position_W, start.position_W + start.velocity_W_m_s * tau_s};
+    std::vector<double> via_durations{tau_s};
+    for (std::size_t i = 1; i < waypoints_W.size(); ++i) {
+      const double d = (waypoints_W[i] - via.back()).norm();
+      if (d < kMergeDistance_m) continue;
+      via_durations.push_back(std::max(kMinSegmentTime_s, RampSegmentTime(d, limits)));
+      via.push_back(waypoints_W[i]);
+    }
+    absl::StatusOr<PolynomialTrajectory> t =
+        ScaleSearch(start, std::move(via), std::move(via_durations), limits,
+                    /*free_start_jerk_snap=*/true, /*fixed_first=*/true)
+            .Run();
+    if (t.ok()) return t;
+  }
+  return planned;
 }
 
 }  // namespace oaipp

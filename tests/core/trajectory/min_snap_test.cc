@@ -82,7 +82,7 @@ TEST(MinSnapReferenceTest, DoublingDurationsScalesCostByTwoToTheMinusSeven) {
 // 2016, with equality constraints for fixed and continuous derivatives),
 // equilibrated and solved by LU in long double.
 Eigen::MatrixXd KktCoefficients(const std::vector<double>& w, const std::vector<double>& T,
-                                double v0, double a0) {
+                                double v0, double a0, bool free_start_jerk_snap = false) {
   const int n = static_cast<int>(T.size());
   const int vars = 10 * n;
   const auto ff = [](int k, int r) {
@@ -99,7 +99,9 @@ Eigen::MatrixXd KktCoefficients(const std::vector<double>& w, const std::vector<
   std::vector<Eigen::RowVectorXd> rows;
   std::vector<double> rhs;
   const double start[5] = {w[0], v0, a0, 0, 0};
-  for (int r = 0; r < 5; ++r) rows.push_back(deriv_row(0, 0, r)), rhs.push_back(start[r]);
+  for (int r = 0; r < (free_start_jerk_snap ? 3 : 5); ++r) {
+    rows.push_back(deriv_row(0, 0, r)), rhs.push_back(start[r]);
+  }
   for (int j = 0; j < n; ++j) {
     rows.push_back(deriv_row(j, T[j], 0)), rhs.push_back(w[j + 1]);
     if (j + 1 < n) {
@@ -155,6 +157,38 @@ TEST(MinSnapTwinTest, MatchesDenseKktSolutionForRandomProblems) {
       const Eigen::MatrixXd c = KktCoefficients(w1, T, v0[axis], a0[axis]);
       for (int j = 0; j < n; ++j) {
         const Eigen::VectorXd mine = traj.Coefficients(j).col(axis);
+        EXPECT_LE((mine - c.col(j)).norm(), 1e-7 * std::max(1.0, c.col(j).norm()))
+            << "trial " << trial << " segment " << j << " axis " << axis;
+      }
+    }
+  }
+}
+
+// With the start jerk and snap left free (no start constraints on them in
+// the twin), the closed-form elimination matches the dense solution, and
+// it never costs more than the constrained problem.
+TEST(MinSnapTwinTest, FreeStartJerkAndSnapMatchDenseKkt) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> dur(0.5, 4.0), pos(-3.0, 3.0), small(-2.0, 2.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 1 + trial % 5;
+    std::vector<Vec3> w(n + 1);
+    std::vector<double> T(n);
+    for (auto& p : w) p = Vec3(pos(rng), pos(rng), pos(rng));
+    for (auto& t : T) t = dur(rng);
+    const Vec3 v0(small(rng), small(rng), small(rng)), a0(small(rng), small(rng), small(rng));
+    absl::StatusOr<PolynomialTrajectory> free = SolveMinSnap(w, T, v0, a0, true);
+    ASSERT_TRUE(free.ok()) << free.status();
+    const PolynomialTrajectory fixed = Solve(w, T, v0, a0);
+    EXPECT_LE(free->SnapCost(), fixed.SnapCost() * (1 + 1e-9)) << "trial " << trial;
+    EXPECT_LE((free->Velocity(0) - v0).norm(), 1e-9);
+    EXPECT_LE((free->Acceleration(0) - a0).norm(), 1e-9);
+    for (int axis = 0; axis < 3; ++axis) {
+      std::vector<double> w1;
+      for (const auto& p : w) w1.push_back(p[axis]);
+      const Eigen::MatrixXd c = KktCoefficients(w1, T, v0[axis], a0[axis], true);
+      for (int j = 0; j < n; ++j) {
+        const Eigen::VectorXd mine = free->Coefficients(j).col(axis);
         EXPECT_LE((mine - c.col(j)).norm(), 1e-7 * std::max(1.0, c.col(j).norm()))
             << "trial " << trial << " segment " << j << " axis " << axis;
       }

@@ -148,7 +148,10 @@ TEST(PlanMinSnapTest, AnyStartStateWithinLimitsEitherMeetsLimitsOrFailsCleanly) 
     EXPECT_LE((traj->Velocity(0) - start.velocity_W_m_s).norm(), 1e-12);
     EXPECT_LE((traj->Acceleration(0) - start.accel_W_m_s2).norm(), 1e-12);
   }
-  EXPECT_GT(succeeded, 30);
+  // With the free start jerk and the transition segment, most moving starts
+  // plan: 133 of these 150 (78 with the start jerk held at 0 and no
+  // transition).
+  EXPECT_GE(succeeded, 130);
 }
 
 TEST(PlanMinSnapTest, FullSpeedTowardsTheWaypointSucceeds) {

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Reproduces the README's experiments (DESIGN.md §4) from a fresh Debian 12
+# machine (as root): builds, starts oaipp-server on loopback, runs
+# `oaipp-client eval` for E1-E5 and one E1 mission with its image sequence,
+# then stops the server. Results go to out/eval/<experiment> and out/e1.
+#   bash deploy/experiments.sh                  # E3 at 10 trials per cell
+#   E3_TRIALS=100 bash deploy/experiments.sh    # the paper's 100 per cell
+#   EXPERIMENTS="E1 E5" bash deploy/experiments.sh
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="${BUILD_DIR:-$root/build}"
+address="127.0.0.1:${OAIPP_PORT:-50051}"
+trials="${TRIALS:-25}"
+e3_trials="${E3_TRIALS:-10}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5}"
+
+bash "$root/deploy/install-deps.sh"
+cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+echo "experiments: building oaipp-server and oaipp-client"
+cmake --build "$build" -j "$(nproc)" --target oaipp-server oaipp-client >/dev/null
+
+"$build/server/oaipp-server" --listen="$address" --metrics_listen= --log_level=warn &
+server=$!
+trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null || true' EXIT
+cd "$root"
+client=("$build/client/oaipp-client" --server="$address")
+for e in $experiments; do
+  echo "== $e"
+  case "$e" in
+    E2) "${client[@]}" eval E2 --trials="$trials" --plan_budget_s=3 ;;  # the trace objective is slow
+    E3) "${client[@]}" eval E3 --trials="$e3_trials" ;;
+    *) "${client[@]}" eval "$e" --trials="$trials" ;;
+  esac
+done
+echo "== one E1 mission, with an image per measurement"
+"${client[@]}" run client/scenarios/e1.json --out=out/e1 --frames=out/e1/frames
