@@ -147,27 +147,63 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
   };
   const double clearance = 0.5 * config_.common.limits.uav_radius_m;
 
-  // Points that cannot be reached (under a tall building, or walled off)
-  // are skipped. Detours keep detour_margin_m of extra clearance when they
-  // can, less in narrow passages.
-  absl::Status last_error = absl::OkStatus();
-  const double m = config_.detour_margin_m;
-  for (double margin : {m, 0.5 * m, 0.0}) {
+  // Each pattern point is reached through a detour that keeps `margin` of
+  // extra clearance, or less (down to detour_margin_m / 2, then none) where
+  // a passage is too narrow for it; points that cannot be reached at all
+  // (under a tall building, walled off) are skipped. The smooth trajectory
+  // cuts the detour's corners, so when the exact check fails the route is
+  // rebuilt with twice the margin, then half, then none (a different
+  // detour), then all of these again with its legs split into pieces of at
+  // most 3 m, which the trajectory follows more closely; last, points that
+  // need a narrower detour are skipped instead.
+  struct Attempt {
+    double margin;
+    bool split;         // legs in pieces of at most 3 m
+    bool narrow = true;  // a point unreachable with `margin` may use less
+  };
+  auto build_route = [&](const Attempt& attempt, int* index) {
+    const double margin = attempt.margin;
+    const bool split = attempt.split;
     std::vector<Vec3> route;
     Vec3 previous = state.position_W;
-    int index = next_index_;
     int reached = 0;
-    while (reached < config_.points_per_plan && index - next_index_ < std::max(period, 1)) {
-      const Vec3 target = point(index++);
-      if (env.SignedDistance(target) <= clearance + margin) continue;
-      absl::StatusOr<std::vector<Vec3>> detour =
-          DetourAround(env, previous, target, clearance + margin, scorer.waypoint_box());
-      if (!detour.ok()) continue;
-      route.insert(route.end(), detour->begin(), detour->end());
-      route.push_back(target);
-      previous = target;
-      ++reached;
+    const int first = *index;
+    while (reached < config_.points_per_plan && *index - first < std::max(period, 1)) {
+      const Vec3 target = point((*index)++);
+      const double m = config_.detour_margin_m;
+      double tried = -1.0;
+      for (double extra : {margin, m, 0.5 * m, 0.0}) {
+        if (extra > margin || extra == tried || (!attempt.narrow && extra < margin)) continue;
+        tried = extra;
+        if (env.SignedDistance(target) <= clearance + extra) continue;
+        absl::StatusOr<std::vector<Vec3>> detour =
+            DetourAround(env, previous, target, clearance + extra, scorer.waypoint_box());
+        if (!detour.ok()) continue;
+        detour->push_back(target);
+        for (const Vec3& corner : *detour) {
+          const int pieces =
+              split ? std::max(1, static_cast<int>(std::ceil((corner - previous).norm() / 3.0)))
+                    : 1;
+          for (int k = 1; k <= pieces; ++k) {
+            route.push_back(previous + (corner - previous) * (static_cast<double>(k) / pieces));
+          }
+          previous = corner;
+        }
+        ++reached;
+        break;
+      }
     }
+    return route;
+  };
+  absl::Status last_error = absl::OkStatus();
+  const double m = config_.detour_margin_m;
+  const Attempt attempts[] = {{m, false},        {2 * m, false},       {0.5 * m, false},
+                              {0.0, false},      {m, true},            {2 * m, true},
+                              {0.5 * m, true},   {0.0, true},          {m, false, false},
+                              {0.5 * m, false, false}};
+  for (const Attempt& attempt : attempts) {
+    int index = next_index_;
+    const std::vector<Vec3> route = build_route(attempt, &index);
     if (route.empty()) {
       last_error = absl::FailedPreconditionError("no pattern point reachable from the UAV");
       continue;
