@@ -2,7 +2,7 @@
 # Sets up everything on a fresh Debian 12 machine (as root), builds the
 # server and the client, starts oaipp-server on loopback, flies the E1
 # scenario against it (client/scenarios/e1.json) and stops the server.
-#   bash deploy/run.sh                         # E1, results in out/e1
+#   bash deploy/run.sh                         # E1, results in out/e1 (frames in out/e1/frames)
 #   bash deploy/run.sh client/scenarios/X.json # another scenario
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -19,4 +19,5 @@ cmake --build "$build" -j "$(nproc)" --target oaipp-server oaipp-client >/dev/nu
 server=$!
 trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null || true' EXIT
 cd "$root"
-"$build/client/oaipp-client" run "$scenario" --server="$address"
+name="$(basename "$scenario" .json)"
+"$build/client/oaipp-client" run "$scenario" --server="$address" --frames="out/$name/frames"
