@@ -79,6 +79,9 @@ Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap ma
     : id_(std::move(id)),
       config_(std::move(config)),
       create_time_(absl::Now()),
+      memory_bytes_(8 * static_cast<std::int64_t>(map.num_cells()) *
+                        (static_cast<std::int64_t>(map.num_cells()) + 1) +
+                    static_cast<std::int64_t>(env.esdf().MemoryBytes())),
       env_(std::move(env)),
       map_(std::move(map)),
       planner_(std::move(planner)) {}
@@ -260,13 +263,9 @@ MissionSnapshot Mission::Snapshot() const {
     s.trace = map_.Trace();
     s.measurements_fused = measurements_fused_;
     s.mission_time_s = mission_time_s_;
-    const auto n = static_cast<std::int64_t>(map_.num_cells());
-    s.memory_bytes = 8 * n * n + 8 * n + static_cast<std::int64_t>(env_.esdf().MemoryBytes());
   }
-  {
-    absl::MutexLock lock(&planner_mu_);
-    s.paths_planned = paths_planned_;
-  }
+  s.memory_bytes = memory_bytes_;
+  s.paths_planned = paths_planned_.load();
   return s;
 }
 

@@ -13,6 +13,7 @@
 //   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, m->Plan(state, std::nullopt, deadline, "req-18"));
 #pragma once
 
+#include <atomic>
 #include <deque>
 #include <functional>
 #include <map>
@@ -134,7 +135,11 @@ class Mission {
                                                  PlanningGate* gate = nullptr,
                                                  std::function<bool()> cancelled = nullptr);
 
+  // Waits only for a mutation in progress (reader lock), never for a plan.
   [[nodiscard]] MissionSnapshot Snapshot() const;
+  // Memory held by the map and the ESDF: fixed at creation, so reading it
+  // takes no lock (the server reports it after every call).
+  [[nodiscard]] std::int64_t MemoryBytes() const { return memory_bytes_; }
   // Reads the map under the reader lock.
   void ReadMap(const std::function<void(const GpMap&)>& reader) const;
   [[nodiscard]] std::vector<LogEntry> Log() const;
@@ -165,6 +170,7 @@ class Mission {
   const std::string id_;
   const MissionConfig config_;
   const absl::Time create_time_;
+  const std::int64_t memory_bytes_;
 
   mutable absl::Mutex mu_;
   Environment env_ ABSL_GUARDED_BY(mu_);
@@ -181,7 +187,9 @@ class Mission {
   // The planner keeps state (lawnmower pattern): one plan at a time.
   mutable absl::Mutex planner_mu_;
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
-  std::int64_t paths_planned_ ABSL_GUARDED_BY(planner_mu_) = 0;
+  // Not under planner_mu_: that is held for a whole plan, and Snapshot
+  // must not wait for one.
+  std::atomic<std::int64_t> paths_planned_{0};
 
   absl::Mutex events_mu_;
   std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;

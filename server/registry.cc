@@ -148,7 +148,7 @@ std::size_t MissionRegistry::size() const {
 std::int64_t MissionRegistry::MemoryBytes() const {
   std::vector<std::shared_ptr<Mission>> all = List(0, static_cast<std::size_t>(-1));
   std::int64_t total = 0;
-  for (const auto& m : all) total += m->Snapshot().memory_bytes;
+  for (const auto& m : all) total += m->MemoryBytes();
   return total;
 }
 

@@ -1,4 +1,5 @@
 // Every RPC through an in-process channel: success and each error code.
+#include <atomic>
 #include <cmath>
 #include <thread>
 
@@ -228,6 +229,45 @@ TEST(ServiceTest, PlanningBudgetStopsThePlannerWithoutADeadline) {
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << bad;
     EXPECT_THAT(status.error_message(), HasSubstr("planning_budget_s: must be > 0"));
   }
+}
+
+// A long plan holds its own mission's planner, nothing else: creating and
+// reading missions (which also report memory for the metrics) go on while it
+// runs. Checked by order, not by time: they return before the plan does.
+TEST(ServiceTest, CallsDoNotWaitForAnotherMissionsPlan) {
+  InProcessService s;
+  grpc::ClientContext create_context;
+  v1::CreateMissionRequest create;
+  create.set_mission_id("long");
+  *create.mutable_spec() = SmallSpec();
+  create.mutable_spec()->mutable_planner()->set_generations(1000000);
+  v1::Mission mission;
+  ASSERT_TRUE(s.stub().CreateMission(&create_context, create, &mission).ok());
+  std::atomic<bool> plan_returned{false};
+  std::thread planner([&] {
+    v1::PlanPathRequest request;
+    request.set_name("missions/long");
+    request.mutable_state()->mutable_position_m()->set_x(-4);
+    request.mutable_state()->mutable_position_m()->set_y(4);
+    request.mutable_state()->mutable_position_m()->set_z(8);
+    request.set_planning_budget_s(4.0);
+    grpc::ClientContext context;
+    v1::PlanPathResponse path;
+    EXPECT_TRUE(s.stub().PlanPath(&context, request, &path).ok());
+    plan_returned = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the plan start
+  CreateSmall(s.stub(), "other");
+  {
+    grpc::ClientContext context;
+    v1::GetMissionRequest get;
+    get.set_name("missions/long");
+    v1::Mission got;
+    ASSERT_TRUE(s.stub().GetMission(&context, get, &got).ok());
+    EXPECT_EQ(got.paths_planned(), 0);
+  }
+  EXPECT_FALSE(plan_returned.load()) << "CreateMission / GetMission waited for the plan";
+  planner.join();
 }
 
 TEST(ServiceTest, SpentBudgetIsAFailedPrecondition) {
