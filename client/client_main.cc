@@ -14,8 +14,8 @@
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_join.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "client/evaluation.h"
 #include "client/map_image.h"
 #include "client/mission_runner.h"
@@ -32,8 +32,9 @@ ABSL_FLAG(int, parallel, 2, "eval: missions flown at once");
 ABSL_FLAG(double, plan_budget_s, 0.0,
           "eval: wall-clock seconds each replan may take (0: the planner's full evaluation "
           "budget); the planner is anytime and returns its best path at the budget");
-ABSL_FLAG(std::string, scenario, "",
-          "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
+ABSL_FLAG(
+    std::string, scenario, "",
+    "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
 ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
 ABSL_FLAG(std::string, frames, "",
           "run: folder for an image sequence of the mission (a map PNG per measurement)");
@@ -163,19 +164,17 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
         scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom});
     e.paper = "oaipp=5.17 lawnmower=5.85 random=6.22";
   } else if (name == "E2") {
-    e.variants =
-        PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kOaIppNonAdaptive});
+    e.variants = PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kOaIppNonAdaptive});
     e.paper = "oaipp=5.17 oaipp_nonadaptive=5.29";
   } else if (name == "E3") {
     // OA-IPP over seeded random worlds: trial k flies world k.
     e.column = "trace";
     oaipp::v1::Scenario base = scenario;
     base.mutable_mission()->set_budget_s(absl::GetFlag(FLAGS_e3_budget_s));
-    for (auto kind : {oaipp::client::BuildingKind::kLowRise,
-                      oaipp::client::BuildingKind::kHighRise}) {
+    for (auto kind :
+         {oaipp::client::BuildingKind::kLowRise, oaipp::client::BuildingKind::kHighRise}) {
       for (int count : {5, 10, 15}) {
-        const std::string label =
-            absl::StrCat(oaipp::client::BuildingKindName(kind), " ", count);
+        const std::string label = absl::StrCat(oaipp::client::BuildingKindName(kind), " ", count);
         e.variants.push_back(
             {label, [base, kind, count](int trial) -> absl::StatusOr<oaipp::v1::Scenario> {
                absl::StatusOr<oaipp::v1::Scenario> s = oaipp::client::RandomWorld(
@@ -185,10 +184,8 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
                if (!s.ok()) return s.status();
                s->set_name(absl::StrCat("e3-", count, "-", trial));
                s->set_seed(static_cast<std::uint64_t>(trial));
-               s->mutable_mission()->mutable_planner()->set_kind(
-                   oaipp::v1::PLANNER_KIND_OAIPP);
-               s->mutable_mission()->mutable_planner()->set_seed(
-                   static_cast<std::uint32_t>(trial));
+               s->mutable_mission()->mutable_planner()->set_kind(oaipp::v1::PLANNER_KIND_OAIPP);
+               s->mutable_mission()->mutable_planner()->set_seed(static_cast<std::uint32_t>(trial));
                return s;
              }});
       }
@@ -230,8 +227,8 @@ int Eval(const std::string& experiment) {
                  total, elapsed, eta);
     if (done == total) std::fprintf(stderr, "\n");
   };
-  absl::StatusOr<oaipp::client::EvalResult> result = oaipp::client::RunEvaluation(
-      absl::GetFlag(FLAGS_server), e->variants, options, progress);
+  absl::StatusOr<oaipp::client::EvalResult> result =
+      oaipp::client::RunEvaluation(absl::GetFlag(FLAGS_server), e->variants, options, progress);
   if (!result.ok()) return Fail(result.status());
   std::string out = absl::GetFlag(FLAGS_out);
   if (out.empty()) out = "out/eval/" + experiment;
@@ -251,11 +248,11 @@ int Eval(const std::string& experiment) {
     written.push_back(file);
   }
   const std::string figure = e->column + ".png";
-  const std::string title = e->column == "rse" ? ": RSE over time, mean +- std"
-                                               : ": Tr(P) over time, mean +- std";
-  std::string plot = absl::StrCat("/usr/bin/python3 client/plots/plot_curves.py ", out,
-                                  "/trials.csv ", e->column, " ", out, "/", figure, " --title '",
-                                  experiment, title, "'");
+  const std::string title =
+      e->column == "rse" ? ": RSE over time, mean +- std" : ": Tr(P) over time, mean +- std";
+  std::string plot =
+      absl::StrCat("/usr/bin/python3 client/plots/plot_curves.py ", out, "/trials.csv ", e->column,
+                   " ", out, "/", figure, " --title '", experiment, title, "'");
   if (!e->paper.empty()) absl::StrAppend(&plot, " --paper ", e->paper);
   if (std::system(plot.c_str()) != 0) {
     std::fprintf(stderr, "warning: the figure was not drawn (%s)\n", plot.c_str());

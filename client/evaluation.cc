@@ -162,11 +162,13 @@ std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
       collisions += t->steps.back().collisions;
       if (t->plans > 0) per_plan.Add(t->planning_time_s / t->plans);
     }
-    absl::StrAppendFormat(
-        &md, "| %s | %d | %d | %.3f | %.3f +- %.3f | %.3f | %.1f +- %.1f | %.2f | %.0f %% | %d | %.3f |\n",
-        name, static_cast<int>(trials.size()), failed, start.Mean(), end.Mean(), end.Std(),
-        end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, trace.Mean(), trace.Std(), found.Mean(),
-        end.n > 0 ? 100.0 * all_found / end.n : 0.0, collisions, per_plan.Mean());
+    absl::StrAppendFormat(&md,
+                          "| %s | %d | %d | %.3f | %.3f +- %.3f | %.3f | %.1f +- %.1f | %.2f | "
+                          "%.0f %% | %d | %.3f |\n",
+                          name, static_cast<int>(trials.size()), failed, start.Mean(), end.Mean(),
+                          end.Std(), end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, trace.Mean(),
+                          trace.Std(), found.Mean(), end.n > 0 ? 100.0 * all_found / end.n : 0.0,
+                          collisions, per_plan.Mean());
   }
   for (const TrialResult& t : result.trials) {
     if (!t.error.empty()) {

@@ -18,9 +18,9 @@
 namespace oaipp::client {
 
 struct EvalOptions {
-  int trials = 25;               // per planner; trial k uses seed k for planner and detector
-  int parallel = 2;              // missions flown at once
-  double grid_s = 5.0;           // time grid of the resampled curves
+  int trials = 25;      // per planner; trial k uses seed k for planner and detector
+  int parallel = 2;     // missions flown at once
+  double grid_s = 5.0;  // time grid of the resampled curves
   // Wall-clock seconds per replan (sets Scenario.planning_budget_s);
   // 0: the scenario's own setting.
   double plan_budget_s = 0.0;

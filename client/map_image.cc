@@ -102,8 +102,7 @@ absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
     tiles[i].copyTo(sheet(cv::Rect(c * tile_w, r * tile_h, tiles[i].cols, tiles[i].rows)));
   }
   std::vector<std::uint8_t> png;
-  if (!cv::imencode(".png", sheet, png))
-    return absl::InternalError("montage: PNG encoding failed");
+  if (!cv::imencode(".png", sheet, png)) return absl::InternalError("montage: PNG encoding failed");
   return std::string(png.begin(), png.end());
 }
 

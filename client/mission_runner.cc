@@ -38,7 +38,6 @@ void Evaluate(const v1::Trajectory& traj, double t, Vec3* p, Vec3* v) {
   *v = Vec3(dx, dy, dz);
 }
 
-
 }  // namespace
 
 absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenario,
@@ -56,8 +55,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   StepRecord record;
   record.mission_time_s = t0;
   auto measure_record = [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map,
-                           client.GetMap(result.mission_name, true, false));
+    OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map, client.GetMap(result.mission_name, true, false));
     const std::vector<double> mean(map.mean().begin(), map.mean().end());
     record.trace = map.trace();
     record.rse = sim.Rse(mean);
@@ -78,7 +76,8 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     v1::PlanPathRequest request;
     request.set_name(result.mission_name);
     *request.mutable_state() = state;
-    if (scenario.has_planning_budget_s()) request.set_planning_budget_s(scenario.planning_budget_s());
+    if (scenario.has_planning_budget_s())
+      request.set_planning_budget_s(scenario.planning_budget_s());
     const auto plan_start = std::chrono::steady_clock::now();
     OAIPP_ASSIGN_OR_RETURN(v1::PlanPathResponse path, client.PlanPath(request));
     result.planning_time_s +=

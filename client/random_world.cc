@@ -55,7 +55,8 @@ absl::StatusOr<v1::Scenario> RandomWorld(const v1::Scenario& base,
   }
   std::vector<Rect> keep_out;  // targets, grown by the gap
   for (const v1::Target& t : base.targets()) {
-    keep_out.push_back(Rect{t.x_min_m(), t.y_min_m(), t.x_max_m(), t.y_max_m()}.Grown(options.gap_m));
+    keep_out.push_back(
+        Rect{t.x_min_m(), t.y_min_m(), t.x_max_m(), t.y_max_m()}.Grown(options.gap_m));
   }
   const Vec3 start = config->start.position_W;
   std::mt19937_64 rng(options.seed);

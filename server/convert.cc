@@ -224,8 +224,8 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   c.planner.oaipp.generations = OrDefault(p.has_generations(), p.generations(), oaipp.generations);
   c.planner.lawnmower.altitude_m =
       OrDefault(p.has_lawnmower_altitude_m(), p.lawnmower_altitude_m(), lawnmower.altitude_m);
-  c.planner.lawnmower.start_corner = OrDefault(p.has_lawnmower_start_corner(),
-                                               p.lawnmower_start_corner(), lawnmower.start_corner);
+  c.planner.lawnmower.start_corner =
+      OrDefault(p.has_lawnmower_start_corner(), p.lawnmower_start_corner(), lawnmower.start_corner);
 
   OAIPP_RETURN_IF_ERROR(
       CheckIntRange("spec.planner.num_waypoints", c.planner.oaipp.num_waypoints, 2, 20));

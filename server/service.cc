@@ -206,8 +206,8 @@ grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
       deadline = std::min(deadline, arrival + absl::Seconds(budget));
     }
     if (context->IsCancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
-    OAIPP_ASSIGN_OR_RETURN(PlannedPath path, mission->Plan(state, next_shot, deadline,
-                                                           request->request_id(), gate_));
+    OAIPP_ASSIGN_OR_RETURN(PlannedPath path,
+                           mission->Plan(state, next_shot, deadline, request->request_id(), gate_));
     if (metrics_ != nullptr) {
       metrics_->RecordPlan(path.stats.wall_time_s, static_cast<double>(path.stats.evaluations));
     }

@@ -135,8 +135,8 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
     const int corner = config_.start_corner >= 0
                            ? config_.start_corner
                            : static_cast<int>(MixSeed(config_.common.seed, 0.0) & 3U);
-    pattern_ = Pattern(scorer.grid(), scorer.waypoint_box(), mission.camera, config_.altitude_m,
-                       corner);
+    pattern_ =
+        Pattern(scorer.grid(), scorer.waypoint_box(), mission.camera, config_.altitude_m, corner);
   }
   // Back and forth: after the last point the pattern is flown in reverse.
   const int period = 2 * static_cast<int>(pattern_.size()) - 2;
@@ -158,7 +158,7 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
   // need a narrower detour are skipped instead.
   struct Attempt {
     double margin;
-    bool split;         // legs in pieces of at most 3 m
+    bool split;          // legs in pieces of at most 3 m
     bool narrow = true;  // a point unreachable with `margin` may use less
   };
   auto build_route = [&](const Attempt& attempt, int* index) {
@@ -197,10 +197,9 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
   };
   absl::Status last_error = absl::OkStatus();
   const double m = config_.detour_margin_m;
-  const Attempt attempts[] = {{m, false},        {2 * m, false},       {0.5 * m, false},
-                              {0.0, false},      {m, true},            {2 * m, true},
-                              {0.5 * m, true},   {0.0, true},          {m, false, false},
-                              {0.5 * m, false, false}};
+  const Attempt attempts[] = {
+      {m, false},    {2 * m, false},  {0.5 * m, false}, {0.0, false},      {m, true},
+      {2 * m, true}, {0.5 * m, true}, {0.0, true},      {m, false, false}, {0.5 * m, false, false}};
   for (const Attempt& attempt : attempts) {
     int index = next_index_;
     const std::vector<Vec3> route = build_route(attempt, &index);

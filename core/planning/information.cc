@@ -63,8 +63,8 @@ double InformationParams::AltitudeReward(double altitude_m) const {
 absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix) {
   for (std::size_t i = 0; i < prefix.size(); ++i) {
     if (prefix[i].scored) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("prefix[", i, "].scored: a conditioned prefix earns nothing, must be false"));
+      return absl::InvalidArgumentError(absl::StrCat(
+          "prefix[", i, "].scored: a conditioned prefix earns nothing, must be false"));
     }
   }
   prefix_.clear();
@@ -99,8 +99,9 @@ double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) co
   const std::size_t skip = PrefixLength(poses);
   const Eigen::MatrixXd& base = skip > 0 ? conditioned_ : cov_;
   const auto rest = poses.subspan(skip);
-  return params_.kind == ObjectiveKind::kAdaptive ? Adaptive(rest, base)
-                                                  : NonAdaptive(rest, base, skip > 0 || prefix_.empty());
+  return params_.kind == ObjectiveKind::kAdaptive
+             ? Adaptive(rest, base)
+             : NonAdaptive(rest, base, skip > 0 || prefix_.empty());
 }
 
 Eigen::VectorXd InformationEvaluator::PosteriorVariances(

@@ -74,8 +74,7 @@ class PathScorer {
   // objective only): PoseValue(shot, PosteriorVariances(history)) equals
   // Information(history + {shot}).
   [[nodiscard]] bool adaptive() const { return adaptive_; }
-  [[nodiscard]] Eigen::VectorXd PosteriorVariances(
-      std::span<const PoseObservation> history) const {
+  [[nodiscard]] Eigen::VectorXd PosteriorVariances(std::span<const PoseObservation> history) const {
     return evaluator_.PosteriorVariances(history);
   }
   [[nodiscard]] double PoseValue(const PoseObservation& shot,

@@ -318,10 +318,9 @@ class ScaleSearch {
   absl::StatusOr<Evaluation> Evaluate(double k) {
     std::vector<double> durations_s = base_durations_s_;
     for (std::size_t i = fixed_first_ ? 1 : 0; i < durations_s.size(); ++i) durations_s[i] *= k;
-    OAIPP_ASSIGN_OR_RETURN(
-        PolynomialTrajectory trajectory,
-        SolveMinSnap(waypoints_W_, durations_s, start_.velocity_W_m_s, start_.accel_W_m_s2,
-                     free_start_jerk_snap_));
+    OAIPP_ASSIGN_OR_RETURN(PolynomialTrajectory trajectory,
+                           SolveMinSnap(waypoints_W_, durations_s, start_.velocity_W_m_s,
+                                        start_.accel_W_m_s2, free_start_jerk_snap_));
     const double speed_ratio = trajectory.MaxSpeed() / limits_.max_speed_m_s;
     const double accel_ratio = trajectory.MaxAcceleration() / limits_.max_accel_m_s2;
     const Evaluation e{

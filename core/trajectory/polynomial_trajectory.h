@@ -99,8 +99,7 @@ class PolynomialTrajectory {
 
   friend absl::StatusOr<PolynomialTrajectory> SolveMinSnap(
       const std::vector<Vec3>& waypoints_W, const std::vector<double>& segment_durations_s,
-      const Vec3& start_velocity_W_m_s, const Vec3& start_accel_W_m_s2,
-      bool free_start_jerk_snap);
+      const Vec3& start_velocity_W_m_s, const Vec3& start_accel_W_m_s2, bool free_start_jerk_snap);
 };
 
 // A position on the trajectory and when it is reached (seconds since the

@@ -2,11 +2,11 @@
 
 #include <cmath>
 
+#include "client/map_image.h"
 #include "client/scenario.h"
 #include "client/simulation.h"
 #include "gtest/gtest.h"
 #include "opencv2/imgcodecs.hpp"
-#include "client/map_image.h"
 
 namespace oaipp::client {
 namespace {
@@ -107,9 +107,9 @@ TEST(MontageTest, TilesFramesWithCaptions) {
   const std::string frame(bytes.begin(), bytes.end());
   absl::StatusOr<std::string> sheet = MontagePng({frame, frame, frame}, {"a", "b", "c"}, 2);
   ASSERT_TRUE(sheet.ok()) << sheet.status();
-  const cv::Mat image = cv::imdecode(std::vector<std::uint8_t>(sheet->begin(), sheet->end()),
-                                     cv::IMREAD_COLOR);
-  EXPECT_EQ(image.cols, 160);        // two columns of 80 px
+  const cv::Mat image =
+      cv::imdecode(std::vector<std::uint8_t>(sheet->begin(), sheet->end()), cv::IMREAD_COLOR);
+  EXPECT_EQ(image.cols, 160);            // two columns of 80 px
   EXPECT_EQ(image.rows, 2 * (50 + 36));  // two rows, each with a 36 px caption band
   EXPECT_EQ(MontagePng({frame}, {}, 2).status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(MontagePng({"not a png"}, {"x"}, 2).status().code(),

@@ -2,9 +2,9 @@
 // paths start at the UAV state, stay inside the flight volume, are
 // collision-free under an independent exact check, respect the dynamic
 // limits, and are identical for the same seed.
-#include <set>
 #include <map>
 #include <memory>
+#include <set>
 
 #include "core/planning/planners.h"
 #include "gtest/gtest.h"
