@@ -43,6 +43,18 @@ class MergedCells {
   std::unordered_map<int, int> slot_;
 };
 
+// L^-1 B_K: for the fused cells K, L the factor of B_KK + R: the rows whose
+// column norms are the variance reductions and whose Frobenius norm is the
+// trace reduction.
+Eigen::MatrixXd WhitenedRows(const MergedCells& fused, const Eigen::MatrixXd& base,
+                             const Eigen::LLT<Eigen::MatrixXd>& factor) {
+  const std::vector<int>& k = fused.cells();
+  Eigen::MatrixXd rows(static_cast<Eigen::Index>(k.size()), base.cols());
+  for (Eigen::Index a = 0; a < rows.rows(); ++a) rows.row(a) = base.col(k[a]).transpose();
+  factor.matrixL().solveInPlace(rows);
+  return rows;
+}
+
 }  // namespace
 
 absl::Status InformationParams::Validate() const {
@@ -73,11 +85,7 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
   MergedCells fused;
   for (const PoseObservation& pose : prefix) fused.Add(pose);
   if (fused.empty()) return absl::OkStatus();
-  const std::vector<int>& k = fused.cells();
-  const auto m = static_cast<Eigen::Index>(k.size());
-  Eigen::MatrixXd w(m, cov_.cols());  // L^-1 P_K:
-  for (Eigen::Index a = 0; a < m; ++a) w.row(a) = cov_.col(k[a]).transpose();
-  fused.Factor(cov_).matrixL().solveInPlace(w);
+  const Eigen::MatrixXd w = WhitenedRows(fused, cov_, fused.Factor(cov_));
   conditioned_ = cov_;
   conditioned_.selfadjointView<Eigen::Lower>().rankUpdate(w.transpose(), -1.0);
   conditioned_.triangularView<Eigen::StrictlyUpper>() = conditioned_.transpose();
@@ -112,12 +120,7 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
   if (fused.empty()) return var;
-  const std::vector<int>& k = fused.cells();
-  const auto m = static_cast<Eigen::Index>(k.size());
-  Eigen::MatrixXd w(m, base.cols());  // L^-1 B_K:
-  for (Eigen::Index a = 0; a < m; ++a) w.row(a) = base.col(k[a]).transpose();
-  fused.Factor(base).matrixL().solveInPlace(w);
-  var -= w.colwise().squaredNorm().transpose();
+  var -= WhitenedRows(fused, base, fused.Factor(base)).colwise().squaredNorm().transpose();
   return var;
 }
 
@@ -188,10 +191,7 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
       return sum;
     }
     // |L^-1 B_K,:|_F^2: m^2 n, cheaper when K is most of the field.
-    Eigen::MatrixXd rows(m, base.cols());  // B_K,:
-    for (Eigen::Index a = 0; a < m; ++a) rows.row(a) = base.col(k[a]).transpose();
-    factor.matrixL().solveInPlace(rows);
-    return rows.squaredNorm();
+    return WhitenedRows(fused, base, factor).squaredNorm();
   };
   return reduction(all) - reduction(baseline);
 }
