@@ -212,6 +212,11 @@ int Eval(const std::string& experiment) {
   if (!scenario.ok()) return Fail(scenario.status());
   absl::StatusOr<Experiment> e = MakeExperiment(experiment, *scenario);
   if (!e.ok()) return Fail(e.status());
+  if (absl::GetFlag(FLAGS_trials) < 1 || absl::GetFlag(FLAGS_parallel) < 1 ||
+      !(absl::GetFlag(FLAGS_plan_budget_s) >= 0) || !(absl::GetFlag(FLAGS_e3_budget_s) > 0)) {
+    return Fail(absl::InvalidArgumentError(
+        "--trials and --parallel must be >= 1, --plan_budget_s >= 0, --e3_budget_s > 0"));
+  }
   Client probe = Client::Connect(absl::GetFlag(FLAGS_server));
   if (absl::Status up = probe.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
   oaipp::client::EvalOptions options{.trials = absl::GetFlag(FLAGS_trials),
