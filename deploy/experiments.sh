@@ -14,15 +14,8 @@ trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
 experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5}"
 
-bash "$root/deploy/install-deps.sh"
-cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-echo "experiments: building oaipp-server and oaipp-client"
-cmake --build "$build" -j "$(nproc)" --target oaipp-server oaipp-client >/dev/null
-
-"$build/server/oaipp-server" --listen="$address" --metrics_listen= --log_level=warn &
-server=$!
-trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null || true' EXIT
-cd "$root"
+label=experiments
+source "$root/deploy/serve.sh"
 client=("$build/client/oaipp-client" --server="$address")
 for e in $experiments; do
   echo "== $e"

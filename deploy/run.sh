@@ -10,14 +10,7 @@ build="${BUILD_DIR:-$root/build}"
 scenario="${1:-$root/client/scenarios/e1.json}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 
-bash "$root/deploy/install-deps.sh"
-cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
-echo "run: building oaipp-server and oaipp-client"
-cmake --build "$build" -j "$(nproc)" --target oaipp-server oaipp-client >/dev/null
-
-"$build/server/oaipp-server" --listen="$address" --metrics_listen= --log_level=warn &
-server=$!
-trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null || true' EXIT
-cd "$root"
+label=run
+source "$root/deploy/serve.sh"
 name="$(basename "$scenario" .json)"
 "$build/client/oaipp-client" run "$scenario" --server="$address" --frames="out/$name/frames"

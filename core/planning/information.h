@@ -82,6 +82,8 @@ class InformationEvaluator {
   // pose is scored.
   absl::Status Condition(std::vector<PoseObservation> prefix);
 
+  [[nodiscard]] ObjectiveKind kind() const { return params_.kind; }
+
   // O_info of fusing `poses` in order. Preconditions: valid cell indices,
   // positive variances (the planner builds them; not re-checked here).
   [[nodiscard]] double Evaluate(std::span<const PoseObservation> poses) const;

@@ -30,7 +30,6 @@ PathScorer::PathScorer(const MissionView& mission, const UavState& state,
       limits_(limits),
       weights_(weights),
       evaluator_(mission.map->Mean(), mission.map->Covariance(), information),
-      adaptive_(information.kind == ObjectiveKind::kAdaptive),
       waypoint_box_(mission.environment->flight_volume().Inflated(-0.5 * limits.uav_radius_m)) {}
 
 absl::Status PlannerCommon::Validate() const {

@@ -73,7 +73,7 @@ class PathScorer {
   // For valuing many single scored shots after one fused `history` (adaptive
   // objective only): PoseValue(shot, PosteriorVariances(history)) equals
   // Information(history + {shot}).
-  [[nodiscard]] bool adaptive() const { return adaptive_; }
+  [[nodiscard]] bool adaptive() const { return evaluator_.kind() == ObjectiveKind::kAdaptive; }
   [[nodiscard]] Eigen::VectorXd PosteriorVariances(std::span<const PoseObservation> history) const {
     return evaluator_.PosteriorVariances(history);
   }
@@ -114,7 +114,6 @@ class PathScorer {
   PlannerLimits limits_;
   ScoreWeights weights_;
   InformationEvaluator evaluator_;
-  bool adaptive_;
   Aabb waypoint_box_;
   std::vector<PoseObservation> start_observations_;
 };

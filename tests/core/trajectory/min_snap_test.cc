@@ -140,6 +140,22 @@ Eigen::MatrixXd KktCoefficients(const std::vector<double>& w, const std::vector<
   return x.head(vars).reshaped(10, n);
 }
 
+// Every coefficient of `traj` against the dense twin, per axis and segment.
+void ExpectMatchesTwin(const PolynomialTrajectory& traj, const std::vector<Vec3>& w,
+                       const std::vector<double>& T, const Vec3& v0, const Vec3& a0,
+                       bool free_start_jerk_snap, int trial) {
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> w1;
+    for (const auto& p : w) w1.push_back(p[axis]);
+    const Eigen::MatrixXd c = KktCoefficients(w1, T, v0[axis], a0[axis], free_start_jerk_snap);
+    for (int j = 0; j < static_cast<int>(T.size()); ++j) {
+      const Eigen::VectorXd mine = traj.Coefficients(j).col(axis);
+      EXPECT_LE((mine - c.col(j)).norm(), 1e-7 * std::max(1.0, c.col(j).norm()))
+          << "trial " << trial << " segment " << j << " axis " << axis;
+    }
+  }
+}
+
 TEST(MinSnapTwinTest, MatchesDenseKktSolutionForRandomProblems) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> dur(0.5, 2.0), pos(-3.0, 3.0), small(-1.0, 1.0);
@@ -150,17 +166,7 @@ TEST(MinSnapTwinTest, MatchesDenseKktSolutionForRandomProblems) {
     for (auto& p : w) p = Vec3(pos(rng), pos(rng), pos(rng));
     for (auto& t : T) t = dur(rng);
     const Vec3 v0(small(rng), small(rng), small(rng)), a0(small(rng), small(rng), small(rng));
-    const PolynomialTrajectory traj = Solve(w, T, v0, a0);
-    for (int axis = 0; axis < 3; ++axis) {
-      std::vector<double> w1;
-      for (const auto& p : w) w1.push_back(p[axis]);
-      const Eigen::MatrixXd c = KktCoefficients(w1, T, v0[axis], a0[axis]);
-      for (int j = 0; j < n; ++j) {
-        const Eigen::VectorXd mine = traj.Coefficients(j).col(axis);
-        EXPECT_LE((mine - c.col(j)).norm(), 1e-7 * std::max(1.0, c.col(j).norm()))
-            << "trial " << trial << " segment " << j << " axis " << axis;
-      }
-    }
+    ExpectMatchesTwin(Solve(w, T, v0, a0), w, T, v0, a0, false, trial);
   }
 }
 
@@ -183,16 +189,7 @@ TEST(MinSnapTwinTest, FreeStartJerkAndSnapMatchDenseKkt) {
     EXPECT_LE(free->SnapCost(), fixed.SnapCost() * (1 + 1e-9)) << "trial " << trial;
     EXPECT_LE((free->Velocity(0) - v0).norm(), 1e-9);
     EXPECT_LE((free->Acceleration(0) - a0).norm(), 1e-9);
-    for (int axis = 0; axis < 3; ++axis) {
-      std::vector<double> w1;
-      for (const auto& p : w) w1.push_back(p[axis]);
-      const Eigen::MatrixXd c = KktCoefficients(w1, T, v0[axis], a0[axis], true);
-      for (int j = 0; j < n; ++j) {
-        const Eigen::VectorXd mine = free->Coefficients(j).col(axis);
-        EXPECT_LE((mine - c.col(j)).norm(), 1e-7 * std::max(1.0, c.col(j).norm()))
-            << "trial " << trial << " segment " << j << " axis " << axis;
-      }
-    }
+    ExpectMatchesTwin(*free, w, T, v0, a0, true, trial);
   }
 }
 
