@@ -125,14 +125,30 @@ void KeepVisible(const FieldGrid& grid, const Vec3& p_WC, const LineOfSight* lin
                 [&](int cell) { return !line_of_sight->IsClear(p_WC, grid.CellCentre(cell)); });
 }
 
-// Image footprint cells and their projected centres (pixels).
-struct ProjectedCells {
+// Cells overlapped by the ground polygon of a box with confidence >=
+// min_confidence, unioned over the boxes; sorted. Occlusion is not applied.
+std::vector<int> BoxCells(const FieldGrid& grid, const CameraIntrinsics& intrinsics,
+                          const CameraPose& pose, std::span<const PixelBox> boxes,
+                          double min_confidence) {
   std::vector<int> cells;
-  std::vector<cv::Point2d> pixels;
-};
+  for (const PixelBox& b : boxes) {
+    if (b.confidence < min_confidence) continue;
+    const std::vector<Vec2> polygon = GroundPolygonUnchecked(
+        intrinsics, pose, b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px, 16);
+    const std::vector<int> overlapped = grid.CellsOverlappingPolygon(polygon);
+    std::vector<int> merged;
+    merged.reserve(cells.size() + overlapped.size());
+    std::set_union(cells.begin(), cells.end(), overlapped.begin(), overlapped.end(),
+                   std::back_inserter(merged));
+    cells = std::move(merged);
+  }
+  return cells;
+}
 
-ProjectedCells ProjectFootprint(const FieldGrid& grid, const CameraIntrinsics& intrinsics,
-                                const CameraPose& pose, const LineOfSight* line_of_sight) {
+// Image footprint cells: those whose centre projects into the image and is
+// seen. Sorted.
+std::vector<int> ProjectFootprint(const FieldGrid& grid, const CameraIntrinsics& intrinsics,
+                                  const CameraPose& pose, const LineOfSight* line_of_sight) {
   // Candidates: the bounding box of the image's ground polygon grown by a
   // cell. Only these are projected: far outside the field of view the
   // distortion polynomial can fold back and map points into the image.
@@ -146,7 +162,7 @@ ProjectedCells ProjectFootprint(const FieldGrid& grid, const CameraIntrinsics& i
     hi = hi.cwiseMax(v);
   }
   const double r = grid.resolution_m();
-  ProjectedCells out;
+  std::vector<int> out;
   const std::vector<int> candidates =
       grid.CellsInRectangle(0.5 * (lo + hi), (hi - lo).array() + 2.0 * r, 0.0);
   if (candidates.empty()) return out;
@@ -175,8 +191,7 @@ ProjectedCells ProjectFootprint(const FieldGrid& grid, const CameraIntrinsics& i
         p.y >= -kPixelTolerance && p.y <= intrinsics.height_px + kPixelTolerance &&
         (line_of_sight == nullptr ||
          line_of_sight->IsClear(pose.p_WC, grid.CellCentre(candidates[i])))) {
-      out.cells.push_back(candidates[i]);
-      out.pixels.push_back(p);
+      out.push_back(candidates[i]);
     }
   }
   return out;
@@ -261,18 +276,7 @@ absl::StatusOr<std::vector<int>> DetectionCells(
     std::span<const PixelBox> boxes, double min_confidence, const LineOfSight* line_of_sight) {
   OAIPP_RETURN_IF_ERROR(ValidateCommon(intrinsics, pose));
   OAIPP_RETURN_IF_ERROR(ValidateBoxes(boxes, intrinsics, min_confidence));
-  std::vector<int> cells;
-  for (const PixelBox& b : boxes) {
-    if (b.confidence < min_confidence) continue;
-    const std::vector<Vec2> polygon = GroundPolygonUnchecked(
-        intrinsics, pose, b.x_min_px, b.y_min_px, b.x_max_px, b.y_max_px, 16);
-    const std::vector<int> inside = grid.CellsInPolygon(polygon);
-    std::vector<int> merged;
-    merged.reserve(cells.size() + inside.size());
-    std::set_union(cells.begin(), cells.end(), inside.begin(), inside.end(),
-                   std::back_inserter(merged));
-    cells = std::move(merged);
-  }
+  std::vector<int> cells = BoxCells(grid, intrinsics, pose, boxes, min_confidence);
   KeepVisible(grid, pose.p_WC, line_of_sight, cells);
   return cells;
 }
@@ -282,7 +286,7 @@ absl::StatusOr<std::vector<int>> ImageFootprintCells(const FieldGrid& grid,
                                                      const CameraPose& pose,
                                                      const LineOfSight* line_of_sight) {
   OAIPP_RETURN_IF_ERROR(ValidateCommon(intrinsics, pose));
-  return ProjectFootprint(grid, intrinsics, pose, line_of_sight).cells;
+  return ProjectFootprint(grid, intrinsics, pose, line_of_sight);
 }
 
 absl::StatusOr<CellLabels> DetectionsToLabels(
@@ -290,17 +294,13 @@ absl::StatusOr<CellLabels> DetectionsToLabels(
     std::span<const PixelBox> boxes, double min_confidence, const LineOfSight* line_of_sight) {
   OAIPP_RETURN_IF_ERROR(ValidateCommon(intrinsics, pose));
   OAIPP_RETURN_IF_ERROR(ValidateBoxes(boxes, intrinsics, min_confidence));
-  ProjectedCells footprint = ProjectFootprint(grid, intrinsics, pose, line_of_sight);
+  const std::vector<int> detected = BoxCells(grid, intrinsics, pose, boxes, min_confidence);
   CellLabels out;
-  out.labels.reserve(footprint.cells.size());
-  for (const cv::Point2d& p : footprint.pixels) {
-    const bool detected = std::any_of(boxes.begin(), boxes.end(), [&](const PixelBox& b) {
-      return b.confidence >= min_confidence && p.x >= b.x_min_px && p.x <= b.x_max_px &&
-             p.y >= b.y_min_px && p.y <= b.y_max_px;
-    });
-    out.labels.push_back(detected ? 1.0 : 0.0);
+  out.cells = ProjectFootprint(grid, intrinsics, pose, line_of_sight);
+  out.labels.reserve(out.cells.size());
+  for (int cell : out.cells) {
+    out.labels.push_back(std::binary_search(detected.begin(), detected.end(), cell) ? 1.0 : 0.0);
   }
-  out.cells = std::move(footprint.cells);
   return out;
 }
 

@@ -110,10 +110,14 @@ struct CellLabels {
                                                               const PixelBox& box,
                                                               int samples_per_edge = 16);
 
-// Cells whose centre lies in the ground polygon of a box with confidence >=
-// min_confidence, and which the camera sees (line_of_sight; nullptr = no
-// obstacles). The union over boxes, sorted. InvalidArgument for invalid
-// intrinsics, pose, boxes ("boxes[i].confidence") or min_confidence.
+// Cells whose square overlaps the ground polygon of a box with confidence
+// >= min_confidence (FieldGrid::CellsOverlappingPolygon: the rule that
+// rasterises ground-truth targets, so a box drawn tight around a person
+// marks exactly that person's cells), and which the camera sees
+// (line_of_sight to the cell centre; nullptr = no obstacles). The union over
+// boxes, sorted. Under lens distortion the polygon follows each box edge at
+// 16 points. InvalidArgument for invalid intrinsics, pose, boxes
+// ("boxes[i].confidence") or min_confidence.
 [[nodiscard]] absl::StatusOr<std::vector<int>> DetectionCells(
     const FieldGrid& grid, const CameraIntrinsics& intrinsics, const CameraPose& pose,
     std::span<const PixelBox> boxes, double min_confidence, const LineOfSight* line_of_sight);
@@ -125,10 +129,9 @@ struct CellLabels {
     const FieldGrid& grid, const CameraIntrinsics& intrinsics, const CameraPose& pose,
     const LineOfSight* line_of_sight);
 
-// One image as labels over ImageFootprintCells: 1 for a cell whose projected
-// centre lies in a box with confidence >= min_confidence, else 0. (Tested in
-// pixels, so exact under distortion; without distortion the 1-cells are
-// DetectionCells restricted to the image footprint.) Errors as DetectionCells.
+// One image as labels over ImageFootprintCells: 1 for a cell in
+// DetectionCells (its square overlaps a confident box's ground polygon),
+// else 0. Errors as DetectionCells.
 [[nodiscard]] absl::StatusOr<CellLabels> DetectionsToLabels(
     const FieldGrid& grid, const CameraIntrinsics& intrinsics, const CameraPose& pose,
     std::span<const PixelBox> boxes, double min_confidence, const LineOfSight* line_of_sight);

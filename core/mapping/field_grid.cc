@@ -47,6 +47,46 @@ bool InPolygon(const Vec2& p, std::span<const Vec2> poly) {
   return inside;
 }
 
+// Area of the part of `polygon` inside the axis-aligned square [lo, hi]:
+// Sutherland-Hodgman clipping against the square's four half-planes (exact
+// for any simple polygon, since the square is convex; a concave polygon may
+// leave zero-area bridges, which the shoelace sum ignores), then the
+// shoelace formula.
+double ClippedArea(std::span<const Vec2> polygon, const Vec2& lo, const Vec2& hi,
+                   std::vector<Vec2>& scratch_a, std::vector<Vec2>& scratch_b) {
+  scratch_a.assign(polygon.begin(), polygon.end());
+  for (int side = 0; side < 4 && !scratch_a.empty(); ++side) {
+    const int axis = side / 2;
+    const bool upper = side % 2 == 1;
+    const double bound = upper ? hi[axis] : lo[axis];
+    const auto inside = [&](const Vec2& p) { return upper ? p[axis] <= bound : p[axis] >= bound; };
+    scratch_b.clear();
+    const std::size_t n = scratch_a.size();
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec2& a = scratch_a[i];
+      const Vec2& b = scratch_a[(i + 1) % n];
+      const bool a_in = inside(a);
+      const bool b_in = inside(b);
+      if (a_in) scratch_b.push_back(a);
+      if (a_in != b_in) {
+        const double t = (bound - a[axis]) / (b[axis] - a[axis]);
+        Vec2 crossing = a + t * (b - a);
+        crossing[axis] = bound;
+        scratch_b.push_back(crossing);
+      }
+    }
+    std::swap(scratch_a, scratch_b);
+  }
+  double twice_area = 0.0;
+  const std::size_t n = scratch_a.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2& a = scratch_a[i];
+    const Vec2& b = scratch_a[(i + 1) % n];
+    twice_area += a.x() * b.y() - b.x() * a.y();
+  }
+  return 0.5 * std::abs(twice_area);
+}
+
 }  // namespace
 
 absl::StatusOr<FieldGrid> FieldGrid::Create(const Vec2& origin_W, int nx, int ny,
@@ -188,6 +228,30 @@ std::vector<int> FieldGrid::CellsOverlapping(const Vec2& min_W, const Vec2& max_
   const int row_hi = ClampToInt(std::ceil(hi.y()) - 1.0, -1, ny_ - 1);
   for (int row = row_lo; row <= row_hi; ++row) {
     for (int col = col_lo; col <= col_hi; ++col) cells.push_back(Index(row, col));
+  }
+  return cells;
+}
+
+std::vector<int> FieldGrid::CellsOverlappingPolygon(std::span<const Vec2> polygon_W,
+                                                    double min_area_m2) const {
+  std::vector<int> cells;
+  if (polygon_W.size() < 3) return cells;
+  Vec2 lo = polygon_W[0];
+  Vec2 hi = polygon_W[0];
+  for (const Vec2& v : polygon_W) {
+    if (!AllFinite(v)) return cells;
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  if ((hi.array() <= lo.array()).any()) return cells;
+  std::vector<Vec2> scratch_a, scratch_b;
+  // Candidates: the cells overlapping the polygon's bounding box.
+  for (int cell : CellsOverlapping(lo, hi)) {
+    const Vec2 cell_lo = origin_W_ + resolution_m_ * Vec2(Col(cell), Row(cell));
+    const Vec2 cell_hi = cell_lo + Vec2::Constant(resolution_m_);
+    if (ClippedArea(polygon_W, cell_lo, cell_hi, scratch_a, scratch_b) > min_area_m2) {
+      cells.push_back(cell);
+    }
   }
   return cells;
 }

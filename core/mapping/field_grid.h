@@ -94,6 +94,17 @@ class FieldGrid {
   // often lie on cell edges). Empty when max_W <= min_W on either axis.
   [[nodiscard]] std::vector<int> CellsOverlapping(const Vec2& min_W, const Vec2& max_W) const;
 
+  // Cells whose square overlaps the simple polygon `polygon_W` (vertices in
+  // order, either orientation) with positive area: the rule above for any
+  // polygon, e.g. a detection box's ground polygon, so that a detection of a
+  // target marks the cells its ground truth marks. Overlaps of at most
+  // min_area_m2 count as touching, not overlapping: they are round-off of
+  // edges that coincide (a 1e-12 m sliver along a 1 m edge is 1e-12 m^2),
+  // while a corner reaching 1e-4 m into a cell covers at least 1e-8 m^2.
+  // Sorted. Fewer than three vertices or a non-finite vertex gives no cells.
+  [[nodiscard]] std::vector<int> CellsOverlappingPolygon(std::span<const Vec2> polygon_W,
+                                                         double min_area_m2 = 1e-10) const;
+
  private:
   FieldGrid(const Vec2& origin_W, int nx, int ny, double resolution_m)
       : origin_W_(origin_W), nx_(nx), ny_(ny), resolution_m_(resolution_m) {}

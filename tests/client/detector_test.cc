@@ -1,6 +1,8 @@
 // The simulated detector's statistics against its configured probabilities
 // over many seeded draws.
+#include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "absl/strings/str_cat.h"
 #include "client/scenario.h"
@@ -77,6 +79,41 @@ TEST(DetectorTest, SameSeedSameDetections) {
     ASSERT_EQ(x.size(), y.size());
     for (std::size_t k = 0; k < x.size(); ++k) EXPECT_EQ(x[k].x_min_px, y[k].x_min_px);
   }
+}
+
+// A sure detector over each E1 person, camera 10 m above it: the boxes,
+// projected back through the server's rule, mark exactly the cells the
+// ground truth marks, 48 in all (DESIGN.md), so a map equal to those labels
+// has RSE 0.
+TEST(DetectorTest, SureDetectionsOfE1PeopleMarkTheTruthCells) {
+  auto scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  scenario->mutable_detector()->set_p_max(1.0);
+  scenario->mutable_detector()->set_fp_per_image_at_10m(0.0);
+  auto sim = Simulation::Create(*scenario);
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  ASSERT_EQ(sim->num_targets(), 7);
+  std::mt19937_64 rng(1);
+  std::set<int> ones, observed;
+  for (const auto& person : scenario->targets()) {
+    // Off-centre so that box edges fall between pixel centres of cells.
+    const Vec3 camera(0.5 * (person.x_min_m() + person.x_max_m()) + 0.3,
+                      0.5 * (person.y_min_m() + person.y_max_m()) - 0.2, 10.0);
+    const std::vector<PixelBox> boxes = sim->Detect(camera, rng);
+    ASSERT_FALSE(boxes.empty());
+    auto labels = sim->Labels(camera, boxes);
+    ASSERT_TRUE(labels.ok()) << labels.status();
+    for (std::size_t i = 0; i < labels->cells.size(); ++i) {
+      observed.insert(labels->cells[i]);
+      if (labels->labels[i] == 1.0) ones.insert(labels->cells[i]);
+    }
+  }
+  EXPECT_EQ(ones.size(), 48u);
+  std::vector<double> map(1600, 0.0);
+  for (int c : ones) map[static_cast<std::size_t>(c)] = 1.0;
+  EXPECT_NEAR(sim->Rse(map), 0.0, 1e-12);
+  EXPECT_EQ(sim->TargetsFound(map), 7);
+  EXPECT_GT(observed.size(), 500u);
 }
 
 }  // namespace

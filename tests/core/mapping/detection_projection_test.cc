@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <random>
 #include <vector>
 
@@ -93,8 +94,9 @@ TEST(ImageFootprintTest, MatchesDownwardCameraFootprint) {
 }
 
 // Ground rectangle -> cv::projectPoints -> pixel box -> DetectionCells gives
-// back the rectangle's cells (no distortion; yaw 0 and 90 deg keep world
-// rectangles axis-aligned in the image).
+// back the cells the rectangle overlaps, the rule that rasterises ground
+// truth (no distortion; yaw 0 and 90 deg keep world rectangles axis-aligned
+// in the image).
 TEST(DetectionCellsTest, GroundRectangleRoundTrip) {
   const FieldGrid grid = PaperGrid();
   const CameraIntrinsics k = Fov640x480();
@@ -115,13 +117,15 @@ TEST(DetectionCellsTest, GroundRectangleRoundTrip) {
                        .confidence = 0.9};
     auto cells = DetectionCells(grid, k, pose, {&box, 1}, 0.5, nullptr);
     ASSERT_TRUE(cells.ok()) << cells.status();
-    ASSERT_EQ(*cells, grid.CellsInRectangle(centre, 2.0 * half)) << "trial " << trial;
+    ASSERT_EQ(*cells, grid.CellsOverlapping(centre - half, centre + half)) << "trial " << trial;
   }
 }
 
 // With distortion: the ground polygon of a box projects back onto the box's
-// boundary, and the polygon's cells are those whose projected centre falls
-// in the box (the label rule).
+// boundary; a cell whose projected centre falls in the box, or which has a
+// point well inside the box, is detected; a detected cell has a point in the
+// box (to within a pixel, the polygon following curved edges at 16 points);
+// the 1-labels are the detected cells in the image footprint.
 TEST(DetectionCellsTest, DistortedRoundTrip) {
   const FieldGrid grid = PaperGrid();
   const CameraIntrinsics k = Distorted();
@@ -151,13 +155,47 @@ TEST(DetectionCellsTest, DistortedRoundTrip) {
 
     auto cells = DetectionCells(grid, k, pose, {&box, 1}, 0.0, nullptr);
     auto labels = DetectionsToLabels(grid, k, pose, {&box, 1}, 0.0, nullptr);
-    ASSERT_TRUE(cells.ok() && labels.ok());
-    std::vector<int> labelled;
+    auto footprint = ImageFootprintCells(grid, k, pose, nullptr);
+    ASSERT_TRUE(cells.ok() && labels.ok() && footprint.ok());
+    std::vector<int> labelled, expected;
     for (std::size_t i = 0; i < labels->cells.size(); ++i) {
       if (labels->labels[i] == 1.0) labelled.push_back(labels->cells[i]);
     }
-    ASSERT_EQ(*cells, labelled) << "trial " << trial;
+    std::set_intersection(cells->begin(), cells->end(), footprint->begin(), footprint->end(),
+                          std::back_inserter(expected));
+    ASSERT_EQ(labelled, expected) << "trial " << trial;
     cells_checked += static_cast<int>(labelled.size());
+
+    // Each cell near the box, sampled at 11 x 11 points of its square.
+    const double r = grid.resolution_m();
+    for (int cell = 0; cell < grid.num_cells(); ++cell) {
+      const Vec2 c = grid.CellCentreXY(cell);
+      if ((c - pose.p_WC.head<2>()).norm() > 9.0) continue;  // far outside the image
+      std::vector<Vec3> samples = {{c.x(), c.y(), 0.0}};
+      for (int i = 0; i <= 10; ++i) {
+        for (int j = 0; j <= 10; ++j) {
+          samples.emplace_back(c.x() + r * (i / 10.0 - 0.5), c.y() + r * (j / 10.0 - 0.5), 0.0);
+        }
+      }
+      const std::vector<cv::Point2d> px = Project(samples, k, pose);
+      const auto in_box = [&](const cv::Point2d& q, double margin) {
+        return q.x >= box.x_min_px - margin && q.x <= box.x_max_px + margin &&
+               q.y >= box.y_min_px - margin && q.y <= box.y_max_px + margin;
+      };
+      const bool detected = std::binary_search(cells->begin(), cells->end(), cell);
+      if (in_box(px[0], 0.0) || std::any_of(px.begin(), px.end(), [&](const cv::Point2d& q) {
+            return in_box(q, -1.0);
+          })) {
+        ASSERT_TRUE(detected) << "trial " << trial << " cell " << cell;
+      }
+      if (detected) {
+        // Sampling can miss a sliver: allow one sample spacing plus a pixel.
+        const double spacing_px = 0.1 * r * k.fx_px / pose.p_WC.z() * 1.5;
+        ASSERT_TRUE(std::any_of(px.begin(), px.end(),
+                                [&](const cv::Point2d& q) { return in_box(q, spacing_px + 1.0); }))
+            << "trial " << trial << " cell " << cell;
+      }
+    }
   }
   EXPECT_GT(cells_checked, 200);
 }
@@ -169,12 +207,14 @@ TEST(DetectionCellsTest, BoxAtImageCentreIsTheCellUnderTheCamera) {
   for (const CameraIntrinsics& k : {Fov640x480(), Distorted()}) {
     for (double yaw : {0.0, 0.7, -2.5}) {
       const CameraPose pose{.p_WC = Vec3(c.x() + 0.1, c.y() - 0.05, 10.0), .yaw_rad = yaw};
-      // +-15 px is +-0.19 m on the ground here: it holds the centre of the
-      // cell under the camera (0.11 m away) and no other.
+      // +-15 px across and +-7 px down the image are +-0.19 m and +-0.17 m on
+      // the ground here (0.26 m to a corner): from 0.11 m off the centre of
+      // the cell under the camera the box stays inside that cell's square at
+      // every yaw tried.
       const PixelBox box{.x_min_px = k.cx_px - 15,
-                         .y_min_px = k.cy_px - 15,
+                         .y_min_px = k.cy_px - 7,
                          .x_max_px = k.cx_px + 15,
-                         .y_max_px = k.cy_px + 15};
+                         .y_max_px = k.cy_px + 7};
       auto cells = DetectionCells(grid, k, pose, {&box, 1}, 0.0, nullptr);
       ASSERT_TRUE(cells.ok());
       EXPECT_THAT(*cells, ElementsAre(under)) << "yaw " << yaw;
