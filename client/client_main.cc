@@ -24,7 +24,8 @@
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "address of the oaipp-server (host:port)");
 ABSL_FLAG(std::string, out, "",
-          "run: folder for steps.csv and map.png (default out/<scenario name>)");
+          "run: folder for steps.csv and map.png (default out/<scenario name>); eval: folder "
+          "for trials.csv, summary.md and figures (default out/eval/<experiment>)");
 ABSL_FLAG(bool, keep, false, "run: keep the mission on the server afterwards");
 ABSL_FLAG(std::string, png, "", "map: file to write the map image to");
 ABSL_FLAG(int, trials, 25, "eval: trials per planner (seeds 1..trials)");
@@ -138,6 +139,12 @@ int Run(const std::string& path) {
   std::ofstream(out + "/steps.csv") << oaipp::client::StepsCsv(result->steps);
   std::ofstream(out + "/map.png", std::ios::binary) << result->final_map_png;
   const oaipp::client::StepRecord& last = result->steps.back();
+  const std::vector<std::string> ids = sim->TargetIds();
+  std::vector<std::string> missed;
+  for (std::size_t i = 0; i < ids.size() && i < result->found_at_end.size(); ++i) {
+    if (!result->found_at_end[i]) missed.push_back(ids[i]);
+  }
+  if (!missed.empty()) std::printf("not found: %s\n", absl::StrJoin(missed, ", ").c_str());
   std::printf(
       "done: %d plans (%.1f s planning), RSE %.3f -> %.3f, %d/%d targets found, "
       "%d collisions; wrote %s/steps.csv and %s/map.png\n",

@@ -1,5 +1,6 @@
 #include "client/evaluation.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <map>
@@ -103,6 +104,8 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
           sim.ok() ? RunScenario(client, *s, *sim) : absl::StatusOr<RunResult>(sim.status());
       if (run.ok()) {
         out.num_targets = sim->num_targets();
+        out.target_ids = sim->TargetIds();
+        out.found_at_end = run->found_at_end;
         out.steps = Resample(run->steps, result.grid_s);
         out.plans = run->plans;
         out.planning_time_s = run->planning_time_s;
@@ -169,6 +172,39 @@ std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
                           end.Std(), end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, trace.Mean(),
                           trace.Std(), found.Mean(), end.n > 0 ? 100.0 * all_found / end.n : 0.0,
                           collisions, per_plan.Mean());
+  }
+  // Which targets are found: ids in the order first seen.
+  std::vector<std::string> ids;
+  for (const TrialResult& t : result.trials) {
+    for (const std::string& id : t.target_ids) {
+      if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
+    }
+  }
+  if (!ids.empty()) {
+    absl::StrAppend(&md, "\nTrials that found each target at the end:\n\n| variant |");
+    for (const std::string& id : ids) absl::StrAppend(&md, " ", id, " |");
+    absl::StrAppend(&md, "\n| --- |");
+    for (std::size_t i = 0; i < ids.size(); ++i) absl::StrAppend(&md, " --- |");
+    absl::StrAppend(&md, "\n");
+    for (const std::string& name : order) {
+      absl::StrAppend(&md, "| ", name, " |");
+      for (const std::string& id : ids) {
+        int seen = 0, found = 0;
+        for (const TrialResult* t : by_variant[name]) {
+          for (std::size_t i = 0; i < t->target_ids.size() && i < t->found_at_end.size(); ++i) {
+            if (t->target_ids[i] != id) continue;
+            ++seen;
+            found += t->found_at_end[i];
+          }
+        }
+        if (seen == 0) {
+          absl::StrAppend(&md, " - |");
+        } else {
+          absl::StrAppendFormat(&md, " %.0f %% |", 100.0 * found / seen);
+        }
+      }
+      absl::StrAppend(&md, "\n");
+    }
   }
   for (const TrialResult& t : result.trials) {
     if (!t.error.empty()) {

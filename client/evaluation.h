@@ -47,7 +47,9 @@ struct TrialResult {
   int plans = 0;
   double planning_time_s = 0.0;
   std::string map_png;  // the final map with the flown path (trial 1 only)
-  std::string error;    // non-empty when the trial failed
+  std::vector<std::string> target_ids;
+  std::vector<bool> found_at_end;  // per target id
+  std::string error;               // non-empty when the trial failed
 };
 
 struct EvalResult {
@@ -72,7 +74,8 @@ struct EvalResult {
 // A Markdown table, a row per variant in the order first seen: trials,
 // failures, RSE at the start and the end (mean +- std, standard error),
 // Tr(P) at the end (mean +- std), targets found (mean), trials that found
-// every target (%), collisions, planning time per plan; then every failed
+// every target (%), collisions, planning time per plan; then, per variant,
+// the share of trials that found each target (by id); then every failed
 // trial with its error.
 [[nodiscard]] std::string SummaryMarkdown(const EvalResult& result, double budget_s);
 

@@ -151,6 +151,8 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
                          client.GetMap(result.mission_name, true, false));
   OAIPP_ASSIGN_OR_RETURN(result.final_map_png,
                          RenderMissionPng(final_map, sim, result.flown_path_W));
+  result.found_at_end =
+      sim.FoundEach(std::vector<double>(final_map.mean().begin(), final_map.mean().end()));
   if (!keep_mission) OAIPP_RETURN_IF_ERROR(client.DeleteMission(result.mission_name));
   return result;
 }

@@ -33,7 +33,8 @@ struct RunResult {
   std::vector<Vec3> flown_path_W;  // 10 Hz
   int plans = 0;
   double planning_time_s = 0.0;
-  std::string final_map_png;  // map mean | std with obstacles, targets and the flown path
+  std::string final_map_png;       // map mean | std with obstacles, targets and the flown path
+  std::vector<bool> found_at_end;  // per target, Simulation::FoundEach of the final map
 };
 
 // progress: called with the metrics after each measurement. frame: when

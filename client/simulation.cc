@@ -1,5 +1,6 @@
 #include "client/simulation.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -143,17 +144,28 @@ double Simulation::Rmse(const std::vector<double>& mean) const {
   return Rse(mean) / std::sqrt(static_cast<double>(truth_.size()));
 }
 
-int Simulation::TargetsFound(const std::vector<double>& mean) const {
-  int found = 0;
+std::vector<bool> Simulation::FoundEach(const std::vector<double>& mean) const {
+  std::vector<bool> found;
+  found.reserve(target_cells_.size());
   for (const std::vector<int>& cells : target_cells_) {
-    for (int c : cells) {
-      if (mean[static_cast<std::size_t>(c)] > 0.5) {
-        ++found;
-        break;
-      }
-    }
+    found.push_back(std::any_of(cells.begin(), cells.end(), [&](int c) {
+      return static_cast<std::size_t>(c) < mean.size() && mean[static_cast<std::size_t>(c)] > 0.5;
+    }));
   }
   return found;
+}
+
+int Simulation::TargetsFound(const std::vector<double>& mean) const {
+  const std::vector<bool> found = FoundEach(mean);
+  return static_cast<int>(std::count(found.begin(), found.end(), true));
+}
+
+std::vector<std::string> Simulation::TargetIds() const {
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < targets_.size(); ++i) {
+    ids.push_back(targets_[i].id().empty() ? absl::StrCat("target ", i + 1) : targets_[i].id());
+  }
+  return ids;
 }
 
 std::vector<std::pair<Vec2, Vec2>> Simulation::TargetRectangles() const {

@@ -48,8 +48,13 @@ class Simulation {
   // RSE = sqrt(sum (mu - truth)^2) and RMSE over the cells.
   [[nodiscard]] double Rse(const std::vector<double>& mean) const;
   [[nodiscard]] double Rmse(const std::vector<double>& mean) const;
-  // Targets whose cells reach a map mean above 0.5.
+  // Targets whose cells reach a map mean above 0.5: how many, and which (in
+  // the scenario's order).
   [[nodiscard]] int TargetsFound(const std::vector<double>& mean) const;
+  [[nodiscard]] std::vector<bool> FoundEach(const std::vector<double>& mean) const;
+  // The targets' ids in the scenario's order ("target <i>" when unnamed,
+  // 1-based).
+  [[nodiscard]] std::vector<std::string> TargetIds() const;
   // Closer than r_uav / 2 to an obstacle under the exact geometry, or
   // outside the flight volume.
   [[nodiscard]] bool Collides(const Vec3& p_W) const;

@@ -6,13 +6,15 @@
 #   bash deploy/experiments.sh                  # E3 at 10 trials per cell
 #   E3_TRIALS=100 bash deploy/experiments.sh    # the paper's 100 per cell
 #   EXPERIMENTS="E1 E5" bash deploy/experiments.sh
+# E5-settings flies E5 once per file in client/scenarios/e5-settings (e5.json
+# with one or two settings changed) to out/eval/E5-<file>.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -22,6 +24,11 @@ for e in $experiments; do
   case "$e" in
     E2) "${client[@]}" eval E2 --trials="$trials" --plan_budget_s=3 ;;  # the trace objective is slow
     E3) "${client[@]}" eval E3 --trials="$e3_trials" ;;
+    E5-settings)
+      for f in client/scenarios/e5-settings/*.json; do
+        echo "== E5 with $(basename "$f")"
+        "${client[@]}" eval E5 --trials="$trials" --scenario="$f" --out="out/eval/E5-$(basename "$f" .json)"
+      done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done

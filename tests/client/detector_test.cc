@@ -114,6 +114,20 @@ TEST(DetectorTest, SureDetectionsOfE1PeopleMarkTheTruthCells) {
   EXPECT_NEAR(sim->Rse(map), 0.0, 1e-12);
   EXPECT_EQ(sim->TargetsFound(map), 7);
   EXPECT_GT(observed.size(), 500u);
+  // A map that is 0.6 on p3's rectangle only finds p3 (ids from e1.json).
+  const auto& p3 = scenario->targets(2);
+  std::vector<double> one(1600, 0.0);
+  for (int c : ones) {
+    const int col = c % 40, row = c / 40;  // 0.75 m cells from (-15, -15)
+    const double x = -15 + 0.75 * (col + 0.5), y = -15 + 0.75 * (row + 0.5);
+    if (x > p3.x_min_m() - 0.75 && x < p3.x_max_m() + 0.75 && y > p3.y_min_m() - 0.75 &&
+        y < p3.y_max_m() + 0.75) {
+      one[static_cast<std::size_t>(c)] = 0.6;
+    }
+  }
+  EXPECT_EQ(sim->TargetIds(), (std::vector<std::string>{"p1", "p2", "p3", "p4", "p5", "p6", "p7"}));
+  EXPECT_EQ(sim->FoundEach(one),
+            (std::vector<bool>{false, false, true, false, false, false, false}));
 }
 
 }  // namespace

@@ -40,14 +40,25 @@ TEST(EvaluationTest, SummaryReportsMeanStdAndStandardError) {
     t.steps.back().trace = 100.0 + 10 * k;
     t.plans = 2;
     t.planning_time_s = 1.0;
+    t.target_ids = {"a", "b"};
+    t.found_at_end = {true, k == 2};
     result.trials.push_back(t);
   }
+  TrialResult failed;
+  failed.variant = "random";
+  failed.trial = 4;
+  failed.error = "server gone";
+  result.trials.push_back(failed);
   const std::string md = SummaryMarkdown(result, 150);
   // Tr(P) 100, 110, 120: mean 110, std 10; one trial of three found all 7.
-  EXPECT_NE(md.find("| random | 3 | 0 | 7.000 | 6.000 +- 1.000 | 0.577 | 110.0 +- 10.0 | 5.67 | "
+  EXPECT_NE(md.find("| random | 4 | 1 | 7.000 | 6.000 +- 1.000 | 0.577 | 110.0 +- 10.0 | 5.67 | "
                     "33 % | 0 |"),
             std::string::npos)
       << md;
+  // Target a found in all three finished trials, b in one of three.
+  EXPECT_NE(md.find("| variant | a | b |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| random | 100 % | 33 % |"), std::string::npos) << md;
+  EXPECT_NE(md.find("random trial 4 failed: server gone"), std::string::npos) << md;
 }
 
 }  // namespace

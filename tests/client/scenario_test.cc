@@ -1,5 +1,7 @@
 #include "client/scenario.h"
 
+#include <filesystem>
+
 #include "client/simulation.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -20,6 +22,34 @@ TEST(ScenarioTest, TheE1FileParsesIntoThePapersWorld) {
   EXPECT_DOUBLE_EQ(sim->config().budget_s, 150.0);
   // REFERENCE.md: the E1 people cover 48 cells; RSE0 = 7.375636 at prior 0.1.
   EXPECT_NEAR(sim->Rse(std::vector<double>(1600, 0.1)), 7.375636, 1e-6);
+}
+
+// Every committed scenario (client/scenarios and its folders) parses and
+// builds a world, its name matches its file, and the E5 settings differ
+// from e5.json only in what their name says.
+TEST(ScenarioTest, EveryCommittedScenarioLoads) {
+  int files = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
+    if (entry.path().extension() != ".json") continue;
+    ++files;
+    auto scenario = LoadScenarioFile(entry.path().string());
+    ASSERT_TRUE(scenario.ok()) << entry.path() << ": " << scenario.status();
+    const std::string stem = entry.path().stem().string();
+    EXPECT_TRUE(scenario->name() == stem || scenario->name() == "e5-" + stem) << entry.path();
+    auto sim = Simulation::Create(*scenario);
+    ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
+    EXPECT_GT(sim->num_targets(), 0) << entry.path();
+  }
+  EXPECT_EQ(files, 10);
+  auto base = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
+  auto low = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/ceiling12-n4.json");
+  ASSERT_TRUE(base.ok() && low.ok());
+  EXPECT_EQ(low->mission().flight().max_altitude_m(), 12.0);
+  EXPECT_EQ(low->mission().planner().num_waypoints(), 4);
+  low->set_name(base->name());
+  low->mutable_mission()->clear_flight();
+  low->mutable_mission()->mutable_planner()->clear_num_waypoints();
+  EXPECT_EQ(low->SerializeAsString(), base->SerializeAsString());
 }
 
 TEST(ScenarioTest, MalformedJsonNamesTheLine) {
