@@ -86,13 +86,15 @@ Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap ma
       map_(std::move(map)),
       planner_(std::move(planner)) {}
 
-absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config) {
+absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
+                                                         PriorCache* priors) {
   OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
   OAIPP_RETURN_IF_ERROR(env.Apply({.add = config.obstacles}));
   OAIPP_ASSIGN_OR_RETURN(
       FieldGrid grid,
       FieldGrid::FromBounds(config.field_min_W, config.field_max_W, config.resolution_m));
-  OAIPP_ASSIGN_OR_RETURN(GpMap map, GpMap::Create(grid, config.gp));
+  OAIPP_ASSIGN_OR_RETURN(GpMap map, priors != nullptr ? priors->NewMap(grid, config.gp)
+                                                      : GpMap::Create(grid, config.gp));
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
                                                std::move(map), std::move(planner)));

@@ -29,6 +29,7 @@
 #include "absl/time/time.h"
 #include "core/environment/environment.h"
 #include "core/mapping/gp_map.h"
+#include "core/mapping/prior_cache.h"
 #include "core/planning/planners.h"
 #include "server/mission_config.h"
 #include "server/planning_gate.h"
@@ -109,8 +110,10 @@ class Mission {
   // Builds the world, the prior map (ground under obstacles fused as
   // near-certain zeros) and the planner. Errors: InvalidArgument for a
   // config the core refuses, ResourceExhausted for grids too large.
-  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(std::string id,
-                                                                       MissionConfig config);
+  // priors: where to take the prior covariance from (shared by missions of
+  // the same grid shape and GP parameters); nullptr computes it.
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(
+      std::string id, MissionConfig config, PriorCache* priors = nullptr);
   // A fresh mission with `log` applied in order (what persistence would do).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Replay(
       std::string id, MissionConfig config, const std::vector<LogEntry>& log);

@@ -5,6 +5,8 @@
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "server/convert.h"
+#include "server/mission.h"
 #include "tests/server/service_fixture.h"
 
 namespace oaipp::server {
@@ -59,6 +61,30 @@ TEST(ServiceTest, CreateGetListDelete) {
   v1::GetMissionRequest gone;
   gone.set_name("missions/beta");
   EXPECT_EQ(s.stub().GetMission(&again, gone, &got).error_code(), grpc::StatusCode::NOT_FOUND);
+}
+
+// Missions over the same kind of field share one prior computation, and
+// start from the map a mission built on its own would have.
+TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
+  InProcessService s;
+  const v1::Mission a = CreateSmall(s.stub(), "a");
+  const v1::Mission b = CreateSmall(s.stub(), "b");
+  EXPECT_EQ(s.registry().PriorComputations(), 1);
+  auto config = MissionSpecToConfig(SmallSpec());
+  ASSERT_TRUE(config.ok()) << config.status();
+  auto alone = Mission::Create("alone", *config);
+  ASSERT_TRUE(alone.ok()) << alone.status();
+  EXPECT_EQ(a.trace(), (*alone)->Snapshot().trace);
+  EXPECT_EQ(b.trace(), a.trace());
+  // A finer grid is another prior.
+  grpc::ClientContext context;
+  v1::CreateMissionRequest request;
+  *request.mutable_spec() = SmallSpec();
+  request.mutable_spec()->mutable_field()->set_resolution_m(0.5);
+  v1::Mission fine;
+  ASSERT_TRUE(s.stub().CreateMission(&context, request, &fine).ok());
+  EXPECT_EQ(s.registry().PriorComputations(), 2);
+  EXPECT_NE(fine.trace(), a.trace());
 }
 
 TEST(ServiceTest, MeasurementsShrinkTheMapAndRequestIdsFuseOnce) {
