@@ -26,6 +26,9 @@ ABSL_FLAG(int, planning_queue, 16, "plans that may wait; more are refused (RESOU
 ABSL_FLAG(int, max_missions, 64, "missions held at once");
 ABSL_FLAG(int64_t, max_cells, 4096,
           "cells per mission map (its covariance takes 8 n^2 bytes: 4096 cells = 134 MB)");
+ABSL_FLAG(int, prior_cache, 4,
+          "prior covariances kept for missions over the same kind of field (8 n^2 bytes each; "
+          "0: every mission computes its own)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error or off");
 ABSL_FLAG(std::string, metrics_listen, "127.0.0.1:9464",
           "Prometheus metrics address (host:port); empty disables");
@@ -41,10 +44,11 @@ int main(int argc, char** argv) {
   const int planning_threads = absl::GetFlag(FLAGS_planning_threads);
   const int planning_queue = absl::GetFlag(FLAGS_planning_queue);
   if (threads < 2 || planning_threads < 1 || planning_queue < 0 ||
-      absl::GetFlag(FLAGS_max_missions) < 1 || absl::GetFlag(FLAGS_max_cells) < 1) {
+      absl::GetFlag(FLAGS_max_missions) < 1 || absl::GetFlag(FLAGS_max_cells) < 1 ||
+      absl::GetFlag(FLAGS_prior_cache) < 0) {
     spdlog::error(
         "bad flags: need worker_threads >= 2, planning_threads >= 1, "
-        "planning_queue >= 0, max_missions >= 1, max_cells >= 1");
+        "planning_queue >= 0, max_missions >= 1, max_cells >= 1, prior_cache >= 0");
     return 2;
   }
 
@@ -55,9 +59,9 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
-  oaipp::server::MissionRegistry registry(
-      {.max_missions = absl::GetFlag(FLAGS_max_missions),
-       .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells)});
+  oaipp::server::MissionRegistry registry({.max_missions = absl::GetFlag(FLAGS_max_missions),
+                                           .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells),
+                                           .prior_cache = absl::GetFlag(FLAGS_prior_cache)});
   oaipp::server::PlanningGate gate(planning_threads, planning_queue);
   oaipp::server::Metrics metrics;
   std::unique_ptr<prometheus::Exposer> exposer;

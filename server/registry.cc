@@ -75,7 +75,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     missions_[mission_id] = nullptr;  // reserve the id while the map is built
   }
   absl::StatusOr<std::shared_ptr<Mission>> mission =
-      Mission::Create(mission_id, std::move(config), &priors_);
+      Mission::Create(mission_id, std::move(config), priors_.get());
   absl::MutexLock lock(&mu_);
   if (!mission.ok()) {
     missions_.erase(mission_id);

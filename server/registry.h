@@ -25,11 +25,17 @@ struct RegistryLimits {
   // Cells of one mission's map: its covariance costs 8 n^2 bytes (1600 cells:
   // 20 MB; 4096 cells: 134 MB). Valid: >= 1.
   std::int64_t max_cells_per_mission = 4096;
+  // Prior covariances kept for missions over the same kind of field (8 n^2
+  // bytes each); 0: every mission computes its own. Valid: >= 0.
+  int prior_cache = 4;
 };
 
 class MissionRegistry {
  public:
-  explicit MissionRegistry(RegistryLimits limits) : limits_(limits) {}
+  explicit MissionRegistry(RegistryLimits limits)
+      : limits_(limits),
+        priors_(limits.prior_cache > 0 ? std::make_unique<PriorCache>(limits.prior_cache)
+                                       : nullptr) {}
 
   // Creates a mission. mission_id: [a-z0-9-]{1,63}, or empty for a new one.
   // InvalidArgument for a bad id, AlreadyExists for a taken one,
@@ -50,7 +56,10 @@ class MissionRegistry {
   [[nodiscard]] std::int64_t MemoryBytes() const;
   // Prior covariances computed so far (missions of one grid shape and GP
   // parameters share one).
-  [[nodiscard]] std::int64_t PriorComputations() const { return priors_.computations(); }
+  // (0 without a cache).
+  [[nodiscard]] std::int64_t PriorComputations() const {
+    return priors_ != nullptr ? priors_->computations() : 0;
+  }
 
   // "missions/{id}" -> id, or InvalidArgument naming `field`.
   [[nodiscard]] static absl::StatusOr<std::string> ParseName(absl::string_view name,
@@ -60,7 +69,7 @@ class MissionRegistry {
   const RegistryLimits limits_;
   // Prior covariances shared by missions over the same kind of field: a
   // fleet computes each once (0.3 s for 1600 cells) and copies it.
-  PriorCache priors_{4};
+  const std::unique_ptr<PriorCache> priors_;
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).
   std::map<std::string, std::shared_ptr<Mission>> missions_ ABSL_GUARDED_BY(mu_);

@@ -85,6 +85,10 @@ TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
   ASSERT_TRUE(s.stub().CreateMission(&context, request, &fine).ok());
   EXPECT_EQ(s.registry().PriorComputations(), 2);
   EXPECT_NE(fine.trace(), a.trace());
+  // Without a cache every mission computes its own, to the same map.
+  InProcessService uncached({.max_missions = 4, .max_cells_per_mission = 1600, .prior_cache = 0});
+  EXPECT_EQ(CreateSmall(uncached.stub(), "c").trace(), a.trace());
+  EXPECT_EQ(uncached.registry().PriorComputations(), 0);
 }
 
 TEST(ServiceTest, MeasurementsShrinkTheMapAndRequestIdsFuseOnce) {

@@ -24,6 +24,7 @@ ABSL_FLAG(int, missions, 50, "missions flown at once");
 ABSL_FLAG(double, budget_s, 150.0, "flight budget per mission, seconds");
 ABSL_FLAG(int, generations, 45, "CMA-ES generations per plan");
 ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
+ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 
 namespace {
 
@@ -64,7 +65,8 @@ int main(int argc, char** argv) {
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
   using namespace oaipp;
-  server::MissionRegistry registry({.max_missions = missions + 1});
+  server::MissionRegistry registry(
+      {.max_missions = missions + 1, .prior_cache = absl::GetFlag(FLAGS_prior_cache)});
   server::PlanningGate gate(absl::GetFlag(FLAGS_planning_threads), 4 * missions);
   server::MissionServiceImpl service(&registry, &gate, nullptr);
   grpc::ServerBuilder builder;
