@@ -1,5 +1,6 @@
 #include "core/mapping/gp_map.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <random>
@@ -9,6 +10,7 @@
 #include "Eigen/Cholesky"
 #include "Eigen/Eigenvalues"
 #include "Eigen/LU"
+#include "core/mapping/camera.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 
@@ -183,6 +185,64 @@ TEST_F(PaperMapTest, OneUpdateTracesMatchReference) {
     MatrixXd p = Map().Covariance();
     ASSERT_TRUE(UpdateCovariance(Block140(var, /*value=*/0.0), p).ok());
     EXPECT_LT((p - map.Covariance()).cwiseAbs().maxCoeff(), 1e-15);
+  }
+}
+
+// How much evidence a person needs before the map mean on it passes 0.5
+// (E5's "found"). One 0.75 x 2 m person at (-10, -10); shots from altitude h
+// see the cells whose centres lie within h tan(22.5 deg) x h tan(30 deg) of
+// the shot's centre (offsets (0, 1), (1, 1.5), (-1, 0.5), (0.5, 2) m from
+// the person's corner) and label the 8 cells the person overlaps 1 when
+// detected, everything else 0. Expected: the largest mean on the person
+// after the sequence, from an independent dense computation of the same
+// model (numpy, np.linalg.solve on the full 1600-cell matrices).
+TEST_F(PaperMapTest, DetectionsAndMissesOfOnePersonMatchAnIndependentComputation) {
+  const FieldGrid grid = Grid(40, 40, 0.75);
+  const std::vector<int> person = grid.CellsOverlapping(Vec2(-10.375, -10), Vec2(-9.625, -8));
+  ASSERT_EQ(person.size(), 8u);
+  const Vec2 offsets[4] = {{0, 1}, {1, 1.5}, {-1, 0.5}, {0.5, 2}};
+  struct Case {
+    double altitude_m;
+    std::vector<bool> detected;
+    double max_mean;
+  };
+  const std::vector<Case> cases = {
+      {10.0, {true}, 0.678433},
+      {10.0, {true, false}, 0.401198},
+      {10.0, {true, true}, 0.793366},
+      {10.0, {true, true, false}, 0.567360},
+      {10.0, {true, true, false, false}, 0.442559},
+      {10.0, {true, true, true, false}, 0.661481},
+      {11.5, {true}, 0.658761},
+      {11.5, {true, false}, 0.393710},
+      {11.5, {true, true, false}, 0.558740},
+      {11.5, {true, true, false, false}, 0.437147},
+  };
+  const double tan_x = std::tan(22.5 * std::acos(-1.0) / 180),
+               tan_y = std::tan(std::acos(-1.0) / 6);
+  for (const Case& c : cases) {
+    GpMap map = Map().Clone();
+    for (std::size_t shot = 0; shot < c.detected.size(); ++shot) {
+      const Vec2 centre = Vec2(-10, -10) + offsets[shot];
+      std::vector<int> cells;
+      std::vector<double> labels;
+      for (int i = 0; i < grid.num_cells(); ++i) {
+        const Vec2 d = grid.CellCentreXY(i) - centre;
+        if (std::abs(d.x()) > c.altitude_m * tan_x || std::abs(d.y()) > c.altitude_m * tan_y) {
+          continue;
+        }
+        cells.push_back(i);
+        const bool on_person = std::binary_search(person.begin(), person.end(), i);
+        labels.push_back(on_person && c.detected[shot] ? 1.0 : 0.0);
+      }
+      auto obs = LabelsToObservations(grid, SensorNoise{}, c.altitude_m, cells, labels);
+      ASSERT_TRUE(obs.ok()) << obs.status();
+      ASSERT_TRUE(map.Update(*obs).ok());
+    }
+    double max_mean = -1;
+    for (int i : person) max_mean = std::max(max_mean, map.Mean()[i]);
+    EXPECT_NEAR(max_mean, c.max_mean, 2e-6)
+        << "h = " << c.altitude_m << ", shots = " << c.detected.size();
   }
 }
 
