@@ -48,8 +48,9 @@ Commands:
   run SCENARIO.json   fly the scenario's mission against the server; prints a
                       progress line per measurement (time, RSE, Tr(P), targets
                       found) and writes steps.csv and map.png to --out; with
-                      --frames=DIR also a map image per measurement and
-                      DIR/sequence.png (six of them side by side)
+                      --frames=DIR also a map image per measurement,
+                      DIR/sequence.png (six of them side by side) and
+                      DIR/sequence.avi (all of them, 2 per second)
   health              check that the server answers
   map MISSION --png=FILE
                       write a mission's map image (mean | std deviation)
@@ -134,7 +135,12 @@ int Run(const std::string& path) {
     absl::StatusOr<std::string> sheet = oaipp::client::MontagePng(picked, picked_captions, 2);
     if (!sheet.ok()) return Fail(sheet.status());
     std::ofstream(frames_dir + "/sequence.png", std::ios::binary) << *sheet;
-    std::printf("wrote %zu frames and sequence.png to %s\n", frames.size(), frames_dir.c_str());
+    // Every frame, two a second.
+    const absl::Status video =
+        oaipp::client::WriteVideo(frames, captions, 2.0, frames_dir + "/sequence.avi");
+    if (!video.ok()) return Fail(video);
+    std::printf("wrote %zu frames, sequence.png and sequence.avi to %s\n", frames.size(),
+                frames_dir.c_str());
   }
   std::ofstream(out + "/steps.csv") << oaipp::client::StepsCsv(result->steps);
   std::ofstream(out + "/map.png", std::ios::binary) << result->final_map_png;

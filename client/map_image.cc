@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/common/status_macros.h"
 #include "opencv2/imgcodecs.hpp"
 #include "opencv2/imgproc.hpp"
+#include "opencv2/videoio.hpp"
 
 namespace oaipp::client {
 namespace {
@@ -66,13 +68,16 @@ absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
   return std::string(png.begin(), png.end());
 }
 
-absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
-                                       const std::vector<std::string>& captions, int columns) {
+namespace {
+
+// Each frame decoded, scaled to the first one's width and topped with its
+// caption.
+absl::StatusOr<std::vector<cv::Mat>> CaptionedTiles(const std::vector<std::string>& frames,
+                                                    const std::vector<std::string>& captions) {
   if (frames.empty()) return absl::InvalidArgumentError("frames: none");
   if (captions.size() != frames.size()) {
     return absl::InvalidArgumentError("captions: one per frame needed");
   }
-  if (columns < 1) return absl::InvalidArgumentError("columns: must be >= 1");
   constexpr int kCaptionPx = 36;
   std::vector<cv::Mat> tiles;
   for (std::size_t i = 0; i < frames.size(); ++i) {
@@ -91,6 +96,15 @@ absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
                 cv::Scalar(0, 0, 0), 2, cv::LINE_AA);
     tiles.push_back(std::move(tile));
   }
+  return tiles;
+}
+
+}  // namespace
+
+absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
+                                       const std::vector<std::string>& captions, int columns) {
+  if (columns < 1) return absl::InvalidArgumentError("columns: must be >= 1");
+  OAIPP_ASSIGN_OR_RETURN(std::vector<cv::Mat> tiles, CaptionedTiles(frames, captions));
   const int cols = std::min<int>(columns, static_cast<int>(tiles.size()));
   const int rows = (static_cast<int>(tiles.size()) + cols - 1) / cols;
   int tile_h = 0;
@@ -104,6 +118,27 @@ absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
   std::vector<std::uint8_t> png;
   if (!cv::imencode(".png", sheet, png)) return absl::InternalError("montage: PNG encoding failed");
   return std::string(png.begin(), png.end());
+}
+
+absl::Status WriteVideo(const std::vector<std::string>& frames,
+                        const std::vector<std::string>& captions, double fps,
+                        const std::string& path) {
+  if (!(fps > 0) || !std::isfinite(fps)) {
+    return absl::InvalidArgumentError("fps: must be > 0 and finite");
+  }
+  OAIPP_ASSIGN_OR_RETURN(std::vector<cv::Mat> tiles, CaptionedTiles(frames, captions));
+  const cv::Size size = tiles.front().size();
+  cv::VideoWriter writer(path, cv::CAP_OPENCV_MJPEG, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'),
+                         fps, size, /*isColor=*/true);
+  if (!writer.isOpened()) {
+    return absl::InternalError("video: cannot write '" + path + "'");
+  }
+  for (cv::Mat& tile : tiles) {
+    if (tile.size() != size) cv::resize(tile, tile, size, 0, 0, cv::INTER_AREA);
+    writer.write(tile);
+  }
+  writer.release();
+  return absl::OkStatus();
 }
 
 }  // namespace oaipp::client

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "client/simulation.h"
 #include "oaipp/v1/mission_service.pb.h"
@@ -28,5 +29,13 @@ namespace oaipp::client {
 [[nodiscard]] absl::StatusOr<std::string> MontagePng(const std::vector<std::string>& frames,
                                                      const std::vector<std::string>& captions,
                                                      int columns);
+
+// The same captioned frames as a Motion-JPEG AVI video at `fps` frames per
+// second, written to `path` with OpenCV's own MJPEG writer (no codec library
+// needed to write or to play it back). Errors as MontagePng, InvalidArgument
+// for fps not > 0, Internal when the file cannot be written.
+[[nodiscard]] absl::Status WriteVideo(const std::vector<std::string>& frames,
+                                      const std::vector<std::string>& captions, double fps,
+                                      const std::string& path);
 
 }  // namespace oaipp::client

@@ -10,6 +10,7 @@ packages=(
   # core: linear algebra, exact collision geometry, camera model, CMA-ES
   libeigen3-dev libfcl-dev libccd-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-imgcodecs-dev
+  libopencv-videoio-dev
   libpagmo-dev libboost-serialization-dev libtbb-dev
   libabsl-dev
   # service: gRPC + protobuf (plugin and library must come together), logs, metrics, JSON
