@@ -20,6 +20,7 @@ absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>> PriorCache::Get(const Fie
   std::shared_future<Result> prior;
   std::promise<Result> promise;
   bool compute = false;
+  std::uint64_t inserted = 0;
   {
     absl::MutexLock lock(&mu_);
     auto it = std::find_if(entries_.begin(), entries_.end(),
@@ -35,7 +36,8 @@ absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>> PriorCache::Get(const Fie
             [](const Entry& a, const Entry& b) { return a.last_used < b.last_used; }));
       }
       prior = promise.get_future().share();
-      entries_.push_back({key, prior, ++clock_});
+      inserted = ++clock_;
+      entries_.push_back({key, prior, inserted, inserted});
       ++computations_;
       compute = true;
     }
@@ -47,7 +49,7 @@ absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>> PriorCache::Get(const Fie
     } else {
       promise.set_value(p0.status());
       absl::MutexLock lock(&mu_);
-      std::erase_if(entries_, [&](const Entry& e) { return e.key == key; });
+      std::erase_if(entries_, [&](const Entry& e) { return e.inserted == inserted; });
     }
   }
   return prior.get();

@@ -63,6 +63,7 @@ class PriorCache {
   struct Entry {
     Key key;
     std::shared_future<Result> prior;
+    std::uint64_t inserted = 0;  // clock at insertion: tells entries of one key apart
     std::uint64_t last_used = 0;
   };
 

@@ -10,6 +10,7 @@
 #include "Eigen/Cholesky"
 #include "Eigen/Eigenvalues"
 #include "Eigen/LU"
+#include "core/common/geometry.h"
 #include "core/mapping/camera.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -218,8 +219,7 @@ TEST_F(PaperMapTest, DetectionsAndMissesOfOnePersonMatchAnIndependentComputation
       {11.5, {true, true, false}, 0.558740},
       {11.5, {true, true, false, false}, 0.437147},
   };
-  const double tan_x = std::tan(22.5 * std::acos(-1.0) / 180),
-               tan_y = std::tan(std::acos(-1.0) / 6);
+  const double tan_x = std::tan(DegToRad(22.5)), tan_y = std::tan(DegToRad(30.0));
   for (const Case& c : cases) {
     GpMap map = Map().Clone();
     for (std::size_t shot = 0; shot < c.detected.size(); ++shot) {

@@ -156,16 +156,30 @@ void ExpectMatchesTwin(const PolynomialTrajectory& traj, const std::vector<Vec3>
   }
 }
 
+// A random problem of n segments: waypoints in [-3, 3]^3, durations in
+// [0.5, max_duration_s], start velocity and acceleration components in
+// [-max_start, max_start].
+struct TwinProblem {
+  std::vector<Vec3> w;
+  std::vector<double> T;
+  Vec3 v0, a0;
+};
+
+TwinProblem RandomTwinProblem(std::mt19937& rng, int n, double max_duration_s, double max_start) {
+  std::uniform_real_distribution<double> dur(0.5, max_duration_s), pos(-3.0, 3.0),
+      small(-max_start, max_start);
+  TwinProblem p{std::vector<Vec3>(n + 1), std::vector<double>(n), Vec3::Zero(), Vec3::Zero()};
+  for (auto& q : p.w) q = Vec3(pos(rng), pos(rng), pos(rng));
+  for (auto& t : p.T) t = dur(rng);
+  p.v0 = Vec3(small(rng), small(rng), small(rng));
+  p.a0 = Vec3(small(rng), small(rng), small(rng));
+  return p;
+}
+
 TEST(MinSnapTwinTest, MatchesDenseKktSolutionForRandomProblems) {
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> dur(0.5, 2.0), pos(-3.0, 3.0), small(-1.0, 1.0);
   for (int trial = 0; trial < 20; ++trial) {
-    const int n = 1 + trial % 5;
-    std::vector<Vec3> w(n + 1);
-    std::vector<double> T(n);
-    for (auto& p : w) p = Vec3(pos(rng), pos(rng), pos(rng));
-    for (auto& t : T) t = dur(rng);
-    const Vec3 v0(small(rng), small(rng), small(rng)), a0(small(rng), small(rng), small(rng));
+    const auto [w, T, v0, a0] = RandomTwinProblem(rng, 1 + trial % 5, 2.0, 1.0);
     ExpectMatchesTwin(Solve(w, T, v0, a0), w, T, v0, a0, false, trial);
   }
 }
@@ -175,14 +189,8 @@ TEST(MinSnapTwinTest, MatchesDenseKktSolutionForRandomProblems) {
 // it never costs more than the constrained problem.
 TEST(MinSnapTwinTest, FreeStartJerkAndSnapMatchDenseKkt) {
   std::mt19937 rng(13);
-  std::uniform_real_distribution<double> dur(0.5, 4.0), pos(-3.0, 3.0), small(-2.0, 2.0);
   for (int trial = 0; trial < 20; ++trial) {
-    const int n = 1 + trial % 5;
-    std::vector<Vec3> w(n + 1);
-    std::vector<double> T(n);
-    for (auto& p : w) p = Vec3(pos(rng), pos(rng), pos(rng));
-    for (auto& t : T) t = dur(rng);
-    const Vec3 v0(small(rng), small(rng), small(rng)), a0(small(rng), small(rng), small(rng));
+    const auto [w, T, v0, a0] = RandomTwinProblem(rng, 1 + trial % 5, 4.0, 2.0);
     absl::StatusOr<PolynomialTrajectory> free = SolveMinSnap(w, T, v0, a0, true);
     ASSERT_TRUE(free.ok()) << free.status();
     const PolynomialTrajectory fixed = Solve(w, T, v0, a0);
