@@ -5,17 +5,9 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "api/status.h"
 
 namespace oaipp::client {
-namespace {
-
-absl::Status FromGrpc(const char* what, const grpc::Status& status) {
-  if (status.ok()) return absl::OkStatus();
-  return absl::Status(static_cast<absl::StatusCode>(status.error_code()),
-                      absl::StrCat(what, ": ", status.error_message()));
-}
-
-}  // namespace
 
 Client Client::Connect(const std::string& address, ClientOptions options) {
   return Client(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()), options);
@@ -46,7 +38,7 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
     std::this_thread::sleep_for(absl::ToChronoMilliseconds(backoff));
     backoff *= 2;
   }
-  return FromGrpc(what, status);
+  return api::FromGrpcStatus(status, what);
 }
 
 absl::Status Client::WaitUntilServing(absl::Duration timeout) {

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Reproduces the README's experiments (DESIGN.md §4) from a fresh Debian 12
+# Reproduces the README's experiments (docs/method.md §10) from a fresh Debian 12
 # machine (as root): builds, starts oaipp-server on loopback, runs
 # `oaipp-client eval` for E1-E5 and one E1 mission with its image sequence,
 # then stops the server. Results go to out/eval/<experiment> and out/e1.

@@ -7,15 +7,7 @@
 #include "core/mapping/camera.h"
 
 namespace oaipp::server {
-namespace {
-
-constexpr std::size_t kRememberedRequests = 4096;
-
-// Image size assumed for detections sent without intrinsics.
-constexpr int kDefaultImageWidthPx = 480;
-constexpr int kDefaultImageHeightPx = 640;
-
-}  // namespace
+namespace {}  // namespace
 
 void EventQueue::Push(MissionEventData event) {
   absl::MutexLock lock(&mu_);
@@ -56,22 +48,16 @@ template <typename T>
 std::optional<absl::StatusOr<T>> Mission::Recall(const std::string& request_id) {
   if (request_id.empty()) return std::nullopt;
   absl::MutexLock lock(&idempotency_mu_);
-  auto it = done_.find(request_id);
-  if (it == done_.end()) return std::nullopt;
-  if (const T* result = std::get_if<T>(&it->second)) return absl::StatusOr<T>(*result);
+  const Result* done = done_.Find(request_id);
+  if (done == nullptr) return std::nullopt;
+  if (const T* result = std::get_if<T>(done)) return absl::StatusOr<T>(*result);
   return absl::StatusOr<T>(absl::InvalidArgumentError(
       absl::StrCat("request_id: '", request_id, "' was used by another kind of call")));
 }
 
 void Mission::Remember(const std::string& request_id, Result result) {
-  if (request_id.empty()) return;
   absl::MutexLock lock(&idempotency_mu_);
-  done_.emplace(request_id, std::move(result));
-  done_order_.push_back(request_id);
-  if (done_order_.size() > kRememberedRequests) {
-    done_.erase(done_order_.front());
-    done_order_.pop_front();
-  }
+  done_.Remember(request_id, std::move(result));
 }
 
 Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap map,
@@ -88,11 +74,8 @@ Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap ma
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
                                                          PriorCache* priors) {
-  OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
-  OAIPP_RETURN_IF_ERROR(env.Apply({.add = config.obstacles}));
-  OAIPP_ASSIGN_OR_RETURN(
-      FieldGrid grid,
-      FieldGrid::FromBounds(config.field_min_W, config.field_max_W, config.resolution_m));
+  OAIPP_ASSIGN_OR_RETURN(Environment env, config.MakeEnvironment());
+  OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
   OAIPP_ASSIGN_OR_RETURN(GpMap map, priors != nullptr ? priors->NewMap(grid, config.gp)
                                                       : GpMap::Create(grid, config.gp));
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
@@ -120,14 +103,10 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Replay(std::string id, Mission
 }
 
 absl::Status Mission::FuseCoveredCells() {
-  const FieldGrid& grid = map_.grid();
   std::vector<int> fresh;
-  for (int c = 0; c < grid.num_cells(); ++c) {
-    // Just above the ground: a cell under a building is inside it.
-    if (!covered_cells_.contains(c) &&
-        env_.IsInsideObstacle(grid.CellCentre(c) + Vec3(0, 0, 1e-3))) {
-      fresh.push_back(c);
-    }
+  for (int c : map_.grid().CellsUnderObstacles(
+           [&](const Vec3& p_W) { return env_.IsInsideObstacle(p_W); })) {
+    if (!covered_cells_.contains(c)) fresh.push_back(c);
   }
   if (fresh.empty()) return absl::OkStatus();
   OAIPP_RETURN_IF_ERROR(map_.FuseNearCertainZeros(fresh));
@@ -176,9 +155,7 @@ absl::StatusOr<MeasurementResult> Mission::ApplyMeasurement(const MeasurementInp
     if (input.detections->intrinsics.has_value()) {
       intrinsics = *input.detections->intrinsics;
     } else {
-      OAIPP_ASSIGN_OR_RETURN(intrinsics,
-                             IntrinsicsForFov(kDefaultImageWidthPx, kDefaultImageHeightPx,
-                                              config_.camera.fov_x_deg, config_.camera.fov_y_deg));
+      OAIPP_ASSIGN_OR_RETURN(intrinsics, config_.DefaultIntrinsics());
     }
     absl::StatusOr<CellLabels> projected =
         DetectionsToLabels(grid, intrinsics, input.pose, input.detections->boxes,
@@ -225,23 +202,31 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
                                                       config_.budget_s, " s is spent"));
   }
-  UavState planning_state = state;
-  planning_state.remaining_budget_s = config_.budget_s - elapsed;
+  double next_shot;
   if (next_shot_mission_s.has_value()) {
-    planning_state.next_shot_mission_s = *next_shot_mission_s;
+    next_shot = *next_shot_mission_s;
   } else {
     // The camera fires every 1 / rate seconds on the mission clock.
     const double period = 1.0 / config_.sensor_rate_hz();
-    planning_state.next_shot_mission_s = period * std::ceil(state.mission_time_s / period - 1e-9);
+    next_shot = period * std::ceil(state.mission_time_s / period - 1e-9);
   }
-  if (gate != nullptr) OAIPP_RETURN_IF_ERROR(gate->Acquire(deadline));
+  std::optional<PlanningGate::Ticket> ticket;
+  if (gate != nullptr) {
+    OAIPP_ASSIGN_OR_RETURN(ticket, gate->Enter(deadline));
+  }
   absl::StatusOr<PlannedPath> path;
   {
     absl::ReaderMutexLock lock(&mu_);
-    const MissionView view{&env_, &map_, config_.camera, config_.noise, std::move(cancelled)};
-    path = planner_->Plan(view, planning_state, deadline);
+    const PlanningContext context{.environment = &env_,
+                                  .map = &map_,
+                                  .camera = config_.camera,
+                                  .noise = config_.noise,
+                                  .next_shot_mission_s = next_shot,
+                                  .remaining_budget_s = config_.budget_s - elapsed,
+                                  .cancelled = std::move(cancelled)};
+    path = planner_->Plan(context, state, deadline);
   }
-  if (gate != nullptr) gate->Release();
+  ticket.reset();
   if (!path.ok()) return path.status();
   ++paths_planned_;
   Remember(request_id, *path);

@@ -27,14 +27,18 @@
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
+#include "api/mission_config.h"
 #include "core/environment/environment.h"
 #include "core/mapping/gp_map.h"
 #include "core/mapping/prior_cache.h"
 #include "core/planning/planners.h"
-#include "server/mission_config.h"
 #include "server/planning_gate.h"
+#include "server/request_memo.h"
 
 namespace oaipp::server {
+
+using api::MeasurementInput;
+using api::MissionConfig;
 
 struct ObstacleResult {
   int obstacle_count = 0;
@@ -183,8 +187,7 @@ class Mission {
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
   // request_id -> first result (bounded, oldest forgotten first).
-  std::map<std::string, Result> done_ ABSL_GUARDED_BY(idempotency_mu_);
-  std::deque<std::string> done_order_ ABSL_GUARDED_BY(idempotency_mu_);
+  RequestMemo<Result> done_ ABSL_GUARDED_BY(idempotency_mu_);
   mutable absl::Mutex idempotency_mu_;
 
   // The planner keeps state (lawnmower pattern): one plan at a time.

@@ -4,11 +4,25 @@
 
 namespace oaipp::server {
 
-absl::Status PlanningGate::Acquire(absl::Time deadline) {
+PlanningGate::Ticket& PlanningGate::Ticket::operator=(Ticket&& other) noexcept {
+  if (this != &other) {
+    Release();
+    gate_ = other.gate_;
+    other.gate_ = nullptr;
+  }
+  return *this;
+}
+
+void PlanningGate::Ticket::Release() {
+  if (gate_ != nullptr) gate_->Leave();
+  gate_ = nullptr;
+}
+
+absl::StatusOr<PlanningGate::Ticket> PlanningGate::Enter(absl::Time deadline) {
   absl::MutexLock lock(&mu_);
   if (running_ < threads_) {
     ++running_;
-    return absl::OkStatus();
+    return Ticket(this);
   }
   if (waiting_ >= queue_) {
     return absl::ResourceExhaustedError(absl::StrCat(
@@ -20,10 +34,10 @@ absl::Status PlanningGate::Acquire(absl::Time deadline) {
   --waiting_;
   if (!admitted) return absl::DeadlineExceededError("deadline passed while waiting for a planner");
   ++running_;
-  return absl::OkStatus();
+  return Ticket(this);
 }
 
-void PlanningGate::Release() {
+void PlanningGate::Leave() {
   absl::MutexLock lock(&mu_);
   --running_;
 }

@@ -10,7 +10,6 @@
 namespace oaipp::server {
 namespace {
 
-constexpr std::size_t kRememberedRequests = 4096;
 constexpr absl::string_view kPrefix = "missions/";
 
 bool ValidId(absl::string_view id) {
@@ -50,14 +49,12 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   }
   {
     absl::MutexLock lock(&mu_);
-    if (!request_id.empty()) {
-      if (auto it = created_by_request_.find(request_id); it != created_by_request_.end()) {
-        auto m = missions_.find(it->second);
-        if (m != missions_.end() && m->second != nullptr) return m->second;
-        return absl::FailedPreconditionError(absl::StrCat("request_id: '", request_id,
-                                                          "' created mission '", it->second,
-                                                          "', which is gone or still being built"));
-      }
+    if (const std::string* created = created_by_request_.Find(request_id)) {
+      auto m = missions_.find(*created);
+      if (m != missions_.end() && m->second != nullptr) return m->second;
+      return absl::FailedPreconditionError(absl::StrCat("request_id: '", request_id,
+                                                        "' created mission '", *created,
+                                                        "', which is gone or still being built"));
     }
     if (mission_id.empty()) {
       do {
@@ -84,13 +81,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   missions_[mission_id] = *mission;
   order_.push_back(mission_id);
   if (!request_id.empty()) {
-    created_by_request_[request_id] = mission_id;
-    request_order_.push_back(request_id);
-    if (request_order_.size() > kRememberedRequests) {
-      created_by_request_.erase(request_order_.front());
-      deleted_by_request_.erase(request_order_.front());
-      request_order_.pop_front();
-    }
+    created_by_request_.Remember(request_id, mission_id);
   }
   return mission;
 }
@@ -121,9 +112,7 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
   {
     absl::MutexLock lock(&mu_);
     if (!request_id.empty()) {
-      if (auto it = deleted_by_request_.find(request_id); it != deleted_by_request_.end()) {
-        return absl::OkStatus();
-      }
+      if (deleted_by_request_.Find(request_id) != nullptr) return absl::OkStatus();
     }
     auto it = missions_.find(id);
     if (it == missions_.end() || it->second == nullptr) {
@@ -133,8 +122,7 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
     missions_.erase(it);
     std::erase(order_, id);
     if (!request_id.empty()) {
-      deleted_by_request_[request_id] = id;
-      request_order_.push_back(request_id);
+      deleted_by_request_.Remember(request_id, id);
     }
   }
   mission->MarkDeleted();

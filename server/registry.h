@@ -16,6 +16,7 @@
 #include "absl/synchronization/mutex.h"
 #include "core/mapping/prior_cache.h"
 #include "server/mission.h"
+#include "server/request_memo.h"
 
 namespace oaipp::server {
 
@@ -75,9 +76,9 @@ class MissionRegistry {
   std::map<std::string, std::shared_ptr<Mission>> missions_ ABSL_GUARDED_BY(mu_);
   std::vector<std::string> order_ ABSL_GUARDED_BY(mu_);
   std::int64_t next_id_ ABSL_GUARDED_BY(mu_) = 1;
-  std::map<std::string, std::string> created_by_request_ ABSL_GUARDED_BY(mu_);
-  std::map<std::string, std::string> deleted_by_request_ ABSL_GUARDED_BY(mu_);
-  std::deque<std::string> request_order_ ABSL_GUARDED_BY(mu_);
+  // request_id -> the mission it created / deleted.
+  RequestMemo<std::string> created_by_request_ ABSL_GUARDED_BY(mu_);
+  RequestMemo<std::string> deleted_by_request_ ABSL_GUARDED_BY(mu_);
 };
 
 }  // namespace oaipp::server

@@ -5,13 +5,32 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
+#include "api/geometry.h"
+#include "api/map.h"
+#include "api/measurement.h"
+#include "api/plan.h"
+#include "api/spec.h"
+#include "api/status.h"
 #include "core/common/status_macros.h"
 #include "google/protobuf/util/time_util.h"
-#include "server/convert.h"
+#include "render/map_render.h"
 #include "spdlog/spdlog.h"
 
 namespace oaipp::server {
 namespace {
+
+using api::ConfigToMissionSpec;
+using api::MapToProto;
+using api::MeasurementFromProto;
+using api::MeasurementInput;
+using api::MissionConfig;
+using api::MissionSpecToConfig;
+using api::ObstacleChangeFromProto;
+using api::ObstacleToProto;
+using api::PlannedPathToProto;
+using api::ToGrpcStatus;
+using api::ToProto;
+using api::UavStateFromProto;
 
 using google::protobuf::util::TimeUtil;
 
@@ -220,19 +239,35 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext*, const v1::GetMapRe
                                         v1::GetMapResponse* response) {
   return Call("GetMap", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
-    absl::Status status;
+    render::MapLayers layers;
     mission->ReadMap([&](const GpMap& map) {
       MapToProto(map, request->include_cells(), response);
-      if (request->include_png()) {
-        absl::StatusOr<std::string> png = MapToPng(map);
-        if (png.ok()) {
-          response->set_png(*std::move(png));
-        } else {
-          status = png.status();
-        }
+      if (!request->include_png()) return;
+      // Copied under the lock, drawn outside it.
+      layers.mean.assign(map.Mean().begin(), map.Mean().end());
+      layers.std_dev.resize(static_cast<std::size_t>(map.num_cells()));
+      for (int i = 0; i < map.num_cells(); ++i) {
+        layers.std_dev[static_cast<std::size_t>(i)] = std::sqrt(std::max(0.0, map.Variance(i)));
       }
     });
-    return status;
+    if (!request->include_png()) return absl::OkStatus();
+    const MissionSnapshot snapshot = mission->Snapshot();
+    render::Overlay overlay;
+    for (const Obstacle& o : snapshot.obstacles) {
+      overlay.obstacle_footprints.push_back(GroundFootprint(o.shape));
+    }
+    const render::MapGrid grid{.nx = response->nx(),
+                               .ny = response->ny(),
+                               .resolution_m = response->resolution_m(),
+                               .x_min_m = response->x_min_m(),
+                               .y_min_m = response->y_min_m()};
+    OAIPP_ASSIGN_OR_RETURN(std::string png,
+                           render::RenderMapPng(grid, layers, overlay,
+                                                {.mission = absl::StrCat("missions/", snapshot.id),
+                                                 .mission_time_s = snapshot.mission_time_s,
+                                                 .trace = response->trace()}));
+    response->set_png(std::move(png));
+    return absl::OkStatus();
   });
 }
 

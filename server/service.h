@@ -1,6 +1,6 @@
 // The oaipp.v1.MissionService implementation over a MissionRegistry.
 //
-// Thin: each RPC converts its request (server/convert.h), calls the mission,
+// Thin: each RPC converts its request (api/), calls the mission,
 // and converts the result back; errors become gRPC status codes with the
 // offending field named. Testable in-process without a network:
 //

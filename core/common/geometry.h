@@ -1,6 +1,6 @@
 // Geometry vocabulary shared by every core module.
 //
-// World frame W: right-handed, z up, metres (DESIGN.md §2.1). Points are
+// World frame W: right-handed, z up, metres (docs/method.md §1). Points are
 // Eigen::Vector3d in W unless a name says otherwise. The small LineOfSight
 // interface lets the map ask "can the camera see this ground point?" without
 // depending on how obstacles are stored.
@@ -74,7 +74,7 @@ class LineOfSight {
  public:
   virtual ~LineOfSight() = default;
   // True when the open segment from_W -> to_W meets no obstacle.
-  [[nodiscard]] virtual bool IsClear(const Vec3& from_W, const Vec3& to_W) const = 0;
+  [[nodiscard]] virtual bool IsVisible(const Vec3& from_W, const Vec3& to_W) const = 0;
 };
 
 constexpr double kPi = 3.14159265358979323846;

@@ -16,11 +16,16 @@
 #define OAIPP_STATUS_CONCAT_INNER_(a, b) a##b
 #define OAIPP_STATUS_CONCAT_(a, b) OAIPP_STATUS_CONCAT_INNER_(a, b)
 
-#define OAIPP_RETURN_IF_ERROR(expr)                                 \
-  do {                                                              \
-    if (absl::Status oaipp_status_ = (expr); !oaipp_status_.ok()) { \
-      return oaipp_status_;                                         \
-    }                                                               \
+// The status variable gets a name of its own per use, so that a use inside
+// a lambda passed to another use does not shadow it.
+#define OAIPP_RETURN_IF_ERROR(expr) \
+  OAIPP_RETURN_IF_ERROR_IMPL_(OAIPP_STATUS_CONCAT_(oaipp_status_, __COUNTER__), expr)
+
+#define OAIPP_RETURN_IF_ERROR_IMPL_(status, expr)     \
+  do {                                                \
+    if (absl::Status status = (expr); !status.ok()) { \
+      return status;                                  \
+    }                                                 \
   } while (false)
 
 #define OAIPP_ASSIGN_OR_RETURN(lhs, expr) \

@@ -134,7 +134,7 @@ bool Environment::IsSegmentClear(const Vec3& a_W, const Vec3& b_W, double cleara
   return true;
 }
 
-bool Environment::IsClear(const Vec3& from_W, const Vec3& to_W) const {
+bool Environment::IsVisible(const Vec3& from_W, const Vec3& to_W) const {
   const Aabb seg{from_W.cwiseMin(to_W), from_W.cwiseMax(to_W)};
   std::size_t i = 0;
   for (const auto& [id, obstacle] : obstacles_) {
@@ -147,7 +147,7 @@ std::vector<bool> Environment::VisibleFrom(const Vec3& camera_W,
                                            const std::vector<Vec3>& ground_points_W) const {
   std::vector<bool> visible(ground_points_W.size());
   for (std::size_t i = 0; i < ground_points_W.size(); ++i) {
-    visible[i] = IsClear(camera_W, ground_points_W[i]);
+    visible[i] = IsVisible(camera_W, ground_points_W[i]);
   }
   return visible;
 }

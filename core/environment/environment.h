@@ -1,5 +1,5 @@
 // The mission's known world: flight volume, obstacles and their ESDF
-// (DESIGN.md §2.2).
+// (docs/method.md §2).
 //
 // Environment keeps the obstacle set and the ESDF in step: every change is
 // validated as a whole before anything is applied, and the ESDF is updated
@@ -11,7 +11,7 @@
 //   OAIPP_RETURN_IF_ERROR(env.Apply({.add = {tower}}));
 //   bool hit = env.InCollision(p_W, /*uav_radius_m=*/1.0);       // ESDF < r/2
 //   bool free = env.IsSegmentClear(a_W, b_W, /*clearance_m=*/0.5);  // exact
-//   bool seen = env.IsClear(camera_W, ground_W);                     // occlusion
+//   bool seen = env.IsVisible(camera_W, ground_W);                     // occlusion
 #pragma once
 
 #include <map>
@@ -73,7 +73,7 @@ class Environment final : public LineOfSight {
   }
   // LineOfSight: true when the segment meets no obstacle's interior. A point
   // on the ground under a building is therefore never visible.
-  [[nodiscard]] bool IsClear(const Vec3& from_W, const Vec3& to_W) const override;
+  [[nodiscard]] bool IsVisible(const Vec3& from_W, const Vec3& to_W) const override;
   // Which of `ground_points_W` are visible from camera_W.
   [[nodiscard]] std::vector<bool> VisibleFrom(const Vec3& camera_W,
                                               const std::vector<Vec3>& ground_points_W) const;

@@ -1,4 +1,4 @@
-// Euclidean signed distance field (ESDF) on a voxel grid (DESIGN.md §2.2).
+// Euclidean signed distance field (ESDF) on a voxel grid (docs/method.md §2).
 //
 // The grid covers the flight volume padded by the truncation distance, so
 // that obstacles just outside the volume still shape the field inside it.

@@ -148,4 +148,23 @@ double SegmentSignedDistance(const Shape& shape, const Vec3& a_W, const Vec3& b_
   return std::min({f(0.0), f(1.0), f1, f2});
 }
 
+std::vector<Vec2> GroundFootprint(const Shape& shape) {
+  std::vector<Vec2> corners;
+  if (const Box* b = std::get_if<Box>(&shape)) {
+    const Vec2 half = 0.5 * b->size_m.head<2>();
+    const double c = std::cos(b->yaw_rad), s = std::sin(b->yaw_rad);
+    for (const Vec2& q : {Vec2(-half.x(), -half.y()), Vec2(half.x(), -half.y()),
+                          Vec2(half.x(), half.y()), Vec2(-half.x(), half.y())}) {
+      corners.push_back(b->centre_W.head<2>() + Vec2(c * q.x() - s * q.y(), s * q.x() + c * q.y()));
+    }
+  } else if (const Cylinder* cyl = std::get_if<Cylinder>(&shape)) {
+    constexpr int kSides = 32;
+    for (int i = 0; i < kSides; ++i) {
+      const double a = 2.0 * kPi * i / kSides;
+      corners.push_back(cyl->centre_W.head<2>() + cyl->radius_m * Vec2(std::cos(a), std::sin(a)));
+    }
+  }
+  return corners;
+}
+
 }  // namespace oaipp

@@ -1,4 +1,4 @@
-// Obstacles: named convex solids standing in the world (DESIGN.md §2.2).
+// Obstacles: named convex solids standing in the world (docs/method.md §2).
 //
 // Two shapes are supported: boxes (centre, full size, yaw about z) and
 // vertical cylinders (centre, radius, height). Each gives its exact signed
@@ -12,6 +12,7 @@
 
 #include <string>
 #include <variant>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "core/common/geometry.h"
@@ -52,6 +53,11 @@ struct Obstacle {
 
 // Tight world-axis-aligned bounding box of the shape.
 [[nodiscard]] Aabb BoundingBox(const Shape& shape);
+
+// The shape's outline on the ground (world x, y, counter-clockwise): a box's
+// four yawed corners, a cylinder's circle as a regular 32-gon through it.
+// For pictures; geometry queries use the exact shape.
+[[nodiscard]] std::vector<Vec2> GroundFootprint(const Shape& shape);
 
 // True when the closed segment a_W -> b_W passes through the shape's interior
 // over a parameter interval longer than `min_overlap` (a fraction of the

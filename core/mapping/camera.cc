@@ -18,7 +18,8 @@ absl::Status CheckFov(absl::string_view field, double fov_deg) {
 
 absl::Status DownwardCamera::Validate() const {
   OAIPP_RETURN_IF_ERROR(CheckFov("fov_x_deg", fov_x_deg));
-  return CheckFov("fov_y_deg", fov_y_deg);
+  OAIPP_RETURN_IF_ERROR(CheckFov("fov_y_deg", fov_y_deg));
+  return CheckPositive("rate_hz", rate_hz);
 }
 
 Vec2 DownwardCamera::FootprintSize(double altitude_m) const {
@@ -39,7 +40,7 @@ std::vector<int> DownwardCamera::VisibleFootprintCells(const FieldGrid& grid, co
   std::vector<int> cells = FootprintCells(grid, p_WC, yaw_rad);
   if (line_of_sight == nullptr) return cells;
   std::erase_if(cells,
-                [&](int cell) { return !line_of_sight->IsClear(p_WC, grid.CellCentre(cell)); });
+                [&](int cell) { return !line_of_sight->IsVisible(p_WC, grid.CellCentre(cell)); });
   return cells;
 }
 

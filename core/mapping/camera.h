@@ -1,5 +1,5 @@
 // The downward camera as the map sees it: which cells a measurement covers
-// and with what noise (DESIGN.md §2.4, §2.2).
+// and with what noise (docs/method.md §4, §2.5).
 //
 // The camera looks straight down from p_WC. With field of view
 // (fov_x_deg, fov_y_deg) = (45, 60) its footprint at altitude h is the
@@ -36,6 +36,8 @@ struct DownwardCamera {
   // Full field of view along the camera's y axis (world y at yaw 0), degrees.
   // Valid: (0, 180).
   double fov_y_deg = 60.0;
+  // Shots per second on the mission clock (0.15 in the paper). Valid: > 0.
+  double rate_hz = 0.15;
 
   // InvalidArgument naming the bad field.
   [[nodiscard]] absl::Status Validate() const;
@@ -50,7 +52,7 @@ struct DownwardCamera {
   [[nodiscard]] std::vector<int> FootprintCells(const FieldGrid& grid, const Vec3& p_WC,
                                                 double yaw_rad = 0.0) const;
 
-  // The footprint cells whose centre the camera sees: line_of_sight->IsClear(
+  // The footprint cells whose centre the camera sees: line_of_sight->IsVisible(
   // p_WC, centre) for each; nullptr means an empty world (every cell seen).
   [[nodiscard]] std::vector<int> VisibleFootprintCells(const FieldGrid& grid, const Vec3& p_WC,
                                                        const LineOfSight* line_of_sight,
@@ -58,7 +60,7 @@ struct DownwardCamera {
 };
 
 // One measurement's observations: labels[i] of cells[i], all with variance
-// noise.Variance(altitude_m) (DESIGN.md §2.3). InvalidArgument naming the
+// noise.Variance(altitude_m) (docs/method.md §3). InvalidArgument naming the
 // field when altitude_m is not positive and finite, noise is invalid, the
 // spans differ in size, a cell is out of range or a label is not in [0, 1].
 // Which cells to pass (typically VisibleFootprintCells) is the caller's

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
@@ -22,39 +23,6 @@ absl::Status CheckFovDeg(absl::string_view field, double fov_deg) {
       absl::StrCat(field, ": must be in (0, 180) degrees, got ", fov_deg));
 }
 
-absl::Status ValidateBox(absl::string_view name, const PixelBox& b,
-                         const CameraIntrinsics& intrinsics) {
-  const double w = intrinsics.width_px;
-  const double h = intrinsics.height_px;
-  const struct {
-    const char* field;
-    double value;
-    double hi;
-  } coords[] = {{"x_min_px", b.x_min_px, w},
-                {"y_min_px", b.y_min_px, h},
-                {"x_max_px", b.x_max_px, w},
-                {"y_max_px", b.y_max_px, h}};
-  for (const auto& c : coords) {
-    if (!(c.value >= 0.0 && c.value <= c.hi)) {
-      return absl::InvalidArgumentError(absl::StrCat(name, ".", c.field, ": must be in [0, ", c.hi,
-                                                     "] (inside the image), got ", c.value));
-    }
-  }
-  if (!(b.x_min_px < b.x_max_px)) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ".x_max_px: must exceed x_min_px, got ",
-                                                   b.x_max_px, " <= ", b.x_min_px));
-  }
-  if (!(b.y_min_px < b.y_max_px)) {
-    return absl::InvalidArgumentError(absl::StrCat(name, ".y_max_px: must exceed y_min_px, got ",
-                                                   b.y_max_px, " <= ", b.y_min_px));
-  }
-  if (!(b.confidence >= 0.0 && b.confidence <= 1.0)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(name, ".confidence: must be in [0, 1], got ", b.confidence));
-  }
-  return absl::OkStatus();
-}
-
 absl::Status ValidateCommon(const CameraIntrinsics& intrinsics, const CameraPose& pose) {
   OAIPP_RETURN_IF_ERROR(intrinsics.Validate());
   return pose.Validate();
@@ -67,7 +35,9 @@ absl::Status ValidateBoxes(std::span<const PixelBox> boxes, const CameraIntrinsi
         absl::StrCat("min_confidence: must be in [0, 1], got ", min_confidence));
   }
   for (std::size_t i = 0; i < boxes.size(); ++i) {
-    OAIPP_RETURN_IF_ERROR(ValidateBox(absl::StrCat("boxes[", i, "]"), boxes[i], intrinsics));
+    if (absl::Status status = boxes[i].Validate(&intrinsics); !status.ok()) {
+      return absl::Status(status.code(), absl::StrCat("boxes[", i, "].", status.message()));
+    }
   }
   return absl::OkStatus();
 }
@@ -122,7 +92,7 @@ void KeepVisible(const FieldGrid& grid, const Vec3& p_WC, const LineOfSight* lin
                  std::vector<int>& cells) {
   if (line_of_sight == nullptr) return;
   std::erase_if(cells,
-                [&](int cell) { return !line_of_sight->IsClear(p_WC, grid.CellCentre(cell)); });
+                [&](int cell) { return !line_of_sight->IsVisible(p_WC, grid.CellCentre(cell)); });
 }
 
 // Cells overlapped by the ground polygon of a box with confidence >=
@@ -190,7 +160,7 @@ std::vector<int> ProjectFootprint(const FieldGrid& grid, const CameraIntrinsics&
     if (p.x >= -kPixelTolerance && p.x <= intrinsics.width_px + kPixelTolerance &&
         p.y >= -kPixelTolerance && p.y <= intrinsics.height_px + kPixelTolerance &&
         (line_of_sight == nullptr ||
-         line_of_sight->IsClear(pose.p_WC, grid.CellCentre(candidates[i])))) {
+         line_of_sight->IsVisible(pose.p_WC, grid.CellCentre(candidates[i])))) {
       out.push_back(candidates[i]);
     }
   }
@@ -198,6 +168,42 @@ std::vector<int> ProjectFootprint(const FieldGrid& grid, const CameraIntrinsics&
 }
 
 }  // namespace
+
+absl::Status PixelBox::Validate(const CameraIntrinsics* image) const {
+  const double inf = std::numeric_limits<double>::infinity();
+  const double w = image != nullptr ? image->width_px : inf;
+  const double h = image != nullptr ? image->height_px : inf;
+  const struct {
+    const char* field;
+    double value;
+    double hi;
+  } coords[] = {{"x_min_px", x_min_px, w},
+                {"y_min_px", y_min_px, h},
+                {"x_max_px", x_max_px, w},
+                {"y_max_px", y_max_px, h}};
+  for (const auto& c : coords) {
+    if (std::isfinite(c.value) && c.value >= 0.0 && c.value <= c.hi) continue;
+    if (image == nullptr) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(c.field, ": must be >= 0 and finite, got ", c.value));
+    }
+    return absl::InvalidArgumentError(
+        absl::StrCat(c.field, ": must be in [0, ", c.hi, "] (inside the image), got ", c.value));
+  }
+  if (!(x_min_px < x_max_px)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("x_max_px: must exceed x_min_px (", x_min_px, "), got ", x_max_px));
+  }
+  if (!(y_min_px < y_max_px)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("y_max_px: must exceed y_min_px (", y_min_px, "), got ", y_max_px));
+  }
+  if (!(confidence >= 0.0 && confidence <= 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("confidence: must be in [0, 1], got ", confidence));
+  }
+  return absl::OkStatus();
+}
 
 absl::Status CameraIntrinsics::Validate() const {
   OAIPP_RETURN_IF_ERROR(CheckPositive("intrinsics.fx_px", fx_px));
@@ -262,7 +268,9 @@ absl::StatusOr<std::vector<Vec2>> GroundPolygon(const CameraIntrinsics& intrinsi
                                                 const CameraPose& pose, const PixelBox& box,
                                                 int samples_per_edge) {
   OAIPP_RETURN_IF_ERROR(ValidateCommon(intrinsics, pose));
-  OAIPP_RETURN_IF_ERROR(ValidateBox("box", box, intrinsics));
+  if (absl::Status status = box.Validate(&intrinsics); !status.ok()) {
+    return absl::Status(status.code(), absl::StrCat("box.", status.message()));
+  }
   if (samples_per_edge < 1) {
     return absl::InvalidArgumentError(
         absl::StrCat("samples_per_edge: must be >= 1, got ", samples_per_edge));

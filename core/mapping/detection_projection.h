@@ -1,4 +1,4 @@
-// From detector boxes in image pixels to ground cells (DESIGN.md §2.4).
+// From detector boxes in image pixels to ground cells (docs/method.md §4).
 //
 // A real ground station sends detections, not cell labels: boxes in the
 // image of a downward camera with known pose and intrinsics. This module
@@ -80,6 +80,11 @@ struct PixelBox {
   double y_max_px = 0.0;
   // Detector score. Valid: [0, 1].
   double confidence = 1.0;
+
+  // The one rule for a box, used wherever boxes are made or read: corners
+  // finite and >= 0, min < max, and inside the image when `image` is given;
+  // confidence in [0, 1]. InvalidArgument naming the field ("x_max_px: ...").
+  [[nodiscard]] absl::Status Validate(const CameraIntrinsics* image = nullptr) const;
 };
 
 // Cells of one image with their labels (1: detection, 0: none), sorted by cell.
@@ -93,7 +98,7 @@ struct CellLabels {
 
 // Undistorted pinhole intrinsics whose full fields of view along the image
 // width and height are fov_x_deg and fov_y_deg (the paper's camera is
-// (45, 60) deg, DESIGN.md §2.4), principal point at the image centre. At yaw
+// (45, 60) deg, docs/method.md §4), principal point at the image centre. At yaw
 // 0 its image footprint matches DownwardCamera's footprint. InvalidArgument
 // when a size is < 1 or a field of view is outside (0, 180).
 [[nodiscard]] absl::StatusOr<CameraIntrinsics> IntrinsicsForFov(int width_px, int height_px,

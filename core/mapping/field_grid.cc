@@ -256,4 +256,13 @@ std::vector<int> FieldGrid::CellsOverlappingPolygon(std::span<const Vec2> polygo
   return cells;
 }
 
+std::vector<int> FieldGrid::CellsUnderObstacles(
+    const std::function<bool(const Vec3& p_W)>& inside_obstacle) const {
+  std::vector<int> cells;
+  for (int c = 0; c < num_cells(); ++c) {
+    if (inside_obstacle(CellCentre(c) + Vec3(0, 0, 1e-3))) cells.push_back(c);
+  }
+  return cells;
+}
+
 }  // namespace oaipp

@@ -1,4 +1,4 @@
-// The ground grid the field map lives on (DESIGN.md §2.3).
+// The ground grid the field map lives on (docs/method.md §3).
 //
 // The field is an axis-aligned rectangle on the ground plane z = 0 of the
 // world frame W, cut into nx x ny square cells of edge resolution_m. Cells are
@@ -20,6 +20,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <span>
 #include <vector>
@@ -93,6 +94,13 @@ class FieldGrid {
   // with positive area (for rasterising ground-truth targets, whose edges
   // often lie on cell edges). Empty when max_W <= min_W on either axis.
   [[nodiscard]] std::vector<int> CellsOverlapping(const Vec2& min_W, const Vec2& max_W) const;
+
+  // Cells whose ground lies under an obstacle: the point 1 mm above the
+  // cell centre is inside one (`inside_obstacle`). Such ground cannot hold
+  // targets (docs/method.md §3.7); the map fuses it once as near-certain
+  // zeros. Sorted.
+  [[nodiscard]] std::vector<int> CellsUnderObstacles(
+      const std::function<bool(const Vec3& p_W)>& inside_obstacle) const;
 
   // Cells whose square overlaps the simple polygon `polygon_W` (vertices in
   // order, either orientation) with positive area: the rule above for any

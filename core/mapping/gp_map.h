@@ -1,5 +1,5 @@
 // The field map: a Gaussian process over the ground cells, updated by a
-// Kalman filter (DESIGN.md §2.3).
+// Kalman filter (docs/method.md §3).
 //
 // The map holds the mean mu (n) and the dense covariance P (n x n) of the
 // target field over the cells of a FieldGrid. It starts from the published
@@ -57,14 +57,14 @@ struct CellObservation {
     std::span<const CellObservation> observations, int num_cells, bool check_values = true);
 
 // The published code's prior covariance P0 = K - K (K + sn2 I)^-1 K over the
-// cell centres (DESIGN.md §2.3), K_ij = Matern32(|c_i - c_j|), exactly
+// cell centres (docs/method.md §3), K_ij = Matern32(|c_i - c_j|), exactly
 // symmetric. InvalidArgument when params are invalid. Costs about n^3 flops
 // (0.2-0.4 s for 1600 cells, mapping_bench).
 [[nodiscard]] absl::StatusOr<Eigen::MatrixXd> PriorCovariance(const FieldGrid& grid,
                                                               const GpParams& params);
 
 // Covariance-only Kalman update P -= P_:J S^-1 P_J: for planning: values are
-// ignored (the covariance update does not depend on them, DESIGN.md §2.3),
+// ignored (the covariance update does not depend on them, docs/method.md §3),
 // repeated cells are merged as in MergeObservations. `covariance` must be
 // square, symmetric and positive semi-definite. Returns InvalidArgument (as
 // MergeObservations, or for a non-square matrix) and Internal when S is not
@@ -113,7 +113,7 @@ class GpMap {
   GpMap& operator=(const GpMap&) = delete;
   [[nodiscard]] GpMap Clone() const { return GpMap(grid_, mean_, covariance_); }
 
-  // Fuses `observations` in one Kalman update (DESIGN.md §2.3), repeated
+  // Fuses `observations` in one Kalman update (docs/method.md §3), repeated
   // cells merged first (MergeObservations). An empty span does nothing.
   // Everything is validated before the map changes: on error the map is
   // untouched. InvalidArgument naming the entry and field ("observations[2].
@@ -122,8 +122,8 @@ class GpMap {
   [[nodiscard]] absl::Status Update(std::span<const CellObservation> observations);
 
   // Fuses value 0 with variance kNearCertainVariance at each of `cells`: the
-  // ground under an obstacle's footprint cannot hold targets (DESIGN.md
-  // §2.2). The caller does this once per obstacle (fusing twice halves the
+  // ground under an obstacle's footprint cannot hold targets (docs/method.md
+  // §3.7). The caller does this once per obstacle (fusing twice halves the
   // variance again, harmlessly). Repeated cells count once. Errors as Update.
   [[nodiscard]] absl::Status FuseNearCertainZeros(std::span<const int> cells);
 

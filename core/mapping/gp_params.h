@@ -1,5 +1,5 @@
 // Parameters of the field map's Gaussian process and of the sensor noise
-// (DESIGN.md §2.3).
+// (docs/method.md §3).
 //
 // The map's prior is a GP with an isotropic Matérn 3/2 kernel over the cell
 // centres; a measurement taken from altitude h has noise variance
@@ -17,7 +17,7 @@
 namespace oaipp {
 
 // Matérn 3/2 kernel k(d) = sf2 (1 + sqrt(3) d / l) exp(-sqrt(3) d / l)
-// (DESIGN.md §2.3). distance and length scale share one unit (metres in this
+// (docs/method.md §3). distance and length scale share one unit (metres in this
 // project). Preconditions: distance >= 0, length_scale > 0.
 [[nodiscard]] inline double Matern32(double distance_m, double length_scale_m, double signal_var) {
   const double r = std::sqrt(3.0) * distance_m / length_scale_m;
@@ -37,11 +37,11 @@ struct GpParams {
   double prior_mean = 0.1;
 
   // The published code's hyper-parameters, which measure distances in cells
-  // (DESIGN.md §2.3): l = e^1.3 cells = e^1.3 * resolution_m metres
+  // (docs/method.md §3): l = e^1.3 cells = e^1.3 * resolution_m metres
   // (2.751973 m at 0.75 m), sf2 = e^0.6, sn2 = e^0.7, mu0 = 0.1. The paper
   // prints {sn2, sf2, l} = {1.42, 1.82, 3.67}, but 1.42 = e^0.35 is sigma_n,
   // not its square, and 3.67 is in cells, not metres; read literally they
-  // give a different prior (REFERENCE.md).
+  // give a different prior (docs/reference-values.md).
   // Precondition: resolution_m > 0.
   [[nodiscard]] static GpParams PaperPreset(double resolution_m) {
     return {.length_scale_m = std::exp(1.3) * resolution_m,
@@ -55,7 +55,7 @@ struct GpParams {
 };
 
 // Altitude-dependent measurement noise var(h) = A (1 - exp(-B h))
-// (DESIGN.md §2.3; the paper's A = 1, B = 0.05).
+// (docs/method.md §3; the paper's A = 1, B = 0.05).
 struct SensorNoise {
   // Saturation variance A, label units squared. Valid: > 0.
   double a_var = 1.0;

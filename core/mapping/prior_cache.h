@@ -1,4 +1,4 @@
-// Prior covariances shared between maps of the same shape (DESIGN.md §2.3).
+// Prior covariances shared between maps of the same shape (docs/method.md §3).
 //
 // P0 = K - K (K + sn2 I)^-1 K costs about n^3 flops (0.3 s for the paper's
 // 1600 cells) but depends only on the grid's shape and the GP parameters,

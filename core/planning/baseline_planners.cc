@@ -95,7 +95,7 @@ absl::Status LawnmowerConfig::Validate() const {
   if (!(detour_margin_m >= 0.0) || !std::isfinite(detour_margin_m)) {
     return absl::InvalidArgumentError("lawnmower.detour_margin_m: must be >= 0 and finite");
   }
-  return common.Validate();
+  return absl::OkStatus();
 }
 
 std::vector<Vec3> LawnmowerPlanner::Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
@@ -125,16 +125,16 @@ std::vector<Vec3> LawnmowerPlanner::Pattern(const FieldGrid& grid, const Aabb& w
   return points;
 }
 
-absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
+absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& mission,
                                                    const UavState& state, absl::Time deadline) {
   const absl::Time started = absl::Now();
   OAIPP_RETURN_IF_ERROR(config_.Validate());
-  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
+  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, common_));
   const Environment& env = scorer.environment();
   if (pattern_.empty()) {
     const int corner = config_.start_corner >= 0
                            ? config_.start_corner
-                           : static_cast<int>(MixSeed(config_.common.seed, 0.0) & 3U);
+                           : static_cast<int>(MixSeed(common_.seed, 0.0) & 3U);
     pattern_ =
         Pattern(scorer.grid(), scorer.waypoint_box(), mission.camera, config_.altitude_m, corner);
   }
@@ -145,7 +145,7 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
     const int i = index % period;
     return i < static_cast<int>(pattern_.size()) ? pattern_[i] : pattern_[period - i];
   };
-  const double clearance = 0.5 * config_.common.limits.uav_radius_m;
+  const double clearance = 0.5 * common_.limits.uav_radius_m;
 
   // Each pattern point is reached through a detour that keeps `margin` of
   // extra clearance, or less (down to detour_margin_m / 2, then none) where
@@ -228,21 +228,21 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const MissionView& mission,
 
 absl::Status RandomConfig::Validate() const {
   if (max_attempts < 1) return absl::InvalidArgumentError("random.max_attempts: must be >= 1");
-  return common.Validate();
+  return absl::OkStatus();
 }
 
-absl::StatusOr<PlannedPath> RandomPlanner::Plan(const MissionView& mission, const UavState& state,
-                                                absl::Time deadline) {
+absl::StatusOr<PlannedPath> RandomPlanner::Plan(const PlanningContext& mission,
+                                                const UavState& state, absl::Time deadline) {
   const absl::Time started = absl::Now();
   OAIPP_RETURN_IF_ERROR(config_.Validate());
-  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
-  std::mt19937_64 rng(MixSeed(config_.common.seed, state.mission_time_s));
+  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, common_));
+  std::mt19937_64 rng(MixSeed(common_.seed, state.mission_time_s));
   const Aabb& box = scorer.waypoint_box();
   const Vec2 lo = scorer.grid().min_W().cwiseMax(box.min_W.head<2>());
   const Vec2 hi = scorer.grid().max_W().cwiseMin(box.max_W.head<2>());
   std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y()),
       uz(box.min_W.z(), box.max_W.z());
-  const double clearance = 0.5 * config_.common.limits.uav_radius_m;
+  const double clearance = 0.5 * common_.limits.uav_radius_m;
   PlannerStats stats;
   for (int attempt = 0; attempt < config_.max_attempts; ++attempt) {
     if (absl::Now() >= deadline) return absl::DeadlineExceededError("random: deadline passed");

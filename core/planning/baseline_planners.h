@@ -1,5 +1,5 @@
 // Baseline planners for evaluation, also offered by the service
-// (DESIGN.md §2.8).
+// (docs/method.md §8).
 //
 // Lawnmower: coverage at a fixed altitude (10 m in the paper). Lanes run
 // along x, spaced by the camera footprint's y extent so that neighbouring
@@ -11,8 +11,8 @@
 // Random: a destination drawn uniformly over the field and the flight
 // altitudes, kept if the single-segment trajectory to it is collision-free.
 //
-//   LawnmowerPlanner mower(LawnmowerConfig{.altitude_m = 10});
-//   RandomPlanner random(RandomConfig{.common = {.seed = 3}});
+//   LawnmowerPlanner mower(PlannerCommon{}, LawnmowerConfig{.altitude_m = 10});
+//   RandomPlanner random(PlannerCommon{.seed = 3}, RandomConfig{});
 #pragma once
 
 #include <vector>
@@ -32,18 +32,19 @@ struct LawnmowerConfig {
   double detour_margin_m = 1.0;
   // Corner the pattern starts from: 0-3 fixed (bit 0: the highest-y lane
   // first, bit 1: each first lane flown from high x), or -1: drawn from
-  // common.seed, so that a benchmark over seeds does not hinge on which side
+  // PlannerCommon::seed, so that a benchmark over seeds does not hinge on which side
   // of the field the targets lie. Valid: -1 .. 3.
   int start_corner = -1;
-  PlannerCommon common;
   [[nodiscard]] absl::Status Validate() const;
 };
 
 class LawnmowerPlanner final : public Planner {
  public:
-  explicit LawnmowerPlanner(LawnmowerConfig config) : config_(std::move(config)) {}
+  LawnmowerPlanner(PlannerCommon common, LawnmowerConfig config)
+      : common_(std::move(common)), config_(std::move(config)) {}
   [[nodiscard]] absl::string_view name() const override { return "lawnmower"; }
-  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const MissionView& mission, const UavState& state,
+  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
+                                                 const UavState& state,
                                                  absl::Time deadline) override;
   // The pattern's turning points for a field (exposed for tests).
   [[nodiscard]] static std::vector<Vec3> Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
@@ -54,6 +55,7 @@ class LawnmowerPlanner final : public Planner {
   [[nodiscard]] int next_index() const { return next_index_; }
 
  private:
+  PlannerCommon common_;
   LawnmowerConfig config_;
   std::vector<Vec3> pattern_;
   int next_index_ = 0;
@@ -62,18 +64,20 @@ class LawnmowerPlanner final : public Planner {
 struct RandomConfig {
   // Destinations tried per replan before giving up. Valid: >= 1.
   int max_attempts = 200;
-  PlannerCommon common;
   [[nodiscard]] absl::Status Validate() const;
 };
 
 class RandomPlanner final : public Planner {
  public:
-  explicit RandomPlanner(RandomConfig config) : config_(std::move(config)) {}
+  RandomPlanner(PlannerCommon common, RandomConfig config)
+      : common_(std::move(common)), config_(std::move(config)) {}
   [[nodiscard]] absl::string_view name() const override { return "random"; }
-  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const MissionView& mission, const UavState& state,
+  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
+                                                 const UavState& state,
                                                  absl::Time deadline) override;
 
  private:
+  PlannerCommon common_;
   RandomConfig config_;
 };
 

@@ -3,7 +3,7 @@
 //
 // pagmo sizes the initial search distribution from the box's widths; this
 // wrapper instead takes an initial step per coordinate (e.g. (4, 4, 3) m for
-// a waypoint, DESIGN.md §2.7), by running pagmo in coordinates scaled by
+// a waypoint, docs/method.md §7), by running pagmo in coordinates scaled by
 // those steps over a wide box and projecting candidates onto the real box
 // before evaluating them (plus a small penalty on the distance outside, so
 // the mean is pulled back in). It runs one generation at a time, so it stops

@@ -1,4 +1,4 @@
-// The information objectives O_info of DESIGN.md §2.6, evaluated fast.
+// The information objectives O_info of docs/method.md §6, evaluated fast.
 //
 // A candidate path is reduced to its measurement poses, each a set of
 // visible ground cells observed with one noise variance. Two objectives:

@@ -61,7 +61,7 @@ absl::Status OaIppConfig::Validate() const {
   if (exact_check_candidates < 1) {
     return absl::InvalidArgumentError("exact_check_candidates: must be >= 1");
   }
-  return common.Validate();
+  return absl::OkStatus();
 }
 
 std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint64_t seed,
@@ -73,7 +73,7 @@ std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint6
   const Vec2 lo = grid.min_W().cwiseMax(box.min_W.head<2>());
   const Vec2 hi = grid.max_W().cwiseMin(box.max_W.head<2>());
   std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y());
-  const double clearance = 0.5 * config_.common.limits.uav_radius_m;
+  const double clearance = 0.5 * common_.limits.uav_radius_m;
 
   std::vector<PoseObservation> fused = scorer.start_observations();
   std::vector<Vec3> waypoints;
@@ -106,9 +106,8 @@ std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint6
           information = scorer.Information(poses);
         }
         ++*evaluations;
-        const double t =
-            std::max(RampSegmentTime((p - previous).norm(), config_.common.limits.dynamics),
-                     scorer.weights().min_flight_time_s);
+        const double t = std::max(RampSegmentTime((p - previous).norm(), common_.limits.dynamics),
+                                  scorer.weights().min_flight_time_s);
         const double score = scorer.weights().k1 * information / t;
         if (score > best_score) {
           best_score = score;
@@ -123,12 +122,12 @@ std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint6
   return waypoints;
 }
 
-absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const MissionView& mission, const UavState& state,
-                                               absl::Time deadline) {
+absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
+                                               const UavState& state, absl::Time deadline) {
   const absl::Time started = absl::Now();
   OAIPP_RETURN_IF_ERROR(config_.Validate());
-  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, config_.common));
-  const std::uint64_t seed = MixSeed(config_.common.seed, state.mission_time_s);
+  OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, common_));
+  const std::uint64_t seed = MixSeed(common_.seed, state.mission_time_s);
   PlannerStats stats;
   const std::vector<Vec3> greedy = GreedyStart(scorer, seed, deadline, &stats.evaluations);
 

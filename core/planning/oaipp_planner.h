@@ -1,5 +1,5 @@
 // OA-IPP: greedy start + CMA-ES refinement over minimum-snap paths
-// (DESIGN.md §2.7; Anil Meera et al., ICRA 2019, Algorithms 1 and 2).
+// (docs/method.md §7; Anil Meera et al., ICRA 2019, Algorithms 1 and 2).
 //
 // 1. Greedy start: for each of the N - 1 free waypoints, candidate
 //    viewpoints are drawn on several altitude layers; those reachable in a
@@ -16,7 +16,7 @@
 // Plans are a pure function of (mission, state, config): the random streams
 // are seeded from config.seed and the state's mission time.
 //
-//   OaIppPlanner planner(OaIppConfig{.common = {.seed = 7}});
+//   OaIppPlanner planner(PlannerCommon{.seed = 7}, OaIppConfig{});
 //   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, planner.Plan(view, state, deadline));
 #pragma once
 
@@ -44,20 +44,21 @@ struct OaIppConfig {
   bool refine = true;
   // How many of the best ESDF-collision-free candidates go to the exact check.
   int exact_check_candidates = 8;
-  PlannerCommon common;
 
   [[nodiscard]] absl::Status Validate() const;
 };
 
 class OaIppPlanner final : public Planner {
  public:
-  explicit OaIppPlanner(OaIppConfig config) : config_(std::move(config)) {}
+  OaIppPlanner(PlannerCommon common, OaIppConfig config)
+      : common_(std::move(common)), config_(std::move(config)) {}
   [[nodiscard]] absl::string_view name() const override {
-    return config_.common.information.kind == ObjectiveKind::kAdaptive ? "oaipp"
-                                                                       : "oaipp_nonadaptive";
+    return common_.information.kind == ObjectiveKind::kAdaptive ? "oaipp" : "oaipp_nonadaptive";
   }
-  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const MissionView& mission, const UavState& state,
+  [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
+                                                 const UavState& state,
                                                  absl::Time deadline) override;
+  [[nodiscard]] const PlannerCommon& common() const { return common_; }
   [[nodiscard]] const OaIppConfig& config() const { return config_; }
 
   // The greedy start alone (exposed for tests): N - 1 waypoints, or fewer
@@ -67,6 +68,7 @@ class OaIppPlanner final : public Planner {
                                               absl::Time deadline, std::int64_t* evaluations) const;
 
  private:
+  PlannerCommon common_;
   OaIppConfig config_;
 };
 

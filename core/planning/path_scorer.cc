@@ -17,12 +17,11 @@ constexpr double kStartShotTolerance_s = 1e-9;
 absl::Status PlannerLimits::Validate() const {
   OAIPP_RETURN_IF_ERROR(ValidateLimits(dynamics));
   OAIPP_RETURN_IF_ERROR(CheckPositive("limits.uav_radius_m", uav_radius_m));
-  OAIPP_RETURN_IF_ERROR(CheckPositive("limits.sensor_rate_hz", sensor_rate_hz));
   OAIPP_RETURN_IF_ERROR(CheckPositive("limits.collision_sample_rate_hz", collision_sample_rate_hz));
   return CheckPositive("limits.exact_check_spacing_m", exact_check_spacing_m);
 }
 
-PathScorer::PathScorer(const MissionView& mission, const UavState& state,
+PathScorer::PathScorer(const PlanningContext& mission, const UavState& state,
                        const PlannerLimits& limits, const InformationParams& information,
                        const ScoreWeights& weights)
     : mission_(mission),
@@ -42,7 +41,7 @@ absl::Status PlannerCommon::Validate() const {
   return CheckPositive("weights.min_flight_time_s", weights.min_flight_time_s);
 }
 
-absl::StatusOr<PathScorer> PathScorer::Create(const MissionView& mission, const UavState& state,
+absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, const UavState& state,
                                               const PlannerCommon& common) {
   const PlannerLimits& limits = common.limits;
   if (mission.environment == nullptr)
@@ -62,14 +61,14 @@ absl::StatusOr<PathScorer> PathScorer::Create(const MissionView& mission, const 
   OAIPP_RETURN_IF_ERROR(CheckFinite("state.velocity_W_m_s", state.velocity_W_m_s));
   OAIPP_RETURN_IF_ERROR(CheckFinite("state.accel_W_m_s2", state.accel_W_m_s2));
   OAIPP_RETURN_IF_ERROR(CheckFinite("state.mission_time_s", state.mission_time_s));
-  OAIPP_RETURN_IF_ERROR(CheckFinite("state.next_shot_mission_s", state.next_shot_mission_s));
-  if (!(state.remaining_budget_s > 0.0)) {
+  OAIPP_RETURN_IF_ERROR(CheckFinite("mission.next_shot_mission_s", mission.next_shot_mission_s));
+  if (!(mission.remaining_budget_s > 0.0)) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "state.remaining_budget_s: no flight time left (", state.remaining_budget_s, " s)"));
+        "mission.remaining_budget_s: no flight time left (", mission.remaining_budget_s, " s)"));
   }
-  if (state.next_shot_mission_s < state.mission_time_s - 1e-9) {
+  if (mission.next_shot_mission_s < state.mission_time_s - 1e-9) {
     return absl::InvalidArgumentError(
-        absl::StrCat("state.next_shot_mission_s: ", state.next_shot_mission_s,
+        absl::StrCat("mission.next_shot_mission_s: ", mission.next_shot_mission_s,
                      " lies before state.mission_time_s ", state.mission_time_s));
   }
   if (!volume.Contains(state.position_W, 1e-6)) {
@@ -93,7 +92,7 @@ absl::StatusOr<PathScorer> PathScorer::Create(const MissionView& mission, const 
     return absl::InvalidArgumentError("state.accel_W_m_s2: beyond limits.max_accel_m_s2");
   }
   PathScorer scorer(mission, state, limits, common.information, common.weights);
-  if (state.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
+  if (mission.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
     scorer.start_observations_.push_back(scorer.Observe(state.position_W, /*scored=*/false));
     // Every candidate fuses this shot first: condition on it once.
     OAIPP_RETURN_IF_ERROR(scorer.evaluator_.Condition(scorer.start_observations_));
@@ -118,8 +117,8 @@ ScoredPath PathScorer::Score(const std::vector<Vec3>& waypoints_W) const {
   absl::StatusOr<MeasurementSchedule> shots = ScheduleMeasurements(
       {.trajectory_start_mission_s = state_.mission_time_s,
        .duration_s = traj->Duration(),
-       .rate_hz = limits_.sensor_rate_hz,
-       .next_shot_mission_s = std::max(state_.next_shot_mission_s, state_.mission_time_s)});
+       .rate_hz = mission_.camera.rate_hz,
+       .next_shot_mission_s = std::max(mission_.next_shot_mission_s, state_.mission_time_s)});
   if (!shots.ok()) return out;
 
   std::vector<PoseObservation> observations;

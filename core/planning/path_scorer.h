@@ -1,4 +1,4 @@
-// Scoring candidate paths for every planner (DESIGN.md §2.6, Eq. 1):
+// Scoring candidate paths for every planner (docs/method.md §6, Eq. 1):
 //   score = (k1 O_info - k2 C_coll) / t_flight.
 //
 // PathScorer validates the mission and the UAV state once per replan, then
@@ -41,9 +41,9 @@ struct ScoredPath {
 
 // Settings every planner takes.
 struct PlannerCommon {
-  PlannerLimits limits;
-  InformationParams information;  // the objective (planners that don't optimise it report it)
-  ScoreWeights weights;
+  PlannerLimits limits = {};
+  InformationParams information = {};  // the objective (planners that don't optimise it report it)
+  ScoreWeights weights = {};
   // Seed of every random choice; mixed with the mission time per replan.
   std::uint32_t seed = 1;
   [[nodiscard]] absl::Status Validate() const;
@@ -56,7 +56,7 @@ class PathScorer {
   // volume, bad limits or parameters, a non-finite state, a start outside
   // the flight volume, inside an obstacle or closer than r_uav / 2 to one, a
   // start speed or acceleration beyond the limits, a next shot before now.
-  [[nodiscard]] static absl::StatusOr<PathScorer> Create(const MissionView& mission,
+  [[nodiscard]] static absl::StatusOr<PathScorer> Create(const PlanningContext& mission,
                                                          const UavState& state,
                                                          const PlannerCommon& common);
 
@@ -106,10 +106,10 @@ class PathScorer {
   }
 
  private:
-  PathScorer(const MissionView& mission, const UavState& state, const PlannerLimits& limits,
+  PathScorer(const PlanningContext& mission, const UavState& state, const PlannerLimits& limits,
              const InformationParams& information, const ScoreWeights& weights);
 
-  MissionView mission_;
+  PlanningContext mission_;
   UavState state_;
   PlannerLimits limits_;
   ScoreWeights weights_;

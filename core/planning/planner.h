@@ -1,4 +1,4 @@
-// The planner interface and what every planner shares (DESIGN.md §2.5-2.8).
+// The planner interface and what every planner shares (docs/method.md §5-8).
 //
 // A planner reads the mission (environment, field grid, GP map, camera and
 // sensor models), the UAV's state and a deadline, and returns a trajectory
@@ -8,7 +8,7 @@
 // owns its own planner object.
 //
 //   std::unique_ptr<Planner> planner = MakePlanner(config);  // planners.h
-//   MissionView view{&env, &map, camera, noise};
+//   PlanningContext context{&env, &map, camera, noise};
 //   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, planner->Plan(view, state, absl::Now() +
 //   absl::Seconds(1)));
 #pragma once
@@ -31,39 +31,39 @@
 
 namespace oaipp {
 
-// What a planner reads. The pointers must outlive the Plan call.
-struct MissionView {
+// What a planner reads of its mission for one plan: the world, the map, the
+// sensor and the mission's clock. The pointers must outlive the Plan call.
+struct PlanningContext {
   const Environment* environment = nullptr;
   const GpMap* map = nullptr;
-  DownwardCamera camera;
+  DownwardCamera camera;  // footprint and shot rate
   SensorNoise noise;
+  // When the camera fires next (mission clock, seconds): the sensor phase
+  // carries over across replans (docs/method.md §4). Valid: >= the state's
+  // mission_time_s.
+  double next_shot_mission_s = 0.0;
+  // Flight time left in the mission's budget, seconds. Valid: > 0.
+  double remaining_budget_s = std::numeric_limits<double>::infinity();
   // Asked now and then while planning; true abandons the plan with
   // Cancelled (e.g. the caller went away). May be empty.
   std::function<bool()> cancelled = nullptr;
 };
 
-// The UAV when planning starts.
+// The UAV when planning starts: its kinematic state on the mission clock.
 struct UavState {
   Vec3 position_W = Vec3::Zero();
   Vec3 velocity_W_m_s = Vec3::Zero();
   Vec3 accel_W_m_s2 = Vec3::Zero();
   // Mission clock, seconds since the mission started.
   double mission_time_s = 0.0;
-  // When the camera fires next (mission clock): the sensor phase carries
-  // over across replans (DESIGN.md §2.4). Valid: >= mission_time_s.
-  double next_shot_mission_s = 0.0;
-  // Flight time left in the mission's budget, seconds. Valid: > 0.
-  double remaining_budget_s = std::numeric_limits<double>::infinity();
 };
 
-// Settings shared by every planner; defaults from DESIGN.md.
+// Settings shared by every planner; defaults from docs/method.md.
 struct PlannerLimits {
   TrajectoryLimits dynamics;  // 5 m/s, 3 m/s^2
   // Radius of the smallest sphere holding the UAV; a pose collides when
   // ESDF < r / 2 (Eq. 2). Metres, valid: > 0.
   double uav_radius_m = 1.0;
-  // Camera rate, Hz (0.15 in the paper). Valid: > 0.
-  double sensor_rate_hz = 0.15;
   // Samples per second for the collision cost C_coll (Eq. 3). Valid: > 0.
   double collision_sample_rate_hz = 20.0;
   // Spacing of the final exact collision check along the path, metres.
@@ -110,7 +110,7 @@ class Planner {
   // found, Cancelled when mission.cancelled() said so, and FailedPrecondition when no
   // collision-free path exists among those tried. A returned path is always collision-free under
   // the exact check.
-  [[nodiscard]] virtual absl::StatusOr<PlannedPath> Plan(const MissionView& mission,
+  [[nodiscard]] virtual absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
                                                          const UavState& state,
                                                          absl::Time deadline) = 0;
 };

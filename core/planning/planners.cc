@@ -28,29 +28,26 @@ absl::StatusOr<PlannerKind> ParsePlannerKind(absl::string_view name) {
       "planner: unknown kind '", name, "' (expected oaipp, oaipp_nonadaptive, lawnmower, random)"));
 }
 
+ObjectiveKind ObjectiveFor(PlannerKind kind) {
+  return kind == PlannerKind::kOaIppNonAdaptive ? ObjectiveKind::kNonAdaptive
+                                                : ObjectiveKind::kAdaptive;
+}
+
 absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config) {
+  PlannerCommon common = config.common;
+  common.information.kind = ObjectiveFor(config.kind);
+  OAIPP_RETURN_IF_ERROR(common.Validate());
   switch (config.kind) {
     case PlannerKind::kOaIpp:
-    case PlannerKind::kOaIppNonAdaptive: {
-      OaIppConfig c = config.oaipp;
-      c.common = config.common;
-      c.common.information.kind = config.kind == PlannerKind::kOaIpp ? ObjectiveKind::kAdaptive
-                                                                     : ObjectiveKind::kNonAdaptive;
-      OAIPP_RETURN_IF_ERROR(c.Validate());
-      return std::make_unique<OaIppPlanner>(std::move(c));
-    }
-    case PlannerKind::kLawnmower: {
-      LawnmowerConfig c = config.lawnmower;
-      c.common = config.common;
-      OAIPP_RETURN_IF_ERROR(c.Validate());
-      return std::make_unique<LawnmowerPlanner>(std::move(c));
-    }
-    case PlannerKind::kRandom: {
-      RandomConfig c = config.random;
-      c.common = config.common;
-      OAIPP_RETURN_IF_ERROR(c.Validate());
-      return std::make_unique<RandomPlanner>(std::move(c));
-    }
+    case PlannerKind::kOaIppNonAdaptive:
+      OAIPP_RETURN_IF_ERROR(config.oaipp.Validate());
+      return std::make_unique<OaIppPlanner>(common, config.oaipp);
+    case PlannerKind::kLawnmower:
+      OAIPP_RETURN_IF_ERROR(config.lawnmower.Validate());
+      return std::make_unique<LawnmowerPlanner>(common, config.lawnmower);
+    case PlannerKind::kRandom:
+      OAIPP_RETURN_IF_ERROR(config.random.Validate());
+      return std::make_unique<RandomPlanner>(common, config.random);
   }
   return absl::InvalidArgumentError("planner.kind: unknown");
 }

@@ -19,17 +19,23 @@ enum class PlannerKind { kOaIpp, kOaIppNonAdaptive, kLawnmower, kRandom };
 // "oaipp", "oaipp_nonadaptive", "lawnmower", "random"; InvalidArgument otherwise.
 [[nodiscard]] absl::StatusOr<PlannerKind> ParsePlannerKind(absl::string_view name);
 
+// The objective a planner of `kind` optimises or reports: the trace
+// reduction for kOaIppNonAdaptive, the adaptive UCB objective otherwise.
+[[nodiscard]] ObjectiveKind ObjectiveFor(PlannerKind kind);
+
 struct PlannerConfig {
   PlannerKind kind = PlannerKind::kOaIpp;
-  // The kind's own section is used; common settings come from `common`.
+  // Settings every kind shares. Its information.kind is ignored: MakePlanner
+  // takes it from ObjectiveFor(kind).
   PlannerCommon common = {};
+  // The kind's own settings; only the one matching `kind` is used.
   OaIppConfig oaipp = {};
   LawnmowerConfig lawnmower = {};
   RandomConfig random = {};
 };
 
-// A fresh planner (its own state) for one mission. OA-IPP's objective kind
-// follows `kind`. InvalidArgument for a bad configuration.
+// A fresh planner (its own state) for one mission. The objective follows
+// `kind` (ObjectiveFor). InvalidArgument for a bad configuration.
 [[nodiscard]] absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config);
 
 }  // namespace oaipp

@@ -1,4 +1,4 @@
-// When the camera fires along a trajectory (DESIGN.md §2.4, §2.5).
+// When the camera fires along a trajectory (docs/method.md §4.5, §5).
 //
 // The sensor fires at a constant rate over MISSION time, not trajectory
 // time: when the planner replaces the trajectory, the next shot keeps its
@@ -21,7 +21,9 @@
 
 namespace oaipp {
 
-struct MeasurementRequest {
+// The stretch of mission time one trajectory covers, and the camera's rate
+// and phase: what ScheduleMeasurements places shots in.
+struct ShotWindow {
   // Mission time at which the trajectory starts, seconds. Valid: finite.
   double trajectory_start_mission_s = 0.0;
   // Trajectory duration, seconds. Valid: >= 0 and finite.
@@ -41,7 +43,7 @@ struct MeasurementSchedule {
   // next trajectory, which starts there, so no shot is taken twice.
   std::vector<double> times_s;
   // Mission time of the first shot after this trajectory: pass it as the
-  // next request's next_shot_mission_s.
+  // next window's next_shot_mission_s.
   double next_shot_mission_s = 0.0;
 };
 
@@ -51,7 +53,6 @@ struct MeasurementSchedule {
 // trajectories reproduces the mission times of one long trajectory bit for
 // bit. Returns InvalidArgument naming the field for non-finite numbers, a
 // negative duration, a rate that is not positive, or more than 10^7 shots.
-[[nodiscard]] absl::StatusOr<MeasurementSchedule> ScheduleMeasurements(
-    const MeasurementRequest& request);
+[[nodiscard]] absl::StatusOr<MeasurementSchedule> ScheduleMeasurements(const ShotWindow& window);
 
 }  // namespace oaipp

@@ -1,4 +1,4 @@
-// Minimum-snap trajectories through waypoints (DESIGN.md §2.5).
+// Minimum-snap trajectories through waypoints (docs/method.md §5).
 //
 // The unconstrained QP of Richter, Bry & Roy, "Polynomial trajectory
 // planning for aggressive quadrotor flight in dense indoor environments"
@@ -27,7 +27,7 @@
 
 namespace oaipp {
 
-// Dynamic limits of the UAV (DESIGN.md §2.5).
+// Dynamic limits of the UAV (docs/method.md §5).
 struct TrajectoryLimits {
   // Valid: positive and finite.
   double max_speed_m_s = 5.0;
@@ -75,7 +75,7 @@ struct StartState {
     bool free_start_jerk_snap = false);
 
 // Plans the minimum-snap trajectory from `start` through
-// `waypoints_after_start_W` that meets `limits` (DESIGN.md §2.5):
+// `waypoints_after_start_W` that meets `limits` (docs/method.md §5):
 //  1. Consecutive waypoints closer than 1e-6 m are merged (also with the
 //     start position), so repeated points cost no time; Waypoints() of the
 //     result lists the merged points. If nothing but the start remains, the

@@ -32,6 +32,21 @@ Vec3 Evaluate(const Coeffs& c, int count, double s) {
   return v;
 }
 
+// d^order p / dtau^order at tau of sum_k c_k tau^k, by Horner's scheme with
+// derivatives: d[j] accumulates the j-th derivative divided by j!, all in one
+// pass over the coefficients (order <= kDegree).
+Vec3 EvaluateRealTime(const Coeffs& c, double tau, int order) {
+  Vec3 d[PolynomialTrajectory::kNumCoefficients];
+  for (int j = 0; j <= order; ++j) d[j] = Vec3::Zero();
+  for (int k = PolynomialTrajectory::kNumCoefficients - 1; k >= 0; --k) {
+    for (int j = order; j >= 1; --j) d[j] = d[j] * tau + d[j - 1];
+    d[0] = d[0] * tau + c.row(k).transpose();
+  }
+  double factorial = 1.0;
+  for (int j = 2; j <= order; ++j) factorial *= j;
+  return factorial * d[order];
+}
+
 // Number of samples per segment for the maximum searches, and the
 // golden-section iterations that shrink a bracket of width 2/64 to ~2e-8
 // (the value error is second order in that: ~1e-13 relative).
@@ -84,6 +99,36 @@ PolynomialTrajectory::PolynomialTrajectory(std::vector<Vec3> waypoints_W,
   duration_s_ = t;
 }
 
+absl::StatusOr<PolynomialTrajectory> PolynomialTrajectory::FromCoefficients(
+    std::vector<double> durations_s, const std::vector<SegmentCoefficients>& coefficients) {
+  if (durations_s.empty()) return absl::InvalidArgumentError("durations_s: needs a segment");
+  if (coefficients.size() != durations_s.size()) {
+    return absl::InvalidArgumentError(absl::StrCat("coefficients: has ", coefficients.size(),
+                                                   " segments, durations_s ", durations_s.size()));
+  }
+  std::vector<NormalizedCoefficients> normalized(durations_s.size());
+  std::vector<Vec3> waypoints_W;
+  waypoints_W.reserve(durations_s.size() + 1);
+  for (std::size_t i = 0; i < durations_s.size(); ++i) {
+    const double T = durations_s[i];
+    if (absl::Status s = CheckPositive(absl::StrCat("durations_s[", i, "]"), T); !s.ok()) return s;
+    if (!coefficients[i].allFinite()) {
+      return absl::InvalidArgumentError(absl::StrCat("coefficients[", i, "]: must be finite"));
+    }
+    // c_k tau^k = (c_k T^k) s^k.
+    double scale = 1.0;
+    for (int k = 0; k < kNumCoefficients; ++k) {
+      normalized[i].row(k) = coefficients[i].row(k) * scale;
+      scale *= T;
+    }
+    waypoints_W.push_back(normalized[i].row(0).transpose());
+  }
+  waypoints_W.push_back(normalized.back().colwise().sum().transpose());
+  PolynomialTrajectory out(std::move(waypoints_W), std::move(durations_s), std::move(normalized));
+  out.real_time_coefficients_ = coefficients;
+  return out;
+}
+
 double PolynomialTrajectory::SegmentStartTime(int segment) const {
   assert(segment >= 0 && segment <= NumSegments());
   return start_times_s_[segment];
@@ -103,6 +148,10 @@ Vec3 PolynomialTrajectory::Derivative(double t_s, int order) const {
   const double t = std::clamp(t_s, 0.0, duration_s_);
   const int i = SegmentIndex(t);
   const double T = durations_s_[i];
+  if (!real_time_coefficients_.empty()) {
+    return EvaluateRealTime(real_time_coefficients_[i], std::clamp(t - start_times_s_[i], 0.0, T),
+                            order);
+  }
   const double s = std::clamp((t - start_times_s_[i]) / T, 0.0, 1.0);
   // d^r/dt^r = T^-r d^r/ds^r.
   return Evaluate(DifferentiateInS(coefficients_[i], order), kNumCoefficients - order, s) /
@@ -111,6 +160,7 @@ Vec3 PolynomialTrajectory::Derivative(double t_s, int order) const {
 
 PolynomialTrajectory::SegmentCoefficients PolynomialTrajectory::Coefficients(int segment) const {
   assert(segment >= 0 && segment < NumSegments());
+  if (!real_time_coefficients_.empty()) return real_time_coefficients_[segment];
   // c_k s^k = (c_k / T^k) tau^k.
   SegmentCoefficients c = coefficients_[segment];
   const double inv_T = 1.0 / durations_s_[segment];

@@ -1,6 +1,6 @@
 // A piecewise polynomial trajectory in the world frame: one degree-9
 // polynomial per segment and axis, as produced by the minimum-snap solver
-// (core/trajectory/min_snap.h, DESIGN.md §2.5).
+// (core/trajectory/min_snap.h, docs/method.md §5).
 //
 // Time t_s runs from 0 at the first waypoint to Duration() at the last.
 // Segment i spans [SegmentStartTime(i), SegmentStartTime(i) + T_i]; queries
@@ -30,6 +30,18 @@ class PolynomialTrajectory {
   // Column a holds axis a (x, y, z); row k the coefficient of tau^k, where
   // tau is the time since the segment's start, seconds.
   using SegmentCoefficients = Eigen::Matrix<double, kNumCoefficients, 3>;
+
+  // A trajectory from real-time coefficients, as Coefficients() gives them
+  // (e.g. one received over the API), one block per segment. Continuity is
+  // the sender's: it is not checked. Such a trajectory is evaluated on the
+  // coefficients as given, in real time (Horner's scheme with derivatives),
+  // so what a receiver computes does not depend on a change of basis. InvalidArgument naming the
+  // field
+  // ("durations_s[2]", "coefficients[0]") when there is no segment, the
+  // counts differ, a duration is not positive and finite, or a coefficient
+  // is not finite.
+  [[nodiscard]] static absl::StatusOr<PolynomialTrajectory> FromCoefficients(
+      std::vector<double> durations_s, const std::vector<SegmentCoefficients>& coefficients);
 
   PolynomialTrajectory(const PolynomialTrajectory&) = default;
   PolynomialTrajectory& operator=(const PolynomialTrajectory&) = default;
@@ -95,6 +107,9 @@ class PolynomialTrajectory {
   std::vector<double> durations_s_;
   std::vector<double> start_times_s_;  // N + 1 entries, the last = Duration()
   std::vector<NormalizedCoefficients> coefficients_;
+  // Set only by FromCoefficients: the real-time coefficients as given, which
+  // Derivative and Coefficients then use.
+  std::vector<SegmentCoefficients> real_time_coefficients_;
   double duration_s_ = 0.0;
 
   friend absl::StatusOr<PolynomialTrajectory> SolveMinSnap(

@@ -1,9 +1,9 @@
 // A short mission end to end: the real service in-process, the client over
 // its channel, the E1 world with a 30 s budget. RSE must fall; no collision.
-#include "client/mission_runner.h"
-#include "client/scenario.h"
+#include "client/cli/mission_runner.h"
 #include "gtest/gtest.h"
 #include "server/service.h"
+#include "sim/scenario.h"
 
 namespace oaipp::client {
 namespace {
@@ -17,13 +17,13 @@ TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
   Client client(server->InProcessChannel(grpc::ChannelArguments()), {});
 
-  auto scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
   ASSERT_TRUE(scenario.ok()) << scenario.status();
   scenario->mutable_mission()->set_budget_s(30);
   scenario->mutable_mission()->mutable_planner()->set_generations(10);
-  auto sim = Simulation::Create(*scenario);
-  ASSERT_TRUE(sim.ok());
-  auto result = RunScenario(client, *scenario, *sim);
+  auto simulation = sim::Simulation::Create(*scenario);
+  ASSERT_TRUE(simulation.ok());
+  auto result = RunScenario(client, *scenario, *simulation);
   ASSERT_TRUE(result.ok()) << result.status();
   ASSERT_GE(result->steps.size(), 4u);  // the start + 30 s at 0.15 Hz
   EXPECT_LT(result->steps.back().rse, result->steps.front().rse);

@@ -1,4 +1,4 @@
-#include "client/evaluation.h"
+#include "client/cli/evaluation.h"
 
 #include "gtest/gtest.h"
 

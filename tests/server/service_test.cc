@@ -3,9 +3,9 @@
 #include <cmath>
 #include <thread>
 
+#include "api/spec.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
-#include "server/convert.h"
 #include "server/mission.h"
 #include "tests/server/service_fixture.h"
 
@@ -70,7 +70,7 @@ TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
   const v1::Mission a = CreateSmall(s.stub(), "a");
   const v1::Mission b = CreateSmall(s.stub(), "b");
   EXPECT_EQ(s.registry().PriorComputations(), 1);
-  auto config = MissionSpecToConfig(SmallSpec());
+  auto config = api::MissionSpecToConfig(SmallSpec());
   ASSERT_TRUE(config.ok()) << config.status();
   auto alone = Mission::Create("alone", *config);
   ASSERT_TRUE(alone.ok()) << alone.status();

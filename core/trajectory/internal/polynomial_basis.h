@@ -3,7 +3,7 @@
 //
 // Working in normalised time keeps every matrix here independent of the
 // segment duration; the duration enters only through diagonal scalings
-// T^r (DESIGN.md §2.5; Richter, Bry & Roy 2016, Sec. 3), which keeps segments
+// T^r (docs/method.md §5; Richter, Bry & Roy 2016, Sec. 3), which keeps segments
 // from 0.1 s to 60 s equally well conditioned.
 //
 //   const internal::PolynomialBasis& basis = internal::Basis();

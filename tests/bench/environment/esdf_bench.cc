@@ -1,4 +1,4 @@
-// ESDF build and update times on the paper's E1 world (DESIGN.md §4):
+// ESDF build and update times on the paper's E1 world (docs/method.md §10):
 // 30 x 30 x 26 m volume, one 4 x 10 x 26 m building.
 //
 //   build/tests/bench/environment/environment_bench --benchmark_repetitions=5

@@ -1,4 +1,4 @@
-// Benchmarks of the field map's hot paths (DESIGN.md §2.3) on the paper's
+// Benchmarks of the field map's hot paths (docs/method.md §3) on the paper's
 // 1600-cell map (40 x 40 cells of 0.75 m, paper preset).
 //
 // BM_KalmanUpdate/h: one GpMap::Update with the visible footprint of a camera

@@ -25,7 +25,7 @@ namespace {
 struct World {
   std::unique_ptr<Environment> env;
   std::unique_ptr<GpMap> map;
-  MissionView View() const { return {env.get(), map.get(), DownwardCamera{}, SensorNoise{}}; }
+  PlanningContext View() const { return {env.get(), map.get(), DownwardCamera{}, SensorNoise{}}; }
 };
 
 // A field of side_m x side_m at 0.75 m cells with the E1 building scaled to
@@ -39,10 +39,8 @@ World MakeWorld(double side_m) {
   auto grid = FieldGrid::FromBounds({-h, -h}, {h, h}, 0.75);
   auto map = GpMap::Create(*grid, GpParams::PaperPreset(0.75));
   w.map = std::make_unique<GpMap>(std::move(map).value());
-  std::vector<int> covered;
-  for (int c = 0; c < grid->num_cells(); ++c) {
-    if (w.env->IsInsideObstacle(grid->CellCentre(c) + Vec3(0, 0, 1e-3))) covered.push_back(c);
-  }
+  const std::vector<int> covered =
+      grid->CellsUnderObstacles([&](const Vec3& p_W) { return w.env->IsInsideObstacle(p_W); });
   (void)w.map->FuseNearCertainZeros(covered);
   return w;
 }
@@ -114,7 +112,7 @@ void Replan(benchmark::State& state, const World& w, int waypoints) {
   start.position_W = Vec3(10, 0, 7);
   std::int64_t evaluations = 0;
   for (auto _ : state) {
-    OaIppPlanner planner(config);
+    OaIppPlanner planner(PlannerCommon{}, config);
     auto path = planner.Plan(w.View(), start, absl::InfiniteFuture());
     if (!path.ok()) state.SkipWithError(std::string(path.status().message()).c_str());
     evaluations = path->stats.evaluations;
@@ -134,7 +132,7 @@ void BM_ReplanE1(benchmark::State& state) {
   std::int64_t evaluations = 0;
   for (auto _ : state) {
     for (const Vec3& p : starts) {
-      OaIppPlanner planner(OaIppConfig{});
+      OaIppPlanner planner(PlannerCommon{}, OaIppConfig{});
       UavState start;
       start.position_W = p;
       const auto t0 = std::chrono::steady_clock::now();

@@ -8,8 +8,10 @@
 
 #include <chrono>
 
+#include "api/geometry.h"
+#include "api/measurement.h"
+#include "api/spec.h"
 #include "grpcpp/grpcpp.h"
-#include "server/convert.h"
 #include "server/service.h"
 #include "tests/bench/server/e1_mission.h"
 
@@ -40,7 +42,7 @@ struct Loopback {
     *request.mutable_spec() = bench::E1Spec();
     v1::Mission mission;
     (void)stub->CreateMission(&context, request, &mission);
-    direct = *server::Mission::Create("direct", *server::MissionSpecToConfig(bench::E1Spec()));
+    direct = *server::Mission::Create("direct", *api::MissionSpecToConfig(bench::E1Spec()));
   }
 };
 
@@ -72,13 +74,12 @@ void CompareInProcessAndRpc(benchmark::State& state, InProcess in_process, Rpc r
 
 void BM_AddMeasurement(benchmark::State& state) {
   Loopback& w = World();
-  const std::vector<double> truth = bench::E1Truth();
   v1::Vector3 p;
   p.set_x(2);
   p.set_y(-5);
   p.set_z(10);
-  const v1::AddMeasurementRequest request = bench::E1Measurement("missions/rpc", p, 1.0, truth);
-  const server::MeasurementInput input = *server::MeasurementFromProto(request);
+  const v1::AddMeasurementRequest request = bench::E1Measurement("missions/rpc", p, 1.0);
+  const api::MeasurementInput input = *api::MeasurementFromProto(request);
   CompareInProcessAndRpc(
       state, [&] { (void)w.direct->AddMeasurement(input, ""); },
       [&] {
@@ -96,7 +97,7 @@ void BM_PlanPath(benchmark::State& state) {
   request.set_name("missions/rpc");
   request.mutable_state()->mutable_position_m()->set_x(10);
   request.mutable_state()->mutable_position_m()->set_z(7);
-  const UavState uav = *server::UavStateFromProto(request.state(), "state");
+  const UavState uav = *api::UavStateFromProto(request.state(), "state");
   CompareInProcessAndRpc(
       state, [&] { (void)w.direct->Plan(uav, std::nullopt, absl::InfiniteFuture(), ""); },
       [&] {

@@ -77,7 +77,6 @@ int main(int argc, char** argv) {
   auto channel =
       grpc::CreateChannel(absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials());
   auto stub = v1::MissionService::NewStub(channel);
-  const std::vector<double> truth = bench::E1Truth();
 
   Latencies latencies;
   std::atomic<int> done{0};
@@ -127,7 +126,7 @@ int main(int argc, char** argv) {
           timed("AddMeasurement", [&] {
             grpc::ClientContext c;
             v1::AddMeasurementRequest r =
-                bench::E1Measurement(name, pose.position_m(), pose.mission_time_s(), truth);
+                bench::E1Measurement(name, pose.position_m(), pose.mission_time_s());
             r.set_request_id(absl::StrCat("shot-", shots++));
             v1::AddMeasurementResponse out;
             return stub->AddMeasurement(&c, r, &out);

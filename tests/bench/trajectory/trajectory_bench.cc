@@ -1,4 +1,4 @@
-// Minimum-snap solve and limit-respecting planning times (DESIGN.md §2.5).
+// Minimum-snap solve and limit-respecting planning times (docs/method.md §5).
 // PlanMinSnap runs once per candidate path inside the CMA-ES loop, so its
 // cost bounds the planner's evaluation rate.
 //

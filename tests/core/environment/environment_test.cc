@@ -113,10 +113,10 @@ TEST(EnvironmentTest, GroundUnderABuildingIsNeverVisible) {
   auto env = Environment::Create(testing::E1Volume());
   ASSERT_TRUE(env.ok());
   ASSERT_TRUE(env->Apply({.add = {E1Building()}}).ok());
-  EXPECT_FALSE(env->IsClear({0, -1, 30}, {0, -1, 0}));
-  EXPECT_TRUE(env->IsClear({10, 0, 7}, {10, 5, 0}));
+  EXPECT_FALSE(env->IsVisible({0, -1, 30}, {0, -1, 0}));
+  EXPECT_TRUE(env->IsVisible({10, 0, 7}, {10, 5, 0}));
   // Behind the building seen from the side.
-  EXPECT_FALSE(env->IsClear({10, -1, 7}, {-10, -1, 0}));
+  EXPECT_FALSE(env->IsVisible({10, -1, 7}, {-10, -1, 0}));
 }
 
 TEST(EnvironmentTest, EmptyWorldAnswersSanely) {
@@ -124,7 +124,7 @@ TEST(EnvironmentTest, EmptyWorldAnswersSanely) {
   ASSERT_TRUE(env.ok());
   EXPECT_TRUE(std::isinf(env->SignedDistance({0, 0, 0})));
   EXPECT_TRUE(env->IsSegmentClear({-15, -15, 0}, {15, 15, 26}, 5.0));
-  EXPECT_TRUE(env->IsClear({0, 0, 10}, {3, 3, 0}));
+  EXPECT_TRUE(env->IsVisible({0, 0, 10}, {3, 3, 0}));
   EXPECT_FALSE(env->InCollision({0, 0, 10}, 1.0));
   // An empty change is fine and changes nothing.
   EXPECT_TRUE(env->Apply({}).ok());

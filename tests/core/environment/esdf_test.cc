@@ -44,7 +44,7 @@ bool ReferenceIsExact(const Environment& env, const Vec3& p) {
 
 class EsdfAccuracyTest : public ::testing::TestWithParam<std::tuple<unsigned, int>> {};
 
-// DESIGN.md §2.2: every voxel value is within half a voxel diagonal of the
+// docs/method.md §2: every voxel value is within half a voxel diagonal of the
 // exact (truncated) signed distance.
 TEST_P(EsdfAccuracyTest, VoxelCentresWithinHalfDiagonalOfExactDistance) {
   const auto [seed, count] = GetParam();

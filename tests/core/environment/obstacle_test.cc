@@ -14,7 +14,7 @@
 namespace oaipp {
 namespace {
 
-// REFERENCE.md: q = |p - c| - h per axis; outside |max(q, 0)|, inside max_i q_i.
+// docs/reference-values.md: q = |p - c| - h per axis; outside |max(q, 0)|, inside max_i q_i.
 TEST(ObstacleTest, BoxSignedDistanceFollowsReferenceFormula) {
   const Shape box = Box{{1, 2, 3}, {2, 4, 6}, 0.0};                          // half sizes (1, 2, 3)
   EXPECT_DOUBLE_EQ(SignedDistance(box, {4, 2, 3}), 2.0);                     // face

@@ -11,7 +11,7 @@ namespace oaipp::testing {
 class WallAtX final : public LineOfSight {
  public:
   explicit WallAtX(double x_wall_m) : x_wall_m_(x_wall_m) {}
-  bool IsClear(const Vec3& from_W, const Vec3& to_W) const override {
+  bool IsVisible(const Vec3& from_W, const Vec3& to_W) const override {
     return (from_W.x() - x_wall_m_) * (to_W.x() - x_wall_m_) >= 0.0;
   }
 
@@ -22,7 +22,7 @@ class WallAtX final : public LineOfSight {
 // Everything is hidden (e.g. the camera sits under a roof).
 class BlockEverything final : public LineOfSight {
  public:
-  bool IsClear(const Vec3&, const Vec3&) const override { return false; }
+  bool IsVisible(const Vec3&, const Vec3&) const override { return false; }
 };
 
 }  // namespace oaipp::testing

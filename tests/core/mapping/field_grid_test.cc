@@ -214,7 +214,7 @@ TEST(FieldGridTest, PolygonOverlapConcaveTouchingAndDegenerate) {
       grid->CellsOverlappingPolygon(std::vector<Vec2>{{-9, -9}, {-8, -9}, {-8, -8}}).empty());
 }
 
-// REFERENCE.md: the 7 people of E1, each x in [px - 0.375, px + 0.375],
+// docs/reference-values.md: the 7 people of E1, each x in [px - 0.375, px + 0.375],
 // y in [py, py + 2], cover 48 cells of the 40 x 40 grid (positive overlap).
 TEST(FieldGridTest, E1PeopleCover48Cells) {
   const FieldGrid grid = PaperGrid();

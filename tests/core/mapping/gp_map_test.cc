@@ -22,7 +22,7 @@ using Eigen::MatrixXd;
 using Eigen::VectorXd;
 using ::testing::HasSubstr;
 
-// REFERENCE.md tolerances are 1e-6 relative.
+// docs/reference-values.md §1 tolerances are 1e-6 relative.
 void ExpectRel(double actual, double expected, double rel = 1e-6) {
   EXPECT_NEAR(actual, expected, rel * std::abs(expected));
 }
@@ -33,7 +33,7 @@ FieldGrid Grid(int nx, int ny, double res) {
   return *grid;
 }
 
-// The block rows 15..24, cols 13..26 of the 40 x 40 grid (REFERENCE.md).
+// The block rows 15..24, cols 13..26 of the 40 x 40 grid (docs/reference-values.md).
 std::vector<CellObservation> Block140(double variance, double value = 1.0) {
   std::vector<CellObservation> obs;
   for (int row = 15; row <= 24; ++row) {
@@ -72,7 +72,7 @@ TEST(MaternKernelTest, MatchesReferenceUnitParameters) {
 TEST(MaternKernelTest, MatchesReferencePaperParameters) {
   const double d[] = {0, 1, 2, 3, 4};
   const double k[] = {1.8221188, 1.6729851, 1.3781058, 1.0682746, 0.7964925};
-  // REFERENCE.md gives these to 8 significant digits.
+  // docs/reference-values.md gives these to 8 significant digits.
   for (int i = 0; i < 5; ++i) ExpectRel(Matern32(d[i], std::exp(1.3), std::exp(0.6)), k[i], 1e-7);
 }
 
@@ -91,7 +91,7 @@ TEST(GpParamsTest, PaperPresetAndDefaults) {
   EXPECT_THAT(GpParams{.prior_mean = NAN}.Validate().message(), HasSubstr("prior_mean"));
 }
 
-// REFERENCE.md 1-D GP: kernel 2.0 * Matern32(l = 1.5), noise 0.1, X = [0, 1, 3],
+// docs/reference-values.md §3 (1-D GP): kernel 2.0 * Matern32(l = 1.5), noise 0.1, X = [0, 1, 3],
 // y = [1, -1, 0.5], x* = [0.5, 2, 5]. Checked twice: with the textbook
 // formulas, and as a Kalman update of a map whose prior is K.
 TEST(GpPosteriorTest, OneDimensionalReference) {
@@ -261,7 +261,7 @@ TEST(GpMapTest, CopyPolicyIsExplicit) {
   static_assert(std::is_nothrow_move_assignable_v<GpMap>);
 }
 
-// REFERENCE.md: the paper's printed numbers read literally (l = 3.67 m,
+// docs/reference-values.md: the paper's printed numbers read literally (l = 3.67 m,
 // sn2 = 1.42, sf2 = 1.82) give a different prior.
 TEST(PriorCovarianceTest, LiteralPaperNumbersGiveReferenceTrace) {
   auto p0 = PriorCovariance(Grid(40, 40, 0.75),

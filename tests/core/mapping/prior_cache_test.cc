@@ -27,7 +27,7 @@ TEST(PriorCacheTest, SharedPriorEqualsAFreshOneBitForBit) {
   ASSERT_TRUE(cached.ok() && fresh.ok());
   EXPECT_TRUE(cached->Covariance() == fresh->Covariance());
   EXPECT_TRUE(cached->Mean() == fresh->Mean());
-  EXPECT_NEAR(cached->Trace(), 387.319924, 5e-6);  // REFERENCE.md
+  EXPECT_NEAR(cached->Trace(), 387.319924, 5e-6);  // docs/reference-values.md
   // A second map shares the prior and is independent of the first.
   const std::vector<CellObservation> shot = {{.cell = 5, .value = 1.0, .variance = 0.4}};
   ASSERT_TRUE(cached->Update(shot).ok());

@@ -38,7 +38,7 @@ double Rosenbrock(const Eigen::VectorXd& x) {
   return s;
 }
 
-// REFERENCE.md: sphere from x0 = 1, sigma0 = 1 needs a median of 1770
+// docs/reference-values.md: sphere from x0 = 1, sigma0 = 1 needs a median of 1770
 // evaluations (1650-1900) over 25 seeds; assert below 2500.
 TEST(CmaesTest, SphereReachesTargetWithinReferenceEvaluations) {
   std::vector<std::int64_t> evals;
@@ -52,7 +52,7 @@ TEST(CmaesTest, SphereReachesTargetWithinReferenceEvaluations) {
   EXPECT_GT(evals[12], 1000);  // a far smaller count would mean a miscounted budget
 }
 
-// REFERENCE.md: Rosenbrock from x0 = 0, sigma0 = 0.5 succeeds in 24 of 25
+// docs/reference-values.md: Rosenbrock from x0 = 0, sigma0 = 0.5 succeeds in 24 of 25
 // seeds (median 6355 evaluations); assert >= 80 % within 10^4.
 TEST(CmaesTest, RosenbrockSucceedsOnMostSeeds) {
   int successes = 0;

@@ -1,4 +1,4 @@
-// A small in-process mission loop on the E1 world (DESIGN.md §2.7 step 4):
+// A small in-process mission loop on the E1 world (docs/method.md §7.6):
 // plan, fly, take noise-free ground-truth measurements at the sensor rate,
 // fuse, replan until the 150 s budget is spent.
 #include <cmath>
@@ -32,10 +32,10 @@ double FlyMission(PlannerKind kind, std::uint32_t seed, double budget_s = 150.0)
   const DownwardCamera camera;
   const SensorNoise noise;
   int measurements = 0;
+  PlanningContext context = scene.View();
   while (state.mission_time_s < budget_s) {
-    state.remaining_budget_s = budget_s - state.mission_time_s;
-    absl::StatusOr<PlannedPath> path =
-        (*planner)->Plan(scene.View(), state, absl::InfiniteFuture());
+    context.remaining_budget_s = budget_s - state.mission_time_s;
+    absl::StatusOr<PlannedPath> path = (*planner)->Plan(context, state, absl::InfiniteFuture());
     EXPECT_TRUE(path.ok()) << path.status();
     if (!path.ok()) break;
     const double fly_s = std::min(path->trajectory.Duration(), budget_s - state.mission_time_s);
@@ -54,7 +54,7 @@ double FlyMission(PlannerKind kind, std::uint32_t seed, double budget_s = 150.0)
     state.velocity_W_m_s = path->trajectory.Velocity(fly_s);
     state.accel_W_m_s2 = path->trajectory.Acceleration(fly_s);
     state.mission_time_s += fly_s;
-    state.next_shot_mission_s = path->next_shot_mission_s;
+    context.next_shot_mission_s = path->next_shot_mission_s;
   }
   EXPECT_GE(measurements, 20);  // 150 s at 0.15 Hz: 22 or 23 shots
   return Rse(*scene.map, scene.target_cells);
@@ -62,7 +62,7 @@ double FlyMission(PlannerKind kind, std::uint32_t seed, double budget_s = 150.0)
 
 TEST(MissionLoopTest, StartingErrorMatchesReference) {
   const testing::Scene scene = testing::E1();
-  // REFERENCE.md: 48 target cells; RSE0 = 7.375636 with prior mean 0.1.
+  // docs/reference-values.md: 48 target cells; RSE0 = 7.375636 with prior mean 0.1.
   EXPECT_EQ(scene.target_cells.size(), 48u);
   Eigen::VectorXd prior = Eigen::VectorXd::Constant(scene.map->num_cells(), 0.1);
   Eigen::VectorXd truth = Eigen::VectorXd::Zero(scene.map->num_cells());

@@ -86,9 +86,9 @@ TEST_P(PinnedPlansTest, PlanIsBitIdenticalToTheRecordedOne) {
   UavState state = scene.start;
   state.velocity_W_m_s = pin.velocity_W_m_s;
   state.mission_time_s = pin.mission_time_s;
-  state.next_shot_mission_s = pin.mission_time_s;
-  state.remaining_budget_s = 150.0 - pin.mission_time_s;
-  auto path = (*planner)->Plan(scene.View(), state, absl::InfiniteFuture());
+  PlanningContext context = scene.View(pin.mission_time_s);
+  context.remaining_budget_s = 150.0 - pin.mission_time_s;
+  auto path = (*planner)->Plan(context, state, absl::InfiniteFuture());
   ASSERT_TRUE(path.ok()) << path.status();
   EXPECT_EQ(Fingerprint(*path), pin.fingerprint) << absl::StrFormat(
       "actual fingerprint 0x%016xULL, objective %a", Fingerprint(*path), path->objective);

@@ -12,7 +12,7 @@ using ::testing::HasSubstr;
 class PlannerInputTest : public ::testing::TestWithParam<PlannerKind> {
  protected:
   static void SetUpTestSuite() { scene_ = new testing::Scene(testing::E1()); }
-  absl::Status PlanFrom(const UavState& state, const MissionView* view = nullptr) {
+  absl::Status PlanFrom(const UavState& state, const PlanningContext* view = nullptr) {
     auto planner = MakePlanner({.kind = GetParam()});
     EXPECT_TRUE(planner.ok());
     return (*planner)->Plan(view ? *view : scene_->View(), state, absl::InfiniteFuture()).status();
@@ -46,20 +46,20 @@ TEST_P(PlannerInputTest, OutsideTheVolumeOrOutOfBudgetIsRefused) {
   UavState s = scene_->start;
   s.position_W.z() = 40;
   EXPECT_THAT(PlanFrom(s).message(), HasSubstr("outside the flight volume"));
-  s = scene_->start;
-  s.remaining_budget_s = 0;
-  EXPECT_THAT(PlanFrom(s).message(), HasSubstr("remaining_budget_s"));
+  PlanningContext spent = scene_->View();
+  spent.remaining_budget_s = 0;
+  EXPECT_THAT(PlanFrom(scene_->start, &spent).message(), HasSubstr("remaining_budget_s"));
   s = scene_->start;
   s.mission_time_s = 10;
-  s.next_shot_mission_s = 5;
-  EXPECT_THAT(PlanFrom(s).message(), HasSubstr("next_shot_mission_s"));
+  const PlanningContext early = scene_->View(/*next_shot_mission_s=*/5);
+  EXPECT_THAT(PlanFrom(s, &early).message(), HasSubstr("next_shot_mission_s"));
   s = scene_->start;
   s.velocity_W_m_s = Vec3(9, 0, 0);
   EXPECT_THAT(PlanFrom(s).message(), HasSubstr("max_speed"));
 }
 
 TEST_P(PlannerInputTest, MissingOrEmptyFieldIsRefused) {
-  MissionView view = scene_->View();
+  PlanningContext view = scene_->View();
   view.map = nullptr;
   EXPECT_THAT(PlanFrom(scene_->start, &view).message(), HasSubstr("mission.map"));
   // A field that lies entirely outside the flight volume.

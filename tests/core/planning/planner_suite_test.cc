@@ -1,4 +1,4 @@
-// One suite that every planner passes, on every test world (DESIGN.md §4):
+// One suite that every planner passes, on every test world (docs/method.md §10):
 // paths start at the UAV state, stay inside the flight volume, are
 // collision-free under an independent exact check, respect the dynamic
 // limits, and are identical for the same seed.
@@ -39,7 +39,7 @@ PlannerConfig Config(PlannerKind kind) {
   config.oaipp.generations = 8;  // a short refinement keeps the suite quick
   if (kind == PlannerKind::kOaIppNonAdaptive) {
     // The trace objective costs up to n^3 per candidate at high altitude
-    // (DESIGN.md §2.6); a smaller search checks the same properties.
+    // (docs/method.md §6); a smaller search checks the same properties.
     config.oaipp.generations = 2;
     config.oaipp.greedy_candidates_per_layer = 3;
   }
@@ -73,7 +73,7 @@ void ExpectSafeAndFeasible(const PlannedPath& path, const Scene& scene, const Ua
     const MeasurementPose& m = path.measurement_poses[i];
     EXPECT_LT((traj.Position(m.t_s) - m.position_W).norm(), 1e-9);
     if (i > 0) {
-      EXPECT_NEAR(m.t_s - path.measurement_poses[i - 1].t_s, 1.0 / limits.sensor_rate_hz, 1e-9);
+      EXPECT_NEAR(m.t_s - path.measurement_poses[i - 1].t_s, 1.0 / DownwardCamera{}.rate_hz, 1e-9);
     }
   }
 }
@@ -98,9 +98,12 @@ TEST_P(PlannerSuiteTest, SafeFeasibleAndReproducible) {
 
   UavState state = scene.start;
   // Two consecutive replans: the second starts where the first ended.
+  double next_shot_mission_s = 0.0;
   for (int replan = 0; replan < 2; ++replan) {
-    absl::StatusOr<PlannedPath> a = (*first)->Plan(scene.View(), state, absl::InfiniteFuture());
-    absl::StatusOr<PlannedPath> b = (*second)->Plan(scene.View(), state, absl::InfiniteFuture());
+    absl::StatusOr<PlannedPath> a =
+        (*first)->Plan(scene.View(next_shot_mission_s), state, absl::InfiniteFuture());
+    absl::StatusOr<PlannedPath> b =
+        (*second)->Plan(scene.View(next_shot_mission_s), state, absl::InfiniteFuture());
     ASSERT_TRUE(a.ok()) << a.status();
     ASSERT_TRUE(b.ok()) << b.status();
     ExpectSafeAndFeasible(*a, scene, state, config.common.limits);
@@ -110,13 +113,13 @@ TEST_P(PlannerSuiteTest, SafeFeasibleAndReproducible) {
       EXPECT_EQ(a->control_waypoints_W[i], b->control_waypoints_W[i]);
     }
     EXPECT_EQ(a->objective, b->objective);
-    // Replan where the path ends (DESIGN.md §2.7 step 4).
+    // Replan where the path ends (docs/method.md §7.6).
     const double t = a->trajectory.Duration();
     state.position_W = a->trajectory.Position(t);
     state.velocity_W_m_s = a->trajectory.Velocity(t);
     state.accel_W_m_s2 = a->trajectory.Acceleration(t);
     state.mission_time_s += t;
-    state.next_shot_mission_s = NextShotAfter(*a, state.mission_time_s);
+    next_shot_mission_s = NextShotAfter(*a, state.mission_time_s);
   }
 }
 
@@ -137,9 +140,8 @@ TEST(OaIppTest, RefinementNeverWorseThanGreedy) {
   const Scene& scene = CachedScene("E1");
   for (std::uint32_t seed = 1; seed <= 4; ++seed) {
     OaIppConfig config;
-    config.common.seed = seed;
     config.generations = 10;
-    OaIppPlanner planner(config);
+    OaIppPlanner planner(PlannerCommon{.seed = seed}, config);
     absl::StatusOr<PlannedPath> path =
         planner.Plan(scene.View(), scene.start, absl::InfiniteFuture());
     ASSERT_TRUE(path.ok()) << path.status();
@@ -152,7 +154,7 @@ TEST(OaIppTest, RefinementNeverWorseThanGreedy) {
 
 TEST(OaIppTest, DeadlineGivesAnAnytimeResult) {
   const Scene& scene = CachedScene("E1");
-  OaIppPlanner planner(OaIppConfig{});
+  OaIppPlanner planner(PlannerCommon{}, OaIppConfig{});
   // A deadline already past: the greedy start is still checked and returned.
   absl::StatusOr<PlannedPath> path = planner.Plan(scene.View(), scene.start, absl::InfinitePast());
   ASSERT_TRUE(path.ok()) << path.status();
@@ -196,9 +198,7 @@ TEST(LawnmowerTest, StartCorners) {
   }
   std::set<std::pair<double, double>> first_points;
   for (std::uint32_t seed = 1; seed <= 16; ++seed) {
-    LawnmowerConfig config;
-    config.common.seed = seed;
-    LawnmowerPlanner planner(config);
+    LawnmowerPlanner planner(PlannerCommon{.seed = seed}, LawnmowerConfig{});
     absl::StatusOr<PlannedPath> path =
         planner.Plan(scene.View(), scene.start, absl::InfiniteFuture());
     ASSERT_TRUE(path.ok()) << path.status();
@@ -213,15 +213,17 @@ TEST(LawnmowerTest, StartCorners) {
 
 TEST(LawnmowerTest, DetoursAroundTheBuildingAndKeepsItsPlace) {
   const Scene& scene = CachedScene("E1");
-  LawnmowerPlanner planner(LawnmowerConfig{});
+  LawnmowerPlanner planner(PlannerCommon{}, LawnmowerConfig{});
   UavState state = scene.start;
+  double next_shot_mission_s = 0.0;
   for (int replan = 0; replan < 4; ++replan) {
-    absl::StatusOr<PlannedPath> path = planner.Plan(scene.View(), state, absl::InfiniteFuture());
+    absl::StatusOr<PlannedPath> path =
+        planner.Plan(scene.View(next_shot_mission_s), state, absl::InfiniteFuture());
     ASSERT_TRUE(path.ok()) << path.status();
     ExpectSafeAndFeasible(*path, scene, state, PlannerLimits{});
     state.position_W = path->trajectory.Position(path->trajectory.Duration());
     state.mission_time_s += path->trajectory.Duration();
-    state.next_shot_mission_s = path->next_shot_mission_s;
+    next_shot_mission_s = path->next_shot_mission_s;
   }
   EXPECT_EQ(planner.next_index(), 8);  // two pattern points per replan
 }

@@ -1,4 +1,4 @@
-// Test worlds of DESIGN.md §4 for planner tests: the E1 benchmark, seeded
+// Test worlds of docs/method.md §10 for planner tests: the E1 benchmark, seeded
 // random low-/high-rise worlds (E3) and the E4 narrow passage, each with a
 // 40 x 40 paper-preset map and a start state.
 #pragma once
@@ -23,8 +23,10 @@ struct Scene {
   std::unique_ptr<GpMap> map;
   UavState start;
   std::vector<int> target_cells;  // ground truth (E1 only)
-  [[nodiscard]] MissionView View() const {
-    return {env.get(), map.get(), DownwardCamera{}, SensorNoise{}};
+  // The scene as a planner reads it, the camera's next shot at
+  // next_shot_mission_s.
+  [[nodiscard]] PlanningContext View(double next_shot_mission_s = 0.0) const {
+    return {env.get(), map.get(), DownwardCamera{}, SensorNoise{}, next_shot_mission_s};
   }
 };
 
@@ -36,11 +38,9 @@ inline std::unique_ptr<GpMap> PaperMap(const Environment& env) {
   EXPECT_TRUE(grid.ok());
   auto map = GpMap::Create(*grid, GpParams::PaperPreset(0.75));
   EXPECT_TRUE(map.ok());
-  // Ground under obstacles holds no targets (DESIGN.md §2.2).
-  std::vector<int> covered;
-  for (int c = 0; c < grid->num_cells(); ++c) {
-    if (env.IsInsideObstacle(grid->CellCentre(c) + Vec3(0, 0, 1e-3))) covered.push_back(c);
-  }
+  // Ground under obstacles holds no targets (docs/method.md §2).
+  const std::vector<int> covered =
+      grid->CellsUnderObstacles([&](const Vec3& p_W) { return env.IsInsideObstacle(p_W); });
   if (!covered.empty()) {
     EXPECT_TRUE(map->FuseNearCertainZeros(covered).ok());
   }

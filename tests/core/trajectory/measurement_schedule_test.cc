@@ -51,7 +51,7 @@ TEST(MeasurementScheduleTest, ShotsMissedBeforeTheStartAreSkippedKeepingPhase) {
   EXPECT_EQ(s->next_shot_mission_s, 20);
 }
 
-// DESIGN.md §2.4: the phase carries over across replans, so cutting a
+// docs/method.md §4: the phase carries over across replans, so cutting a
 // mission into consecutive trajectories must not move any shot.
 TEST(MeasurementScheduleTest, ConsecutiveTrajectoriesGiveTheShotsOfOneLongTrajectory) {
   std::mt19937 rng(3);
@@ -101,19 +101,19 @@ TEST(MeasurementScheduleTest, ZeroDurationHasNoShotsAndKeepsTheNextShot) {
 }
 
 TEST(MeasurementScheduleInputTest, RejectsBadFieldsNamingThem) {
-  const MeasurementRequest ok{
+  const ShotWindow ok{
       .trajectory_start_mission_s = 0, .duration_s = 10, .rate_hz = 1, .next_shot_mission_s = 0};
-  const auto expect_invalid = [](MeasurementRequest r, const std::string& field) {
+  const auto expect_invalid = [](ShotWindow r, const std::string& field) {
     const auto s = ScheduleMeasurements(r);
     EXPECT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument) << field;
     EXPECT_THAT(s.status().message(), HasSubstr(field));
   };
   for (double bad : {0.0, -1.0, std::nan(""), double{INFINITY}}) {
-    MeasurementRequest r = ok;
+    ShotWindow r = ok;
     r.rate_hz = bad;
     expect_invalid(r, "rate_hz");
   }
-  MeasurementRequest r = ok;
+  ShotWindow r = ok;
   r.duration_s = -1;
   expect_invalid(r, "duration_s");
   r = ok;

@@ -17,7 +17,7 @@ using ::testing::HasSubstr;
 using testing::RandomVector;
 using testing::RandomWaypoints;
 
-// REFERENCE.md "Minimum-snap polynomials": rest-to-rest single segment,
+// docs/reference-values.md §6 "Minimum-snap polynomials": rest-to-rest single segment,
 // D (126 s^5 - 420 s^6 + 540 s^7 - 315 s^8 + 70 s^9), s = t / T.
 constexpr double kRestToRest[10] = {0, 0, 0, 0, 0, 126, -420, 540, -315, 70};
 constexpr double kRestToRestCost = 1814400.0 / 11.0;  // times D^2 / T^7
@@ -53,7 +53,7 @@ TEST(MinSnapReferenceTest, SingleSegmentCostMatchesClosedFormAcrossDurations) {
   }
 }
 
-// REFERENCE.md: 1-D waypoints [0, 1, 3], T = [1, 1].
+// docs/reference-values.md: 1-D waypoints [0, 1, 3], T = [1, 1].
 TEST(MinSnapReferenceTest, ThreeWaypointCostAndInteriorDerivativesMatchReference) {
   const PolynomialTrajectory traj =
       Solve({Vec3::Zero(), Vec3::UnitX(), 3.0 * Vec3::UnitX()}, {1, 1});
@@ -301,10 +301,10 @@ INSTANTIATE_TEST_SUITE_P(
     SeedsSegmentsDurations, MinSnapRandomTest,
     ::testing::Combine(::testing::Values(1u, 2u, 3u), ::testing::Values(1, 10, 50),
                        ::testing::Values(Durations::kRealistic, Durations::kExtreme)),
-    [](const auto& info) {
-      return "seed" + std::to_string(std::get<0>(info.param)) + "_" +
-             std::to_string(std::get<1>(info.param)) + "segments_" +
-             (std::get<2>(info.param) == Durations::kRealistic ? "realistic" : "extreme");
+    [](const auto& param_info) {
+      return "seed" + std::to_string(std::get<0>(param_info.param)) + "_" +
+             std::to_string(std::get<1>(param_info.param)) + "segments_" +
+             (std::get<2>(param_info.param) == Durations::kRealistic ? "realistic" : "extreme");
     });
 
 TEST(MinSnapInputTest, RejectsFewerThanTwoWaypoints) {

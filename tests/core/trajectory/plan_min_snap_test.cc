@@ -16,7 +16,7 @@ using testing::RandomWaypoints;
 
 const TrajectoryLimits kPaperLimits{.max_speed_m_s = 5.0, .max_accel_m_s2 = 3.0};
 
-// REFERENCE.md "Segment time from a velocity ramp".
+// docs/reference-values.md §7 "Segment time from a velocity ramp".
 TEST(RampSegmentTimeTest, MatchesReferenceValues) {
   EXPECT_NEAR(RampSegmentTime(1.0, kPaperLimits), 1.1547, 1e-4);
   EXPECT_NEAR(RampSegmentTime(5.0, kPaperLimits), 2.5820, 1e-4);
@@ -49,7 +49,7 @@ SampledMaxima DenseMaxima(const PolynomialTrajectory& traj) {
   return m;
 }
 
-// Paper settings (DESIGN.md §2.5): N = 3 control waypoints, and a few more.
+// Paper settings (docs/method.md §5): N = 3 control waypoints, and a few more.
 class PlanMinSnapFromRestTest : public ::testing::TestWithParam<unsigned> {};
 
 TEST_P(PlanMinSnapFromRestTest, MeetsLimitsOnDenseSamplingAndOneIsTight) {
@@ -87,7 +87,7 @@ INSTANTIATE_TEST_SUITE_P(Seeds, PlanMinSnapFromRestTest, ::testing::Values(1u, 2
 
 // One rest-to-rest segment of length D has peak speed 2.4609375 D / T (at
 // s = 1/2) and peak acceleration 9.3719762184941 D / T^2 (at
-// s = 1/2 -+ sqrt(7)/14), from the REFERENCE.md polynomial (sympy), so the
+// s = 1/2 -+ sqrt(7)/14), from the docs/reference-values.md §6.1 polynomial (sympy), so the
 // fastest feasible duration is max(2.4609375 D / v, sqrt(9.3719762 D / a)).
 TEST(PlanMinSnapTest, SingleSegmentDurationMatchesClosedForm) {
   for (double d : {0.5, 10.0, 40.0}) {

@@ -19,7 +19,7 @@ PolynomialTrajectory RestToRest(const Vec3& from, const Vec3& to, double T) {
   return *SolveMinSnap({from, to}, {T}, Vec3::Zero(), Vec3::Zero());
 }
 
-// Peaks of the REFERENCE.md rest-to-rest polynomial, from sympy:
+// Peaks of the docs/reference-values.md §6.1 rest-to-rest polynomial, from sympy:
 // speed 2.4609375 D / T at s = 1/2, acceleration 9.3719762184941037 D / T^2
 // at s = 1/2 -+ sqrt(7)/14.
 TEST(PolynomialTrajectoryTest, SingleSegmentPeaksMatchClosedForm) {
@@ -90,6 +90,71 @@ TEST(PolynomialTrajectoryTest, CopiesAreIndependentValues) {
   a = RestToRest(Vec3::Zero(), Vec3(0, 5, 0), 3.0);
   EXPECT_LE((b.Position(1.0) - Vec3(1, 0, 0)).norm(), 1e-12);
   EXPECT_LE((a.Position(3.0) - Vec3(0, 5, 0)).norm(), 1e-12);
+}
+
+// A trajectory rebuilt from its real-time coefficients (what a client
+// receives) matches the original to round-off in every derivative up to
+// snap, on random multi-segment trajectories.
+TEST(PolynomialTrajectoryTest, FromCoefficientsReproducesTheTrajectory) {
+  std::mt19937 rng(17);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int n = 1 + trial % 4;
+    std::vector<double> T;
+    for (int i = 0; i < n; ++i) T.push_back(std::uniform_real_distribution<double>(0.5, 4.0)(rng));
+    const auto traj = SolveMinSnap(RandomWaypoints(rng, n + 1), T, RandomVector(rng, 3.0),
+                                   RandomVector(rng, 2.0));
+    ASSERT_TRUE(traj.ok()) << traj.status();
+    std::vector<PolynomialTrajectory::SegmentCoefficients> c;
+    for (int i = 0; i < n; ++i) c.push_back(traj->Coefficients(i));
+    const auto copy = PolynomialTrajectory::FromCoefficients(traj->SegmentDurations(), c);
+    ASSERT_TRUE(copy.ok()) << copy.status();
+    EXPECT_EQ(copy->Duration(), traj->Duration());
+    for (int i = 0; i <= n; ++i) {
+      EXPECT_LT((copy->Waypoints()[i] - traj->Waypoints()[i]).norm(), 1e-9) << i;
+    }
+    for (double t = 0.0; t <= traj->Duration(); t += 0.013) {
+      for (int order = 0; order <= 4; ++order) {
+        const Vec3 want = traj->Derivative(t, order);
+        EXPECT_LT((copy->Derivative(t, order) - want).norm(), 1e-8 * (1.0 + want.norm()))
+            << "t " << t << " order " << order;
+      }
+    }
+    EXPECT_NEAR(copy->SnapCost(), traj->SnapCost(), 1e-8 * traj->SnapCost());
+  }
+}
+
+// p(tau) = 1 + 2 tau - tau^3 + 0.5 tau^9 on x: the value and the first three
+// derivatives in closed form at tau = 0.7.
+TEST(PolynomialTrajectoryTest, RealTimeCoefficientsEvaluateInClosedForm) {
+  PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
+  c(0, 0) = 1.0;
+  c(1, 0) = 2.0;
+  c(3, 0) = -1.0;
+  c(9, 0) = 0.5;
+  const auto traj = PolynomialTrajectory::FromCoefficients({2.0}, {c});
+  ASSERT_TRUE(traj.ok()) << traj.status();
+  const double t = 0.7;
+  EXPECT_NEAR(traj->Position(t).x(), 1 + 2 * t - t * t * t + 0.5 * std::pow(t, 9), 1e-15);
+  EXPECT_NEAR(traj->Velocity(t).x(), 2 - 3 * t * t + 4.5 * std::pow(t, 8), 1e-14);
+  EXPECT_NEAR(traj->Acceleration(t).x(), -6 * t + 36 * std::pow(t, 7), 1e-13);
+  EXPECT_NEAR(traj->Derivative(t, 3).x(), -6 + 252 * std::pow(t, 6), 1e-12);
+  EXPECT_EQ(traj->Position(t).y(), 0.0);
+  EXPECT_EQ(traj->Waypoints().back().x(), 1 + 2 * 2 - 8 + 0.5 * 512);
+}
+
+TEST(PolynomialTrajectoryTest, FromCoefficientsRefusesBadInput) {
+  const PolynomialTrajectory::SegmentCoefficients c =
+      PolynomialTrajectory::SegmentCoefficients::Zero();
+  EXPECT_THAT(PolynomialTrajectory::FromCoefficients({}, {}).status().message(),
+              ::testing::HasSubstr("durations_s"));
+  EXPECT_THAT(PolynomialTrajectory::FromCoefficients({1.0, 2.0}, {c}).status().message(),
+              ::testing::HasSubstr("coefficients"));
+  EXPECT_THAT(PolynomialTrajectory::FromCoefficients({0.0}, {c}).status().message(),
+              ::testing::HasSubstr("durations_s[0]"));
+  PolynomialTrajectory::SegmentCoefficients bad = c;
+  bad(3, 1) = NAN;
+  EXPECT_THAT(PolynomialTrajectory::FromCoefficients({1.0}, {bad}).status().message(),
+              ::testing::HasSubstr("coefficients[0]"));
 }
 
 TEST(SampleTrajectoryTest, SamplesAtTheRateAndIncludesBothEnds) {

@@ -12,7 +12,7 @@
 
 namespace oaipp::testing {
 
-// The paper's E1 flight volume (DESIGN.md §4): 30 x 30 m, altitude 2..26 m.
+// The paper's E1 flight volume (docs/method.md §10): 30 x 30 m, altitude 2..26 m.
 inline Vec3 RandomPoint(std::mt19937& rng) {
   std::uniform_real_distribution<double> xy(-15.0, 15.0), z(2.0, 26.0);
   return {xy(rng), xy(rng), z(rng)};

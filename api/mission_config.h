@@ -1,0 +1,82 @@
+// A mission described in core terms: what CreateMission's spec becomes once
+// every default is filled in and every field is validated (api/spec.h does
+// that). The member initialisers below are the API's defaults, the paper's
+// values; the spec conversion, the server and the simulation all read them
+// from here. Nothing here knows about protobuf.
+//
+//   OAIPP_ASSIGN_OR_RETURN(MissionConfig config, MissionSpecToConfig(request.spec()));
+//   OAIPP_ASSIGN_OR_RETURN(Environment env, config.MakeEnvironment());
+//   Aabb volume = config.FlightVolume();
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "core/environment/environment.h"
+#include "core/mapping/camera.h"
+#include "core/mapping/detection_projection.h"
+#include "core/mapping/field_grid.h"
+#include "core/mapping/gp_params.h"
+#include "core/planning/planners.h"
+
+namespace oaipp::api {
+
+struct MissionConfig {
+  // Altitude of the default start (over the field's centre, at rest), m.
+  static constexpr double kDefaultStartAltitude_m = 10.0;
+  // Image size assumed for detections sent without intrinsics, pixels.
+  static constexpr int kDefaultImageWidthPx = 480;
+  static constexpr int kDefaultImageHeightPx = 640;
+
+  std::string preset;  // "" or "paper"
+  // Field rectangle on the ground and its cells.
+  Vec2 field_min_W = Vec2(-15, -15);
+  Vec2 field_max_W = Vec2(15, 15);
+  double resolution_m = 0.75;
+  GpParams gp = GpParams::PaperPreset(0.75);
+  DownwardCamera camera;
+  SensorNoise noise;
+  // Flight altitudes over the field.
+  double min_altitude_m = 2.0;
+  double max_altitude_m = 26.0;
+  EsdfConfig esdf;
+  // The planner: its kind, the settings every kind shares (flight limits,
+  // objective, seed) and the kind's own settings.
+  PlannerConfig planner;
+  std::vector<Obstacle> obstacles;
+  UavState start;
+  double budget_s = 150.0;
+
+  [[nodiscard]] Aabb FlightVolume() const {
+    return {{field_min_W.x(), field_min_W.y(), min_altitude_m},
+            {field_max_W.x(), field_max_W.y(), max_altitude_m}};
+  }
+  [[nodiscard]] double sensor_rate_hz() const { return camera.rate_hz; }
+  // The field's cells. Errors as FieldGrid::FromBounds.
+  [[nodiscard]] absl::StatusOr<FieldGrid> MakeGrid() const;
+  // The flight volume with the mission's obstacles and its ESDF. Errors as
+  // Environment::Create and Environment::Apply.
+  [[nodiscard]] absl::StatusOr<Environment> MakeEnvironment() const;
+  // Pinhole intrinsics of the default image (kDefaultImageWidthPx x
+  // kDefaultImageHeightPx) for the camera's field of view.
+  [[nodiscard]] absl::StatusOr<CameraIntrinsics> DefaultIntrinsics() const;
+};
+
+// One camera measurement from AddMeasurement, in core terms.
+struct MeasurementInput {
+  double mission_time_s = 0.0;
+  CameraPose pose;  // camera position and yaw (radians)
+  // Exactly one of the two is set.
+  std::optional<CellLabels> labels = std::nullopt;
+  struct Detections {
+    std::optional<CameraIntrinsics> intrinsics =
+        std::nullopt;  // unset: the mission's DefaultIntrinsics()
+    std::vector<PixelBox> boxes = {};
+    double min_confidence = 0.0;
+  };
+  std::optional<Detections> detections = std::nullopt;
+};
+
+}  // namespace oaipp::api

@@ -1,0 +1,95 @@
+#include "api/plan.h"
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "api/geometry.h"
+#include "core/common/status_macros.h"
+
+namespace oaipp::api {
+
+void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
+  out->Clear();
+  const PolynomialTrajectory& trajectory = path.trajectory;
+  v1::Trajectory& t = *out->mutable_trajectory();
+  const double duration_s = trajectory.Duration();
+  t.set_duration_s(duration_s);
+  for (int i = 0; i < trajectory.NumSegments(); ++i) {
+    const PolynomialTrajectory::SegmentCoefficients c = trajectory.Coefficients(i);
+    v1::PolynomialSegment& segment = *t.add_segments();
+    segment.set_duration_s(trajectory.SegmentDurations()[i]);
+    for (int k = 0; k < PolynomialTrajectory::kNumCoefficients; ++k) {
+      segment.add_x_coefficients(c(k, 0));
+      segment.add_y_coefficients(c(k, 1));
+      segment.add_z_coefficients(c(k, 2));
+    }
+  }
+  // Returned paths are finite and bounded in length, so sampling succeeds.
+  if (absl::StatusOr<std::vector<TimedPosition>> samples =
+          SampleTrajectory(trajectory, kTrajectorySampleRate_hz);
+      samples.ok()) {
+    for (const TimedPosition& sample : *samples) {
+      v1::TrajectorySample& s = *t.add_samples();
+      s.set_t_s(sample.t_s);
+      *s.mutable_position_m() = ToProto(sample.position_W);
+      *s.mutable_velocity_m_s() = ToProto(trajectory.Velocity(sample.t_s));
+    }
+  }
+
+  for (const Vec3& c : path.control_waypoints_W) *out->add_control_waypoints_m() = ToProto(c);
+  for (const MeasurementPose& pose : path.measurement_poses) {
+    v1::MeasurementPose& p = *out->add_measurement_poses();
+    p.set_t_s(pose.t_s);
+    p.set_mission_time_s(pose.mission_time_s);
+    *p.mutable_position_m() = ToProto(pose.position_W);
+  }
+  out->set_objective(path.objective);
+  out->set_information(path.information);
+  out->set_collision_samples(path.collision_samples);
+  out->set_collision_free(path.collision_free);
+  out->set_next_shot_mission_s(path.next_shot_mission_s);
+  v1::PlannerStats& stats = *out->mutable_stats();
+  stats.set_evaluations(path.stats.evaluations);
+  stats.set_generations(path.stats.generations);
+  stats.set_wall_time_s(path.stats.wall_time_s);
+  stats.set_stop_reason(path.stats.stop_reason);
+  stats.set_initial_objective(path.stats.initial_objective);
+}
+
+absl::StatusOr<PolynomialTrajectory> TrajectoryFromProto(const v1::Trajectory& trajectory) {
+  std::vector<double> durations_s;
+  std::vector<PolynomialTrajectory::SegmentCoefficients> coefficients;
+  durations_s.reserve(trajectory.segments_size());
+  coefficients.reserve(trajectory.segments_size());
+  constexpr int kCount = PolynomialTrajectory::kNumCoefficients;
+  for (int i = 0; i < trajectory.segments_size(); ++i) {
+    const v1::PolynomialSegment& segment = trajectory.segments(i);
+    const google::protobuf::RepeatedField<double>* axes[] = {
+        &segment.x_coefficients(), &segment.y_coefficients(), &segment.z_coefficients()};
+    PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
+    for (int a = 0; a < 3; ++a) {
+      if (axes[a]->size() > kCount) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("trajectory.segments[", i, "].", std::string(1, "xyz"[a]),
+                         "_coefficients: has ", axes[a]->size(), ", at most ", kCount));
+      }
+      for (int k = 0; k < axes[a]->size(); ++k) c(k, a) = axes[a]->Get(k);
+    }
+    if (!c.allFinite()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("trajectory.segments[", i, "]: coefficients must be finite"));
+    }
+    OAIPP_RETURN_IF_ERROR(CheckPositive(absl::StrCat("trajectory.segments[", i, "].duration_s"),
+                                        segment.duration_s()));
+    durations_s.push_back(segment.duration_s());
+    coefficients.push_back(c);
+  }
+  if (durations_s.empty()) {
+    return absl::InvalidArgumentError("trajectory.segments: needs at least one segment");
+  }
+  return PolynomialTrajectory::FromCoefficients(std::move(durations_s), coefficients);
+}
+
+}  // namespace oaipp::api

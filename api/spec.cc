@@ -1,0 +1,330 @@
+#include "api/spec.h"
+
+#include <cmath>
+#include <map>
+#include <string>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "api/geometry.h"
+#include "api/internal/checks.h"
+#include "core/common/status_macros.h"
+
+namespace oaipp::api {
+namespace {
+
+using internal::CheckAtLeast;
+using internal::CheckIntRange;
+using internal::CheckNonNegative;
+using internal::CheckOpenInterval;
+using internal::Describe;
+using internal::OrDefault;
+using internal::Prefixed;
+
+// The API's defaults: MissionConfig's initialisers.
+const MissionConfig kDefaults;
+
+absl::StatusOr<Vec2> FieldCorner(const v1::FieldSpec& f, bool max_corner) {
+  const Vec2 fallback = max_corner ? kDefaults.field_max_W : kDefaults.field_min_W;
+  const double x = max_corner ? OrDefault(f.has_x_max_m(), f.x_max_m(), fallback.x())
+                              : OrDefault(f.has_x_min_m(), f.x_min_m(), fallback.x());
+  const double y = max_corner ? OrDefault(f.has_y_max_m(), f.y_max_m(), fallback.y())
+                              : OrDefault(f.has_y_min_m(), f.y_min_m(), fallback.y());
+  const char* suffix = max_corner ? "max_m" : "min_m";
+  OAIPP_RETURN_IF_ERROR(CheckFinite(absl::StrCat("spec.field.x_", suffix), x));
+  OAIPP_RETURN_IF_ERROR(CheckFinite(absl::StrCat("spec.field.y_", suffix), y));
+  return Vec2(x, y);
+}
+
+absl::Status FillField(const v1::FieldSpec& f, MissionConfig& c) {
+  OAIPP_ASSIGN_OR_RETURN(c.field_min_W, FieldCorner(f, /*max_corner=*/false));
+  OAIPP_ASSIGN_OR_RETURN(c.field_max_W, FieldCorner(f, /*max_corner=*/true));
+  c.resolution_m = OrDefault(f.has_resolution_m(), f.resolution_m(), kDefaults.resolution_m);
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.field.resolution_m", c.resolution_m));
+  for (int a = 0; a < 2; ++a) {
+    if (!(c.field_max_W[a] > c.field_min_W[a])) {
+      const char* axis = a == 0 ? "x" : "y";
+      return absl::InvalidArgumentError(
+          absl::StrCat("spec.field.", axis, "_max_m: must exceed spec.field.", axis, "_min_m (",
+                       c.field_min_W[a], "), got ", c.field_max_W[a]));
+    }
+  }
+  // The resolution and corners are checked above; what FieldGrid can still
+  // refuse is an extent that is not a whole number of cells (InvalidArgument,
+  // named "resolution_m" as in FieldSpec) or too many cells
+  // (ResourceExhausted, a property of the whole field).
+  if (auto grid = c.MakeGrid(); !grid.ok()) {
+    return Prefixed(
+        grid.status().code() == absl::StatusCode::kInvalidArgument ? "spec.field." : "spec.field: ",
+        grid.status());
+  }
+  return absl::OkStatus();
+}
+
+absl::Status FillGp(const v1::GpSpec& g, MissionConfig& c) {
+  const GpParams paper = GpParams::PaperPreset(c.resolution_m);
+  c.gp.length_scale_m = OrDefault(g.has_length_scale_m(), g.length_scale_m(), paper.length_scale_m);
+  c.gp.signal_var = OrDefault(g.has_signal_var(), g.signal_var(), paper.signal_var);
+  c.gp.noise_var = OrDefault(g.has_noise_var(), g.noise_var(), paper.noise_var);
+  c.gp.prior_mean = OrDefault(g.has_prior_mean(), g.prior_mean(), paper.prior_mean);
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.gp.length_scale_m", c.gp.length_scale_m));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.gp.signal_var", c.gp.signal_var));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.gp.noise_var", c.gp.noise_var));
+  OAIPP_RETURN_IF_ERROR(CheckFinite("spec.gp.prior_mean", c.gp.prior_mean));
+  return Prefixed("spec.gp.", c.gp.Validate());
+}
+
+absl::Status FillSensor(const v1::SensorSpec& s, MissionConfig& c) {
+  const DownwardCamera& camera = kDefaults.camera;
+  const SensorNoise& noise = kDefaults.noise;
+  c.camera.fov_x_deg = OrDefault(s.has_fov_x_deg(), s.fov_x_deg(), camera.fov_x_deg);
+  c.camera.fov_y_deg = OrDefault(s.has_fov_y_deg(), s.fov_y_deg(), camera.fov_y_deg);
+  c.noise.a_var = OrDefault(s.has_noise_a_var(), s.noise_a_var(), noise.a_var);
+  c.noise.b_per_m = OrDefault(s.has_noise_b_per_m(), s.noise_b_per_m(), noise.b_per_m);
+  c.camera.rate_hz = OrDefault(s.has_rate_hz(), s.rate_hz(), camera.rate_hz);
+  OAIPP_RETURN_IF_ERROR(CheckOpenInterval("spec.sensor.fov_x_deg", c.camera.fov_x_deg, 0, 180));
+  OAIPP_RETURN_IF_ERROR(CheckOpenInterval("spec.sensor.fov_y_deg", c.camera.fov_y_deg, 0, 180));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.noise_a_var", c.noise.a_var));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.noise_b_per_m", c.noise.b_per_m));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.rate_hz", c.camera.rate_hz));
+  OAIPP_RETURN_IF_ERROR(Prefixed("spec.sensor.", c.camera.Validate()));
+  return Prefixed("spec.sensor.", c.noise.Validate());
+}
+
+absl::Status FillFlight(const v1::FlightSpec& f, MissionConfig& c) {
+  const PlannerLimits& limits = kDefaults.planner.common.limits;
+  const EsdfConfig& esdf = kDefaults.esdf;
+  c.min_altitude_m =
+      OrDefault(f.has_min_altitude_m(), f.min_altitude_m(), kDefaults.min_altitude_m);
+  c.max_altitude_m =
+      OrDefault(f.has_max_altitude_m(), f.max_altitude_m(), kDefaults.max_altitude_m);
+  PlannerLimits& l = c.planner.common.limits;
+  l.dynamics.max_speed_m_s =
+      OrDefault(f.has_max_speed_m_s(), f.max_speed_m_s(), limits.dynamics.max_speed_m_s);
+  l.dynamics.max_accel_m_s2 =
+      OrDefault(f.has_max_accel_m_s2(), f.max_accel_m_s2(), limits.dynamics.max_accel_m_s2);
+  l.uav_radius_m = OrDefault(f.has_uav_radius_m(), f.uav_radius_m(), limits.uav_radius_m);
+  c.esdf.voxel_size_m = OrDefault(f.has_esdf_voxel_m(), f.esdf_voxel_m(), esdf.voxel_size_m);
+  c.esdf.truncation_m =
+      OrDefault(f.has_esdf_truncation_m(), f.esdf_truncation_m(), esdf.truncation_m);
+
+  OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.flight.min_altitude_m", c.min_altitude_m));
+  OAIPP_RETURN_IF_ERROR(CheckFinite("spec.flight.max_altitude_m", c.max_altitude_m));
+  if (!(c.max_altitude_m > c.min_altitude_m)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.flight.max_altitude_m: must exceed spec.flight.min_altitude_m (",
+                     c.min_altitude_m, "), got ", c.max_altitude_m));
+  }
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.flight.max_speed_m_s", l.dynamics.max_speed_m_s));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.flight.max_accel_m_s2", l.dynamics.max_accel_m_s2));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.flight.uav_radius_m", l.uav_radius_m));
+  if (!(c.esdf.voxel_size_m > 0.0 && c.esdf.voxel_size_m <= 10.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.flight.esdf_voxel_m: must be in (0, 10], got ", c.esdf.voxel_size_m));
+  }
+  if (!(std::isfinite(c.esdf.truncation_m) && c.esdf.truncation_m >= c.esdf.voxel_size_m)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "spec.flight.esdf_truncation_m: must be finite and >= spec.flight.esdf_voxel_m (",
+        c.esdf.voxel_size_m, "), got ", c.esdf.truncation_m));
+  }
+  return Prefixed("spec.flight.", l.Validate());
+}
+
+absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
+  OAIPP_ASSIGN_OR_RETURN(c.planner.kind, [&]() -> absl::StatusOr<PlannerKind> {
+    auto kind = PlannerKindFromProto(p.kind());
+    if (!kind.ok()) return Prefixed("spec.", kind.status());
+    return kind;
+  }());
+  PlannerCommon& common = c.planner.common;
+  const InformationParams& info = kDefaults.planner.common.information;
+  const OaIppConfig& oaipp = kDefaults.planner.oaipp;
+  const LawnmowerConfig& lawnmower = kDefaults.planner.lawnmower;
+  common.seed = OrDefault(p.has_seed(), p.seed(), kDefaults.planner.common.seed);
+  // The objective follows the kind (ObjectiveFor), as MakePlanner sets it.
+  common.information.kind = ObjectiveFor(c.planner.kind);
+  common.information.kappa = OrDefault(p.has_kappa(), p.kappa(), info.kappa);
+  common.information.h_opt_m = OrDefault(p.has_h_opt_m(), p.h_opt_m(), info.h_opt_m);
+  common.information.sigma1_m = OrDefault(p.has_sigma1_m(), p.sigma1_m(), info.sigma1_m);
+  common.information.h_sat_m = OrDefault(p.has_h_sat_m(), p.h_sat_m(), info.h_sat_m);
+  c.planner.oaipp.num_waypoints =
+      OrDefault(p.has_num_waypoints(), p.num_waypoints(), oaipp.num_waypoints);
+  c.planner.oaipp.population = OrDefault(p.has_population(), p.population(), oaipp.population);
+  c.planner.oaipp.generations = OrDefault(p.has_generations(), p.generations(), oaipp.generations);
+  c.planner.lawnmower.altitude_m =
+      OrDefault(p.has_lawnmower_altitude_m(), p.lawnmower_altitude_m(), lawnmower.altitude_m);
+  c.planner.lawnmower.start_corner =
+      OrDefault(p.has_lawnmower_start_corner(), p.lawnmower_start_corner(), lawnmower.start_corner);
+
+  OAIPP_RETURN_IF_ERROR(
+      CheckIntRange("spec.planner.num_waypoints", c.planner.oaipp.num_waypoints, 2, 20));
+  OAIPP_RETURN_IF_ERROR(CheckAtLeast("spec.planner.population", c.planner.oaipp.population, 5));
+  OAIPP_RETURN_IF_ERROR(CheckAtLeast("spec.planner.generations", c.planner.oaipp.generations, 0));
+  OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.kappa", common.information.kappa));
+  OAIPP_RETURN_IF_ERROR(CheckFinite("spec.planner.h_opt_m", common.information.h_opt_m));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.sigma1_m", common.information.sigma1_m));
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.h_sat_m", common.information.h_sat_m));
+  OAIPP_RETURN_IF_ERROR(
+      CheckPositive("spec.planner.lawnmower_altitude_m", c.planner.lawnmower.altitude_m));
+  OAIPP_RETURN_IF_ERROR(CheckIntRange("spec.planner.lawnmower_start_corner",
+                                      c.planner.lawnmower.start_corner, -1, 3));
+  // The core's own checks, as a backstop for anything above missed.
+  return Prefixed("spec.planner.", MakePlanner(c.planner).status());
+}
+
+absl::Status FillObstacles(const google::protobuf::RepeatedPtrField<v1::Obstacle>& obstacles,
+                           MissionConfig& c) {
+  std::map<std::string, int> first_index;
+  c.obstacles.reserve(obstacles.size());
+  for (int i = 0; i < obstacles.size(); ++i) {
+    const std::string field = absl::StrCat("spec.obstacles[", i, "]");
+    OAIPP_ASSIGN_OR_RETURN(Obstacle o, ObstacleFromProto(obstacles.Get(i), field));
+    if (auto [it, inserted] = first_index.emplace(o.id, i); !inserted) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ".id: duplicate id '", o.id,
+                                                     "' (also spec.obstacles[", it->second, "])"));
+    }
+    c.obstacles.push_back(std::move(o));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status FillStart(const v1::MissionSpec& spec, MissionConfig& c) {
+  const Aabb volume = c.FlightVolume();
+  const auto outside = [&](absl::string_view what) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(what, Describe(c.start.position_W), " lies outside the flight volume ",
+                     Describe(volume.min_W), " .. ", Describe(volume.max_W)));
+  };
+  if (!spec.has_start()) {
+    c.start = UavState{};
+    const Vec2 centre = 0.5 * (c.field_min_W + c.field_max_W);
+    c.start.position_W = Vec3(centre.x(), centre.y(), MissionConfig::kDefaultStartAltitude_m);
+    if (!volume.Contains(c.start.position_W)) {
+      return outside("spec.start: unset, and the default start ");
+    }
+    return absl::OkStatus();
+  }
+  OAIPP_ASSIGN_OR_RETURN(c.start, UavStateFromProto(spec.start(), "spec.start"));
+  if (!volume.Contains(c.start.position_W)) return outside("spec.start.position_m: ");
+  const TrajectoryLimits& dynamics = c.planner.common.limits.dynamics;
+  if (const double v = c.start.velocity_W_m_s.norm(); v > dynamics.max_speed_m_s) {
+    return absl::InvalidArgumentError(absl::StrCat("spec.start.velocity_m_s: speed ", v,
+                                                   " m/s exceeds max_speed_m_s (",
+                                                   dynamics.max_speed_m_s, ")"));
+  }
+  if (const double a = c.start.accel_W_m_s2.norm(); a > dynamics.max_accel_m_s2) {
+    return absl::InvalidArgumentError(absl::StrCat("spec.start.acceleration_m_s2: ", a,
+                                                   " m/s^2 exceeds max_accel_m_s2 (",
+                                                   dynamics.max_accel_m_s2, ")"));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+v1::PlannerKind PlannerKindToProto(PlannerKind kind) {
+  switch (kind) {
+    case PlannerKind::kOaIpp:
+      return v1::PLANNER_KIND_OAIPP;
+    case PlannerKind::kOaIppNonAdaptive:
+      return v1::PLANNER_KIND_OAIPP_NONADAPTIVE;
+    case PlannerKind::kLawnmower:
+      return v1::PLANNER_KIND_LAWNMOWER;
+    case PlannerKind::kRandom:
+      return v1::PLANNER_KIND_RANDOM;
+  }
+  return v1::PLANNER_KIND_UNSPECIFIED;  // unreachable for a valid enumerator
+}
+
+absl::StatusOr<PlannerKind> PlannerKindFromProto(v1::PlannerKind kind) {
+  switch (kind) {
+    case v1::PLANNER_KIND_UNSPECIFIED:
+    case v1::PLANNER_KIND_OAIPP:
+      return PlannerKind::kOaIpp;
+    case v1::PLANNER_KIND_OAIPP_NONADAPTIVE:
+      return PlannerKind::kOaIppNonAdaptive;
+    case v1::PLANNER_KIND_LAWNMOWER:
+      return PlannerKind::kLawnmower;
+    case v1::PLANNER_KIND_RANDOM:
+      return PlannerKind::kRandom;
+    default:
+      break;
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat("planner.kind: unknown value ", static_cast<int>(kind), " (expected ",
+                   v1::PlannerKind_MIN, "..", v1::PlannerKind_MAX, ")"));
+}
+
+absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
+  if (!spec.preset().empty() && spec.preset() != "paper") {
+    return absl::InvalidArgumentError(absl::StrCat("spec.preset: unknown preset '", spec.preset(),
+                                                   "' (expected \"\" or \"paper\")"));
+  }
+  MissionConfig c;
+  c.preset = spec.preset();
+  OAIPP_RETURN_IF_ERROR(FillField(spec.field(), c));
+  OAIPP_RETURN_IF_ERROR(FillGp(spec.gp(), c));
+  OAIPP_RETURN_IF_ERROR(FillSensor(spec.sensor(), c));
+  OAIPP_RETURN_IF_ERROR(FillFlight(spec.flight(), c));
+  OAIPP_RETURN_IF_ERROR(FillPlanner(spec.planner(), c));
+  OAIPP_RETURN_IF_ERROR(FillObstacles(spec.obstacles(), c));
+  OAIPP_RETURN_IF_ERROR(FillStart(spec, c));
+  c.budget_s = OrDefault(spec.has_budget_s(), spec.budget_s(), kDefaults.budget_s);
+  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.budget_s", c.budget_s));
+  return c;
+}
+
+v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
+  v1::MissionSpec spec;
+  spec.set_preset(c.preset);
+
+  v1::FieldSpec& f = *spec.mutable_field();
+  f.set_x_min_m(c.field_min_W.x());
+  f.set_y_min_m(c.field_min_W.y());
+  f.set_x_max_m(c.field_max_W.x());
+  f.set_y_max_m(c.field_max_W.y());
+  f.set_resolution_m(c.resolution_m);
+
+  v1::GpSpec& g = *spec.mutable_gp();
+  g.set_length_scale_m(c.gp.length_scale_m);
+  g.set_signal_var(c.gp.signal_var);
+  g.set_noise_var(c.gp.noise_var);
+  g.set_prior_mean(c.gp.prior_mean);
+
+  const PlannerCommon& common = c.planner.common;
+  v1::SensorSpec& s = *spec.mutable_sensor();
+  s.set_fov_x_deg(c.camera.fov_x_deg);
+  s.set_fov_y_deg(c.camera.fov_y_deg);
+  s.set_noise_a_var(c.noise.a_var);
+  s.set_noise_b_per_m(c.noise.b_per_m);
+  s.set_rate_hz(c.camera.rate_hz);
+
+  v1::FlightSpec& fl = *spec.mutable_flight();
+  fl.set_min_altitude_m(c.min_altitude_m);
+  fl.set_max_altitude_m(c.max_altitude_m);
+  fl.set_max_speed_m_s(common.limits.dynamics.max_speed_m_s);
+  fl.set_max_accel_m_s2(common.limits.dynamics.max_accel_m_s2);
+  fl.set_uav_radius_m(common.limits.uav_radius_m);
+  fl.set_esdf_voxel_m(c.esdf.voxel_size_m);
+  fl.set_esdf_truncation_m(c.esdf.truncation_m);
+
+  v1::PlannerSpec& p = *spec.mutable_planner();
+  p.set_kind(PlannerKindToProto(c.planner.kind));
+  p.set_seed(common.seed);
+  p.set_num_waypoints(c.planner.oaipp.num_waypoints);
+  p.set_population(c.planner.oaipp.population);
+  p.set_generations(c.planner.oaipp.generations);
+  p.set_kappa(common.information.kappa);
+  p.set_h_opt_m(common.information.h_opt_m);
+  p.set_sigma1_m(common.information.sigma1_m);
+  p.set_h_sat_m(common.information.h_sat_m);
+  p.set_lawnmower_altitude_m(c.planner.lawnmower.altitude_m);
+  p.set_lawnmower_start_corner(c.planner.lawnmower.start_corner);
+
+  for (const Obstacle& o : c.obstacles) *spec.add_obstacles() = ObstacleToProto(o);
+  *spec.mutable_start() = UavStateToProto(c.start);
+  spec.set_budget_s(c.budget_s);
+  return spec;
+}
+
+}  // namespace oaipp::api

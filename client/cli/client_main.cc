@@ -1,0 +1,312 @@
+// oaipp-client: flies simulated UAV missions against an oaipp-server.
+//
+//   oaipp-client run client/scenarios/e1.json --out=out/e1
+//   oaipp-client health
+//   oaipp-client map missions/m-000001 --png=map.png
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
+#include "client/cli/evaluation.h"
+#include "client/cli/map_image.h"
+#include "client/cli/mission_runner.h"
+#include "sim/random_world.h"
+#include "sim/scenario.h"
+
+ABSL_FLAG(std::string, server, "127.0.0.1:50051", "address of the oaipp-server (host:port)");
+ABSL_FLAG(std::string, out, "",
+          "run: folder for steps.csv and map.png (default out/<scenario name>); eval: folder "
+          "for trials.csv, summary.md and figures (default out/eval/<experiment>)");
+ABSL_FLAG(bool, keep, false, "run: keep the mission on the server afterwards");
+ABSL_FLAG(std::string, png, "", "map: file to write the map image to");
+ABSL_FLAG(int, trials, 25, "eval: trials per planner (seeds 1..trials)");
+ABSL_FLAG(int, parallel, 2, "eval: missions flown at once");
+ABSL_FLAG(double, plan_budget_s, 0.0,
+          "eval: wall-clock seconds each replan may take (0: the planner's full evaluation "
+          "budget); the planner is anytime and returns its best path at the budget");
+ABSL_FLAG(
+    std::string, scenario, "",
+    "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
+ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
+ABSL_FLAG(std::string, frames, "",
+          "run: folder for an image sequence of the mission (a map PNG per measurement)");
+
+namespace {
+
+constexpr char kUsage[] = R"(oaipp-client COMMAND [ARGS] [FLAGS]
+
+Commands:
+  run SCENARIO.json   fly the scenario's mission against the server; prints a
+                      progress line per measurement (time, RSE, Tr(P), targets
+                      found) and writes steps.csv and map.png to --out; with
+                      --frames=DIR also a map image per measurement,
+                      DIR/sequence.png (six of them side by side) and
+                      DIR/sequence.avi (all of them, 2 per second)
+  health              check that the server answers
+  map MISSION --png=FILE
+                      write a mission's map image (mean | std deviation)
+  eval E1|E2|E3|E4|E5 many trials as concurrent missions (with a progress bar
+                      and an ETA); trial k uses seed k:
+                      E1 = OA-IPP, lawnmower and random on the E1 world;
+                      E2 = adaptive against non-adaptive OA-IPP on E1;
+                      E3 = OA-IPP over random worlds, low-/high-rise 4 x 4 m
+                           buildings at densities 5, 10, 15 (trial k flies
+                           world k), --e3_budget_s (300) each;
+                      E4, E5 = OA-IPP and lawnmower on e4.json / e5.json.
+                      Writes trials.csv, summary.md, a figure over time
+                      (rse.png, or trace.png for E3) and map_<variant>.png
+                      (trial 1) to --out (default out/eval/<experiment>).
+
+Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
+       --frames (run), --trials (25), --parallel (2), --plan_budget_s
+       (0: none), --scenario, --e3_budget_s.)";
+
+using oaipp::client::Client;
+
+int Fail(const absl::Status& status) {
+  std::fprintf(stderr, "error: %s\n", std::string(status.ToString()).c_str());
+  return 1;
+}
+
+int Run(const std::string& path) {
+  absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
+  if (!scenario.ok()) return Fail(scenario.status());
+  absl::StatusOr<oaipp::sim::Simulation> sim = oaipp::sim::Simulation::Create(*scenario);
+  if (!sim.ok())
+    return Fail(
+        absl::Status(sim.status().code(), absl::StrCat(path, ": ", sim.status().message())));
+  Client client = Client::Connect(absl::GetFlag(FLAGS_server));
+  if (absl::Status up = client.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
+  std::printf("scenario %s: %d targets, %.0f s budget, planner %s\n", scenario->name().c_str(),
+              sim->num_targets(), sim->config().budget_s,
+              oaipp::PlannerKindName(sim->config().planner.kind).c_str());
+  std::printf("%8s %8s %8s %8s %10s %10s\n", "time_s", "RSE", "Tr(P)", "found", "path_m",
+              "collisions");
+  auto progress = [&](const oaipp::client::StepRecord& s) {
+    std::printf("%8.1f %8.3f %8.2f %5d/%-2d %10.1f %10d\n", s.mission_time_s, s.rse, s.trace,
+                s.targets_found, sim->num_targets(), s.path_length_m, s.collisions);
+    std::fflush(stdout);
+  };
+  // --frames: a map image per measurement, kept with its caption.
+  const std::string frames_dir = absl::GetFlag(FLAGS_frames);
+  std::vector<std::string> frames, captions;
+  std::string caption;
+  auto on_step = [&](const oaipp::client::StepRecord& s) {
+    progress(s);
+    caption = absl::StrFormat("t = %.0f s, RSE %.2f, found %d/%d", s.mission_time_s, s.rse,
+                              s.targets_found, sim->num_targets());
+  };
+  std::function<void(const std::string&)> on_frame;
+  if (!frames_dir.empty()) {
+    std::filesystem::create_directories(frames_dir);
+    on_frame = [&](const std::string& png) {
+      std::ofstream(absl::StrFormat("%s/frame_%03d.png", frames_dir, frames.size()),
+                    std::ios::binary)
+          << png;
+      frames.push_back(png);
+      captions.push_back(caption);
+    };
+  }
+  absl::StatusOr<oaipp::client::RunResult> result = oaipp::client::RunScenario(
+      client, *scenario, *sim, on_step, absl::GetFlag(FLAGS_keep), on_frame);
+  if (!result.ok()) return Fail(result.status());
+  std::string out = absl::GetFlag(FLAGS_out);
+  if (out.empty()) out = absl::StrCat("out/", scenario->name().empty() ? "run" : scenario->name());
+  std::filesystem::create_directories(out);
+  if (!frames.empty()) {
+    // Six frames evenly spread over the mission, first and last included.
+    std::vector<std::string> picked, picked_captions;
+    const int count = std::min<int>(6, static_cast<int>(frames.size()));
+    for (int i = 0; i < count; ++i) {
+      const std::size_t k =
+          count == 1 ? 0 : static_cast<std::size_t>(i) * (frames.size() - 1) / (count - 1);
+      picked.push_back(frames[k]);
+      picked_captions.push_back(captions[k]);
+    }
+    absl::StatusOr<std::string> sheet = oaipp::client::MontagePng(picked, picked_captions, 2);
+    if (!sheet.ok()) return Fail(sheet.status());
+    std::ofstream(frames_dir + "/sequence.png", std::ios::binary) << *sheet;
+    // Every frame, two a second.
+    const absl::Status video =
+        oaipp::client::WriteVideo(frames, captions, 2.0, frames_dir + "/sequence.avi");
+    if (!video.ok()) return Fail(video);
+    std::printf("wrote %zu frames, sequence.png and sequence.avi to %s\n", frames.size(),
+                frames_dir.c_str());
+  }
+  std::ofstream(out + "/steps.csv") << oaipp::client::StepsCsv(result->steps);
+  std::ofstream(out + "/map.png", std::ios::binary) << result->final_map_png;
+  const oaipp::client::StepRecord& last = result->steps.back();
+  const std::vector<std::string> ids = sim->TargetIds();
+  std::vector<std::string> missed;
+  for (std::size_t i = 0; i < ids.size() && i < result->found_at_end.size(); ++i) {
+    if (!result->found_at_end[i]) missed.push_back(ids[i]);
+  }
+  if (!missed.empty()) std::printf("not found: %s\n", absl::StrJoin(missed, ", ").c_str());
+  std::printf(
+      "done: %d plans (%.1f s planning), RSE %.3f -> %.3f, %d/%d targets found, "
+      "%d collisions; wrote %s/steps.csv and %s/map.png\n",
+      result->plans, result->planning_time_s, result->steps.front().rse, last.rse,
+      last.targets_found, sim->num_targets(), last.collisions, out.c_str(), out.c_str());
+  return last.collisions == 0 ? 0 : 3;
+}
+
+// The variants of an experiment and the paper's values at the end.
+struct Experiment {
+  std::vector<oaipp::client::Variant> variants;
+  std::string paper;   // label=value pairs for the figure
+  std::string column;  // plotted over time
+};
+
+absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
+                                          const oaipp::v1::Scenario& scenario) {
+  using oaipp::PlannerKind;
+  using oaipp::client::PlannerVariants;
+  Experiment e;
+  e.column = "rse";
+  if (name == "E1") {
+    e.variants = PlannerVariants(
+        scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom});
+    e.paper = "oaipp=5.17 lawnmower=5.85 random=6.22";
+  } else if (name == "E2") {
+    e.variants = PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kOaIppNonAdaptive});
+    e.paper = "oaipp=5.17 oaipp_nonadaptive=5.29";
+  } else if (name == "E3") {
+    // OA-IPP over seeded random worlds: trial k flies world k.
+    e.column = "trace";
+    oaipp::v1::Scenario base = scenario;
+    base.mutable_mission()->set_budget_s(absl::GetFlag(FLAGS_e3_budget_s));
+    for (auto kind : {oaipp::sim::BuildingKind::kLowRise, oaipp::sim::BuildingKind::kHighRise}) {
+      for (int count : {5, 10, 15}) {
+        const std::string label = absl::StrCat(oaipp::sim::BuildingKindName(kind), " ", count);
+        e.variants.push_back(
+            {label, [base, kind, count](int trial) -> absl::StatusOr<oaipp::v1::Scenario> {
+               absl::StatusOr<oaipp::v1::Scenario> s = oaipp::sim::RandomWorld(
+                   base, {.kind = kind,
+                          .count = count,
+                          .seed = static_cast<std::uint64_t>(1000 * count + trial)});
+               if (!s.ok()) return s.status();
+               s->set_name(absl::StrCat("e3-", count, "-", trial));
+               s->set_seed(static_cast<std::uint64_t>(trial));
+               s->mutable_mission()->mutable_planner()->set_kind(oaipp::v1::PLANNER_KIND_OAIPP);
+               s->mutable_mission()->mutable_planner()->set_seed(static_cast<std::uint32_t>(trial));
+               return s;
+             }});
+      }
+    }
+  } else if (name == "E4" || name == "E5") {
+    e.variants = PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower});
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("eval: unknown experiment '", name, "' (E1, E2, E3, E4 or E5)"));
+  }
+  return e;
+}
+
+std::string DefaultScenario(const std::string& experiment) {
+  if (experiment == "E4") return "client/scenarios/e4.json";
+  if (experiment == "E5") return "client/scenarios/e5.json";
+  return "client/scenarios/e1.json";
+}
+
+int Eval(const std::string& experiment) {
+  std::string scenario_path = absl::GetFlag(FLAGS_scenario);
+  if (scenario_path.empty()) scenario_path = DefaultScenario(experiment);
+  absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(scenario_path);
+  if (!scenario.ok()) return Fail(scenario.status());
+  absl::StatusOr<Experiment> e = MakeExperiment(experiment, *scenario);
+  if (!e.ok()) return Fail(e.status());
+  if (absl::GetFlag(FLAGS_trials) < 1 || absl::GetFlag(FLAGS_parallel) < 1 ||
+      !(absl::GetFlag(FLAGS_plan_budget_s) >= 0) || !(absl::GetFlag(FLAGS_e3_budget_s) > 0)) {
+    return Fail(absl::InvalidArgumentError(
+        "--trials and --parallel must be >= 1, --plan_budget_s >= 0, --e3_budget_s > 0"));
+  }
+  Client probe = Client::Connect(absl::GetFlag(FLAGS_server));
+  if (absl::Status up = probe.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
+  oaipp::client::EvalOptions options{.trials = absl::GetFlag(FLAGS_trials),
+                                     .parallel = absl::GetFlag(FLAGS_parallel),
+                                     .plan_budget_s = absl::GetFlag(FLAGS_plan_budget_s)};
+  const auto start = absl::Now();
+  auto progress = [&](int done, int total) {
+    const double elapsed = absl::ToDoubleSeconds(absl::Now() - start);
+    const double eta = elapsed / done * (total - done);
+    const int width = 30, filled = width * done / total;
+    std::fprintf(stderr, "\r[%s%s] %d/%d trials, %.0f s elapsed, ETA %.0f s   ",
+                 std::string(filled, '#').c_str(), std::string(width - filled, ' ').c_str(), done,
+                 total, elapsed, eta);
+    if (done == total) std::fprintf(stderr, "\n");
+  };
+  absl::StatusOr<oaipp::client::EvalResult> result =
+      oaipp::client::RunEvaluation(absl::GetFlag(FLAGS_server), e->variants, options, progress);
+  if (!result.ok()) return Fail(result.status());
+  std::string out = absl::GetFlag(FLAGS_out);
+  if (out.empty()) out = "out/eval/" + experiment;
+  std::filesystem::create_directories(out);
+  std::ofstream(out + "/trials.csv") << oaipp::client::TrialsCsv(*result);
+  const double budget = result->grid_s.empty() ? 0.0 : result->grid_s.back();
+  const std::string summary = oaipp::client::SummaryMarkdown(*result, budget);
+  std::ofstream(out + "/summary.md") << summary;
+  std::printf("%s\n", summary.c_str());
+  std::vector<std::string> written = {"trials.csv", "summary.md"};
+  // The final map of trial 1 of each variant, with its flown path.
+  for (const oaipp::client::TrialResult& t : result->trials) {
+    if (t.map_png.empty()) continue;
+    std::string file = absl::StrCat("map_", t.variant, ".png");
+    std::replace(file.begin(), file.end(), ' ', '_');
+    std::ofstream(out + "/" + file, std::ios::binary) << t.map_png;
+    written.push_back(file);
+  }
+  const std::string figure = e->column + ".png";
+  const std::string title =
+      e->column == "rse" ? ": RSE over time, mean +- std" : ": Tr(P) over time, mean +- std";
+  std::string plot =
+      absl::StrCat("/usr/bin/python3 client/plots/plot_curves.py ", out, "/trials.csv ", e->column,
+                   " ", out, "/", figure, " --title '", experiment, title, "'");
+  if (!e->paper.empty()) absl::StrAppend(&plot, " --paper ", e->paper);
+  if (std::system(plot.c_str()) != 0) {
+    std::fprintf(stderr, "warning: the figure was not drawn (%s)\n", plot.c_str());
+  } else {
+    written.push_back(figure);
+  }
+  std::printf("wrote to %s: %s\n", out.c_str(), absl::StrJoin(written, ", ").c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage(kUsage);
+  std::vector<char*> args = absl::ParseCommandLine(argc, argv);
+  if (args.size() < 2) {
+    std::fprintf(stderr, "%s\n", kUsage);
+    return 2;
+  }
+  const std::string command = args[1];
+  if (command == "run" && args.size() == 3) return Run(args[2]);
+  if (command == "eval" && args.size() == 3) return Eval(args[2]);
+  if (command == "health" && args.size() == 2) {
+    Client client = Client::Connect(absl::GetFlag(FLAGS_server));
+    absl::Status up = client.WaitUntilServing(absl::Seconds(5));
+    if (!up.ok()) return Fail(up);
+    std::printf("%s: serving\n", absl::GetFlag(FLAGS_server).c_str());
+    return 0;
+  }
+  if (command == "map" && args.size() == 3 && !absl::GetFlag(FLAGS_png).empty()) {
+    Client client = Client::Connect(absl::GetFlag(FLAGS_server));
+    absl::StatusOr<oaipp::v1::GetMapResponse> map = client.GetMap(args[2], false, true);
+    if (!map.ok()) return Fail(map.status());
+    std::ofstream(absl::GetFlag(FLAGS_png), std::ios::binary) << map->png();
+    std::printf("wrote %s (Tr(P) = %.3f)\n", absl::GetFlag(FLAGS_png).c_str(), map->trace());
+    return 0;
+  }
+  std::fprintf(stderr, "%s\n", kUsage);
+  return 2;
+}

@@ -1,0 +1,218 @@
+#include "client/cli/evaluation.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "api/spec.h"
+#include "sim/simulation.h"
+
+namespace oaipp::client {
+namespace {
+
+struct Moments {
+  double n = 0, sum = 0, sum2 = 0;
+  void Add(double x) {
+    ++n;
+    sum += x;
+    sum2 += x * x;
+  }
+  [[nodiscard]] double Mean() const { return n > 0 ? sum / n : 0.0; }
+  [[nodiscard]] double Std() const {
+    return n > 1 ? std::sqrt(std::max(0.0, (sum2 - sum * sum / n) / (n - 1))) : 0.0;
+  }
+};
+
+}  // namespace
+
+std::vector<StepRecord> Resample(const std::vector<StepRecord>& steps,
+                                 const std::vector<double>& grid_s) {
+  // The value at t is the map after every measurement taken before t (so
+  // t = 0 is the prior, and the end of the budget holds the final map).
+  std::vector<StepRecord> out;
+  std::size_t i = 0;
+  for (double t : grid_s) {
+    while (i + 1 < steps.size() && steps[i + 1].mission_time_s < t - 1e-9) ++i;
+    StepRecord r = steps.empty() ? StepRecord{} : steps[i];
+    r.mission_time_s = t;
+    out.push_back(r);
+  }
+  return out;
+}
+
+std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
+                                     const std::vector<PlannerKind>& planners) {
+  std::vector<Variant> variants;
+  for (PlannerKind kind : planners) {
+    variants.push_back({PlannerKindName(kind), [scenario, kind](int trial) {
+                          v1::Scenario s = scenario;
+                          s.set_seed(static_cast<std::uint64_t>(trial));
+                          v1::PlannerSpec* planner = s.mutable_mission()->mutable_planner();
+                          planner->set_kind(api::PlannerKindToProto(kind));
+                          planner->set_seed(static_cast<std::uint32_t>(trial));
+                          return absl::StatusOr<v1::Scenario>(std::move(s));
+                        }});
+  }
+  return variants;
+}
+
+absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
+                                         const std::vector<Variant>& variants,
+                                         const EvalOptions& options,
+                                         const std::function<void(int, int)>& progress) {
+  if (options.trials < 1 || options.parallel < 1 || !(options.grid_s > 0)) {
+    return absl::InvalidArgumentError("eval: trials, parallel and grid_s must be positive");
+  }
+  if (variants.empty()) return absl::InvalidArgumentError("eval: no variants");
+  if (!(options.plan_budget_s >= 0)) {
+    return absl::InvalidArgumentError("eval: plan_budget_s must be >= 0");
+  }
+  struct Job {
+    const Variant* variant;
+    int trial;
+  };
+  std::vector<Job> jobs;
+  for (int t = 1; t <= options.trials; ++t) {
+    for (const Variant& v : variants) jobs.push_back({&v, t});
+  }
+  EvalResult result;
+  result.trials.resize(jobs.size());
+  absl::StatusOr<v1::Scenario> first = variants.front().scenario(1);
+  if (!first.ok()) return first.status();
+  const double budget =
+      first->mission().has_budget_s() ? first->mission().budget_s() : api::MissionConfig{}.budget_s;
+  for (double t = 0; t <= budget + 1e-9; t += options.grid_s) result.grid_s.push_back(t);
+
+  std::atomic<std::size_t> next{0};
+  std::atomic<int> done{0};
+  std::mutex progress_mu;
+  auto worker = [&] {
+    Client client = Client::Connect(address);
+    for (std::size_t j = next++; j < jobs.size(); j = next++) {
+      TrialResult& out = result.trials[j];
+      out.variant = jobs[j].variant->label;
+      out.trial = jobs[j].trial;
+      absl::StatusOr<v1::Scenario> s = jobs[j].variant->scenario(jobs[j].trial);
+      if (s.ok() && options.plan_budget_s > 0) s->set_planning_budget_s(options.plan_budget_s);
+      absl::StatusOr<sim::Simulation> sim =
+          s.ok() ? sim::Simulation::Create(*s) : absl::StatusOr<sim::Simulation>(s.status());
+      absl::StatusOr<RunResult> run =
+          sim.ok() ? RunScenario(client, *s, *sim) : absl::StatusOr<RunResult>(sim.status());
+      if (run.ok()) {
+        out.num_targets = sim->num_targets();
+        out.target_ids = sim->TargetIds();
+        out.found_at_end = run->found_at_end;
+        out.steps = Resample(run->steps, result.grid_s);
+        out.plans = run->plans;
+        out.planning_time_s = run->planning_time_s;
+        if (out.trial == 1) out.map_png = std::move(run->final_map_png);
+      } else {
+        out.error = std::string(run.status().message());
+      }
+      const int finished = ++done;
+      std::lock_guard<std::mutex> lock(progress_mu);
+      if (progress) progress(finished, static_cast<int>(jobs.size()));
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int i = 0; i < options.parallel; ++i) threads.emplace_back(worker);
+  for (auto& t : threads) t.join();
+  return result;
+}
+
+std::string TrialsCsv(const EvalResult& result) {
+  std::string csv = "variant,trial,time_s,rse,rmse,trace,targets_found,path_length_m,collisions\n";
+  for (const TrialResult& t : result.trials) {
+    for (const StepRecord& s : t.steps) {
+      absl::StrAppendFormat(&csv, "%s,%d,%.1f,%.6f,%.6f,%.6f,%d,%.3f,%d\n", t.variant, t.trial,
+                            s.mission_time_s, s.rse, s.rmse, s.trace, s.targets_found,
+                            s.path_length_m, s.collisions);
+    }
+  }
+  return csv;
+}
+
+std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
+  std::vector<std::string> order;
+  std::map<std::string, std::vector<const TrialResult*>> by_variant;
+  for (const TrialResult& t : result.trials) {
+    if (!by_variant.contains(t.variant)) order.push_back(t.variant);
+    by_variant[t.variant].push_back(&t);
+  }
+  std::string md = absl::StrFormat(
+      "| variant | trials | failed | RSE at 0 s | RSE at %.0f s (mean +- std) | std error | "
+      "Tr(P) at %.0f s | targets found | all found | collisions | planning s / plan |\n"
+      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+      budget_s, budget_s);
+  for (const std::string& name : order) {
+    const std::vector<const TrialResult*>& trials = by_variant[name];
+    Moments start, end, trace, found, per_plan;
+    int failed = 0, collisions = 0, all_found = 0;
+    for (const TrialResult* t : trials) {
+      if (!t->error.empty() || t->steps.empty()) {
+        ++failed;
+        continue;
+      }
+      start.Add(t->steps.front().rse);
+      end.Add(t->steps.back().rse);
+      trace.Add(t->steps.back().trace);
+      found.Add(t->steps.back().targets_found);
+      all_found += t->num_targets > 0 && t->steps.back().targets_found == t->num_targets;
+      collisions += t->steps.back().collisions;
+      if (t->plans > 0) per_plan.Add(t->planning_time_s / t->plans);
+    }
+    absl::StrAppendFormat(&md,
+                          "| %s | %d | %d | %.3f | %.3f +- %.3f | %.3f | %.1f +- %.1f | %.2f | "
+                          "%.0f %% | %d | %.3f |\n",
+                          name, static_cast<int>(trials.size()), failed, start.Mean(), end.Mean(),
+                          end.Std(), end.n > 0 ? end.Std() / std::sqrt(end.n) : 0.0, trace.Mean(),
+                          trace.Std(), found.Mean(), end.n > 0 ? 100.0 * all_found / end.n : 0.0,
+                          collisions, per_plan.Mean());
+  }
+  // Which targets are found: ids in the order first seen.
+  std::vector<std::string> ids;
+  for (const TrialResult& t : result.trials) {
+    for (const std::string& id : t.target_ids) {
+      if (std::find(ids.begin(), ids.end(), id) == ids.end()) ids.push_back(id);
+    }
+  }
+  if (!ids.empty()) {
+    absl::StrAppend(&md, "\nTrials that found each target at the end:\n\n| variant |");
+    for (const std::string& id : ids) absl::StrAppend(&md, " ", id, " |");
+    absl::StrAppend(&md, "\n| --- |");
+    for (std::size_t i = 0; i < ids.size(); ++i) absl::StrAppend(&md, " --- |");
+    absl::StrAppend(&md, "\n");
+    for (const std::string& name : order) {
+      absl::StrAppend(&md, "| ", name, " |");
+      for (const std::string& id : ids) {
+        int seen = 0, found = 0;
+        for (const TrialResult* t : by_variant[name]) {
+          for (std::size_t i = 0; i < t->target_ids.size() && i < t->found_at_end.size(); ++i) {
+            if (t->target_ids[i] != id) continue;
+            ++seen;
+            found += t->found_at_end[i];
+          }
+        }
+        if (seen == 0) {
+          absl::StrAppend(&md, " - |");
+        } else {
+          absl::StrAppendFormat(&md, " %.0f %% |", 100.0 * found / seen);
+        }
+      }
+      absl::StrAppend(&md, "\n");
+    }
+  }
+  for (const TrialResult& t : result.trials) {
+    if (!t.error.empty()) {
+      absl::StrAppendFormat(&md, "\n- %s trial %d failed: %s", t.variant, t.trial, t.error);
+    }
+  }
+  return md;
+}
+
+}  // namespace oaipp::client

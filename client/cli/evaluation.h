@@ -1,0 +1,82 @@
+// Many trials of several variants (planners, or worlds), run as concurrent
+// missions on one server (docs/method.md §10): per-trial metrics on a common time
+// grid and a summary per variant.
+//
+//   EvalOptions options{.trials = 25, .parallel = 2};
+//   OAIPP_ASSIGN_OR_RETURN(EvalResult r, RunEvaluation(address, PlannerVariants(scenario,
+//       {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom}), options, progress));
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "client/cli/mission_runner.h"
+#include "core/planning/planners.h"
+
+namespace oaipp::client {
+
+struct EvalOptions {
+  int trials = 25;      // per planner; trial k uses seed k for planner and detector
+  int parallel = 2;     // missions flown at once
+  double grid_s = 5.0;  // time grid of the resampled curves
+  // Wall-clock seconds per replan (sets Scenario.planning_budget_s);
+  // 0: the scenario's own setting.
+  double plan_budget_s = 0.0;
+};
+
+// What is compared: a label and the scenario of each trial.
+struct Variant {
+  std::string label;  // e.g. "oaipp", "high-rise 10"
+  // The scenario of trial k (1-based) with its seeds set. An error fails
+  // that trial only.
+  std::function<absl::StatusOr<v1::Scenario>(int trial)> scenario;
+};
+
+// One variant per planner on `scenario`, labelled with the planner's name;
+// trial k uses seed k for the planner and the detector.
+[[nodiscard]] std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
+                                                   const std::vector<PlannerKind>& planners);
+
+struct TrialResult {
+  std::string variant;
+  int trial = 0;
+  int num_targets = 0;
+  std::vector<StepRecord> steps;
+  int plans = 0;
+  double planning_time_s = 0.0;
+  std::string map_png;  // the final map with the flown path (trial 1 only)
+  std::vector<std::string> target_ids;
+  std::vector<bool> found_at_end;  // per target id
+  std::string error;               // non-empty when the trial failed
+};
+
+struct EvalResult {
+  std::vector<TrialResult> trials;
+  std::vector<double> grid_s;
+};
+
+// For each grid time t, the last record taken before t (the first record
+// for t = 0): the map after every measurement before t.
+[[nodiscard]] std::vector<StepRecord> Resample(const std::vector<StepRecord>& steps,
+                                               const std::vector<double>& grid_s);
+
+// progress(done, total) after each trial. The time grid spans the budget of
+// the first variant's first trial.
+[[nodiscard]] absl::StatusOr<EvalResult> RunEvaluation(
+    const std::string& address, const std::vector<Variant>& variants, const EvalOptions& options,
+    const std::function<void(int, int)>& progress);
+
+// variant,trial,time_s,rse,rmse,trace,targets_found,path_length_m,collisions
+// on the grid, one row per variant, trial and grid time.
+[[nodiscard]] std::string TrialsCsv(const EvalResult& result);
+// A Markdown table, a row per variant in the order first seen: trials,
+// failures, RSE at the start and the end (mean +- std, standard error),
+// Tr(P) at the end (mean +- std), targets found (mean), trials that found
+// every target (%), collisions, planning time per plan; then, per variant,
+// the share of trials that found each target (by id); then every failed
+// trial with its error.
+[[nodiscard]] std::string SummaryMarkdown(const EvalResult& result, double budget_s);
+
+}  // namespace oaipp::client

@@ -1,0 +1,128 @@
+#include "client/cli/mission_runner.h"
+
+#include <chrono>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "api/geometry.h"
+#include "api/measurement.h"
+#include "api/plan.h"
+#include "client/cli/map_image.h"
+#include "core/common/status_macros.h"
+#include "sim/flight.h"
+
+namespace oaipp::client {
+
+absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenario,
+                                      const sim::Simulation& sim,
+                                      const std::function<void(const StepRecord&)>& progress,
+                                      bool keep_mission,
+                                      const std::function<void(const std::string&)>& frame) {
+  RunResult result;
+  OAIPP_ASSIGN_OR_RETURN(v1::Mission mission, client.CreateMission(scenario.mission()));
+  result.mission_name = mission.name();
+  const double budget = mission.spec().budget_s();
+  v1::UavState state = mission.spec().start();
+  const double t0 = state.mission_time_s();
+  std::mt19937_64 rng(scenario.seed());
+  StepRecord record;
+  record.mission_time_s = t0;
+  auto measure_record = [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map, client.GetMap(result.mission_name, true, false));
+    const std::vector<double> mean(map.mean().begin(), map.mean().end());
+    record.trace = map.trace();
+    record.rse = sim.Rse(mean);
+    record.rmse = sim.Rmse(mean);
+    record.targets_found = sim.TargetsFound(mean);
+    result.steps.push_back(record);
+    if (progress) progress(record);
+    if (frame) {
+      OAIPP_ASSIGN_OR_RETURN(std::string png,
+                             RenderMissionPng(map, sim, result.flown_path_W, result.mission_name,
+                                              record.mission_time_s));
+      frame(png);
+    }
+    return absl::OkStatus();
+  };
+  sim::Flight flight(sim, api::FromProto(state.position_m()));
+  const auto record_flight = [&] {
+    record.path_length_m = flight.path_length_m();
+    record.collisions = flight.collisions();
+    result.flown_path_W = flight.trace_W();
+  };
+  record_flight();
+  OAIPP_RETURN_IF_ERROR(measure_record());
+  while (state.mission_time_s() - t0 < budget - 1e-9) {
+    v1::PlanPathRequest request;
+    request.set_name(result.mission_name);
+    *request.mutable_state() = state;
+    if (scenario.has_planning_budget_s())
+      request.set_planning_budget_s(scenario.planning_budget_s());
+    const auto plan_start = std::chrono::steady_clock::now();
+    OAIPP_ASSIGN_OR_RETURN(v1::PlanPathResponse path, client.PlanPath(request));
+    result.planning_time_s +=
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - plan_start).count();
+    ++result.plans;
+    OAIPP_ASSIGN_OR_RETURN(const PolynomialTrajectory traj,
+                           api::TrajectoryFromProto(path.trajectory()));
+    const double fly = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
+    // Fly, checking the exact clearance every step; the camera fires at the
+    // planned shots.
+    int next_shot = 0;
+    OAIPP_RETURN_IF_ERROR(flight.Fly(traj, fly, [&](double t) -> absl::Status {
+      while (next_shot < path.measurement_poses_size() &&
+             path.measurement_poses(next_shot).t_s() <= t + 1e-9) {
+        const v1::MeasurementPose& shot = path.measurement_poses(next_shot++);
+        const Vec3 camera = api::FromProto(shot.position_m());
+        const std::vector<PixelBox> boxes = sim.Detect(camera, rng);
+        api::MeasurementInput input{.mission_time_s = shot.mission_time_s(),
+                                    .pose = CameraPose{camera, 0.0}};
+        if (scenario.send_cell_labels()) {
+          OAIPP_ASSIGN_OR_RETURN(input.labels, sim.Labels(camera, boxes));
+        } else {
+          input.detections =
+              api::MeasurementInput::Detections{.intrinsics = sim.intrinsics(),
+                                                .boxes = boxes,
+                                                .min_confidence = sim.detector().min_confidence};
+        }
+        v1::AddMeasurementRequest m;
+        m.set_name(result.mission_name);
+        api::MeasurementToProto(input, &m);
+        OAIPP_RETURN_IF_ERROR(client.AddMeasurement(m).status());
+        record.mission_time_s = shot.mission_time_s();
+        record_flight();
+        OAIPP_RETURN_IF_ERROR(measure_record());
+      }
+      return absl::OkStatus();
+    }));
+    record_flight();
+    *state.mutable_position_m() = api::ToProto(traj.Position(fly));
+    *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(fly));
+    state.clear_acceleration_m_s2();  // replans happen at the path's end, at rest
+    state.set_mission_time_s(state.mission_time_s() + fly);
+  }
+  record.mission_time_s = state.mission_time_s();
+  if (result.steps.back().mission_time_s < record.mission_time_s)
+    OAIPP_RETURN_IF_ERROR(measure_record());
+  OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse final_map,
+                         client.GetMap(result.mission_name, true, false));
+  OAIPP_ASSIGN_OR_RETURN(result.final_map_png,
+                         RenderMissionPng(final_map, sim, result.flown_path_W, result.mission_name,
+                                          record.mission_time_s));
+  result.found_at_end =
+      sim.FoundEach(std::vector<double>(final_map.mean().begin(), final_map.mean().end()));
+  if (!keep_mission) OAIPP_RETURN_IF_ERROR(client.DeleteMission(result.mission_name));
+  return result;
+}
+
+std::string StepsCsv(const std::vector<StepRecord>& steps) {
+  std::string csv = "time_s,rse,rmse,trace,targets_found,path_length_m,collisions\n";
+  for (const StepRecord& s : steps) {
+    absl::StrAppendFormat(&csv, "%.3f,%.6f,%.6f,%.6f,%d,%.3f,%d\n", s.mission_time_s, s.rse, s.rmse,
+                          s.trace, s.targets_found, s.path_length_m, s.collisions);
+  }
+  return csv;
+}
+
+}  // namespace oaipp::client

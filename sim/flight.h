@@ -1,0 +1,53 @@
+// The simulated UAV flying returned trajectories: where it is every 20 ms of
+// flight, how far it has flown, how often it came closer to an obstacle
+// than r_uav / 2 under the exact geometry (the check every returned path
+// must pass), and a thinned trace of the flight for pictures.
+//
+//   Flight flight(simulation, start_W);
+//   OAIPP_RETURN_IF_ERROR(flight.Fly(trajectory, fly_s, [&](double t_s) {
+//     return TakeShotsDueBy(t_s);   // called after each step
+//   }));
+//   int collisions = flight.collisions();
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "core/trajectory/polynomial_trajectory.h"
+#include "sim/simulation.h"
+
+namespace oaipp::sim {
+
+class Flight {
+ public:
+  // Steps of flight time: <= 0.1 m at 5 m/s.
+  static constexpr double kStep_s = 0.02;
+  // The trace keeps a point once the UAV is this far from the last one kept.
+  static constexpr double kTraceSpacing_m = 0.5;
+
+  // `simulation` must outlive the flight.
+  Flight(const Simulation& simulation, const Vec3& start_W);
+
+  // Flies `trajectory` from t = 0 to until_s (clamped to its duration) in
+  // steps of kStep_s, the last one ending at until_s exactly, calling
+  // `after_step(t_s)` after each; its first error stops the flight and is
+  // returned.
+  [[nodiscard]] absl::Status Fly(const PolynomialTrajectory& trajectory, double until_s,
+                                 const std::function<absl::Status(double t_s)>& after_step);
+
+  [[nodiscard]] double path_length_m() const { return path_length_m_; }
+  [[nodiscard]] int collisions() const { return collisions_; }
+  [[nodiscard]] const std::vector<Vec3>& trace_W() const { return trace_W_; }
+
+ private:
+  void MoveTo(const Vec3& p_W);
+
+  const Simulation* simulation_;
+  Vec3 position_W_;
+  double path_length_m_ = 0.0;
+  int collisions_ = 0;
+  std::vector<Vec3> trace_W_;
+};
+
+}  // namespace oaipp::sim

@@ -1,0 +1,193 @@
+#include "sim/simulation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "api/spec.h"
+#include "core/common/status_macros.h"
+
+namespace oaipp::sim {
+namespace {
+
+// Projects a ground point into a downward camera at p (yaw 0) with pinhole
+// intrinsics K; false when behind the camera.
+bool Project(const CameraIntrinsics& k, const Vec3& camera_W, const Vec3& point_W, Vec2* px) {
+  const Eigen::Matrix3d r_wc = RotationWorldFromCamera(0.0);
+  const Vec3 p_c = r_wc.transpose() * (point_W - camera_W);
+  if (p_c.z() <= 1e-9) return false;
+  *px = Vec2(k.fx_px * p_c.x() / p_c.z() + k.cx_px, k.fy_px * p_c.y() / p_c.z() + k.cy_px);
+  return true;
+}
+
+}  // namespace
+
+double DetectorParams::DetectionProbability(double altitude_m) const {
+  const double z = (altitude_m - h_best_m) / width_m;
+  return p_max * std::exp(-0.5 * z * z);
+}
+
+double DetectorParams::FalsePositiveRate(double altitude_m) const {
+  return fp_per_image_at_10m * (altitude_m / 10.0) * (altitude_m / 10.0);
+}
+
+absl::StatusOr<Simulation> Simulation::Create(const v1::Scenario& scenario) {
+  Simulation sim;
+  OAIPP_ASSIGN_OR_RETURN(sim.config_, api::MissionSpecToConfig(scenario.mission()));
+  const api::MissionConfig& c = sim.config_;
+  OAIPP_ASSIGN_OR_RETURN(Environment env, c.MakeEnvironment());
+  sim.env_ = std::make_shared<Environment>(std::move(env));
+  OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, c.MakeGrid());
+  sim.grid_ = std::make_shared<FieldGrid>(grid);
+  // The camera's images have the size the server assumes when a
+  // measurement carries no intrinsics.
+  OAIPP_ASSIGN_OR_RETURN(sim.intrinsics_, c.DefaultIntrinsics());
+  const v1::DetectorModel& d = scenario.detector();
+  DetectorParams& p = sim.detector_;
+  if (d.has_p_max()) p.p_max = d.p_max();
+  if (d.has_h_best_m()) p.h_best_m = d.h_best_m();
+  if (d.has_width_m()) p.width_m = d.width_m();
+  if (d.has_fp_per_image_at_10m()) p.fp_per_image_at_10m = d.fp_per_image_at_10m();
+  if (d.has_min_confidence()) p.min_confidence = d.min_confidence();
+  if (!(p.p_max >= 0 && p.p_max <= 1)) {
+    return absl::InvalidArgumentError("detector.p_max: must be in [0, 1]");
+  }
+  if (!(p.width_m > 0) || !std::isfinite(p.width_m) || !std::isfinite(p.h_best_m)) {
+    return absl::InvalidArgumentError(
+        "detector.width_m, detector.h_best_m: must be finite, width > 0");
+  }
+  if (!(p.fp_per_image_at_10m >= 0) || !std::isfinite(p.fp_per_image_at_10m)) {
+    return absl::InvalidArgumentError("detector.fp_per_image_at_10m: must be >= 0 and finite");
+  }
+  if (!(p.min_confidence >= 0 && p.min_confidence <= 1)) {
+    return absl::InvalidArgumentError("detector.min_confidence: must be in [0, 1]");
+  }
+  sim.truth_.assign(static_cast<std::size_t>(grid.num_cells()), 0.0);
+  for (int i = 0; i < scenario.targets_size(); ++i) {
+    const v1::Target& t = scenario.targets(i);
+    const std::string field = absl::StrCat("targets[", i, "]");
+    if (!(t.x_max_m() > t.x_min_m()) || !(t.y_max_m() > t.y_min_m())) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": max must exceed min"));
+    }
+    std::vector<int> cells =
+        grid.CellsOverlapping({t.x_min_m(), t.y_min_m()}, {t.x_max_m(), t.y_max_m()});
+    if (cells.empty()) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ": lies outside the field"));
+    }
+    for (int cell : cells) sim.truth_[static_cast<std::size_t>(cell)] = 1.0;
+    sim.targets_.push_back(t);
+    sim.target_cells_.push_back(std::move(cells));
+  }
+  return sim;
+}
+
+std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng) const {
+  std::vector<PixelBox> boxes;
+  // A box clipped to the image edge can be left with no area: the rule every
+  // box is held to (PixelBox::Validate) drops it, after its random draws, so
+  // the stream does not depend on it.
+  const auto keep_valid = [&](const PixelBox& box) {
+    if (box.Validate(&intrinsics_).ok()) boxes.push_back(box);
+  };
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double h = p_W.z();
+  for (const v1::Target& t : targets_) {
+    const Vec3 centre(0.5 * (t.x_min_m() + t.x_max_m()), 0.5 * (t.y_min_m() + t.y_max_m()), 0.0);
+    const double draw = unit(rng);  // drawn for every target: one stream whatever is visible
+    if (!env_->IsVisible(p_W, centre)) continue;
+    Vec2 lo(1e18, 1e18), hi(-1e18, -1e18);
+    bool in_front = true;
+    for (double x : {t.x_min_m(), t.x_max_m()}) {
+      for (double y : {t.y_min_m(), t.y_max_m()}) {
+        Vec2 px;
+        in_front &= Project(intrinsics_, p_W, Vec3(x, y, 0), &px);
+        lo = lo.cwiseMin(px);
+        hi = hi.cwiseMax(px);
+      }
+    }
+    Vec2 c;
+    if (!in_front || !Project(intrinsics_, p_W, centre, &c)) continue;
+    if (c.x() < 0 || c.y() < 0 || c.x() > intrinsics_.width_px || c.y() > intrinsics_.height_px)
+      continue;
+    if (draw >= detector_.DetectionProbability(h)) continue;
+    lo = lo.cwiseMax(Vec2(0, 0));
+    hi = hi.cwiseMin(Vec2(intrinsics_.width_px, intrinsics_.height_px));
+    keep_valid({lo.x(), lo.y(), hi.x(), hi.y(), 0.5 + 0.5 * unit(rng)});
+  }
+  std::poisson_distribution<int> false_positives(detector_.FalsePositiveRate(h));
+  const int n = false_positives(rng);
+  // A person's size in pixels at this altitude.
+  const double w = intrinsics_.fx_px * 0.75 / h, l = intrinsics_.fy_px * 2.0 / h;
+  for (int i = 0; i < n; ++i) {
+    const double x = unit(rng) * std::max(1.0, intrinsics_.width_px - w),
+                 y = unit(rng) * std::max(1.0, intrinsics_.height_px - l);
+    keep_valid({x, y, std::min<double>(x + w, intrinsics_.width_px),
+                std::min<double>(y + l, intrinsics_.height_px), 0.5 + 0.5 * unit(rng)});
+  }
+  return boxes;
+}
+
+absl::StatusOr<CellLabels> Simulation::Labels(const Vec3& p_W,
+                                              const std::vector<PixelBox>& boxes) const {
+  return DetectionsToLabels(*grid_, intrinsics_, CameraPose{p_W, 0.0}, boxes,
+                            detector_.min_confidence, env_.get());
+}
+
+CellLabels Simulation::TruthLabels(const Vec3& p_W) const {
+  CellLabels out;
+  out.cells = config_.camera.VisibleFootprintCells(*grid_, p_W, env_.get());
+  out.labels.reserve(out.cells.size());
+  for (int c : out.cells) out.labels.push_back(truth_[static_cast<std::size_t>(c)]);
+  return out;
+}
+
+double Simulation::Rse(const std::vector<double>& mean) const {
+  double sum = 0.0;
+  for (std::size_t i = 0; i < truth_.size() && i < mean.size(); ++i) {
+    sum += (mean[i] - truth_[i]) * (mean[i] - truth_[i]);
+  }
+  return std::sqrt(sum);
+}
+
+double Simulation::Rmse(const std::vector<double>& mean) const {
+  return Rse(mean) / std::sqrt(static_cast<double>(truth_.size()));
+}
+
+std::vector<bool> Simulation::FoundEach(const std::vector<double>& mean) const {
+  std::vector<bool> found;
+  found.reserve(target_cells_.size());
+  for (const std::vector<int>& cells : target_cells_) {
+    found.push_back(std::any_of(cells.begin(), cells.end(), [&](int c) {
+      return static_cast<std::size_t>(c) < mean.size() && mean[static_cast<std::size_t>(c)] > 0.5;
+    }));
+  }
+  return found;
+}
+
+int Simulation::TargetsFound(const std::vector<double>& mean) const {
+  const std::vector<bool> found = FoundEach(mean);
+  return static_cast<int>(std::count(found.begin(), found.end(), true));
+}
+
+std::vector<std::string> Simulation::TargetIds() const {
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < targets_.size(); ++i) {
+    ids.push_back(targets_[i].id().empty() ? absl::StrCat("target ", i + 1) : targets_[i].id());
+  }
+  return ids;
+}
+
+std::vector<std::pair<Vec2, Vec2>> Simulation::TargetRectangles() const {
+  std::vector<std::pair<Vec2, Vec2>> out;
+  for (const v1::Target& t : targets_) {
+    out.emplace_back(Vec2(t.x_min_m(), t.y_min_m()), Vec2(t.x_max_m(), t.y_max_m()));
+  }
+  return out;
+}
+
+bool Simulation::Collides(const Vec3& p_W) const {
+  return !env_->flight_volume().Contains(p_W, 1e-9) ||
+         env_->SignedDistance(p_W) < 0.5 * config_.planner.common.limits.uav_radius_m;
+}
+
+}  // namespace oaipp::sim

@@ -1,0 +1,85 @@
+// The simulated world the client flies in: ground-truth targets, a
+// simulated detector and the metrics of docs/method.md §10.3.
+//
+//   OAIPP_ASSIGN_OR_RETURN(Simulation sim, Simulation::Create(scenario));
+//   std::vector<PixelBox> boxes = sim.Detect(camera_W, rng);   // what a camera sees
+//   double rse = sim.Rse(map_mean);
+#pragma once
+
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "api/mission_config.h"
+#include "core/environment/environment.h"
+#include "core/mapping/detection_projection.h"
+#include "core/mapping/field_grid.h"
+#include "oaipp/v1/scenario.pb.h"
+
+namespace oaipp::sim {
+
+struct DetectorParams {
+  double p_max = 0.95;
+  double h_best_m = 10.0;
+  double width_m = 7.0;
+  double fp_per_image_at_10m = 0.3;
+  double min_confidence = 0.5;
+  // p(h) of detecting a visible target from altitude h.
+  [[nodiscard]] double DetectionProbability(double altitude_m) const;
+  // Mean number of false positives in one image from altitude h.
+  [[nodiscard]] double FalsePositiveRate(double altitude_m) const;
+};
+
+class Simulation {
+ public:
+  // Validates the scenario (targets inside the field, detector ranges) and
+  // builds the exact world for visibility. InvalidArgument naming the field.
+  [[nodiscard]] static absl::StatusOr<Simulation> Create(const v1::Scenario& scenario);
+
+  // The boxes a downward camera at p_W (yaw 0) reports: each visible target
+  // (its centre in line of sight, inside the image) with probability p(h),
+  // plus Poisson false positives of a person's size at random places.
+  [[nodiscard]] std::vector<PixelBox> Detect(const Vec3& p_W, std::mt19937_64& rng) const;
+  // What a perfect detector reports from p_W (yaw 0): the visible footprint
+  // cells, labelled 1 where a target covers them and 0 elsewhere.
+  [[nodiscard]] CellLabels TruthLabels(const Vec3& p_W) const;
+  // Per-cell labels of the same detections over the visible image footprint.
+  [[nodiscard]] absl::StatusOr<CellLabels> Labels(const Vec3& p_W,
+                                                  const std::vector<PixelBox>& boxes) const;
+
+  // RSE = sqrt(sum (mu - truth)^2) and RMSE over the cells.
+  [[nodiscard]] double Rse(const std::vector<double>& mean) const;
+  [[nodiscard]] double Rmse(const std::vector<double>& mean) const;
+  // Targets whose cells reach a map mean above 0.5: how many, and which (in
+  // the scenario's order).
+  [[nodiscard]] int TargetsFound(const std::vector<double>& mean) const;
+  [[nodiscard]] std::vector<bool> FoundEach(const std::vector<double>& mean) const;
+  // The targets' ids in the scenario's order ("target <i>" when unnamed,
+  // 1-based).
+  [[nodiscard]] std::vector<std::string> TargetIds() const;
+  // Closer than r_uav / 2 to an obstacle under the exact geometry, or
+  // outside the flight volume.
+  [[nodiscard]] bool Collides(const Vec3& p_W) const;
+
+  [[nodiscard]] const api::MissionConfig& config() const { return config_; }
+  [[nodiscard]] const CameraIntrinsics& intrinsics() const { return intrinsics_; }
+  [[nodiscard]] const DetectorParams& detector() const { return detector_; }
+  [[nodiscard]] int num_targets() const { return static_cast<int>(target_cells_.size()); }
+  [[nodiscard]] const Environment& environment() const { return *env_; }
+  // The targets' ground rectangles (min, max corners), metres.
+  [[nodiscard]] std::vector<std::pair<Vec2, Vec2>> TargetRectangles() const;
+
+ private:
+  Simulation() = default;
+  api::MissionConfig config_;
+  std::shared_ptr<Environment> env_;
+  std::shared_ptr<FieldGrid> grid_;
+  CameraIntrinsics intrinsics_;
+  DetectorParams detector_;
+  std::vector<v1::Target> targets_;
+  std::vector<std::vector<int>> target_cells_;
+  std::vector<double> truth_;
+};
+
+}  // namespace oaipp::sim

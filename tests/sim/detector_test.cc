@@ -1,0 +1,169 @@
+// The simulated detector's statistics against its configured probabilities
+// over many seeded draws.
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+#include "absl/strings/str_cat.h"
+#include "gtest/gtest.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
+
+namespace oaipp::sim {
+namespace {
+
+// One person at the field centre, no obstacles, no false positives unless
+// asked for.
+Simulation OnePerson(double fp_rate) {
+  auto s = ParseScenario(
+      absl::StrCat(
+          R"({"targets": [{"x_min_m": -0.375, "x_max_m": 0.375, "y_min_m": -1, "y_max_m": 1}],)",
+          R"("detector": {"fp_per_image_at_10m": )", fp_rate, "}}"),
+      "test");
+  EXPECT_TRUE(s.ok()) << s.status();
+  auto sim = Simulation::Create(*s);
+  EXPECT_TRUE(sim.ok()) << sim.status();
+  return std::move(sim).value();
+}
+
+// Counts boxes that contain the image centre (the person under the camera).
+double DetectionRate(const Simulation& sim, double altitude_m, int draws, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  int hits = 0;
+  for (int i = 0; i < draws; ++i) {
+    for (const PixelBox& b : sim.Detect(Vec3(0, 0, altitude_m), rng)) {
+      if (b.x_min_px <= 240 && b.x_max_px >= 240 && b.y_min_px <= 320 && b.y_max_px >= 320) {
+        ++hits;
+        break;
+      }
+    }
+  }
+  return static_cast<double>(hits) / draws;
+}
+
+TEST(DetectorTest, DetectionFrequencyMatchesTheConfiguredCurve) {
+  const Simulation sim = OnePerson(0.0);
+  constexpr int kDraws = 20000;
+  for (double h : {5.0, 10.0, 20.0, 25.0}) {
+    // p(h) = 0.95 exp(-((h - 10) / 7)^2 / 2), computed here independently.
+    const double p = 0.95 * std::exp(-0.5 * std::pow((h - 10.0) / 7.0, 2));
+    const double sigma = std::sqrt(p * (1 - p) / kDraws);
+    EXPECT_NEAR(DetectionRate(sim, h, kDraws, 7), p, 4 * sigma + 1e-9) << "h = " << h;
+  }
+}
+
+TEST(DetectorTest, FalsePositivesArePoissonWithTheConfiguredMean) {
+  // No target in view from far away: every box is a false positive.
+  const Simulation sim = OnePerson(0.5);
+  std::mt19937_64 rng(11);
+  constexpr int kDraws = 20000;
+  for (double h : {10.0, 20.0}) {
+    double sum = 0, sum2 = 0;
+    for (int i = 0; i < kDraws; ++i) {
+      const double n = static_cast<double>(sim.Detect(Vec3(12, 12, h), rng).size());
+      sum += n;
+      sum2 += n * n;
+    }
+    const double mean = sum / kDraws, var = sum2 / kDraws - mean * mean;
+    const double expected = 0.5 * (h / 10) * (h / 10);
+    EXPECT_NEAR(mean, expected, 4 * std::sqrt(expected / kDraws)) << "h = " << h;
+    EXPECT_NEAR(var, expected, 0.1 * expected) << "Poisson: variance = mean";
+  }
+}
+
+TEST(DetectorTest, SameSeedSameDetections) {
+  const Simulation sim = OnePerson(1.0);
+  std::mt19937_64 a(3), b(3);
+  for (int i = 0; i < 50; ++i) {
+    const auto x = sim.Detect(Vec3(0, 0, 12), a), y = sim.Detect(Vec3(0, 0, 12), b);
+    ASSERT_EQ(x.size(), y.size());
+    for (std::size_t k = 0; k < x.size(); ++k) EXPECT_EQ(x[k].x_min_px, y[k].x_min_px);
+  }
+}
+
+// A sure detector over each E1 person, camera 10 m above it: the boxes,
+// projected back through the server's rule, mark exactly the cells the
+// ground truth marks, 48 in all (docs/method.md), so a map equal to those labels
+// has RSE 0.
+TEST(DetectorTest, SureDetectionsOfE1PeopleMarkTheTruthCells) {
+  auto scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  scenario->mutable_detector()->set_p_max(1.0);
+  scenario->mutable_detector()->set_fp_per_image_at_10m(0.0);
+  auto sim = Simulation::Create(*scenario);
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  ASSERT_EQ(sim->num_targets(), 7);
+  std::mt19937_64 rng(1);
+  std::set<int> ones, observed;
+  for (const auto& person : scenario->targets()) {
+    // Off-centre so that box edges fall between pixel centres of cells.
+    const Vec3 camera(0.5 * (person.x_min_m() + person.x_max_m()) + 0.3,
+                      0.5 * (person.y_min_m() + person.y_max_m()) - 0.2, 10.0);
+    const std::vector<PixelBox> boxes = sim->Detect(camera, rng);
+    ASSERT_FALSE(boxes.empty());
+    auto labels = sim->Labels(camera, boxes);
+    ASSERT_TRUE(labels.ok()) << labels.status();
+    for (std::size_t i = 0; i < labels->cells.size(); ++i) {
+      observed.insert(labels->cells[i]);
+      if (labels->labels[i] == 1.0) ones.insert(labels->cells[i]);
+    }
+  }
+  EXPECT_EQ(ones.size(), 48u);
+  std::vector<double> map(1600, 0.0);
+  for (int c : ones) map[static_cast<std::size_t>(c)] = 1.0;
+  EXPECT_NEAR(sim->Rse(map), 0.0, 1e-12);
+  EXPECT_EQ(sim->TargetsFound(map), 7);
+  EXPECT_GT(observed.size(), 500u);
+  // A map that is 0.6 on p3's rectangle only finds p3 (ids from e1.json).
+  const auto& p3 = scenario->targets(2);
+  std::vector<double> one(1600, 0.0);
+  for (int c : ones) {
+    const int col = c % 40, row = c / 40;  // 0.75 m cells from (-15, -15)
+    const double x = -15 + 0.75 * (col + 0.5), y = -15 + 0.75 * (row + 0.5);
+    if (x > p3.x_min_m() - 0.75 && x < p3.x_max_m() + 0.75 && y > p3.y_min_m() - 0.75 &&
+        y < p3.y_max_m() + 0.75) {
+      one[static_cast<std::size_t>(c)] = 0.6;
+    }
+  }
+  EXPECT_EQ(sim->TargetIds(), (std::vector<std::string>{"p1", "p2", "p3", "p4", "p5", "p6", "p7"}));
+  EXPECT_EQ(sim->FoundEach(one),
+            (std::vector<bool>{false, false, true, false, false, false, false}));
+}
+
+// A perfect detector's labels: the visible footprint, 1 exactly on the cells
+// whose square overlaps a person's rectangle with positive area (checked by
+// brute force over the 0.75 m cells from (-15, -15)).
+TEST(DetectorTest, TruthLabelsMarkTheCellsThePeopleCover) {
+  auto scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  auto sim = Simulation::Create(*scenario);
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  const auto covered = [&](int cell) {
+    const double x0 = -15 + 0.75 * (cell % 40), y0 = -15 + 0.75 * (cell / 40);
+    for (const auto& t : scenario->targets()) {
+      if (x0 < t.x_max_m() && x0 + 0.75 > t.x_min_m() && y0 < t.y_max_m() &&
+          y0 + 0.75 > t.y_min_m()) {
+        return true;
+      }
+    }
+    return false;
+  };
+  int ones = 0;
+  for (const Vec3& camera : {Vec3(8.3, -11.2, 10), Vec3(-6, -6, 14), Vec3(0, 8, 20)}) {
+    const CellLabels labels = sim->TruthLabels(camera);
+    ASSERT_FALSE(labels.cells.empty());
+    ASSERT_EQ(labels.cells.size(), labels.labels.size());
+    for (std::size_t i = 0; i < labels.cells.size(); ++i) {
+      EXPECT_EQ(labels.labels[i], covered(labels.cells[i]) ? 1.0 : 0.0) << labels.cells[i];
+      ones += labels.labels[i] == 1.0;
+    }
+    // The same cells a detector's labels cover from there.
+    auto detected = sim->Labels(camera, {});
+    ASSERT_TRUE(detected.ok());
+    EXPECT_EQ(detected->cells, labels.cells);
+  }
+  EXPECT_GT(ones, 8);
+}
+
+}  // namespace
+}  // namespace oaipp::sim

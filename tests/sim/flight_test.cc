@@ -1,0 +1,82 @@
+// The simulated flight: distance flown, steps closer than r_uav / 2 to the
+// E1 building under the exact geometry, the trace, and the step callback.
+#include "sim/flight.h"
+
+#include "gtest/gtest.h"
+#include "sim/scenario.h"
+
+namespace oaipp::sim {
+namespace {
+
+// x(t) = x0 + v t along y = -1, z = 7: straight through the E1 building
+// (x in [-5, 5], y in [-3, 1], 26 m tall).
+PolynomialTrajectory StraightLine(double x0, double v, double duration_s) {
+  PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
+  c(0, 0) = x0;
+  c(1, 0) = v;
+  c(0, 1) = -1.0;
+  c(0, 2) = 7.0;
+  return *PolynomialTrajectory::FromCoefficients({duration_s}, {c});
+}
+
+Simulation E1() {
+  absl::StatusOr<v1::Scenario> scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  EXPECT_TRUE(scenario.ok()) << scenario.status();
+  absl::StatusOr<Simulation> simulation = Simulation::Create(*scenario);
+  EXPECT_TRUE(simulation.ok()) << simulation.status();
+  return *std::move(simulation);
+}
+
+TEST(FlightTest, CountsTheStepsWithinHalfTheUavRadiusOfTheBuilding) {
+  const Simulation simulation = E1();
+  ASSERT_EQ(simulation.config().planner.common.limits.uav_radius_m, 1.0);
+  // From x = -10.01 at 1 m/s for 20.02 s: step k is at x = -10.01 + 0.02 k
+  // and collides when |x| < 5 + 0.5, i.e. for k = 226 .. 775: 550 steps.
+  Flight flight(simulation, Vec3(-10.01, -1, 7));
+  int steps = 0;
+  double last_t = -1.0;
+  ASSERT_TRUE(flight
+                  .Fly(StraightLine(-10.01, 1.0, 20.02), 20.02,
+                       [&](double t_s) {
+                         ++steps;
+                         last_t = t_s;
+                         return absl::OkStatus();
+                       })
+                  .ok());
+  // t = 0, 0.02, ..., 20.02; the times are accumulated, so round-off may
+  // leave one more, tiny, step before the end.
+  EXPECT_GE(steps, 1002);
+  EXPECT_LE(steps, 1003);
+  EXPECT_EQ(last_t, 20.02);
+  EXPECT_EQ(flight.collisions(), 550);
+  EXPECT_NEAR(flight.path_length_m(), 20.02, 1e-9);
+  // The trace starts at the start and keeps a point once the UAV is more
+  // than 0.5 m from the last one kept, so neighbours lie 0.5 .. 0.52 m apart.
+  const std::vector<Vec3>& trace = flight.trace_W();
+  EXPECT_EQ(trace.front(), Vec3(-10.01, -1, 7));
+  ASSERT_GE(trace.size(), 38u);
+  for (std::size_t i = 1; i < trace.size(); ++i) {
+    const double gap = (trace[i] - trace[i - 1]).norm();
+    EXPECT_GT(gap, 0.5);
+    EXPECT_LE(gap, 0.52 + 1e-9);
+  }
+}
+
+TEST(FlightTest, StopsAtTheFirstErrorOfTheCallback) {
+  const Simulation simulation = E1();
+  Flight flight(simulation, Vec3(10, -1, 7));
+  int steps = 0;
+  const absl::Status status =
+      flight.Fly(StraightLine(10, -1.0, 2.0), 2.0, [&](double t_s) -> absl::Status {
+        ++steps;
+        if (t_s >= 0.1 - 1e-12) return absl::UnavailableError("server gone");
+        return absl::OkStatus();
+      });
+  EXPECT_EQ(status.code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(steps, 6);  // t = 0 .. 0.1
+  EXPECT_NEAR(flight.path_length_m(), 0.1, 1e-9);
+  EXPECT_EQ(flight.collisions(), 0);
+}
+
+}  // namespace
+}  // namespace oaipp::sim

@@ -1,0 +1,86 @@
+#include "sim/scenario.h"
+
+#include <filesystem>
+
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+#include "sim/simulation.h"
+
+namespace oaipp::sim {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(ScenarioTest, TheE1FileParsesIntoThePapersWorld) {
+  auto scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  EXPECT_EQ(scenario->name(), "e1");
+  EXPECT_EQ(scenario->targets_size(), 7);
+  auto sim = Simulation::Create(*scenario);
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  EXPECT_EQ(sim->num_targets(), 7);
+  EXPECT_DOUBLE_EQ(sim->config().budget_s, 150.0);
+  // docs/reference-values.md: the E1 people cover 48 cells; RSE0 = 7.375636 at prior 0.1.
+  EXPECT_NEAR(sim->Rse(std::vector<double>(1600, 0.1)), 7.375636, 1e-6);
+}
+
+// Every committed scenario (client/scenarios and its folders) parses and
+// builds a world, its name matches its file, and the E5 settings differ
+// from e5.json only in what their name says.
+TEST(ScenarioTest, EveryCommittedScenarioLoads) {
+  int files = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
+    if (entry.path().extension() != ".json") continue;
+    ++files;
+    auto scenario = LoadScenarioFile(entry.path().string());
+    ASSERT_TRUE(scenario.ok()) << entry.path() << ": " << scenario.status();
+    const std::string stem = entry.path().stem().string();
+    EXPECT_TRUE(scenario->name() == stem || scenario->name() == "e5-" + stem) << entry.path();
+    auto sim = Simulation::Create(*scenario);
+    ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
+    EXPECT_GT(sim->num_targets(), 0) << entry.path();
+  }
+  EXPECT_EQ(files, 10);
+  auto base = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
+  auto low = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/ceiling12-n4.json");
+  ASSERT_TRUE(base.ok() && low.ok());
+  EXPECT_EQ(low->mission().flight().max_altitude_m(), 12.0);
+  EXPECT_EQ(low->mission().planner().num_waypoints(), 4);
+  low->set_name(base->name());
+  low->mutable_mission()->clear_flight();
+  low->mutable_mission()->mutable_planner()->clear_num_waypoints();
+  EXPECT_EQ(low->SerializeAsString(), base->SerializeAsString());
+}
+
+TEST(ScenarioTest, MalformedJsonNamesTheLine) {
+  const auto s = ParseScenario("{\n  \"name\": \"x\",\n  \"seed\": ,\n}\n", "bad.json");
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(s.status().message(), HasSubstr("bad.json:3:"));
+}
+
+TEST(ScenarioTest, SchemaErrorsNameTheField) {
+  auto unknown = ParseScenario(R"({"name": "x", "bogus": 1})", "s.json");
+  ASSERT_FALSE(unknown.ok());
+  EXPECT_THAT(unknown.status().message(), HasSubstr("bogus"));
+  auto wrong_type = ParseScenario(R"({"targets": [{"x_min_m": "abc"}]})", "s.json");
+  ASSERT_FALSE(wrong_type.ok());
+  EXPECT_THAT(wrong_type.status().message(), HasSubstr("targets[0].x_min_m"));
+}
+
+TEST(ScenarioTest, BadContentNamesTheField) {
+  auto s = ParseScenario(
+      R"({"targets": [{"x_min_m": 2, "x_max_m": 1, "y_min_m": 0, "y_max_m": 1}]})", "s.json");
+  ASSERT_TRUE(s.ok());
+  EXPECT_THAT(Simulation::Create(*s).status().message(), HasSubstr("targets[0]"));
+  s = ParseScenario(R"({"detector": {"p_max": 1.5}})", "s.json");
+  ASSERT_TRUE(s.ok());
+  EXPECT_THAT(Simulation::Create(*s).status().message(), HasSubstr("detector.p_max"));
+  s = ParseScenario(R"({"mission": {"field": {"resolution_m": -1}}})", "s.json");
+  ASSERT_TRUE(s.ok());
+  EXPECT_THAT(Simulation::Create(*s).status().message(), HasSubstr("resolution_m"));
+  EXPECT_EQ(LoadScenarioFile("/nonexistent.json").status().code(), absl::StatusCode::kNotFound);
+}
+
+}  // namespace
+}  // namespace oaipp::sim
