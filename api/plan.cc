@@ -16,8 +16,10 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
   v1::Trajectory& t = *out->mutable_trajectory();
   const double duration_s = trajectory.Duration();
   t.set_duration_s(duration_s);
+  std::vector<PolynomialTrajectory::SegmentCoefficients> sent;
   for (int i = 0; i < trajectory.NumSegments(); ++i) {
-    const PolynomialTrajectory::SegmentCoefficients c = trajectory.Coefficients(i);
+    const PolynomialTrajectory::SegmentCoefficients& c =
+        sent.emplace_back(trajectory.Coefficients(i));
     v1::PolynomialSegment& segment = *t.add_segments();
     segment.set_duration_s(trajectory.SegmentDurations()[i]);
     for (int k = 0; k < PolynomialTrajectory::kNumCoefficients; ++k) {
@@ -26,15 +28,20 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
       segment.add_z_coefficients(c(k, 2));
     }
   }
-  // Returned paths are finite and bounded in length, so sampling succeeds.
-  if (absl::StatusOr<std::vector<TimedPosition>> samples =
-          SampleTrajectory(trajectory, kTrajectorySampleRate_hz);
-      samples.ok()) {
+  // The samples are what the coefficients as sent give (TrajectoryFromProto
+  // of this response reproduces them bit for bit). Returned paths are finite
+  // and bounded in length, so both steps succeed.
+  absl::StatusOr<PolynomialTrajectory> as_sent =
+      PolynomialTrajectory::FromCoefficients(trajectory.SegmentDurations(), sent);
+  absl::StatusOr<std::vector<TimedPosition>> samples =
+      as_sent.ok() ? SampleTrajectory(*as_sent, kTrajectorySampleRate_hz)
+                   : absl::StatusOr<std::vector<TimedPosition>>(as_sent.status());
+  if (samples.ok()) {
     for (const TimedPosition& sample : *samples) {
       v1::TrajectorySample& s = *t.add_samples();
       s.set_t_s(sample.t_s);
       *s.mutable_position_m() = ToProto(sample.position_W);
-      *s.mutable_velocity_m_s() = ToProto(trajectory.Velocity(sample.t_s));
+      *s.mutable_velocity_m_s() = ToProto(as_sent->Velocity(sample.t_s));
     }
   }
 
@@ -90,6 +97,31 @@ absl::StatusOr<PolynomialTrajectory> TrajectoryFromProto(const v1::Trajectory& t
     return absl::InvalidArgumentError("trajectory.segments: needs at least one segment");
   }
   return PolynomialTrajectory::FromCoefficients(std::move(durations_s), coefficients);
+}
+
+absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& response) {
+  OAIPP_ASSIGN_OR_RETURN(PolynomialTrajectory trajectory,
+                         TrajectoryFromProto(response.trajectory()));
+  PlannedPath path{.trajectory = std::move(trajectory)};
+  for (const v1::Vector3& c : response.control_waypoints_m()) {
+    path.control_waypoints_W.push_back(FromProto(c));
+  }
+  for (const v1::MeasurementPose& p : response.measurement_poses()) {
+    path.measurement_poses.push_back({.t_s = p.t_s(),
+                                      .mission_time_s = p.mission_time_s(),
+                                      .position_W = FromProto(p.position_m())});
+  }
+  path.objective = response.objective();
+  path.information = response.information();
+  path.collision_samples = response.collision_samples();
+  path.collision_free = response.collision_free();
+  path.next_shot_mission_s = response.next_shot_mission_s();
+  path.stats = {.evaluations = response.stats().evaluations(),
+                .generations = response.stats().generations(),
+                .wall_time_s = response.stats().wall_time_s(),
+                .stop_reason = response.stats().stop_reason(),
+                .initial_objective = response.stats().initial_objective()};
+  return path;
 }
 
 }  // namespace oaipp::api

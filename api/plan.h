@@ -36,4 +36,10 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out);
 [[nodiscard]] absl::StatusOr<PolynomialTrajectory> TrajectoryFromProto(
     const v1::Trajectory& trajectory);
 
+// A PlannedPath from a PlanPathResponse (a stored first answer, read back):
+// PlannedPathToProto of the result equals `response`. Errors as
+// TrajectoryFromProto.
+[[nodiscard]] absl::StatusOr<PlannedPath> PlannedPathFromProto(
+    const v1::PlanPathResponse& response);
+
 }  // namespace oaipp::api

@@ -16,6 +16,8 @@ packages=(
   # service: gRPC + protobuf (plugin and library must come together), logs, metrics, JSON
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libspdlog-dev prometheus-cpp-dev nlohmann-json3-dev
+  # durable missions: the embedded store, and its command-line tool for backups
+  libsqlite3-dev sqlite3
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # figures

@@ -7,7 +7,10 @@ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 echo "$label: building oaipp-server and oaipp-client"
 cmake --build "$build" -j "$(nproc)" --target oaipp-server oaipp-client >/dev/null
 
-"$build/server/oaipp-server" --listen="$address" --metrics_listen= --log_level=warn &
+# Missions are kept in $OAIPP_DATA_DIR (default ./data, the embedded SQLite
+# store): a run that is cut short can be looked at after a restart.
+"$build/server/oaipp-server" --listen="$address" --metrics_listen= --log_level=warn \
+  --data_dir="${OAIPP_DATA_DIR:-$root/data}" &
 server=$!
 trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null || true' EXIT
 cd "$root"

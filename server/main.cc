@@ -1,22 +1,28 @@
 // oaipp-server: the OA-IPP planning service.
 //
-//   oaipp-server --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464
+//   oaipp-server --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464 --data_dir=./data
+//
+// Missions are kept in --data_dir/missions.db (SQLite) and come back after a
+// restart or a crash; --store=memory keeps them in memory only.
 //
 // Health checking (grpc.health.v1) and server reflection are on. SIGTERM or
 // SIGINT: stop accepting calls, let in-flight calls finish (up to
 // --shutdown_grace_s), exit 0.
 #include <csignal>
+#include <filesystem>
 #include <memory>
 #include <thread>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "absl/synchronization/notification.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/grpcpp.h"
 #include "grpcpp/health_check_service_interface.h"
 #include "prometheus/exposer.h"
 #include "server/service.h"
+#include "server/store/sqlite_store.h"
 #include "spdlog/spdlog.h"
 
 ABSL_FLAG(std::string, listen, "127.0.0.1:50051", "gRPC listen address (host:port)");
@@ -32,6 +38,11 @@ ABSL_FLAG(int, prior_cache, 4,
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error or off");
 ABSL_FLAG(std::string, metrics_listen, "127.0.0.1:9464",
           "Prometheus metrics address (host:port); empty disables");
+ABSL_FLAG(std::string, store, "sqlite",
+          "where missions are kept: sqlite (one file, missions.db, under --data_dir; every "
+          "acknowledged change is on disk first) or memory (lost on restart)");
+ABSL_FLAG(std::string, data_dir, "./data",
+          "folder of the sqlite store (created at start); back it up with sqlite3's .backup");
 ABSL_FLAG(double, shutdown_grace_s, 10.0, "time in-flight calls get to finish on SIGTERM");
 
 int main(int argc, char** argv) {
@@ -59,9 +70,44 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
+  std::unique_ptr<oaipp::server::MissionStore> store;
+  if (const std::string kind = absl::GetFlag(FLAGS_store); kind == "sqlite") {
+    const std::filesystem::path dir = absl::GetFlag(FLAGS_data_dir);
+    std::error_code error;
+    std::filesystem::create_directories(dir, error);
+    if (error) {
+      spdlog::error("store: cannot create --data_dir {}: {}", dir.string(), error.message());
+      return 1;
+    }
+    absl::StatusOr<std::unique_ptr<oaipp::server::MissionStore>> opened =
+        oaipp::server::OpenSqliteStore((dir / "missions.db").string());
+    if (!opened.ok()) {
+      spdlog::error("{}", opened.status().ToString());
+      return 1;
+    }
+    store = *std::move(opened);
+    spdlog::info("store: sqlite file {}", (dir / "missions.db").string());
+  } else if (kind != "memory") {
+    spdlog::error("bad flags: --store must be sqlite or memory, got '{}'", kind.substr(0, 64));
+    return 2;
+  }
+
   oaipp::server::MissionRegistry registry({.max_missions = absl::GetFlag(FLAGS_max_missions),
                                            .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells),
-                                           .prior_cache = absl::GetFlag(FLAGS_prior_cache)});
+                                           .prior_cache = absl::GetFlag(FLAGS_prior_cache)},
+                                          store.get());
+  {
+    const absl::Time started = absl::Now();
+    absl::StatusOr<int> recovered = registry.Recover();
+    if (!recovered.ok()) {
+      spdlog::error("store: {}", recovered.status().ToString());
+      return 1;
+    }
+    if (store != nullptr) {
+      spdlog::info("store: recovered {} missions in {:.3f} s", *recovered,
+                   absl::ToDoubleSeconds(absl::Now() - started));
+    }
+  }
   oaipp::server::PlanningGate gate(planning_threads, planning_queue);
   oaipp::server::Metrics metrics;
   std::unique_ptr<prometheus::Exposer> exposer;
@@ -100,10 +146,31 @@ int main(int argc, char** argv) {
       "oaipp-server listening on {} (metrics on {})", absl::GetFlag(FLAGS_listen),
       absl::GetFlag(FLAGS_metrics_listen).empty() ? "-" : absl::GetFlag(FLAGS_metrics_listen));
 
+  // Health follows the store: NOT_SERVING while it cannot be written (the
+  // disk gone or full), so that a balancer sends calls elsewhere.
+  absl::Notification stopping;
+  std::thread store_watch([&] {
+    if (store == nullptr) return;
+    bool healthy = true;
+    while (!stopping.WaitForNotificationWithTimeout(absl::Seconds(1))) {
+      const absl::Status status = store->Health();
+      if (status.ok() != healthy) {
+        healthy = status.ok();
+        if (healthy) {
+          spdlog::info("store: writable again; SERVING");
+        } else {
+          spdlog::warn("store: {}; NOT_SERVING", status.ToString());
+        }
+        server->GetHealthCheckService()->SetServingStatus("oaipp.v1.MissionService", healthy);
+      }
+    }
+  });
+
   std::thread waiter([&] {
     int signal = 0;
     sigwait(&signals, &signal);
     spdlog::info("signal {}: no new calls; finishing the ones in flight", signal);
+    stopping.Notify();
     server->GetHealthCheckService()->SetServingStatus(false);
     const auto grace = std::chrono::milliseconds(
         static_cast<int64_t>(absl::GetFlag(FLAGS_shutdown_grace_s) * 1000));
@@ -111,6 +178,7 @@ int main(int argc, char** argv) {
   });
   server->Wait();
   waiter.join();
+  store_watch.join();
   spdlog::info("oaipp-server stopped");
   return 0;
 }

@@ -115,12 +115,18 @@ absl::Status Mission::FuseCoveredCells() {
 }
 
 absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& change,
-                                                        const std::string& request_id) {
+                                                        const std::string& request_id,
+                                                        const PersistFn& persist) {
   ObstacleResult result;
   {
     absl::MutexLock lock(&mu_);
     if (auto done = Recall<ObstacleResult>(request_id)) return *std::move(done);
-    OAIPP_RETURN_IF_ERROR(env_.Apply(change));
+    // Applied to a copy first, so that neither a refused change nor a failed
+    // write touches the mission.
+    Environment next = env_.Clone();
+    OAIPP_RETURN_IF_ERROR(next.Apply(change));
+    OAIPP_RETURN_IF_ERROR(Persist(persist));
+    env_ = std::move(next);
     // Ground newly under a building holds no targets. (Ground uncovered by a
     // removal keeps what was fused: the map cannot forget a measurement.)
     OAIPP_RETURN_IF_ERROR(FuseCoveredCells());
@@ -133,7 +139,8 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
   return result;
 }
 
-absl::StatusOr<MeasurementResult> Mission::ApplyMeasurement(const MeasurementInput& input) {
+absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
+    const MeasurementInput& input) const {
   const FieldGrid& grid = map_.grid();
   const Vec3& p = input.pose.p_WC;
   if (!env_.flight_volume().Contains(p, 1e-6)) {
@@ -167,23 +174,24 @@ absl::StatusOr<MeasurementResult> Mission::ApplyMeasurement(const MeasurementInp
   } else {
     return absl::InvalidArgumentError("data: set labels or detections");
   }
-  OAIPP_ASSIGN_OR_RETURN(
-      std::vector<CellObservation> observations,
-      LabelsToObservations(grid, config_.noise, p.z(), labels.cells, labels.labels));
-  OAIPP_RETURN_IF_ERROR(map_.Update(observations));
-  ++measurements_fused_;
-  mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
-  return MeasurementResult{static_cast<int>(labels.cells.size()), map_.Trace(),
-                           measurements_fused_};
+  return LabelsToObservations(grid, config_.noise, p.z(), labels.cells, labels.labels);
 }
 
 absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput& input,
-                                                          const std::string& request_id) {
+                                                          const std::string& request_id,
+                                                          const PersistFn& persist) {
   MeasurementResult result;
   {
     absl::MutexLock lock(&mu_);
     if (auto done = Recall<MeasurementResult>(request_id)) return *std::move(done);
-    OAIPP_ASSIGN_OR_RETURN(result, ApplyMeasurement(input));
+    OAIPP_ASSIGN_OR_RETURN(std::vector<CellObservation> observations, PrepareMeasurement(input));
+    // Durable first: a failed write leaves the mission as it was.
+    OAIPP_RETURN_IF_ERROR(Persist(persist));
+    OAIPP_RETURN_IF_ERROR(map_.Update(observations));
+    ++measurements_fused_;
+    mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
+    result =
+        MeasurementResult{static_cast<int>(observations.size()), map_.Trace(), measurements_fused_};
     log_.push_back(input);
     Remember(request_id, result);
   }
@@ -194,7 +202,8 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
 absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           std::optional<double> next_shot_mission_s,
                                           absl::Time deadline, const std::string& request_id,
-                                          PlanningGate* gate, std::function<bool()> cancelled) {
+                                          PlanningGate* gate, std::function<bool()> cancelled,
+                                          const PersistPlanFn& persist) {
   absl::MutexLock planner_lock(&planner_mu_);
   if (auto done = Recall<PlannedPath>(request_id)) return *std::move(done);
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
@@ -210,6 +219,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     const double period = 1.0 / config_.sensor_rate_hz();
     next_shot = period * std::ceil(state.mission_time_s / period - 1e-9);
   }
+  const std::string state_before = planner_->SaveState();
   std::optional<PlanningGate::Ticket> ticket;
   if (gate != nullptr) {
     OAIPP_ASSIGN_OR_RETURN(ticket, gate->Enter(deadline));
@@ -228,6 +238,13 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   ticket.reset();
   if (!path.ok()) return path.status();
+  // Answered only once durable; a failed write takes the planner back to
+  // where it was, so the mission stays as the store has it.
+  const std::string state_after = planner_->SaveState();
+  if (absl::Status written = PersistPlan(persist, *path, state_after); !written.ok()) {
+    (void)planner_->RestoreState(state_before);
+    return written;
+  }
   ++paths_planned_;
   Remember(request_id, *path);
   {
@@ -237,6 +254,36 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
                                      path->objective, path->control_waypoints_W});
   return path;
+}
+
+absl::Status Mission::Persist(const PersistFn& persist) {
+  absl::MutexLock lock(&sequence_mu_);
+  if (persist) OAIPP_RETURN_IF_ERROR(persist(next_sequence_));
+  ++next_sequence_;
+  return absl::OkStatus();
+}
+
+absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
+                                  const std::string& planner_state) {
+  absl::MutexLock lock(&sequence_mu_);
+  if (persist) OAIPP_RETURN_IF_ERROR(persist(next_sequence_, path, planner_state));
+  ++next_sequence_;
+  return absl::OkStatus();
+}
+
+absl::Status Mission::RestorePlan(const std::string& request_id, PlannedPath path,
+                                  const std::string& planner_state) {
+  absl::MutexLock planner_lock(&planner_mu_);
+  OAIPP_RETURN_IF_ERROR(planner_->RestoreState(planner_state));
+  OAIPP_RETURN_IF_ERROR(PersistPlan(nullptr, path, planner_state));
+  ++paths_planned_;
+  Remember(request_id, std::move(path));
+  return absl::OkStatus();
+}
+
+std::int64_t Mission::next_sequence() const {
+  absl::MutexLock lock(&sequence_mu_);
+  return next_sequence_;
 }
 
 MissionSnapshot Mission::Snapshot() const {

@@ -109,6 +109,15 @@ struct MissionSnapshot {
   absl::Time create_time;
 };
 
+// Writes the record of a change to durable storage, given its sequence
+// number in the mission's log, before the change is applied; an error stops
+// the change (nothing is applied) and is returned to the caller.
+using PersistFn = std::function<absl::Status(std::int64_t sequence)>;
+// The same for a plan, written before it is answered, with the planner's
+// state after it (Planner::SaveState).
+using PersistPlanFn = std::function<absl::Status(std::int64_t sequence, const PlannedPath& path,
+                                                 const std::string& planner_state)>;
+
 class Mission {
  public:
   // Builds the world, the prior map (ground under obstacles fused as
@@ -125,10 +134,15 @@ class Mission {
   Mission(const Mission&) = delete;
   Mission& operator=(const Mission&) = delete;
 
+  // Mutations: validated completely, then written by `persist` (when set;
+  // every applied change takes the next sequence number of the log), then
+  // applied. A refused change or a failed write changes nothing.
   [[nodiscard]] absl::StatusOr<ObstacleResult> UpdateObstacles(const ObstacleChange& change,
-                                                               const std::string& request_id);
-  [[nodiscard]] absl::StatusOr<MeasurementResult> AddMeasurement(const MeasurementInput& input,
-                                                                 const std::string& request_id);
+                                                               const std::string& request_id,
+                                                               const PersistFn& persist = nullptr);
+  [[nodiscard]] absl::StatusOr<MeasurementResult> AddMeasurement(
+      const MeasurementInput& input, const std::string& request_id,
+      const PersistFn& persist = nullptr);
   // Plans from `state` (validated by the planner). next_shot: the sensor
   // phase; unset, the next multiple of 1 / rate at or after the state's
   // mission time. FailedPrecondition when the budget is spent.
@@ -140,7 +154,16 @@ class Mission {
                                                  std::optional<double> next_shot_mission_s,
                                                  absl::Time deadline, const std::string& request_id,
                                                  PlanningGate* gate = nullptr,
-                                                 std::function<bool()> cancelled = nullptr);
+                                                 std::function<bool()> cancelled = nullptr,
+                                                 const PersistPlanFn& persist = nullptr);
+  // Recovery: a plan read back from storage, in log order. The planner takes
+  // `planner_state`, the plan takes the next sequence number, and a retry of
+  // `request_id` is answered with `path`.
+  [[nodiscard]] absl::Status RestorePlan(const std::string& request_id, PlannedPath path,
+                                         const std::string& planner_state);
+  // The sequence number the next change of the log will take (1 for a new
+  // mission).
+  [[nodiscard]] std::int64_t next_sequence() const;
 
   // Waits only for a mutation in progress (reader lock), never for a plan.
   [[nodiscard]] MissionSnapshot Snapshot() const;
@@ -164,8 +187,14 @@ class Mission {
           std::unique_ptr<Planner> planner);
   // Fuses, once, the cells under obstacles that were not fused before.
   absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  absl::StatusOr<MeasurementResult> ApplyMeasurement(const MeasurementInput& input)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Everything a measurement needs checked and computed before it is
+  // written and fused: the observations of its cells.
+  absl::StatusOr<std::vector<CellObservation>> PrepareMeasurement(
+      const MeasurementInput& input) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Runs `persist` with the next sequence number and takes it on success.
+  absl::Status Persist(const PersistFn& persist);
+  absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
+                           const std::string& planner_state);
   void Emit(decltype(MissionEventData::event) event);
   using Result = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
   // The first result of a request_id, if it was applied before. Callers
@@ -196,6 +225,12 @@ class Mission {
   // Not under planner_mu_: that is held for a whole plan, and Snapshot
   // must not wait for one.
   std::atomic<std::int64_t> paths_planned_{0};
+
+  // The log's next sequence number: innermost lock, held only while a record
+  // is written, so mutations (under mu_) and plans (under planner_mu_) share
+  // one order.
+  mutable absl::Mutex sequence_mu_;
+  std::int64_t next_sequence_ ABSL_GUARDED_BY(sequence_mu_) = 1;
 
   absl::Mutex events_mu_;
   std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;

@@ -5,6 +5,11 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/time/time.h"
+#include "api/geometry.h"
+#include "api/measurement.h"
+#include "api/plan.h"
+#include "api/spec.h"
 #include "core/common/status_macros.h"
 
 namespace oaipp::server {
@@ -33,7 +38,8 @@ absl::StatusOr<std::string> MissionRegistry::ParseName(absl::string_view name,
 
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mission_id,
                                                                  MissionConfig config,
-                                                                 const std::string& request_id) {
+                                                                 const std::string& request_id,
+                                                                 const std::string& fingerprint) {
   if (!mission_id.empty() && !ValidId(mission_id)) {
     return absl::InvalidArgumentError(
         absl::StrCat("mission_id: must match [a-z0-9-]{1,63}, got \"", mission_id, "\""));
@@ -57,8 +63,14 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
                                                         "', which is gone or still being built"));
     }
     if (mission_id.empty()) {
+      // With a store the number comes from it, so ids never repeat across
+      // restarts (a retry of an old request cannot land in a new mission).
       do {
-        mission_id = absl::StrFormat("m-%06d", next_id_++);
+        std::int64_t number = next_id_++;
+        if (store_ != nullptr) {
+          OAIPP_ASSIGN_OR_RETURN(number, store_->NextMissionNumber());
+        }
+        mission_id = absl::StrFormat("m-%06d", number);
       } while (missions_.contains(mission_id));
     }
     if (missions_.contains(mission_id)) {
@@ -71,8 +83,18 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     }
     missions_[mission_id] = nullptr;  // reserve the id while the map is built
   }
+  const std::string spec = api::ConfigToMissionSpec(config).SerializeAsString();
   absl::StatusOr<std::shared_ptr<Mission>> mission =
       Mission::Create(mission_id, std::move(config), priors_.get());
+  if (mission.ok() && store_ != nullptr) {
+    const absl::Status stored = store_->CreateMission(
+        {.id = mission_id,
+         .spec = spec,
+         .request_id = request_id,
+         .fingerprint = fingerprint,
+         .create_time_unix_us = absl::ToUnixMicros((*mission)->Snapshot().create_time)});
+    if (!stored.ok()) mission = stored;
+  }
   absl::MutexLock lock(&mu_);
   if (!mission.ok()) {
     missions_.erase(mission_id);
@@ -84,6 +106,73 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     created_by_request_.Remember(request_id, mission_id);
   }
   return mission;
+}
+
+namespace {
+
+// One stored record applied to a mission being rebuilt, as the original call
+// was: the request read back and converted by api/.
+absl::Status Replay(Mission& mission, const LogRecord& record) {
+  switch (record.kind) {
+    case RecordKind::kObstacles: {
+      v1::UpdateObstaclesRequest request;
+      if (!request.ParseFromString(record.payload)) break;
+      OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, api::ObstacleChangeFromProto(request));
+      return mission.UpdateObstacles(change, record.request_id).status();
+    }
+    case RecordKind::kMeasurement: {
+      v1::AddMeasurementRequest request;
+      if (!request.ParseFromString(record.payload)) break;
+      OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, api::MeasurementFromProto(request));
+      return mission.AddMeasurement(input, record.request_id).status();
+    }
+    case RecordKind::kPlan: {
+      v1::PlanPathResponse response;
+      if (!response.ParseFromString(record.result)) break;
+      OAIPP_ASSIGN_OR_RETURN(PlannedPath path, api::PlannedPathFromProto(response));
+      return mission.RestorePlan(record.request_id, std::move(path), record.planner_state);
+    }
+  }
+  return absl::DataLossError("the record does not parse");
+}
+
+}  // namespace
+
+absl::StatusOr<int> MissionRegistry::Recover() {
+  if (store_ == nullptr) return 0;
+  OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> stored, store_->LoadAll());
+  int recovered = 0;
+  for (const StoredMission& m : stored) {
+    const auto failed = [&](absl::string_view what, const absl::Status& status) {
+      return absl::Status(status.code(), absl::StrCat("recovering mission '", m.id, "': ", what,
+                                                      ": ", status.message()));
+    };
+    v1::MissionSpec spec;
+    if (!spec.ParseFromString(m.spec)) {
+      return failed("spec", absl::DataLossError("does not parse"));
+    }
+    absl::StatusOr<MissionConfig> config = api::MissionSpecToConfig(spec);
+    if (!config.ok()) return failed("spec", config.status());
+    absl::StatusOr<std::shared_ptr<Mission>> mission =
+        Mission::Create(m.id, *std::move(config), priors_.get());
+    if (!mission.ok()) return failed("creating", mission.status());
+    for (const LogRecord& record : m.log) {
+      const std::string where = absl::StrCat("record ", record.sequence);
+      if (record.sequence != (*mission)->next_sequence()) {
+        return failed(where, absl::DataLossError(
+                                 absl::StrCat("expected sequence ", (*mission)->next_sequence())));
+      }
+      if (absl::Status status = Replay(**mission, record); !status.ok()) {
+        return failed(where, status);
+      }
+    }
+    absl::MutexLock lock(&mu_);
+    missions_[m.id] = *mission;
+    order_.push_back(m.id);
+    created_by_request_.Remember(m.request_id, m.id);
+    ++recovered;
+  }
+  return recovered;
 }
 
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view name) const {
@@ -116,7 +205,15 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
     }
     auto it = missions_.find(id);
     if (it == missions_.end() || it->second == nullptr) {
+      // Deleted by this request_id before a restart?
+      if (store_ != nullptr && !request_id.empty() && store_->DeletedBy(request_id).ok()) {
+        return absl::OkStatus();
+      }
       return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+    }
+    // Durable first: a failed delete leaves the mission in place.
+    if (store_ != nullptr) {
+      OAIPP_RETURN_IF_ERROR(store_->DeleteMission(id, request_id));
     }
     mission = it->second;
     missions_.erase(it);

@@ -17,6 +17,7 @@
 #include "core/mapping/prior_cache.h"
 #include "server/mission.h"
 #include "server/request_memo.h"
+#include "server/store/mission_store.h"
 
 namespace oaipp::server {
 
@@ -33,27 +34,44 @@ struct RegistryLimits {
 
 class MissionRegistry {
  public:
-  explicit MissionRegistry(RegistryLimits limits)
+  // store: where missions are kept durably (must outlive the registry);
+  // nullptr keeps them in memory only.
+  explicit MissionRegistry(RegistryLimits limits, MissionStore* store = nullptr)
       : limits_(limits),
         priors_(limits.prior_cache > 0 ? std::make_unique<PriorCache>(limits.prior_cache)
-                                       : nullptr) {}
+                                       : nullptr),
+        store_(store) {}
+
+  // Loads every mission of the store and replays its log: the same
+  // obstacles, map, counters, planner state and request_id records as
+  // before the restart. Call once, before serving. Returns how many missions
+  // came back; an error names the mission and record that could not be
+  // read (the registry then holds the missions before it).
+  [[nodiscard]] absl::StatusOr<int> Recover();
 
   // Creates a mission. mission_id: [a-z0-9-]{1,63}, or empty for a new one.
   // InvalidArgument for a bad id, AlreadyExists for a taken one,
   // ResourceExhausted past max_missions or max_cells_per_mission. A retry
   // with the same non-empty request_id returns the mission first created.
-  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Create(std::string mission_id,
-                                                                MissionConfig config,
-                                                                const std::string& request_id);
+  // With a store, the mission's spec is written durably before it is
+  // answered (Unavailable, or ResourceExhausted for a full disk, when that
+  // fails; the id is then free again); fingerprint identifies the request
+  // behind request_id.
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Create(
+      std::string mission_id, MissionConfig config, const std::string& request_id,
+      const std::string& fingerprint = "");
   // name: "missions/{mission_id}". InvalidArgument if malformed, NotFound.
   [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Get(absl::string_view name) const;
   // Missions in creation order from `offset`, at most `limit`.
   [[nodiscard]] std::vector<std::shared_ptr<Mission>> List(std::size_t offset,
                                                            std::size_t limit) const;
-  // Removes a mission (watchers are told). NotFound unless it exists or the
-  // same request_id deleted it before.
+  // Removes a mission (watchers are told), from the store first when there
+  // is one. NotFound unless it exists or the same request_id deleted it
+  // before (also before a restart).
   [[nodiscard]] absl::Status Delete(absl::string_view name, const std::string& request_id);
   [[nodiscard]] std::size_t size() const;
+  // The durable store, or nullptr.
+  [[nodiscard]] MissionStore* store() const { return store_; }
   [[nodiscard]] std::int64_t MemoryBytes() const;
   // Prior covariances computed so far (missions of one grid shape and GP
   // parameters share one).
@@ -71,6 +89,7 @@ class MissionRegistry {
   // Prior covariances shared by missions over the same kind of field: a
   // fleet computes each once (0.3 s for 1600 cells) and copies it.
   const std::unique_ptr<PriorCache> priors_;
+  MissionStore* const store_;
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).
   std::map<std::string, std::shared_ptr<Mission>> missions_ ABSL_GUARDED_BY(mu_);

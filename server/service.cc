@@ -14,6 +14,7 @@
 #include "core/common/status_macros.h"
 #include "google/protobuf/util/time_util.h"
 #include "render/map_render.h"
+#include "server/store/fingerprint.h"
 #include "spdlog/spdlog.h"
 
 namespace oaipp::server {
@@ -49,6 +50,22 @@ absl::Time PlanningDeadline(const grpc::ServerContext* context) {
   if (deadline == absl::InfiniteFuture()) return deadline;
   const absl::Duration left = deadline - absl::Now();
   return deadline - std::clamp(left / 10, absl::Milliseconds(50), absl::Milliseconds(250));
+}
+
+// The writer of one mutation's record, or nullptr without a store: the
+// request as received, its request_id and fingerprint, at the sequence number
+// the mission gives it.
+template <typename Request>
+PersistFn Recorder(MissionStore* store, const std::string& mission_id, RecordKind kind,
+                   const Request& request) {
+  if (store == nullptr) return nullptr;
+  return [store, &mission_id, kind, &request](std::int64_t sequence) {
+    return store->Append(mission_id, {.sequence = sequence,
+                                      .kind = kind,
+                                      .payload = request.SerializeAsString(),
+                                      .request_id = request.request_id(),
+                                      .fingerprint = RequestFingerprint(request)});
+  };
 }
 
 void FillMission(const Mission& mission, v1::Mission* out) {
@@ -117,9 +134,9 @@ grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext*,
                                                v1::Mission* response) {
   return Call("CreateMission", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(MissionConfig config, MissionSpecToConfig(request->spec()));
-    OAIPP_ASSIGN_OR_RETURN(
-        std::shared_ptr<Mission> mission,
-        registry_->Create(request->mission_id(), std::move(config), request->request_id()));
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
+                           registry_->Create(request->mission_id(), std::move(config),
+                                             request->request_id(), RequestFingerprint(*request)));
     FillMission(*mission, response);
     if (metrics_ != nullptr) {
       metrics_->SetMissions(static_cast<double>(registry_->size()),
@@ -183,7 +200,9 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext*,
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
     OAIPP_ASSIGN_OR_RETURN(ObstacleResult result,
-                           mission->UpdateObstacles(change, request->request_id()));
+                           mission->UpdateObstacles(change, request->request_id(),
+                                                    Recorder(registry_->store(), mission->id(),
+                                                             RecordKind::kObstacles, *request)));
     response->set_obstacle_count(result.obstacle_count);
     response->set_esdf_voxels_recomputed(result.esdf_voxels_recomputed);
     return absl::OkStatus();
@@ -197,7 +216,9 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
     OAIPP_ASSIGN_OR_RETURN(MeasurementResult result,
-                           mission->AddMeasurement(input, request->request_id()));
+                           mission->AddMeasurement(input, request->request_id(),
+                                                   Recorder(registry_->store(), mission->id(),
+                                                            RecordKind::kMeasurement, *request)));
     response->set_cells_fused(result.cells_fused);
     response->set_trace(result.trace);
     response->set_measurements_fused(result.measurements_fused);
@@ -225,8 +246,24 @@ grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
       deadline = std::min(deadline, arrival + absl::Seconds(budget));
     }
     if (context->IsCancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
-    OAIPP_ASSIGN_OR_RETURN(PlannedPath path,
-                           mission->Plan(state, next_shot, deadline, request->request_id(), gate_));
+    PersistPlanFn persist = nullptr;
+    if (MissionStore* store = registry_->store(); store != nullptr) {
+      persist = [&, store](std::int64_t sequence, const PlannedPath& planned,
+                           const std::string& planner_state) {
+        v1::PlanPathResponse answer;
+        PlannedPathToProto(planned, &answer);
+        return store->Append(mission->id(), {.sequence = sequence,
+                                             .kind = RecordKind::kPlan,
+                                             .payload = request->SerializeAsString(),
+                                             .request_id = request->request_id(),
+                                             .fingerprint = RequestFingerprint(*request),
+                                             .result = answer.SerializeAsString(),
+                                             .planner_state = planner_state});
+      };
+    }
+    OAIPP_ASSIGN_OR_RETURN(
+        PlannedPath path,
+        mission->Plan(state, next_shot, deadline, request->request_id(), gate_, nullptr, persist));
     if (metrics_ != nullptr) {
       metrics_->RecordPlan(path.stats.wall_time_s, static_cast<double>(path.stats.evaluations));
     }

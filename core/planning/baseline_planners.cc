@@ -5,6 +5,7 @@
 #include <queue>
 #include <random>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
 #include "core/planning/oaipp_planner.h"
@@ -224,6 +225,17 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
   }
   if (absl::Now() >= deadline) return absl::DeadlineExceededError("lawnmower: deadline passed");
   return absl::FailedPreconditionError(absl::StrCat("lawnmower: ", last_error.message()));
+}
+
+std::string LawnmowerPlanner::SaveState() const { return absl::StrCat(next_index_); }
+
+absl::Status LawnmowerPlanner::RestoreState(absl::string_view state) {
+  int index = 0;
+  if (!absl::SimpleAtoi(state, &index) || index < 0) {
+    return absl::InvalidArgumentError("planner state: not a lawnmower pattern index");
+  }
+  next_index_ = index;
+  return absl::OkStatus();
 }
 
 absl::Status RandomConfig::Validate() const {

@@ -53,6 +53,9 @@ class LawnmowerPlanner final : public Planner {
   // Index of the next pattern point to fly to (counts up for ever; the
   // pattern is flown back and forth).
   [[nodiscard]] int next_index() const { return next_index_; }
+  // The next pattern index, in decimal.
+  [[nodiscard]] std::string SaveState() const override;
+  [[nodiscard]] absl::Status RestoreState(absl::string_view state) override;
 
  private:
   PlannerCommon common_;

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
 #include "absl/time/time.h"
 #include "core/environment/environment.h"
@@ -83,20 +84,20 @@ struct PlannerStats {
   std::int64_t evaluations = 0;  // objective evaluations, greedy included
   int generations = 0;           // CMA-ES generations
   double wall_time_s = 0.0;
-  std::string stop_reason;         // e.g. "evaluation_budget", "deadline", "pattern"
+  std::string stop_reason = {};    // e.g. "evaluation_budget", "deadline", "pattern"
   double initial_objective = 0.0;  // the greedy start's score (OA-IPP)
 };
 
 struct PlannedPath {
   PolynomialTrajectory trajectory;
-  std::vector<Vec3> control_waypoints_W;  // c1 (the UAV's position) .. cN
-  std::vector<MeasurementPose> measurement_poses;
+  std::vector<Vec3> control_waypoints_W = {};  // c1 (the UAV's position) .. cN
+  std::vector<MeasurementPose> measurement_poses = {};
   double objective = 0.0;            // (k1 O_info - k2 C_coll) / t_flight
   double information = 0.0;          // O_info
   int collision_samples = 0;         // C_coll: ESDF samples closer than r / 2
   bool collision_free = false;       // the exact check; always true for a returned path
   double next_shot_mission_s = 0.0;  // sensor phase after the path
-  PlannerStats stats;
+  PlannerStats stats = {};
 };
 
 class Planner {
@@ -113,6 +114,17 @@ class Planner {
   [[nodiscard]] virtual absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
                                                          const UavState& state,
                                                          absl::Time deadline) = 0;
+
+  // What the planner carries from one plan to the next (the lawnmower's
+  // place in its pattern), as text that RestoreState takes back, so that a
+  // mission reloaded from storage plans as it would have. Empty for a
+  // planner that keeps nothing.
+  [[nodiscard]] virtual std::string SaveState() const { return {}; }
+  // InvalidArgument when `state` is not one SaveState of this kind gives.
+  [[nodiscard]] virtual absl::Status RestoreState(absl::string_view state) {
+    if (state.empty()) return absl::OkStatus();
+    return absl::InvalidArgumentError(absl::StrCat("planner state: ", name(), " keeps no state"));
+  }
 };
 
 }  // namespace oaipp

@@ -28,8 +28,10 @@ TEST(ServerBinaryTest, ServesAndStopsCleanlyOnSigterm) {
   ASSERT_GE(pid, 0);
   if (pid == 0) {
     const std::string listen = "--listen=" + address;
+    // The store in memory: this test is about serving and stopping; the
+    // durable store has its own tests (crash_test).
     execl(OAIPP_SERVER_BINARY, OAIPP_SERVER_BINARY, listen.c_str(),
-          "--metrics_listen=", "--log_level=warn", static_cast<char*>(nullptr));
+          "--metrics_listen=", "--log_level=warn", "--store=memory", static_cast<char*>(nullptr));
     _exit(127);
   }
   // Wait until the port accepts connections, so the channel's first

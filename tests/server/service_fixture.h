@@ -16,8 +16,9 @@ class InProcessService {
  public:
   explicit InProcessService(RegistryLimits limits = {.max_missions = 64,
                                                      .max_cells_per_mission = 1600},
-                            int planning_threads = 2, int planning_queue = 64)
-      : registry_(limits),
+                            int planning_threads = 2, int planning_queue = 64,
+                            MissionStore* store = nullptr)
+      : registry_(limits, store),
         gate_(planning_threads, planning_queue),
         service_(&registry_, &gate_, &metrics_) {
     grpc::ServerBuilder builder;

@@ -1,0 +1,330 @@
+// Durable missions in-process: a service on a real SQLite file, restarted
+// (a new registry over the same file): every mission comes back with the
+// same obstacles, map (mean and covariance bit for bit: the replay applies
+// the same calls through the same code), counters, planner state and
+// request_id answers; a store that fails leaves the mission untouched.
+#include <filesystem>
+#include <string>
+
+#include "google/protobuf/util/message_differencer.h"
+#include "gtest/gtest.h"
+#include "server/store/sqlite_store.h"
+#include "tests/server/service_fixture.h"
+
+namespace oaipp::server {
+namespace {
+
+using testing::InProcessService;
+using testing::LabelMeasurement;
+using testing::SmallSpec;
+
+class RecoveryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           (std::string("oaipp-recovery-") +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::unique_ptr<MissionStore> Open(const std::string& file = "missions.db") {
+    absl::StatusOr<std::unique_ptr<MissionStore>> store = OpenSqliteStore((dir_ / file).string());
+    EXPECT_TRUE(store.ok()) << store.status();
+    return *std::move(store);
+  }
+  std::filesystem::path dir_;
+};
+
+grpc::Status Create(v1::MissionService::Stub& stub, const std::string& id, v1::PlannerKind kind,
+                    v1::Mission* out) {
+  grpc::ClientContext c;
+  v1::CreateMissionRequest r;
+  r.set_mission_id(id);
+  r.set_request_id("create-" + id);
+  *r.mutable_spec() = SmallSpec();
+  r.mutable_spec()->mutable_planner()->set_kind(kind);
+  return stub.CreateMission(&c, r, out);
+}
+
+grpc::Status Measure(v1::MissionService::Stub& stub, const std::string& name, int i,
+                     v1::AddMeasurementResponse* out) {
+  grpc::ClientContext c;
+  v1::AddMeasurementRequest r =
+      LabelMeasurement(name, -5.0 + 1.3 * i, 5.0 - 1.1 * i, 8.0, 2.0 * i, i % 3 == 0 ? 1.0 : 0.0);
+  r.set_request_id(absl::StrCat("m", i));
+  return stub.AddMeasurement(&c, r, out);
+}
+
+grpc::Status Plan(v1::MissionService::Stub& stub, const std::string& name, double time_s,
+                  const std::string& request_id, v1::PlanPathResponse* out) {
+  grpc::ClientContext c;
+  v1::PlanPathRequest r;
+  r.set_name(name);
+  r.set_request_id(request_id);
+  *r.mutable_state() = SmallSpec().start();
+  r.mutable_state()->set_mission_time_s(time_s);
+  return stub.PlanPath(&c, r, out);
+}
+
+v1::GetMapResponse Map(v1::MissionService::Stub& stub, const std::string& name) {
+  grpc::ClientContext c;
+  v1::GetMapRequest r;
+  r.set_name(name);
+  r.set_include_cells(true);
+  v1::GetMapResponse out;
+  EXPECT_TRUE(stub.GetMap(&c, r, &out).ok());
+  return out;
+}
+
+Eigen::MatrixXd Covariance(MissionRegistry& registry, const std::string& name) {
+  Eigen::MatrixXd p;
+  absl::StatusOr<std::shared_ptr<Mission>> m = registry.Get(name);
+  EXPECT_TRUE(m.ok());
+  (*m)->ReadMap([&](const GpMap& map) { p = map.Covariance(); });
+  return p;
+}
+
+// Drives two missions (OA-IPP and the lawnmower, whose place in its pattern
+// is planner state) through obstacles, measurements and plans.
+void Drive(v1::MissionService::Stub& stub) {
+  for (const auto& [id, kind] :
+       {std::pair{"a", v1::PLANNER_KIND_OAIPP}, std::pair{"l", v1::PLANNER_KIND_LAWNMOWER}}) {
+    v1::Mission created;
+    ASSERT_TRUE(Create(stub, id, kind, &created).ok());
+    const std::string name = created.name();
+    grpc::ClientContext c;
+    v1::UpdateObstaclesRequest change;
+    change.set_name(name);
+    change.set_request_id("o1");
+    v1::Obstacle* o = change.add_add();
+    o->set_id("tower");
+    o->mutable_cylinder()->mutable_centre_m()->set_x(4);
+    o->mutable_cylinder()->mutable_centre_m()->set_y(4);
+    o->mutable_cylinder()->mutable_centre_m()->set_z(6);
+    o->mutable_cylinder()->set_radius_m(1);
+    o->mutable_cylinder()->set_height_m(12);
+    v1::UpdateObstaclesResponse changed;
+    ASSERT_TRUE(stub.UpdateObstacles(&c, change, &changed).ok());
+    for (int i = 0; i < 6; ++i) {
+      v1::AddMeasurementResponse fused;
+      ASSERT_TRUE(Measure(stub, name, i, &fused).ok());
+    }
+    v1::PlanPathResponse plan;
+    ASSERT_TRUE(Plan(stub, name, 12.0, "p1", &plan).ok());
+    ASSERT_TRUE(Plan(stub, name, 20.0, "p2", &plan).ok());
+  }
+}
+
+TEST_F(RecoveryTest, EveryMissionComesBackAsItWas) {
+  std::unique_ptr<MissionStore> store = Open();
+  auto before = std::make_unique<InProcessService>(
+      RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64, store.get());
+  Drive(before->stub());
+  std::map<std::string, v1::GetMapResponse> maps;
+  std::map<std::string, Eigen::MatrixXd> covariances;
+  std::map<std::string, v1::Mission> missions;
+  for (const std::string name : {"missions/a", "missions/l"}) {
+    maps[name] = Map(before->stub(), name);
+    covariances[name] = Covariance(before->registry(), name);
+    grpc::ClientContext c;
+    v1::GetMissionRequest r;
+    r.set_name(name);
+    ASSERT_TRUE(before->stub().GetMission(&c, r, &missions[name]).ok());
+  }
+  before.reset();
+  store.reset();
+
+  store = Open();
+  InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                         store.get());
+  absl::StatusOr<int> recovered = after.registry().Recover();
+  ASSERT_TRUE(recovered.ok()) << recovered.status();
+  EXPECT_EQ(*recovered, 2);
+  for (const std::string name : {"missions/a", "missions/l"}) {
+    SCOPED_TRACE(name);
+    const v1::GetMapResponse map = Map(after.stub(), name);
+    ASSERT_EQ(map.mean_size(), maps[name].mean_size());
+    EXPECT_EQ(map.trace(), maps[name].trace());
+    for (int i = 0; i < map.mean_size(); ++i) {
+      ASSERT_EQ(map.mean(i), maps[name].mean(i)) << i;
+      ASSERT_EQ(map.variance(i), maps[name].variance(i)) << i;
+    }
+    EXPECT_TRUE(Covariance(after.registry(), name) == covariances[name]);
+    grpc::ClientContext c;
+    v1::GetMissionRequest r;
+    r.set_name(name);
+    v1::Mission mission;
+    ASSERT_TRUE(after.stub().GetMission(&c, r, &mission).ok());
+    EXPECT_EQ(mission.measurements_fused(), missions[name].measurements_fused());
+    EXPECT_EQ(mission.paths_planned(), missions[name].paths_planned());
+    EXPECT_EQ(mission.obstacles_size(), 2);
+    EXPECT_TRUE(
+        google::protobuf::util::MessageDifferencer::Equals(mission.spec(), missions[name].spec()));
+  }
+}
+
+TEST_F(RecoveryTest, RetriesAfterARestartAreAnsweredOnceWithTheFirstResult) {
+  std::unique_ptr<MissionStore> store = Open();
+  v1::AddMeasurementResponse first_fused;
+  v1::PlanPathResponse first_plan;
+  {
+    InProcessService before(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                            store.get());
+    Drive(before.stub());
+    ASSERT_TRUE(Measure(before.stub(), "missions/a", 3, &first_fused).ok());  // a retry already
+    ASSERT_TRUE(Plan(before.stub(), "missions/l", 20.0, "p2", &first_plan).ok());
+  }
+  store = Open();
+  InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                         store.get());
+  ASSERT_TRUE(after.registry().Recover().ok());
+  v1::AddMeasurementResponse fused;
+  ASSERT_TRUE(Measure(after.stub(), "missions/a", 3, &fused).ok());
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(fused, first_fused));
+  EXPECT_EQ(fused.measurements_fused(), 4);  // the answer when it was first fused
+  v1::PlanPathResponse plan;
+  ASSERT_TRUE(Plan(after.stub(), "missions/l", 20.0, "p2", &plan).ok());
+  EXPECT_EQ(plan.SerializeAsString(), first_plan.SerializeAsString());
+  // A retried create returns the mission, not a new one; nothing was fused
+  // twice.
+  v1::Mission again;
+  ASSERT_TRUE(Create(after.stub(), "a", v1::PLANNER_KIND_OAIPP, &again).ok());
+  EXPECT_EQ(again.measurements_fused(), 6);
+}
+
+TEST_F(RecoveryTest, TheLawnmowerGoesOnFromItsPlaceInThePattern) {
+  std::unique_ptr<MissionStore> store = Open();
+  InProcessService running(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                           store.get());
+  Drive(running.stub());
+  // A copy of the file as it is now (no write in flight): a restarted twin.
+  std::filesystem::copy_file(dir_ / "missions.db", dir_ / "twin.db");
+  if (std::filesystem::exists(dir_ / "missions.db-wal")) {
+    std::filesystem::copy_file(dir_ / "missions.db-wal", dir_ / "twin.db-wal");
+  }
+  std::unique_ptr<MissionStore> twin_store = Open("twin.db");
+  InProcessService twin(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                        twin_store.get());
+  ASSERT_TRUE(twin.registry().Recover().ok());
+  v1::PlanPathResponse expected, got;
+  ASSERT_TRUE(Plan(running.stub(), "missions/l", 30.0, "p3", &expected).ok());
+  ASSERT_TRUE(Plan(twin.stub(), "missions/l", 30.0, "p3", &got).ok());
+  EXPECT_EQ(got.trajectory().SerializeAsString(), expected.trajectory().SerializeAsString());
+  ASSERT_EQ(got.control_waypoints_m_size(), expected.control_waypoints_m_size());
+  for (int i = 0; i < got.control_waypoints_m_size(); ++i) {
+    EXPECT_EQ(got.control_waypoints_m(i).x(), expected.control_waypoints_m(i).x());
+    EXPECT_EQ(got.control_waypoints_m(i).y(), expected.control_waypoints_m(i).y());
+  }
+}
+
+TEST_F(RecoveryTest, ServerAssignedIdsNeverRepeatAcrossRestarts) {
+  std::string first;
+  {
+    std::unique_ptr<MissionStore> store = Open();
+    InProcessService before({}, 2, 64, store.get());
+    grpc::ClientContext c;
+    v1::CreateMissionRequest r;
+    *r.mutable_spec() = SmallSpec();
+    v1::Mission m;
+    ASSERT_TRUE(before.stub().CreateMission(&c, r, &m).ok());
+    first = m.name();
+    grpc::ClientContext d;
+    v1::DeleteMissionRequest del;
+    del.set_name(first);
+    v1::DeleteMissionResponse deleted;
+    ASSERT_TRUE(before.stub().DeleteMission(&d, del, &deleted).ok());
+  }
+  std::unique_ptr<MissionStore> store = Open();
+  InProcessService after({}, 2, 64, store.get());
+  ASSERT_TRUE(after.registry().Recover().ok());
+  EXPECT_EQ(after.registry().size(), 0u);  // the deleted mission stays deleted
+  grpc::ClientContext c;
+  v1::CreateMissionRequest r;
+  *r.mutable_spec() = SmallSpec();
+  v1::Mission m;
+  ASSERT_TRUE(after.stub().CreateMission(&c, r, &m).ok());
+  EXPECT_EQ(first, "missions/m-000001");
+  EXPECT_EQ(m.name(), "missions/m-000002");
+}
+
+// The real store, with writes that can be made to fail (the disk gone, the
+// database down): the fault is injected, the storage is real.
+class FailingStore final : public MissionStore {
+ public:
+  explicit FailingStore(MissionStore* store) : store_(store) {}
+  bool fail = false;
+  absl::StatusOr<std::int64_t> NextMissionNumber() override { return store_->NextMissionNumber(); }
+  absl::Status CreateMission(const StoredMission& m) override {
+    return fail ? Down() : store_->CreateMission(m);
+  }
+  absl::Status Append(const std::string& id, const LogRecord& r) override {
+    return fail ? Down() : store_->Append(id, r);
+  }
+  absl::Status DeleteMission(const std::string& id, const std::string& request_id) override {
+    return fail ? Down() : store_->DeleteMission(id, request_id);
+  }
+  absl::StatusOr<std::vector<StoredMission>> LoadAll() override { return store_->LoadAll(); }
+  absl::StatusOr<std::string> DeletedBy(const std::string& r) override {
+    return store_->DeletedBy(r);
+  }
+  absl::Status Health() override { return fail ? Down() : store_->Health(); }
+
+ private:
+  static absl::Status Down() { return absl::UnavailableError("store: injected failure"); }
+  MissionStore* store_;
+};
+
+TEST_F(RecoveryTest, AFailedWriteAppliesNothing) {
+  std::unique_ptr<MissionStore> real = Open();
+  FailingStore store(real.get());
+  InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                           &store);
+  v1::Mission created;
+  ASSERT_TRUE(Create(service.stub(), "a", v1::PLANNER_KIND_LAWNMOWER, &created).ok());
+  v1::AddMeasurementResponse fused;
+  ASSERT_TRUE(Measure(service.stub(), "missions/a", 0, &fused).ok());
+  v1::PlanPathResponse plan;
+  ASSERT_TRUE(Plan(service.stub(), "missions/a", 2.0, "p1", &plan).ok());
+  const v1::GetMapResponse map = Map(service.stub(), "missions/a");
+
+  store.fail = true;
+  EXPECT_EQ(Measure(service.stub(), "missions/a", 1, &fused).error_code(),
+            grpc::StatusCode::UNAVAILABLE);
+  EXPECT_EQ(Plan(service.stub(), "missions/a", 4.0, "p2", &plan).error_code(),
+            grpc::StatusCode::UNAVAILABLE);
+  v1::Mission other;
+  EXPECT_EQ(Create(service.stub(), "b", v1::PLANNER_KIND_OAIPP, &other).error_code(),
+            grpc::StatusCode::UNAVAILABLE);
+  // Nothing changed, and the refused id is free.
+  const v1::GetMapResponse unchanged = Map(service.stub(), "missions/a");
+  EXPECT_EQ(unchanged.SerializeAsString(), map.SerializeAsString());
+  EXPECT_EQ(service.registry().size(), 1u);
+
+  store.fail = false;
+  ASSERT_TRUE(Measure(service.stub(), "missions/a", 1, &fused).ok());
+  EXPECT_EQ(fused.measurements_fused(), 2);
+  v1::PlanPathResponse retried;
+  ASSERT_TRUE(Plan(service.stub(), "missions/a", 4.0, "p2", &retried).ok());
+  ASSERT_TRUE(Create(service.stub(), "b", v1::PLANNER_KIND_OAIPP, &other).ok());
+  // The log has no gap: a restart replays it.
+  std::unique_ptr<MissionStore> reopened = Open();
+  InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                         reopened.get());
+  absl::StatusOr<int> recovered = after.registry().Recover();
+  ASSERT_TRUE(recovered.ok()) << recovered.status();
+  EXPECT_EQ(*recovered, 2);
+  EXPECT_EQ(Map(after.stub(), "missions/a").SerializeAsString(),
+            Map(service.stub(), "missions/a").SerializeAsString());
+  // The failed plan left the lawnmower where it was: the retried p2 is the
+  // one a mission that never saw the failure flies.
+  v1::Mission twin;
+  ASSERT_TRUE(Create(service.stub(), "c", v1::PLANNER_KIND_LAWNMOWER, &twin).ok());
+  ASSERT_TRUE(Plan(service.stub(), "missions/c", 2.0, "p1", &plan).ok());
+  v1::PlanPathResponse twin_p2;
+  ASSERT_TRUE(Plan(service.stub(), "missions/c", 4.0, "p2", &twin_p2).ok());
+  EXPECT_EQ(retried.trajectory().SerializeAsString(), twin_p2.trajectory().SerializeAsString());
+}
+
+}  // namespace
+}  // namespace oaipp::server
