@@ -152,7 +152,8 @@ class SqliteStore final : public MissionStore {
     return status;
   }
 
-  absl::Status DeleteMission(const std::string& mission_id, const std::string& request_id) override {
+  absl::Status DeleteMission(const std::string& mission_id,
+                             const std::string& request_id) override {
     absl::MutexLock lock(&mu_);
     OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "delete"));
     absl::Status status = [&]() -> absl::Status {
@@ -231,9 +232,10 @@ class SqliteStore final : public MissionStore {
   // disk shows.
   absl::Status Health() override {
     absl::MutexLock lock(&mu_);
-    return Exec("INSERT INTO counters(name, value) VALUES('health', 0) "
-                "ON CONFLICT(name) DO UPDATE SET value = value + 1",
-                "health");
+    return Exec(
+        "INSERT INTO counters(name, value) VALUES('health', 0) "
+        "ON CONFLICT(name) DO UPDATE SET value = value + 1",
+        "health");
   }
 
  private:
@@ -260,10 +262,9 @@ class SqliteStore final : public MissionStore {
 
 absl::StatusOr<std::unique_ptr<MissionStore>> OpenSqliteStore(const std::string& path) {
   sqlite3* db = nullptr;
-  const int code = sqlite3_open_v2(path.c_str(), &db,
-                                   SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE |
-                                       SQLITE_OPEN_FULLMUTEX,
-                                   nullptr);
+  const int code =
+      sqlite3_open_v2(path.c_str(), &db,
+                      SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_FULLMUTEX, nullptr);
   if (code != SQLITE_OK) {
     absl::Status status = absl::UnavailableError(
         absl::StrCat("store: cannot open '", path, "': ", db ? sqlite3_errmsg(db) : "no memory"));

@@ -1,18 +1,12 @@
 // The real oaipp-server binary on loopback: start, health SERVING,
 // create / measure / plan / delete, SIGTERM, clean exit.
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <signal.h>
-#include <sys/socket.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <random>
 #include <thread>
 
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "grpcpp/grpcpp.h"
 #include "gtest/gtest.h"
+#include "tests/server/server_process.h"
 #include "tests/server/service_fixture.h"
 
 namespace oaipp::server {
@@ -20,39 +14,12 @@ namespace {
 
 TEST(ServerBinaryTest, ServesAndStopsCleanlyOnSigterm) {
   // A port unlikely to be taken; the server refuses to start otherwise and
-  // the health check below fails loudly.
+  // the health check below fails loudly. The store in memory: this test is
+  // about serving and stopping; the durable store has its own (crash_test).
   std::mt19937 rng(static_cast<unsigned>(getpid()));
-  const int port = 20000 + static_cast<int>(rng() % 20000);
-  const std::string address = "127.0.0.1:" + std::to_string(port);
-  const pid_t pid = fork();
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    const std::string listen = "--listen=" + address;
-    // The store in memory: this test is about serving and stopping; the
-    // durable store has its own tests (crash_test).
-    execl(OAIPP_SERVER_BINARY, OAIPP_SERVER_BINARY, listen.c_str(),
-          "--metrics_listen=", "--log_level=warn", "--store=memory", static_cast<char*>(nullptr));
-    _exit(127);
-  }
-  // Wait until the port accepts connections, so the channel's first
-  // connection attempt succeeds (a refused one backs off for seconds).
-  for (int attempt = 0; attempt < 100; ++attempt) {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    sockaddr_in sa{};
-    sa.sin_family = AF_INET;
-    sa.sin_port = htons(static_cast<uint16_t>(port));
-    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    const bool up = connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)) == 0;
-    close(fd);
-    if (up) break;
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  }
-  // Retry the connection quickly while the server starts.
-  grpc::ChannelArguments args;
-  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
-  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 200);
-  args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
-  auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), args);
+  testing::ServerProcess server(20000 + static_cast<int>(rng() % 20000), {"--store=memory"});
+  ASSERT_TRUE(server.Start()) << "oaipp-server did not start on " << server.address();
+  auto channel = testing::QuickReconnectChannel(server.address());
   auto health = grpc::health::v1::Health::NewStub(channel);
   bool serving = false;
   for (int attempt = 0; attempt < 100 && !serving; ++attempt) {
@@ -65,7 +32,7 @@ TEST(ServerBinaryTest, ServesAndStopsCleanlyOnSigterm) {
               response.status() == grpc::health::v1::HealthCheckResponse::SERVING;
     if (!serving) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  ASSERT_TRUE(serving) << "server did not report SERVING on " << address;
+  ASSERT_TRUE(serving) << "server did not report SERVING on " << server.address();
 
   auto stub = v1::MissionService::NewStub(channel);
   testing::CreateSmall(*stub, "live");
@@ -100,9 +67,7 @@ TEST(ServerBinaryTest, ServesAndStopsCleanlyOnSigterm) {
   stub.reset();
   health.reset();
   channel.reset();
-  ASSERT_EQ(kill(pid, SIGTERM), 0);
-  int status = 0;
-  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  const int status = server.Stop(SIGTERM);
   EXPECT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0);
 }

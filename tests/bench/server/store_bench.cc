@@ -33,7 +33,7 @@ std::filesystem::path FreshDir(const std::string& name) {
 
 // A service in-process over `store` (nullptr: memory) holding missions.
 struct Service {
-  explicit Service(server::MissionStore* store) : registry({}, store) {
+  explicit Service(server::MissionStore* store) : registry({.max_missions = 128}, store) {
     grpc::ServerBuilder builder;
     builder.RegisterService(&service);
     server = builder.BuildAndStart();
