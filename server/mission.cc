@@ -7,8 +7,6 @@
 #include "core/mapping/camera.h"
 
 namespace oaipp::server {
-namespace {}  // namespace
-
 void EventQueue::Push(MissionEventData event) {
   absl::MutexLock lock(&mu_);
   if (closed_) return;
@@ -265,10 +263,8 @@ absl::Status Mission::Persist(const PersistFn& persist) {
 
 absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                                   const std::string& planner_state) {
-  absl::MutexLock lock(&sequence_mu_);
-  if (persist) OAIPP_RETURN_IF_ERROR(persist(next_sequence_, path, planner_state));
-  ++next_sequence_;
-  return absl::OkStatus();
+  if (!persist) return Persist(nullptr);
+  return Persist([&](std::int64_t sequence) { return persist(sequence, path, planner_state); });
 }
 
 absl::Status Mission::RestorePlan(const std::string& request_id, PlannedPath path,

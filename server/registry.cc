@@ -83,7 +83,10 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     }
     missions_[mission_id] = nullptr;  // reserve the id while the map is built
   }
-  const std::string spec = api::ConfigToMissionSpec(config).SerializeAsString();
+  // The effective spec, written with every default filled in (only when
+  // there is a store to write it to).
+  const std::string spec =
+      store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
   absl::StatusOr<std::shared_ptr<Mission>> mission =
       Mission::Create(mission_id, std::move(config), priors_.get());
   if (mission.ok() && store_ != nullptr) {
