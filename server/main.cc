@@ -44,6 +44,15 @@ ABSL_FLAG(std::string, store, "sqlite",
 ABSL_FLAG(std::string, data_dir, "./data",
           "folder of the sqlite store (created at start); back it up with sqlite3's .backup");
 ABSL_FLAG(double, shutdown_grace_s, 10.0, "time in-flight calls get to finish on SIGTERM");
+ABSL_FLAG(int, snapshot_every, 16,
+          "with a store: snapshot a mission's map and state after this many measurements (or 4x "
+          "as many records) since its last one, so recovery replays at most that many; 0: never");
+ABSL_FLAG(int, recovery_threads, 2, "threads that rebuild missions from the store at start");
+ABSL_FLAG(absl::Duration, keep_finished, absl::Hours(7 * 24),
+          "how long a mission whose flight budget is spent is kept after its last change, "
+          "then deleted with its records ('inf': forever)");
+ABSL_FLAG(absl::Duration, keep_idle, absl::Hours(30 * 24),
+          "how long any mission is kept after its last change ('inf': forever)");
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("OA-IPP planning service (oaipp.v1.MissionService)");
@@ -56,10 +65,14 @@ int main(int argc, char** argv) {
   const int planning_queue = absl::GetFlag(FLAGS_planning_queue);
   if (threads < 2 || planning_threads < 1 || planning_queue < 0 ||
       absl::GetFlag(FLAGS_max_missions) < 1 || absl::GetFlag(FLAGS_max_cells) < 1 ||
+      absl::GetFlag(FLAGS_snapshot_every) < 0 || absl::GetFlag(FLAGS_recovery_threads) < 1 ||
+      absl::GetFlag(FLAGS_keep_finished) <= absl::ZeroDuration() ||
+      absl::GetFlag(FLAGS_keep_idle) <= absl::ZeroDuration() ||
       absl::GetFlag(FLAGS_prior_cache) < 0) {
     spdlog::error(
         "bad flags: need worker_threads >= 2, planning_threads >= 1, "
-        "planning_queue >= 0, max_missions >= 1, max_cells >= 1, prior_cache >= 0");
+        "planning_queue >= 0, max_missions >= 1, max_cells >= 1, prior_cache >= 0, "
+        "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0");
     return 2;
   }
 
@@ -94,7 +107,10 @@ int main(int argc, char** argv) {
 
   oaipp::server::MissionRegistry registry({.max_missions = absl::GetFlag(FLAGS_max_missions),
                                            .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells),
-                                           .prior_cache = absl::GetFlag(FLAGS_prior_cache)},
+                                           .prior_cache = absl::GetFlag(FLAGS_prior_cache),
+                                           .snapshot_every = absl::GetFlag(FLAGS_snapshot_every),
+                                           .recovery_threads =
+                                               absl::GetFlag(FLAGS_recovery_threads)},
                                           store.get());
   {
     const absl::Time started = absl::Now();
@@ -166,6 +182,19 @@ int main(int argc, char** argv) {
     }
   });
 
+  // Retention: finished and idle missions leave memory and the store.
+  std::thread sweeper([&] {
+    const absl::Duration keep_finished = absl::GetFlag(FLAGS_keep_finished);
+    const absl::Duration keep_idle = absl::GetFlag(FLAGS_keep_idle);
+    const absl::Duration every =
+        std::clamp(std::min(keep_finished, keep_idle) / 10, absl::Seconds(1), absl::Minutes(1));
+    while (!stopping.WaitForNotificationWithTimeout(every)) {
+      for (const std::string& id : registry.Sweep(absl::Now(), keep_finished, keep_idle)) {
+        spdlog::info("mission event=expired name=missions/{}", id);
+      }
+    }
+  });
+
   std::thread waiter([&] {
     int signal = 0;
     sigwait(&signals, &signal);
@@ -179,6 +208,7 @@ int main(int argc, char** argv) {
   server->Wait();
   waiter.join();
   store_watch.join();
+  sweeper.join();
   spdlog::info("oaipp-server stopped");
   return 0;
 }

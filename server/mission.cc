@@ -62,7 +62,7 @@ Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap ma
                  std::unique_ptr<Planner> planner)
     : id_(std::move(id)),
       config_(std::move(config)),
-      create_time_(absl::Now()),
+      create_time_(absl::FromUnixMicros(absl::ToUnixMicros(absl::Now()))),  // as stored
       memory_bytes_(8 * static_cast<std::int64_t>(map.num_cells()) *
                         (static_cast<std::int64_t>(map.num_cells()) + 1) +
                     static_cast<std::int64_t>(env.esdf().MemoryBytes())),
@@ -82,6 +82,50 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   absl::MutexLock lock(&mission->mu_);
   OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
   mission->mission_time_s_ = mission->config_.start.mission_time_s;
+  return mission;
+}
+
+absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, MissionConfig config,
+                                                          MissionState state) {
+  OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
+  OAIPP_RETURN_IF_ERROR(env.Apply({.add = state.obstacles}));
+  OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
+  if (state.mean.size() != grid.num_cells() || state.covariance.rows() != grid.num_cells() ||
+      state.covariance.cols() != grid.num_cells()) {
+    return absl::InvalidArgumentError(absl::StrCat("state: a map of ", state.mean.size(),
+                                                   " cells does not fit the ", grid.num_cells(),
+                                                   "-cell field of the spec"));
+  }
+  for (int cell : state.covered_cells) {
+    if (!grid.IsValidCell(cell)) {
+      return absl::InvalidArgumentError(absl::StrCat("state: covered cell ", cell, " is outside the field"));
+    }
+  }
+  OAIPP_ASSIGN_OR_RETURN(GpMap map,
+                         GpMap::FromPrior(grid, std::move(state.mean), std::move(state.covariance)));
+  OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
+  OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
+  std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
+                                               std::move(map), std::move(planner)));
+  {
+    absl::MutexLock lock(&mission->mu_);
+    mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
+    mission->measurements_fused_ = state.measurements_fused;
+    mission->mission_time_s_ = state.mission_time_s;
+  }
+  {
+    absl::MutexLock lock(&mission->sequence_mu_);
+    mission->next_sequence_ = state.sequence + 1;
+  }
+  {
+    absl::MutexLock lock(&mission->idempotency_mu_);
+    for (auto& [request_id, answer] : state.answers) {
+      mission->done_.Remember(request_id, std::move(answer));
+    }
+  }
+  mission->paths_planned_ = state.paths_planned;
+  mission->snapshot_sequence_ = state.sequence;
+  mission->snapshot_measurements_ = state.measurements_fused;
   return mission;
 }
 
@@ -134,6 +178,7 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
     Remember(request_id, result);
   }
   Emit(MissionEventData::ObstaclesChanged{result.obstacle_count});
+  MaybeWantSnapshot();
   return result;
 }
 
@@ -194,6 +239,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     Remember(request_id, result);
   }
   Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused, result.trace});
+  MaybeWantSnapshot();
   return result;
 }
 
@@ -251,6 +297,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
                                      path->objective, path->control_waypoints_W});
+  MaybeWantSnapshot();
   return path;
 }
 
@@ -258,7 +305,73 @@ absl::Status Mission::Persist(const PersistFn& persist) {
   absl::MutexLock lock(&sequence_mu_);
   if (persist) OAIPP_RETURN_IF_ERROR(persist(next_sequence_));
   ++next_sequence_;
+  last_change_unix_us_ = absl::ToUnixMicros(absl::Now());
   return absl::OkStatus();
+}
+
+MissionState Mission::CaptureState() const {
+  // The locks every change takes (a plan holds planner_mu_, a mutation mu_),
+  // so that nothing changes while the state is copied.
+  absl::MutexLock planner_lock(&planner_mu_);
+  absl::ReaderMutexLock lock(&mu_);
+  MissionState state;
+  state.sequence = next_sequence() - 1;
+  for (const auto& [id, o] : env_.obstacles()) state.obstacles.push_back(o);
+  state.covered_cells.assign(covered_cells_.begin(), covered_cells_.end());
+  state.mean = map_.Mean();
+  state.covariance = map_.Covariance();
+  state.measurements_fused = measurements_fused_;
+  state.mission_time_s = mission_time_s_;
+  state.paths_planned = paths_planned_.load();
+  state.planner_state = planner_->SaveState();
+  absl::MutexLock memo_lock(&idempotency_mu_);
+  done_.ForEach([&](const std::string& request_id, const Result& result) {
+    state.answers.emplace_back(request_id, result);
+  });
+  return state;
+}
+
+void Mission::SetSnapshotPolicy(int every, std::function<void()> wanted) {
+  snapshot_every_ = every;
+  snapshot_wanted_ = std::move(wanted);
+}
+
+void Mission::SnapshotDone(bool stored, std::int64_t sequence, std::int64_t measurements_fused) {
+  if (stored && sequence > snapshot_sequence_.load()) {
+    snapshot_sequence_ = sequence;
+    snapshot_measurements_ = measurements_fused;
+  }
+  snapshot_pending_ = false;
+}
+
+void Mission::MaybeWantSnapshot() {
+  if (snapshot_every_ <= 0 || !snapshot_wanted_ || snapshot_pending_.load()) return;
+  std::int64_t measurements;
+  {
+    absl::ReaderMutexLock lock(&mu_);
+    measurements = measurements_fused_;
+  }
+  const std::int64_t records = next_sequence() - 1 - snapshot_sequence_.load();
+  if (measurements - snapshot_measurements_.load() < snapshot_every_ &&
+      records < 4 * static_cast<std::int64_t>(snapshot_every_)) {
+    return;
+  }
+  if (snapshot_pending_.exchange(true)) return;
+  snapshot_wanted_();
+}
+
+absl::Time Mission::last_change_time() const {
+  const std::int64_t us = last_change_unix_us_.load();
+  return us == 0 ? create_time_ : absl::FromUnixMicros(us);
+}
+
+void Mission::set_last_change_time(absl::Time time) {
+  last_change_unix_us_ = absl::ToUnixMicros(time);
+}
+
+bool Mission::finished() const {
+  absl::ReaderMutexLock lock(&mu_);
+  return mission_time_s_ - config_.start.mission_time_s >= config_.budget_s;
 }
 
 absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
@@ -319,6 +432,19 @@ std::shared_ptr<EventQueue> Mission::Subscribe() {
 void Mission::Unsubscribe(const std::shared_ptr<EventQueue>& queue) {
   absl::MutexLock lock(&events_mu_);
   std::erase(watchers_, queue);
+}
+
+void Mission::HandWatchersTo(Mission& successor) {
+  std::vector<std::shared_ptr<EventQueue>> watchers;
+  std::int64_t sequence;
+  {
+    absl::MutexLock lock(&events_mu_);
+    watchers.swap(watchers_);
+    sequence = sequence_;
+  }
+  absl::MutexLock lock(&successor.events_mu_);
+  successor.sequence_ = std::max(successor.sequence_, sequence);
+  for (auto& w : watchers) successor.watchers_.push_back(std::move(w));
 }
 
 void Mission::MarkDeleted() {

@@ -27,6 +27,7 @@
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
+#include "Eigen/Core"
 #include "api/mission_config.h"
 #include "core/environment/environment.h"
 #include "core/mapping/gp_map.h"
@@ -109,6 +110,25 @@ struct MissionSnapshot {
   absl::Time create_time;
 };
 
+// The first answer to a request_id.
+using RequestResult = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
+
+// Everything a mission holds after the record `sequence` of its log, but its
+// config: what a snapshot stores, and what Mission::Restore starts from.
+struct MissionState {
+  std::int64_t sequence = 0;
+  std::vector<Obstacle> obstacles = {};
+  std::vector<int> covered_cells = {};  // fused as near-certain zeros
+  Eigen::VectorXd mean = {};
+  Eigen::MatrixXd covariance = {};
+  std::int64_t measurements_fused = 0;
+  double mission_time_s = 0.0;
+  std::int64_t paths_planned = 0;
+  std::string planner_state = {};  // Planner::SaveState
+  // request_id -> first answer, oldest first.
+  std::vector<std::pair<std::string, RequestResult>> answers = {};
+};
+
 // Writes the record of a change to durable storage, given its sequence
 // number in the mission's log, before the change is applied; an error stops
 // the change (nothing is applied) and is returned to the caller.
@@ -127,6 +147,12 @@ class Mission {
   // the same grid shape and GP parameters); nullptr computes it.
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(
       std::string id, MissionConfig config, PriorCache* priors = nullptr);
+  // The mission as it was in `state` (a snapshot read back): the same
+  // obstacles, map, counters, planner state and request_id answers; its log
+  // goes on at state.sequence + 1. InvalidArgument when the state does not
+  // fit the config (another grid, a planner state the planner refuses).
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(
+      std::string id, MissionConfig config, MissionState state);
   // A fresh mission with `log` applied in order (what persistence would do).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Replay(
       std::string id, MissionConfig config, const std::vector<LogEntry>& log);
@@ -165,6 +191,25 @@ class Mission {
   // mission).
   [[nodiscard]] std::int64_t next_sequence() const;
 
+  // The state after the last record of the log (for a snapshot). Waits for
+  // a plan in progress, so that planner state and map agree.
+  [[nodiscard]] MissionState CaptureState() const;
+  // Asks for a snapshot through `wanted` once `every` measurements (or 4 x
+  // `every` records of any kind) were applied since the last stored one.
+  // Set once, before the mission is shared.
+  void SetSnapshotPolicy(int every, std::function<void()> wanted);
+  // The snapshot taken by CaptureState at `sequence` is durable (stored) or
+  // failed (the mission asks again after its next change).
+  void SnapshotDone(bool stored, std::int64_t sequence, std::int64_t measurements_fused);
+  // When the mission last changed (creation, a mutation or a plan).
+  [[nodiscard]] absl::Time last_change_time() const;
+  void set_last_change_time(absl::Time time);
+  // Recovery: the time the mission was first created (before it is shared).
+  void set_create_time(absl::Time time) { create_time_ = time; }
+  // True once the flight budget is spent (a measurement or plan at or past
+  // start + budget_s).
+  [[nodiscard]] bool finished() const;
+
   // Waits only for a mutation in progress (reader lock), never for a plan.
   [[nodiscard]] MissionSnapshot Snapshot() const;
   // Memory held by the map and the ESDF: fixed at creation, so reading it
@@ -179,6 +224,9 @@ class Mission {
   // Watchers get every event after they subscribe.
   [[nodiscard]] std::shared_ptr<EventQueue> Subscribe();
   void Unsubscribe(const std::shared_ptr<EventQueue>& queue);
+  // Moves this mission's watchers to `successor` (the same mission read
+  // back from the store).
+  void HandWatchersTo(Mission& successor);
   // Tells watchers the mission is gone and closes their queues.
   void MarkDeleted();
 
@@ -196,7 +244,9 @@ class Mission {
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                            const std::string& planner_state);
   void Emit(decltype(MissionEventData::event) event);
-  using Result = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
+  // After a change: asks for a snapshot when the policy says so.
+  void MaybeWantSnapshot();
+  using Result = RequestResult;
   // The first result of a request_id, if it was applied before. Callers
   // hold the lock of the operation, so check and apply are one step.
   template <typename T>
@@ -205,7 +255,7 @@ class Mission {
 
   const std::string id_;
   const MissionConfig config_;
-  const absl::Time create_time_;
+  absl::Time create_time_;  // set by the constructor, or by recovery before the mission is shared
   const std::int64_t memory_bytes_;
 
   mutable absl::Mutex mu_;
@@ -231,6 +281,15 @@ class Mission {
   // one order.
   mutable absl::Mutex sequence_mu_;
   std::int64_t next_sequence_ ABSL_GUARDED_BY(sequence_mu_) = 1;
+
+  // Snapshots: what the last stored one covered, and whether one is asked
+  // for and not yet done.
+  int snapshot_every_ = 0;
+  std::function<void()> snapshot_wanted_;
+  std::atomic<std::int64_t> snapshot_sequence_{0};
+  std::atomic<std::int64_t> snapshot_measurements_{0};
+  std::atomic<bool> snapshot_pending_{false};
+  std::atomic<std::int64_t> last_change_unix_us_{0};
 
   absl::Mutex events_mu_;
   std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;

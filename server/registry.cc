@@ -1,6 +1,8 @@
 #include "server/registry.h"
 
+#include <atomic>
 #include <cmath>
+#include <thread>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
@@ -11,6 +13,8 @@
 #include "api/plan.h"
 #include "api/spec.h"
 #include "core/common/status_macros.h"
+#include "server/store/state_codec.h"
+#include "spdlog/spdlog.h"
 
 namespace oaipp::server {
 namespace {
@@ -26,6 +30,23 @@ bool ValidId(absl::string_view id) {
 }
 
 }  // namespace
+
+MissionRegistry::MissionRegistry(RegistryLimits limits, MissionStore* store)
+    : limits_(limits),
+      priors_(limits.prior_cache > 0 ? std::make_unique<PriorCache>(limits.prior_cache) : nullptr),
+      store_(store) {
+  if (store_ != nullptr && limits_.snapshot_every > 0) {
+    snapshot_thread_ = std::thread([this] { SnapshotLoop(); });
+  }
+}
+
+MissionRegistry::~MissionRegistry() {
+  {
+    absl::MutexLock lock(&snapshot_mu_);
+    stopping_ = true;
+  }
+  if (snapshot_thread_.joinable()) snapshot_thread_.join();
+}
 
 absl::StatusOr<std::string> MissionRegistry::ParseName(absl::string_view name,
                                                        absl::string_view field) {
@@ -89,6 +110,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
   absl::StatusOr<std::shared_ptr<Mission>> mission =
       Mission::Create(mission_id, std::move(config), priors_.get());
+  if (mission.ok()) WatchForSnapshots(**mission);
   if (mission.ok() && store_ != nullptr) {
     const absl::Status stored = store_->CreateMission(
         {.id = mission_id,
@@ -141,41 +163,194 @@ absl::Status Replay(Mission& mission, const LogRecord& record) {
 
 }  // namespace
 
+absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMission& m) {
+  v1::MissionSpec spec;
+  if (!spec.ParseFromString(m.spec)) return absl::DataLossError("spec: does not parse");
+  absl::StatusOr<MissionConfig> config = api::MissionSpecToConfig(spec);
+  if (!config.ok()) return absl::DataLossError(absl::StrCat("spec: ", config.status().message()));
+  absl::StatusOr<std::shared_ptr<Mission>> mission;
+  std::int64_t last_write_us = m.create_time_unix_us;
+  if (m.snapshot.has_value()) {
+    absl::StatusOr<MissionState> state = DecodeMissionState(m.snapshot->state);
+    if (!state.ok()) return state.status();
+    if (state->sequence != m.snapshot->sequence) {
+      return absl::DataLossError(absl::StrCat("snapshot: covers record ", state->sequence,
+                                              ", stored as covering ", m.snapshot->sequence));
+    }
+    mission = Mission::Restore(m.id, *std::move(config), *std::move(state));
+    if (!mission.ok()) {
+      return absl::DataLossError(absl::StrCat("snapshot: ", mission.status().message()));
+    }
+    last_write_us = std::max(last_write_us, m.snapshot->write_time_unix_us);
+  } else {
+    mission = Mission::Create(m.id, *std::move(config), priors_.get());
+    if (!mission.ok()) {
+      return absl::Status(mission.status().code(),
+                          absl::StrCat("creating: ", mission.status().message()));
+    }
+  }
+  for (const LogRecord& record : m.log) {
+    const auto failed = [&](const absl::Status& status) {
+      return absl::Status(status.code(),
+                          absl::StrCat("record ", record.sequence, ": ", status.message()));
+    };
+    if (record.sequence != (*mission)->next_sequence()) {
+      return failed(absl::DataLossError(
+          absl::StrCat("expected sequence ", (*mission)->next_sequence())));
+    }
+    if (absl::Status status = Replay(**mission, record); !status.ok()) return failed(status);
+    last_write_us = std::max(last_write_us, record.write_time_unix_us);
+  }
+  (*mission)->set_create_time(absl::FromUnixMicros(m.create_time_unix_us));
+  (*mission)->set_last_change_time(absl::FromUnixMicros(last_write_us));
+  WatchForSnapshots(**mission);
+  return mission;
+}
+
 absl::StatusOr<int> MissionRegistry::Recover() {
   if (store_ == nullptr) return 0;
   OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> stored, store_->LoadAll());
+  // Missions are rebuilt beside each other (each replays only its own
+  // tail); they are registered in creation order.
+  std::vector<absl::StatusOr<std::shared_ptr<Mission>>> rebuilt(stored.size(),
+                                                               absl::UnknownError("not rebuilt"));
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {
+    for (std::size_t i = next++; i < stored.size(); i = next++) rebuilt[i] = Rebuild(stored[i]);
+  };
+  std::vector<std::thread> threads;
+  for (int t = 1; t < limits_.recovery_threads; ++t) threads.emplace_back(work);
+  work();
+  for (std::thread& t : threads) t.join();
   int recovered = 0;
-  for (const StoredMission& m : stored) {
-    const auto failed = [&](absl::string_view what, const absl::Status& status) {
-      return absl::Status(status.code(), absl::StrCat("recovering mission '", m.id, "': ", what,
-                                                      ": ", status.message()));
-    };
-    v1::MissionSpec spec;
-    if (!spec.ParseFromString(m.spec)) {
-      return failed("spec", absl::DataLossError("does not parse"));
-    }
-    absl::StatusOr<MissionConfig> config = api::MissionSpecToConfig(spec);
-    if (!config.ok()) return failed("spec", config.status());
-    absl::StatusOr<std::shared_ptr<Mission>> mission =
-        Mission::Create(m.id, *std::move(config), priors_.get());
-    if (!mission.ok()) return failed("creating", mission.status());
-    for (const LogRecord& record : m.log) {
-      const std::string where = absl::StrCat("record ", record.sequence);
-      if (record.sequence != (*mission)->next_sequence()) {
-        return failed(where, absl::DataLossError(
-                                 absl::StrCat("expected sequence ", (*mission)->next_sequence())));
-      }
-      if (absl::Status status = Replay(**mission, record); !status.ok()) {
-        return failed(where, status);
-      }
+  for (std::size_t i = 0; i < stored.size(); ++i) {
+    if (!rebuilt[i].ok()) {
+      return absl::Status(rebuilt[i].status().code(),
+                          absl::StrCat("recovering mission '", stored[i].id,
+                                       "': ", rebuilt[i].status().message()));
     }
     absl::MutexLock lock(&mu_);
-    missions_[m.id] = *mission;
-    order_.push_back(m.id);
-    created_by_request_.Remember(m.request_id, m.id);
+    missions_[stored[i].id] = *std::move(rebuilt[i]);
+    order_.push_back(stored[i].id);
+    created_by_request_.Remember(stored[i].request_id, stored[i].id);
     ++recovered;
   }
   return recovered;
+}
+
+absl::Status MissionRegistry::Reload(const std::string& mission_id) {
+  if (store_ == nullptr) return absl::OkStatus();
+  OAIPP_ASSIGN_OR_RETURN(StoredMission stored, store_->Load(mission_id));
+  absl::StatusOr<std::shared_ptr<Mission>> mission = Rebuild(stored);
+  if (!mission.ok()) {
+    return absl::Status(mission.status().code(), absl::StrCat("reloading mission '", mission_id,
+                                                              "': ", mission.status().message()));
+  }
+  std::shared_ptr<Mission> old;
+  {
+    absl::MutexLock lock(&mu_);
+    auto it = missions_.find(mission_id);
+    if (it == missions_.end() || it->second == nullptr) return absl::OkStatus();  // deleted since
+    old = std::exchange(it->second, *mission);
+  }
+  old->HandWatchersTo(**mission);
+  return absl::OkStatus();
+}
+
+void MissionRegistry::WatchForSnapshots(Mission& mission) {
+  if (snapshot_thread_.joinable()) {
+    mission.SetSnapshotPolicy(limits_.snapshot_every,
+                              [this, id = mission.id()] { QueueSnapshot(id); });
+  }
+}
+
+void MissionRegistry::QueueSnapshot(const std::string& mission_id) {
+  absl::MutexLock lock(&snapshot_mu_);
+  if (!stopping_) snapshot_queue_.push_back(mission_id);
+}
+
+void MissionRegistry::SnapshotLoop() {
+  while (true) {
+    std::string id;
+    {
+      absl::MutexLock lock(&snapshot_mu_);
+      const auto ready = [this]() ABSL_SHARED_LOCKS_REQUIRED(snapshot_mu_) {
+        return stopping_ || !snapshot_queue_.empty();
+      };
+      snapshot_mu_.Await(absl::Condition(&ready));
+      if (stopping_) return;
+      id = std::move(snapshot_queue_.front());
+      snapshot_queue_.pop_front();
+      snapshot_busy_ = true;
+    }
+    TakeSnapshot(id);
+    absl::MutexLock lock(&snapshot_mu_);
+    snapshot_busy_ = false;
+  }
+}
+
+void MissionRegistry::TakeSnapshot(const std::string& mission_id) {
+  absl::MutexLock write_lock(&snapshot_write_mu_);
+  std::shared_ptr<Mission> mission;
+  {
+    absl::MutexLock lock(&mu_);
+    auto it = missions_.find(mission_id);
+    if (it == missions_.end() || it->second == nullptr) return;
+    mission = it->second;
+  }
+  const MissionState state = mission->CaptureState();
+  const absl::Status stored = store_->PutSnapshot(
+      mission_id, {.sequence = state.sequence, .state = EncodeMissionState(state)});
+  if (!stored.ok()) {
+    spdlog::warn("store: snapshot of mission '{}' at record {}: {}", mission_id, state.sequence,
+                 stored.ToString());
+  } else {
+    absl::MutexLock lock(&snapshot_mu_);
+    ++snapshots_written_;
+  }
+  mission->SnapshotDone(stored.ok(), state.sequence, state.measurements_fused);
+}
+
+void MissionRegistry::FlushSnapshots() {
+  absl::MutexLock lock(&snapshot_mu_);
+  const auto idle = [this]() ABSL_SHARED_LOCKS_REQUIRED(snapshot_mu_) {
+    return stopping_ || (snapshot_queue_.empty() && !snapshot_busy_);
+  };
+  snapshot_mu_.Await(absl::Condition(&idle));
+}
+
+std::int64_t MissionRegistry::snapshots_written() const {
+  absl::MutexLock lock(&snapshot_mu_);
+  return snapshots_written_;
+}
+
+std::vector<std::string> MissionRegistry::Sweep(absl::Time now, absl::Duration keep_finished,
+                                                absl::Duration keep_idle) {
+  std::vector<std::string> expired;
+  for (const std::shared_ptr<Mission>& m : List(0, static_cast<std::size_t>(-1))) {
+    const absl::Duration unchanged = now - m->last_change_time();
+    if (unchanged >= keep_idle || (unchanged >= keep_finished && m->finished())) {
+      expired.push_back(m->id());
+    }
+  }
+  std::vector<std::string> deleted;
+  for (const std::string& id : expired) {
+    const absl::Status status = Delete(absl::StrCat(kPrefix, id), "");
+    if (status.ok()) {
+      deleted.push_back(id);
+    } else if (status.code() != absl::StatusCode::kNotFound) {
+      spdlog::warn("retention: cannot delete mission '{}': {}", id, status.ToString());
+    }
+  }
+  if (store_ != nullptr) {
+    const absl::Duration keep = std::max(keep_finished, keep_idle);
+    if (keep != absl::InfiniteDuration()) {
+      if (absl::Status s = store_->ForgetDeletionsBefore(absl::ToUnixMicros(now - keep)); !s.ok()) {
+        spdlog::warn("retention: {}", s.ToString());
+      }
+    }
+  }
+  return deleted;
 }
 
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view name) const {
@@ -202,6 +377,7 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
   OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
   std::shared_ptr<Mission> mission;
   {
+    absl::MutexLock write_lock(&snapshot_write_mu_);
     absl::MutexLock lock(&mu_);
     if (!request_id.empty()) {
       if (deleted_by_request_.Find(request_id) != nullptr) return absl::OkStatus();

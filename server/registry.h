@@ -10,10 +10,12 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
+#include "absl/time/time.h"
 #include "core/mapping/prior_cache.h"
 #include "server/mission.h"
 #include "server/request_memo.h"
@@ -30,17 +32,25 @@ struct RegistryLimits {
   // Prior covariances kept for missions over the same kind of field (8 n^2
   // bytes each); 0: every mission computes its own. Valid: >= 0.
   int prior_cache = 4;
+  // With a store: a snapshot of a mission after this many measurements (or
+  // 4 x as many records of any kind) since its last one, so that recovery
+  // replays at most that many; 0: never. Valid: >= 0.
+  int snapshot_every = 16;
+  // Threads that rebuild missions at recovery. Valid: >= 1.
+  int recovery_threads = 2;
 };
 
 class MissionRegistry {
  public:
   // store: where missions are kept durably (must outlive the registry);
   // nullptr keeps them in memory only.
-  explicit MissionRegistry(RegistryLimits limits, MissionStore* store = nullptr)
-      : limits_(limits),
-        priors_(limits.prior_cache > 0 ? std::make_unique<PriorCache>(limits.prior_cache)
-                                       : nullptr),
-        store_(store) {}
+  // With a store and snapshot_every > 0, a thread of the registry writes
+  // snapshots in the background.
+  explicit MissionRegistry(RegistryLimits limits, MissionStore* store = nullptr);
+  // Finishes the snapshot being written; drops those not begun.
+  ~MissionRegistry();
+  MissionRegistry(const MissionRegistry&) = delete;
+  MissionRegistry& operator=(const MissionRegistry&) = delete;
 
   // Loads every mission of the store and replays its log: the same
   // obstacles, map, counters, planner state and request_id records as
@@ -70,6 +80,24 @@ class MissionRegistry {
   // before (also before a restart).
   [[nodiscard]] absl::Status Delete(absl::string_view name, const std::string& request_id);
   [[nodiscard]] std::size_t size() const;
+
+  // Reads a mission back from the store and puts it in place of the one in
+  // memory: after a write whose outcome was in doubt (the store may hold a
+  // record the mission never applied). Watchers keep watching.
+  [[nodiscard]] absl::Status Reload(const std::string& mission_id);
+
+  // Retention: deletes missions whose budget is spent and that have not
+  // changed for `keep_finished`, and any mission unchanged for `keep_idle`
+  // (absl::InfiniteDuration(): kept), with their records; forgets
+  // deletions' request_ids older than the longer of the two. Returns the
+  // ids deleted.
+  std::vector<std::string> Sweep(absl::Time now, absl::Duration keep_finished,
+                                 absl::Duration keep_idle);
+
+  // Waits until every snapshot asked for so far is written or has failed.
+  void FlushSnapshots();
+  // Snapshots written since start (for tests and metrics).
+  [[nodiscard]] std::int64_t snapshots_written() const;
   // The durable store, or nullptr.
   [[nodiscard]] MissionStore* store() const { return store_; }
   [[nodiscard]] std::int64_t MemoryBytes() const;
@@ -85,6 +113,15 @@ class MissionRegistry {
                                                              absl::string_view field = "name");
 
  private:
+  // A mission rebuilt from what the store holds: its snapshot (if any),
+  // then the records after it replayed.
+  absl::StatusOr<std::shared_ptr<Mission>> Rebuild(const StoredMission& stored);
+  // Hooks a mission up to the snapshot thread.
+  void WatchForSnapshots(Mission& mission);
+  void QueueSnapshot(const std::string& mission_id);
+  void SnapshotLoop();
+  void TakeSnapshot(const std::string& mission_id);
+
   const RegistryLimits limits_;
   // Prior covariances shared by missions over the same kind of field: a
   // fleet computes each once (0.3 s for 1600 cells) and copies it.
@@ -98,6 +135,17 @@ class MissionRegistry {
   // request_id -> the mission it created / deleted.
   RequestMemo<std::string> created_by_request_ ABSL_GUARDED_BY(mu_);
   RequestMemo<std::string> deleted_by_request_ ABSL_GUARDED_BY(mu_);
+
+  // Held while a snapshot is read and written and while a mission is
+  // deleted (before mu_), so that a snapshot of a deleted mission never
+  // lands on a new one of the same id.
+  absl::Mutex snapshot_write_mu_ ABSL_ACQUIRED_BEFORE(mu_);
+  mutable absl::Mutex snapshot_mu_;
+  std::deque<std::string> snapshot_queue_ ABSL_GUARDED_BY(snapshot_mu_);
+  bool snapshot_busy_ ABSL_GUARDED_BY(snapshot_mu_) = false;
+  bool stopping_ ABSL_GUARDED_BY(snapshot_mu_) = false;
+  std::int64_t snapshots_written_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
+  std::thread snapshot_thread_;
 };
 
 }  // namespace oaipp::server

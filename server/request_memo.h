@@ -46,6 +46,12 @@ class RequestMemo {
 
   [[nodiscard]] std::size_t size() const { return values_.size(); }
 
+  // Calls f(request_id, value) for every remembered id, oldest first.
+  template <typename F>
+  void ForEach(F f) const {
+    for (const std::string& id : order_) f(id, values_.at(id));
+  }
+
  private:
   std::map<std::string, Value> values_;
   std::deque<std::string> order_;  // oldest first

@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "absl/strings/cord.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
@@ -52,6 +53,33 @@ absl::Time PlanningDeadline(const grpc::ServerContext* context) {
   return deadline - std::clamp(left / 10, absl::Milliseconds(50), absl::Milliseconds(250));
 }
 
+// A failed append as the caller sees it. A record already at that place
+// that is not this request means the mission in memory is behind its log
+// (an earlier write's outcome was in doubt): like a write in doubt, the
+// mission must be read back before it is written again.
+absl::Status AppendStatus(absl::Status status) {
+  if (status.code() == absl::StatusCode::kAlreadyExists) {
+    status = absl::UnavailableError(
+        "store: the mission's log holds a record this server did not apply; the mission is read "
+        "back from the store; retry");
+    status.SetPayload(kInDoubt, absl::Cord("conflict"));
+  }
+  return status;
+}
+
+// After a mutation failed: reads the mission back when the store may hold
+// more than memory.
+template <typename T>
+void ReloadIfInDoubt(MissionRegistry& registry, const std::string& mission_id,
+                     const absl::StatusOr<T>& result) {
+  if (result.ok() || !result.status().GetPayload(kInDoubt).has_value()) return;
+  if (absl::Status reloaded = registry.Reload(mission_id); !reloaded.ok()) {
+    spdlog::warn("store: {}", reloaded.ToString());
+  } else {
+    spdlog::info("store: mission '{}' read back after a write in doubt", mission_id);
+  }
+}
+
 // The writer of one mutation's record, or nullptr without a store: the
 // request as received, its request_id and fingerprint, at the sequence number
 // the mission gives it.
@@ -60,11 +88,11 @@ PersistFn Recorder(MissionStore* store, const std::string& mission_id, RecordKin
                    const Request& request) {
   if (store == nullptr) return nullptr;
   return [store, &mission_id, kind, &request](std::int64_t sequence) {
-    return store->Append(mission_id, {.sequence = sequence,
-                                      .kind = kind,
-                                      .payload = request.SerializeAsString(),
-                                      .request_id = request.request_id(),
-                                      .fingerprint = RequestFingerprint(request)});
+    return AppendStatus(store->Append(mission_id, {.sequence = sequence,
+                                                   .kind = kind,
+                                                   .payload = request.SerializeAsString(),
+                                                   .request_id = request.request_id(),
+                                                   .fingerprint = RequestFingerprint(request)}));
   };
 }
 
@@ -199,10 +227,12 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext*,
   return Call("UpdateObstacles", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
-    OAIPP_ASSIGN_OR_RETURN(ObstacleResult result,
-                           mission->UpdateObstacles(change, request->request_id(),
-                                                    Recorder(registry_->store(), mission->id(),
-                                                             RecordKind::kObstacles, *request)));
+    absl::StatusOr<ObstacleResult> updated =
+        mission->UpdateObstacles(change, request->request_id(),
+                                 Recorder(registry_->store(), mission->id(),
+                                          RecordKind::kObstacles, *request));
+    ReloadIfInDoubt(*registry_, mission->id(), updated);
+    OAIPP_ASSIGN_OR_RETURN(ObstacleResult result, std::move(updated));
     response->set_obstacle_count(result.obstacle_count);
     response->set_esdf_voxels_recomputed(result.esdf_voxels_recomputed);
     return absl::OkStatus();
@@ -215,10 +245,12 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
   return Call("AddMeasurement", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
-    OAIPP_ASSIGN_OR_RETURN(MeasurementResult result,
-                           mission->AddMeasurement(input, request->request_id(),
-                                                   Recorder(registry_->store(), mission->id(),
-                                                            RecordKind::kMeasurement, *request)));
+    absl::StatusOr<MeasurementResult> fused =
+        mission->AddMeasurement(input, request->request_id(),
+                                Recorder(registry_->store(), mission->id(),
+                                         RecordKind::kMeasurement, *request));
+    ReloadIfInDoubt(*registry_, mission->id(), fused);
+    OAIPP_ASSIGN_OR_RETURN(MeasurementResult result, std::move(fused));
     response->set_cells_fused(result.cells_fused);
     response->set_trace(result.trace);
     response->set_measurements_fused(result.measurements_fused);
@@ -252,18 +284,20 @@ grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
                            const std::string& planner_state) {
         v1::PlanPathResponse answer;
         PlannedPathToProto(planned, &answer);
-        return store->Append(mission->id(), {.sequence = sequence,
-                                             .kind = RecordKind::kPlan,
-                                             .payload = request->SerializeAsString(),
-                                             .request_id = request->request_id(),
-                                             .fingerprint = RequestFingerprint(*request),
-                                             .result = answer.SerializeAsString(),
-                                             .planner_state = planner_state});
+        return AppendStatus(store->Append(mission->id(),
+                                          {.sequence = sequence,
+                                           .kind = RecordKind::kPlan,
+                                           .payload = request->SerializeAsString(),
+                                           .request_id = request->request_id(),
+                                           .fingerprint = RequestFingerprint(*request),
+                                           .result = answer.SerializeAsString(),
+                                           .planner_state = planner_state}));
       };
     }
-    OAIPP_ASSIGN_OR_RETURN(
-        PlannedPath path,
-        mission->Plan(state, next_shot, deadline, request->request_id(), gate_, nullptr, persist));
+    absl::StatusOr<PlannedPath> planned =
+        mission->Plan(state, next_shot, deadline, request->request_id(), gate_, nullptr, persist);
+    ReloadIfInDoubt(*registry_, mission->id(), planned);
+    OAIPP_ASSIGN_OR_RETURN(PlannedPath path, std::move(planned));
     if (metrics_ != nullptr) {
       metrics_->RecordPlan(path.stats.wall_time_s, static_cast<double>(path.stats.evaluations));
     }

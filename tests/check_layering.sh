@@ -26,6 +26,9 @@ forbid render 'api/|server/|client/|sim/|oaipp/v1/|grpc|google/protobuf' \
 forbid sim    'server/|client/' 'the simulated world reads specs through api/'
 forbid client 'server/' 'clients talk to the server over the API only'
 forbid server 'client/|sim/' 'the server does not link the simulation'
+for m in core api render sim client; do
+  forbid "$m" 'oaipp/store/' 'the snapshot format is the server'"'"'s own'
+done
 
 if [ "$status" -eq 0 ]; then echo "layering: every module includes only what it may"; fi
 exit "$status"

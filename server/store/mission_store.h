@@ -1,13 +1,18 @@
 // Where missions live between restarts: a mission is its log (the spec at
 // creation, then every applied change in order, each with a per-mission
 // sequence number) plus the request_id records that let a retry after a
-// restart be answered once (docs/storage.md).
+// restart be answered once (docs/storage.md). A snapshot (the mission's
+// state after some record, as bytes the server writes) lets recovery skip
+// the records it covers; the store then drops them, so a mission takes a
+// snapshot and a short tail, however long it runs.
 //
 // A MissionStore only stores and returns bytes: the records hold the API's
 // own messages (serialized protobuf), so the server that reads them back
 // converts them with api/ exactly as it converted the original calls.
 // Appends are conditional: (mission, sequence) is unique, so a record is
 // never written twice and a writer that lost track is refused.
+//
+// Every method may be called from many threads at once.
 //
 //   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<MissionStore> store, OpenSqliteStore("data"));
 //   OAIPP_RETURN_IF_ERROR(store->CreateMission(created));
@@ -16,6 +21,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,8 +32,8 @@ namespace oaipp::server {
 
 // What a log record holds.
 enum class RecordKind : int {
-  kObstacles = 1,    // payload: v1::UpdateObstaclesRequest; result: UpdateObstaclesResponse
-  kMeasurement = 2,  // payload: v1::AddMeasurementRequest; result: AddMeasurementResponse
+  kObstacles = 1,    // payload: v1::UpdateObstaclesRequest
+  kMeasurement = 2,  // payload: v1::AddMeasurementRequest
   kPlan = 3,         // payload: v1::PlanPathRequest; result: PlanPathResponse; planner_state
 };
 
@@ -37,10 +43,19 @@ struct LogRecord {
   std::string payload = {};      // the request as applied (serialized)
   std::string request_id = {};   // empty when the caller sent none
   std::string fingerprint = {};  // of the request, to tell a retry from a reuse
-  std::string result = {};       // the first answer (serialized response)
+  std::string result = {};       // the first answer (serialized response), where replay
+                                 // cannot recompute it
   // The planner's state after this record (kPlan), as Planner::SaveState
   // gives it; empty when the planner keeps none.
   std::string planner_state = {};
+  std::int64_t write_time_unix_us = 0;  // when it was written (set by the writer)
+};
+
+// A mission's state after record `sequence` (the server's own encoding).
+struct StoredSnapshot {
+  std::int64_t sequence = 0;
+  std::string state = {};
+  std::int64_t write_time_unix_us = 0;
 };
 
 struct StoredMission {
@@ -49,6 +64,8 @@ struct StoredMission {
   std::string request_id = {};
   std::string fingerprint = {};
   std::int64_t create_time_unix_us = 0;
+  // The latest snapshot, if any; `log` then holds only the records after it.
+  std::optional<StoredSnapshot> snapshot = std::nullopt;
   std::vector<LogRecord> log = {};  // by sequence
 };
 
@@ -61,20 +78,39 @@ class MissionStore {
   [[nodiscard]] virtual absl::StatusOr<std::int64_t> NextMissionNumber() = 0;
   // The mission's spec, durably. AlreadyExists when the id is taken.
   [[nodiscard]] virtual absl::Status CreateMission(const StoredMission& mission) = 0;
-  // One record, durably, after those before it. AlreadyExists when the
-  // mission already has `record.sequence`; NotFound for an unknown mission.
+  // One record, durably, after those before it. When the mission already
+  // has `record.sequence`: OK if the stored record is the same request
+  // (payload, request_id and fingerprint: a retry of a write whose outcome
+  // was in doubt), AlreadyExists otherwise. NotFound for an unknown mission.
+  // Unavailable (ResourceExhausted for a full disk) when the store cannot
+  // be written; the record is then not stored, unless the status carries
+  // the payload kInDoubt (the connection was lost while committing).
   [[nodiscard]] virtual absl::Status Append(const std::string& mission_id,
                                             const LogRecord& record) = 0;
-  // Removes the mission and its records; remembers request_id (if any) as
-  // having deleted it. NotFound for an unknown mission.
+  // Replaces the mission's snapshot with a later one and drops the records
+  // it covers. A snapshot older than the stored one is ignored (OK).
+  // NotFound for an unknown mission.
+  [[nodiscard]] virtual absl::Status PutSnapshot(const std::string& mission_id,
+                                                 const StoredSnapshot& snapshot) = 0;
+  // Removes the mission, its records and snapshot; remembers request_id (if
+  // any) as having deleted it. NotFound for an unknown mission.
   [[nodiscard]] virtual absl::Status DeleteMission(const std::string& mission_id,
                                                    const std::string& request_id) = 0;
-  // Every mission, with its log in sequence order.
+  // Every mission: its latest snapshot and the records after it.
   [[nodiscard]] virtual absl::StatusOr<std::vector<StoredMission>> LoadAll() = 0;
+  // One mission, as LoadAll gives it. NotFound for an unknown mission.
+  [[nodiscard]] virtual absl::StatusOr<StoredMission> Load(const std::string& mission_id) = 0;
   // The mission a request_id deleted, or NotFound.
   [[nodiscard]] virtual absl::StatusOr<std::string> DeletedBy(const std::string& request_id) = 0;
+  // Forgets the request_ids of deletions made before `unix_us` (retention).
+  [[nodiscard]] virtual absl::Status ForgetDeletionsBefore(std::int64_t unix_us) = 0;
   // OK while the store can be written (it writes to find out).
   [[nodiscard]] virtual absl::Status Health() = 0;
 };
+
+// The status payload (type URL) an Append error carries when the record may
+// or may not have been stored: the writer must read the mission back before
+// it writes again.
+inline constexpr char kInDoubt[] = "oaipp.store/in-doubt";
 
 }  // namespace oaipp::server

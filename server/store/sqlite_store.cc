@@ -2,6 +2,7 @@
 
 #include <sqlite3.h>
 
+#include <deque>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -11,6 +12,10 @@
 
 namespace oaipp::server {
 namespace {
+
+// The schema version this code reads and writes (PRAGMA user_version).
+// 1: missions, records, deletions, counters. 2: + snapshots, write times.
+constexpr int kSchemaVersion = 2;
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE IF NOT EXISTS counters(
@@ -31,10 +36,24 @@ CREATE TABLE IF NOT EXISTS records(
   fingerprint TEXT NOT NULL,
   result BLOB NOT NULL,
   planner_state BLOB NOT NULL,
+  write_time_us INTEGER NOT NULL DEFAULT 0,
   PRIMARY KEY(mission_id, sequence));
+CREATE TABLE IF NOT EXISTS snapshots(
+  mission_id TEXT PRIMARY KEY REFERENCES missions(id) ON DELETE CASCADE,
+  sequence INTEGER NOT NULL,
+  state BLOB NOT NULL,
+  write_time_us INTEGER NOT NULL);
 CREATE TABLE IF NOT EXISTS deletions(
   request_id TEXT PRIMARY KEY,
-  mission_id TEXT NOT NULL);
+  mission_id TEXT NOT NULL,
+  time_us INTEGER NOT NULL DEFAULT 0);
+)sql";
+
+// From version 1 (written before snapshots): the new columns; the new table
+// comes from kSchema.
+constexpr const char* kFromVersion1 = R"sql(
+ALTER TABLE records ADD COLUMN write_time_us INTEGER NOT NULL DEFAULT 0;
+ALTER TABLE deletions ADD COLUMN time_us INTEGER NOT NULL DEFAULT 0;
 )sql";
 
 // The status for a failed SQLite call: a full disk is ResourceExhausted, a
@@ -50,6 +69,10 @@ absl::Status SqliteError(sqlite3* db, int code, absl::string_view what) {
     default:
       return absl::UnavailableError(message);
   }
+}
+
+absl::Status NoMission(const std::string& id) {
+  return absl::NotFoundError(absl::StrCat("store: no mission '", id, "'"));
 }
 
 // A prepared statement, finalized when it goes out of scope.
@@ -88,6 +111,14 @@ class Statement {
   int code_ = SQLITE_OK;
 };
 
+// An append waiting for the group commit that takes it.
+struct PendingAppend {
+  const std::string* mission_id;
+  const LogRecord* record;
+  absl::Status status = absl::OkStatus();
+  bool done = false;
+};
+
 class SqliteStore final : public MissionStore {
  public:
   explicit SqliteStore(sqlite3* db) : db_(db) {}
@@ -98,7 +129,35 @@ class SqliteStore final : public MissionStore {
     OAIPP_RETURN_IF_ERROR(Exec("PRAGMA journal_mode=WAL", "journal mode"));
     OAIPP_RETURN_IF_ERROR(Exec("PRAGMA synchronous=FULL", "synchronous"));
     OAIPP_RETURN_IF_ERROR(Exec("PRAGMA foreign_keys=ON", "foreign keys"));
-    return Exec(kSchema, "schema");
+    std::int64_t version = 0;
+    {
+      Statement s(db_, "PRAGMA user_version");
+      OAIPP_RETURN_IF_ERROR(s.prepared("schema version"));
+      if (s.Step() == SQLITE_ROW) version = s.Int(0);
+    }
+    if (version > kSchemaVersion) {
+      return absl::FailedPreconditionError(
+          absl::StrCat("store: the file has schema version ", version, "; this server reads up to ",
+                       kSchemaVersion, " (a newer server wrote it)"));
+    }
+    bool had_records = false;
+    {
+      Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'records'");
+      OAIPP_RETURN_IF_ERROR(s.prepared("schema"));
+      had_records = s.Step() == SQLITE_ROW;
+    }
+    if (version == kSchemaVersion) return Exec(kSchema, "schema");
+    OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "schema"));
+    absl::Status status = [&]() -> absl::Status {
+      if (had_records) OAIPP_RETURN_IF_ERROR(Exec(kFromVersion1, "schema upgrade"));
+      OAIPP_RETURN_IF_ERROR(Exec(kSchema, "schema"));
+      return Exec(absl::StrCat("PRAGMA user_version = ", kSchemaVersion).c_str(), "schema");
+    }();
+    if (!status.ok()) {
+      (void)Exec("ROLLBACK", "schema");
+      return status;
+    }
+    return Exec("COMMIT", "schema");
   }
 
   absl::StatusOr<std::int64_t> NextMissionNumber() override {
@@ -130,91 +189,98 @@ class SqliteStore final : public MissionStore {
     return Done(s, absl::StrCat("create mission '", m.id, "'"));
   }
 
+  // Group commit: the caller queues its record; the first caller that finds
+  // no commit in progress becomes the leader and writes everything queued,
+  // in one transaction with one fsync. Callers of different missions
+  // therefore share an fsync instead of waiting for each other's.
   absl::Status Append(const std::string& mission_id, const LogRecord& r) override {
-    absl::MutexLock lock(&mu_);
-    Statement s(db_,
-                "INSERT INTO records(mission_id, sequence, kind, payload, request_id, "
-                "fingerprint, result, planner_state) VALUES(?, ?, ?, ?, ?, ?, ?, ?)");
-    OAIPP_RETURN_IF_ERROR(s.prepared("append"));
-    s.Bind(1, mission_id);
-    s.Bind(2, r.sequence);
-    s.Bind(3, static_cast<std::int64_t>(r.kind));
-    s.Bind(4, r.payload, /*blob=*/true);
-    s.Bind(5, r.request_id);
-    s.Bind(6, r.fingerprint);
-    s.Bind(7, r.result, /*blob=*/true);
-    s.Bind(8, r.planner_state, /*blob=*/true);
-    absl::Status status = Done(s, absl::StrCat("append ", mission_id, "#", r.sequence));
-    // A record of a mission that is not there breaks the foreign key.
-    if (status.code() == absl::StatusCode::kAlreadyExists && !Exists(mission_id)) {
-      return absl::NotFoundError(absl::StrCat("store: no mission '", mission_id, "'"));
+    PendingAppend pending{.mission_id = &mission_id, .record = &r};
+    std::deque<PendingAppend*> batch;
+    {
+      absl::MutexLock lock(&queue_mu_);
+      queue_.push_back(&pending);
+      const auto can_go = [&]() ABSL_SHARED_LOCKS_REQUIRED(queue_mu_) {
+        return pending.done || !committing_;
+      };
+      queue_mu_.Await(absl::Condition(&can_go));
+      if (pending.done) return pending.status;
+      committing_ = true;
+      batch.swap(queue_);
     }
-    return status;
+    {
+      absl::MutexLock lock(&mu_);
+      CommitGroup(batch);
+    }
+    absl::MutexLock lock(&queue_mu_);
+    for (PendingAppend* p : batch) p->done = true;
+    committing_ = false;
+    return pending.status;
+  }
+
+  absl::Status PutSnapshot(const std::string& mission_id, const StoredSnapshot& snap) override {
+    absl::MutexLock lock(&mu_);
+    return InTransaction("snapshot", [&]() -> absl::Status {
+      if (!Exists(mission_id)) return NoMission(mission_id);
+      Statement s(db_,
+                  "INSERT INTO snapshots(mission_id, sequence, state, write_time_us) "
+                  "VALUES(?, ?, ?, ?) ON CONFLICT(mission_id) DO UPDATE SET "
+                  "sequence = excluded.sequence, state = excluded.state, "
+                  "write_time_us = excluded.write_time_us "
+                  "WHERE excluded.sequence > snapshots.sequence");
+      OAIPP_RETURN_IF_ERROR(s.prepared("snapshot"));
+      s.Bind(1, mission_id);
+      s.Bind(2, snap.sequence);
+      s.Bind(3, snap.state, /*blob=*/true);
+      s.Bind(4, snap.write_time_unix_us != 0 ? snap.write_time_unix_us : NowUs());
+      OAIPP_RETURN_IF_ERROR(Done(s, absl::StrCat("snapshot of '", mission_id, "'")));
+      Statement d(db_,
+                  "DELETE FROM records WHERE mission_id = ?1 AND sequence <= "
+                  "(SELECT sequence FROM snapshots WHERE mission_id = ?1)");
+      OAIPP_RETURN_IF_ERROR(d.prepared("snapshot"));
+      d.Bind(1, mission_id);
+      return Done(d, absl::StrCat("snapshot of '", mission_id, "'"));
+    });
   }
 
   absl::Status DeleteMission(const std::string& mission_id,
                              const std::string& request_id) override {
     absl::MutexLock lock(&mu_);
-    OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "delete"));
-    absl::Status status = [&]() -> absl::Status {
+    return InTransaction("delete", [&]() -> absl::Status {
       Statement s(db_, "DELETE FROM missions WHERE id = ?");
       OAIPP_RETURN_IF_ERROR(s.prepared("delete"));
       s.Bind(1, mission_id);
       OAIPP_RETURN_IF_ERROR(Done(s, "delete"));
-      if (sqlite3_changes(db_) == 0) {
-        return absl::NotFoundError(absl::StrCat("store: no mission '", mission_id, "'"));
-      }
+      if (sqlite3_changes(db_) == 0) return NoMission(mission_id);
       if (request_id.empty()) return absl::OkStatus();
-      Statement d(db_, "INSERT OR IGNORE INTO deletions(request_id, mission_id) VALUES(?, ?)");
+      Statement d(db_,
+                  "INSERT OR IGNORE INTO deletions(request_id, mission_id, time_us) "
+                  "VALUES(?, ?, ?)");
       OAIPP_RETURN_IF_ERROR(d.prepared("delete"));
       d.Bind(1, request_id);
       d.Bind(2, mission_id);
+      d.Bind(3, NowUs());
       return Done(d, "delete");
-    }();
-    if (!status.ok()) {
-      (void)Exec("ROLLBACK", "delete");
-      return status;
-    }
-    return Exec("COMMIT", "delete");
+    });
   }
 
   absl::StatusOr<std::vector<StoredMission>> LoadAll() override {
     absl::MutexLock lock(&mu_);
-    std::vector<StoredMission> out;
-    {
-      Statement s(db_,
-                  "SELECT id, spec, request_id, fingerprint, create_time_us FROM missions "
-                  "ORDER BY create_time_us, id");
-      OAIPP_RETURN_IF_ERROR(s.prepared("load missions"));
-      int code;
-      while ((code = s.Step()) == SQLITE_ROW) {
-        out.push_back({.id = s.Bytes(0),
-                       .spec = s.Bytes(1),
-                       .request_id = s.Bytes(2),
-                       .fingerprint = s.Bytes(3),
-                       .create_time_unix_us = s.Int(4)});
-      }
-      if (code != SQLITE_DONE) return SqliteError(db_, code, "load missions");
-    }
-    for (StoredMission& m : out) {
-      Statement s(db_,
-                  "SELECT sequence, kind, payload, request_id, fingerprint, result, planner_state "
-                  "FROM records WHERE mission_id = ? ORDER BY sequence");
-      OAIPP_RETURN_IF_ERROR(s.prepared("load records"));
-      s.Bind(1, m.id);
-      int code;
-      while ((code = s.Step()) == SQLITE_ROW) {
-        m.log.push_back({.sequence = s.Int(0),
-                         .kind = static_cast<RecordKind>(s.Int(1)),
-                         .payload = s.Bytes(2),
-                         .request_id = s.Bytes(3),
-                         .fingerprint = s.Bytes(4),
-                         .result = s.Bytes(5),
-                         .planner_state = s.Bytes(6)});
-      }
-      if (code != SQLITE_DONE) return SqliteError(db_, code, "load records");
-    }
+    // One read transaction: a consistent picture even if a writer of
+    // another process were at work.
+    OAIPP_RETURN_IF_ERROR(Exec("BEGIN", "load"));
+    absl::StatusOr<std::vector<StoredMission>> out = LoadWhere("");
+    (void)Exec("COMMIT", "load");
     return out;
+  }
+
+  absl::StatusOr<StoredMission> Load(const std::string& mission_id) override {
+    absl::MutexLock lock(&mu_);
+    OAIPP_RETURN_IF_ERROR(Exec("BEGIN", "load"));
+    absl::StatusOr<std::vector<StoredMission>> out = LoadWhere(mission_id);
+    (void)Exec("COMMIT", "load");
+    if (!out.ok()) return out.status();
+    if (out->empty()) return NoMission(mission_id);
+    return std::move(out->front());
   }
 
   absl::StatusOr<std::string> DeletedBy(const std::string& request_id) override {
@@ -228,6 +294,14 @@ class SqliteStore final : public MissionStore {
     return SqliteError(db_, code, "deleted by");
   }
 
+  absl::Status ForgetDeletionsBefore(std::int64_t unix_us) override {
+    absl::MutexLock lock(&mu_);
+    Statement s(db_, "DELETE FROM deletions WHERE time_us < ?");
+    OAIPP_RETURN_IF_ERROR(s.prepared("forget deletions"));
+    s.Bind(1, unix_us);
+    return Done(s, "forget deletions");
+  }
+
   // A real write (one small durable transaction), so that a full or lost
   // disk shows.
   absl::Status Health() override {
@@ -239,6 +313,140 @@ class SqliteStore final : public MissionStore {
   }
 
  private:
+  static std::int64_t NowUs() { return absl::ToUnixMicros(absl::Now()); }
+
+  // Writes a group of appends in one transaction. Each record is inserted
+  // under its own savepoint, so one refused record (a duplicate sequence)
+  // does not take the others with it; a failed commit fails them all.
+  void CommitGroup(const std::deque<PendingAppend*>& batch) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    absl::Status begun = Exec("BEGIN IMMEDIATE", "append");
+    if (!begun.ok()) {
+      for (PendingAppend* p : batch) p->status = begun;
+      return;
+    }
+    const std::int64_t now = NowUs();
+    for (PendingAppend* p : batch) {
+      if (absl::Status s = Exec("SAVEPOINT one", "append"); !s.ok()) {
+        p->status = s;
+        continue;
+      }
+      p->status = InsertRecord(*p->mission_id, *p->record, now);
+      if (!p->status.ok()) (void)Exec("ROLLBACK TO one", "append");
+      (void)Exec("RELEASE one", "append");
+    }
+    if (absl::Status committed = Exec("COMMIT", "append"); !committed.ok()) {
+      (void)Exec("ROLLBACK", "append");
+      for (PendingAppend* p : batch) {
+        if (p->status.ok()) p->status = committed;
+      }
+    }
+  }
+
+  absl::Status InsertRecord(const std::string& mission_id, const LogRecord& r, std::int64_t now)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    const std::string what = absl::StrCat("append ", mission_id, "#", r.sequence);
+    Statement s(db_,
+                "INSERT INTO records(mission_id, sequence, kind, payload, request_id, "
+                "fingerprint, result, planner_state, write_time_us) "
+                "VALUES(?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    OAIPP_RETURN_IF_ERROR(s.prepared("append"));
+    s.Bind(1, mission_id);
+    s.Bind(2, r.sequence);
+    s.Bind(3, static_cast<std::int64_t>(r.kind));
+    s.Bind(4, r.payload, /*blob=*/true);
+    s.Bind(5, r.request_id);
+    s.Bind(6, r.fingerprint);
+    s.Bind(7, r.result, /*blob=*/true);
+    s.Bind(8, r.planner_state, /*blob=*/true);
+    s.Bind(9, r.write_time_unix_us != 0 ? r.write_time_unix_us : now);
+    absl::Status status = Done(s, what);
+    if (status.code() != absl::StatusCode::kAlreadyExists) return status;
+    // A record of a mission that is not there breaks the foreign key.
+    if (!Exists(mission_id)) return NoMission(mission_id);
+    // The same request at the same place: a retry of a write whose outcome
+    // the writer could not know. Anything else is a second writer.
+    Statement q(db_,
+                "SELECT payload, request_id, fingerprint FROM records "
+                "WHERE mission_id = ? AND sequence = ?");
+    OAIPP_RETURN_IF_ERROR(q.prepared("append"));
+    q.Bind(1, mission_id);
+    q.Bind(2, r.sequence);
+    if (q.Step() == SQLITE_ROW && q.Bytes(0) == r.payload && q.Bytes(1) == r.request_id &&
+        q.Bytes(2) == r.fingerprint) {
+      return absl::OkStatus();
+    }
+    return status;
+  }
+
+  // Missions (all, or the one with id `only`) with their snapshot and the
+  // records after it.
+  absl::StatusOr<std::vector<StoredMission>> LoadWhere(const std::string& only)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    std::vector<StoredMission> out;
+    {
+      Statement s(db_,
+                  only.empty() ? "SELECT id, spec, request_id, fingerprint, create_time_us "
+                                 "FROM missions ORDER BY create_time_us, id"
+                               : "SELECT id, spec, request_id, fingerprint, create_time_us "
+                                 "FROM missions WHERE id = ?");
+      OAIPP_RETURN_IF_ERROR(s.prepared("load missions"));
+      if (!only.empty()) s.Bind(1, only);
+      int code;
+      while ((code = s.Step()) == SQLITE_ROW) {
+        out.push_back({.id = s.Bytes(0),
+                       .spec = s.Bytes(1),
+                       .request_id = s.Bytes(2),
+                       .fingerprint = s.Bytes(3),
+                       .create_time_unix_us = s.Int(4)});
+      }
+      if (code != SQLITE_DONE) return SqliteError(db_, code, "load missions");
+    }
+    for (StoredMission& m : out) {
+      Statement snap(db_,
+                     "SELECT sequence, state, write_time_us FROM snapshots WHERE mission_id = ?");
+      OAIPP_RETURN_IF_ERROR(snap.prepared("load snapshot"));
+      snap.Bind(1, m.id);
+      if (const int code = snap.Step(); code == SQLITE_ROW) {
+        m.snapshot = StoredSnapshot{
+            .sequence = snap.Int(0), .state = snap.Bytes(1), .write_time_unix_us = snap.Int(2)};
+      } else if (code != SQLITE_DONE) {
+        return SqliteError(db_, code, "load snapshot");
+      }
+      Statement s(db_,
+                  "SELECT sequence, kind, payload, request_id, fingerprint, result, planner_state, "
+                  "write_time_us FROM records WHERE mission_id = ? AND sequence > ? "
+                  "ORDER BY sequence");
+      OAIPP_RETURN_IF_ERROR(s.prepared("load records"));
+      s.Bind(1, m.id);
+      s.Bind(2, m.snapshot.has_value() ? m.snapshot->sequence : std::int64_t{0});
+      int code;
+      while ((code = s.Step()) == SQLITE_ROW) {
+        m.log.push_back({.sequence = s.Int(0),
+                         .kind = static_cast<RecordKind>(s.Int(1)),
+                         .payload = s.Bytes(2),
+                         .request_id = s.Bytes(3),
+                         .fingerprint = s.Bytes(4),
+                         .result = s.Bytes(5),
+                         .planner_state = s.Bytes(6),
+                         .write_time_unix_us = s.Int(7)});
+      }
+      if (code != SQLITE_DONE) return SqliteError(db_, code, "load records");
+    }
+    return out;
+  }
+
+  template <typename Body>
+  absl::Status InTransaction(absl::string_view what, Body body)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", what));
+    absl::Status status = body();
+    if (!status.ok()) {
+      (void)Exec("ROLLBACK", what);
+      return status;
+    }
+    if (status = Exec("COMMIT", what); !status.ok()) (void)Exec("ROLLBACK", what);
+    return status;
+  }
   absl::Status Exec(const char* sql, absl::string_view what) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     const int code = sqlite3_exec(db_, sql, nullptr, nullptr, nullptr);
     return code == SQLITE_OK ? absl::OkStatus() : SqliteError(db_, code, what);
@@ -254,8 +462,12 @@ class SqliteStore final : public MissionStore {
     return s.Step() == SQLITE_ROW;
   }
 
-  absl::Mutex mu_;  // one connection, one writer at a time
+  absl::Mutex mu_;  // one connection, one transaction at a time
   sqlite3* db_ ABSL_GUARDED_BY(mu_);
+
+  absl::Mutex queue_mu_;
+  std::deque<PendingAppend*> queue_ ABSL_GUARDED_BY(queue_mu_);
+  bool committing_ ABSL_GUARDED_BY(queue_mu_) = false;  // a leader is writing a group
 };
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 
+#include "absl/strings/cord.h"
 #include "google/protobuf/util/message_differencer.h"
 #include "gtest/gtest.h"
 #include "server/store/sqlite_store.h"
@@ -259,7 +260,23 @@ class FailingStore final : public MissionStore {
     return fail ? Down() : store_->CreateMission(m);
   }
   absl::Status Append(const std::string& id, const LogRecord& r) override {
+    if (in_doubt) {
+      // Written, but the answer lost on the way (a connection cut while
+      // committing).
+      (void)store_->Append(id, r);
+      absl::Status lost = absl::UnavailableError("store: injected loss of the commit's answer");
+      lost.SetPayload(kInDoubt, absl::Cord("1"));
+      return lost;
+    }
     return fail ? Down() : store_->Append(id, r);
+  }
+  bool in_doubt = false;
+  absl::Status PutSnapshot(const std::string& id, const StoredSnapshot& s) override {
+    return fail ? Down() : store_->PutSnapshot(id, s);
+  }
+  absl::StatusOr<StoredMission> Load(const std::string& id) override { return store_->Load(id); }
+  absl::Status ForgetDeletionsBefore(std::int64_t unix_us) override {
+    return fail ? Down() : store_->ForgetDeletionsBefore(unix_us);
   }
   absl::Status DeleteMission(const std::string& id, const std::string& request_id) override {
     return fail ? Down() : store_->DeleteMission(id, request_id);
@@ -324,6 +341,123 @@ TEST_F(RecoveryTest, AFailedWriteAppliesNothing) {
   v1::PlanPathResponse twin_p2;
   ASSERT_TRUE(Plan(service.stub(), "missions/c", 4.0, "p2", &twin_p2).ok());
   EXPECT_EQ(retried.trajectory().SerializeAsString(), twin_p2.trajectory().SerializeAsString());
+}
+
+TEST_F(RecoveryTest, AWriteInDoubtIsReadBackAndAppliedOnce) {
+  std::unique_ptr<MissionStore> real = Open();
+  FailingStore store(real.get());
+  InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                           &store);
+  v1::Mission created;
+  ASSERT_TRUE(Create(service.stub(), "a", v1::PLANNER_KIND_OAIPP, &created).ok());
+  v1::AddMeasurementResponse fused;
+  ASSERT_TRUE(Measure(service.stub(), "missions/a", 0, &fused).ok());
+  store.in_doubt = true;
+  EXPECT_EQ(Measure(service.stub(), "missions/a", 1, &fused).error_code(),
+            grpc::StatusCode::UNAVAILABLE);
+  store.in_doubt = false;
+  // The record reached the store: the mission was read back with it, and
+  // the retry is answered, not fused again.
+  ASSERT_TRUE(Measure(service.stub(), "missions/a", 1, &fused).ok());
+  EXPECT_EQ(fused.measurements_fused(), 2);
+  ASSERT_TRUE(Measure(service.stub(), "missions/a", 2, &fused).ok());
+  EXPECT_EQ(fused.measurements_fused(), 3);
+  // Equal to a mission that never saw the doubt.
+  v1::Mission twin;
+  ASSERT_TRUE(Create(service.stub(), "b", v1::PLANNER_KIND_OAIPP, &twin).ok());
+  for (int i = 0; i < 3; ++i) ASSERT_TRUE(Measure(service.stub(), "missions/b", i, &fused).ok());
+  EXPECT_TRUE(Covariance(service.registry(), "missions/a") ==
+              Covariance(service.registry(), "missions/b"));
+}
+
+// With a snapshot every 2 measurements: the store keeps a snapshot and a
+// short tail, and the mission read back from them is the one that wrote
+// them (map bit for bit, counters, answers, the next plans).
+TEST_F(RecoveryTest, SnapshotsBoundTheTailAndRestoreTheMissionExactly) {
+  const RegistryLimits limits{.max_missions = 8, .max_cells_per_mission = 1600, .snapshot_every = 2};
+  std::unique_ptr<MissionStore> store = Open();
+  InProcessService running(limits, 2, 64, store.get());
+  Drive(running.stub());
+  running.registry().FlushSnapshots();
+  EXPECT_GE(running.registry().snapshots_written(), 6);
+  for (const std::string id : {"a", "l"}) {
+    absl::StatusOr<StoredMission> stored = store->Load(id);
+    ASSERT_TRUE(stored.ok()) << stored.status();
+    ASSERT_TRUE(stored->snapshot.has_value());
+    // 9 records: an obstacle change, 6 measurements, 2 plans; the snapshot
+    // after the 6th measurement covers 7 of them.
+    EXPECT_EQ(stored->snapshot->sequence, 7);
+    EXPECT_EQ(stored->log.size(), 2u);
+  }
+  std::filesystem::copy_file(dir_ / "missions.db", dir_ / "twin.db");
+  if (std::filesystem::exists(dir_ / "missions.db-wal")) {
+    std::filesystem::copy_file(dir_ / "missions.db-wal", dir_ / "twin.db-wal");
+  }
+  std::unique_ptr<MissionStore> twin_store = Open("twin.db");
+  InProcessService twin(limits, 2, 64, twin_store.get());
+  absl::StatusOr<int> recovered = twin.registry().Recover();
+  ASSERT_TRUE(recovered.ok()) << recovered.status();
+  ASSERT_EQ(*recovered, 2);
+  for (const std::string name : {"missions/a", "missions/l"}) {
+    SCOPED_TRACE(name);
+    EXPECT_TRUE(Covariance(twin.registry(), name) == Covariance(running.registry(), name));
+    EXPECT_EQ(Map(twin.stub(), name).SerializeAsString(),
+              Map(running.stub(), name).SerializeAsString());
+    // Answers from the snapshot (m3, before it) and the tail (p2, after it).
+    v1::AddMeasurementResponse first, again;
+    ASSERT_TRUE(Measure(running.stub(), name, 3, &first).ok());
+    ASSERT_TRUE(Measure(twin.stub(), name, 3, &again).ok());
+    EXPECT_EQ(again.SerializeAsString(), first.SerializeAsString());
+    EXPECT_EQ(again.measurements_fused(), 4);
+    v1::PlanPathResponse p2, p2_again;
+    ASSERT_TRUE(Plan(running.stub(), name, 20.0, "p2", &p2).ok());
+    ASSERT_TRUE(Plan(twin.stub(), name, 20.0, "p2", &p2_again).ok());
+    EXPECT_EQ(p2_again.SerializeAsString(), p2.SerializeAsString());
+    // The next plan: the same world, map and planner state give the same
+    // trajectory.
+    v1::PlanPathResponse next, next_twin;
+    ASSERT_TRUE(Plan(running.stub(), name, 30.0, "p3", &next).ok());
+    ASSERT_TRUE(Plan(twin.stub(), name, 30.0, "p3", &next_twin).ok());
+    EXPECT_EQ(next_twin.trajectory().SerializeAsString(), next.trajectory().SerializeAsString());
+    grpc::ClientContext c1, c2;
+    v1::GetMissionRequest r;
+    r.set_name(name);
+    v1::Mission m1, m2;
+    ASSERT_TRUE(running.stub().GetMission(&c1, r, &m1).ok());
+    ASSERT_TRUE(twin.stub().GetMission(&c2, r, &m2).ok());
+    EXPECT_EQ(m2.SerializeAsString(), m1.SerializeAsString());  // counters, obstacles, times
+  }
+}
+
+TEST_F(RecoveryTest, RetentionDeletesFinishedAndIdleMissionsWithTheirRecords) {
+  std::unique_ptr<MissionStore> store = Open();
+  InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                           store.get());
+  v1::Mission created;
+  ASSERT_TRUE(Create(service.stub(), "done", v1::PLANNER_KIND_OAIPP, &created).ok());
+  ASSERT_TRUE(Create(service.stub(), "flying", v1::PLANNER_KIND_OAIPP, &created).ok());
+  v1::AddMeasurementResponse fused;
+  ASSERT_TRUE(Measure(service.stub(), "missions/flying", 1, &fused).ok());
+  // A measurement at the end of the 60 s budget finishes "done".
+  grpc::ClientContext c;
+  v1::AddMeasurementRequest last = testing::LabelMeasurement("missions/done", 0, 0, 8, 60.0, 0);
+  ASSERT_TRUE(service.stub().AddMeasurement(&c, last, &fused).ok());
+  const absl::Time now = absl::Now();
+  // Not yet: changed less than a minute ago.
+  EXPECT_TRUE(
+      service.registry().Sweep(now, absl::Minutes(1), absl::InfiniteDuration()).empty());
+  EXPECT_EQ(service.registry().Sweep(now + absl::Minutes(2), absl::Minutes(1),
+                                     absl::InfiniteDuration()),
+            std::vector<std::string>{"done"});
+  absl::StatusOr<std::vector<StoredMission>> left = store->LoadAll();
+  ASSERT_TRUE(left.ok());
+  ASSERT_EQ(left->size(), 1u);
+  EXPECT_EQ(left->front().id, "flying");
+  // Idle for longer than keep_idle: gone too, finished or not.
+  EXPECT_EQ(service.registry().Sweep(now + absl::Hours(2), absl::Hours(24), absl::Hours(1)),
+            std::vector<std::string>{"flying"});
+  EXPECT_TRUE(store->LoadAll()->empty());
+  EXPECT_EQ(service.registry().size(), 0u);
 }
 
 }  // namespace

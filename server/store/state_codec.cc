@@ -1,0 +1,122 @@
+#include "server/store/state_codec.h"
+
+#include <bit>
+#include <cstring>
+
+#include "absl/strings/str_cat.h"
+#include "api/geometry.h"
+#include "api/plan.h"
+#include "core/common/status_macros.h"
+#include "oaipp/store/mission_state.pb.h"
+
+namespace oaipp::server {
+namespace {
+
+static_assert(std::endian::native == std::endian::little,
+              "snapshots store doubles as little-endian bytes");
+
+void AppendDoubles(const double* values, std::size_t count, std::string* out) {
+  out->append(reinterpret_cast<const char*>(values), count * sizeof(double));
+}
+
+absl::Status Corrupt(absl::string_view what) {
+  return absl::DataLossError(absl::StrCat("snapshot: ", what));
+}
+
+}  // namespace
+
+std::string EncodeMissionState(const MissionState& state) {
+  store::MissionState out;
+  out.set_sequence(state.sequence);
+  for (const Obstacle& o : state.obstacles) *out.add_obstacles() = api::ObstacleToProto(o);
+  for (int c : state.covered_cells) out.add_covered_cells(c);
+  const auto n = static_cast<std::size_t>(state.mean.size());
+  out.set_num_cells(static_cast<int>(n));
+  AppendDoubles(state.mean.data(), n, out.mutable_mean());
+  std::string* lower = out.mutable_covariance_lower();
+  lower->reserve(n * (n + 1) / 2 * sizeof(double));
+  // Column-major storage: column j from row j down is contiguous.
+  for (std::size_t j = 0; j < n; ++j) {
+    AppendDoubles(state.covariance.data() + j * n + j, n - j, lower);
+  }
+  out.set_measurements_fused(state.measurements_fused);
+  out.set_mission_time_s(state.mission_time_s);
+  out.set_paths_planned(state.paths_planned);
+  out.set_planner_state(state.planner_state);
+  for (const auto& [request_id, result] : state.answers) {
+    store::Answer* a = out.add_answers();
+    a->set_request_id(request_id);
+    if (const auto* o = std::get_if<ObstacleResult>(&result)) {
+      a->mutable_obstacles()->set_obstacle_count(o->obstacle_count);
+      a->mutable_obstacles()->set_esdf_voxels_recomputed(o->esdf_voxels_recomputed);
+    } else if (const auto* m = std::get_if<MeasurementResult>(&result)) {
+      a->mutable_measurement()->set_cells_fused(m->cells_fused);
+      a->mutable_measurement()->set_trace(m->trace);
+      a->mutable_measurement()->set_measurements_fused(m->measurements_fused);
+    } else {
+      api::PlannedPathToProto(std::get<PlannedPath>(result), a->mutable_plan());
+    }
+  }
+  return out.SerializeAsString();
+}
+
+absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
+  store::MissionState in;
+  if (!in.ParseFromString(bytes)) return Corrupt("does not parse");
+  const std::int64_t n = in.num_cells();
+  if (n <= 0 || static_cast<std::size_t>(n) * sizeof(double) != in.mean().size() ||
+      static_cast<std::size_t>(n * (n + 1) / 2) * sizeof(double) != in.covariance_lower().size()) {
+    return Corrupt(absl::StrCat("the map's sizes disagree with its ", n, " cells"));
+  }
+  MissionState state;
+  state.sequence = in.sequence();
+  for (int i = 0; i < in.obstacles_size(); ++i) {
+    absl::StatusOr<Obstacle> o =
+        api::ObstacleFromProto(in.obstacles(i), absl::StrCat("obstacles[", i, "]"));
+    if (!o.ok()) return Corrupt(o.status().message());
+    state.obstacles.push_back(*std::move(o));
+  }
+  state.covered_cells.assign(in.covered_cells().begin(), in.covered_cells().end());
+  state.mean.resize(n);
+  std::memcpy(state.mean.data(), in.mean().data(), in.mean().size());
+  state.covariance.resize(n, n);
+  const char* lower = in.covariance_lower().data();
+  for (std::int64_t j = 0; j < n; ++j) {
+    const std::size_t count = static_cast<std::size_t>(n - j);
+    std::memcpy(state.covariance.data() + j * n + j, lower, count * sizeof(double));
+    lower += count * sizeof(double);
+    for (std::int64_t i = j + 1; i < n; ++i) state.covariance(j, i) = state.covariance(i, j);
+  }
+  state.measurements_fused = in.measurements_fused();
+  state.mission_time_s = in.mission_time_s();
+  state.paths_planned = in.paths_planned();
+  state.planner_state = in.planner_state();
+  for (const store::Answer& a : in.answers()) {
+    switch (a.result_case()) {
+      case store::Answer::kObstacles:
+        state.answers.emplace_back(
+            a.request_id(), ObstacleResult{.obstacle_count = a.obstacles().obstacle_count(),
+                                           .esdf_voxels_recomputed =
+                                               a.obstacles().esdf_voxels_recomputed()});
+        break;
+      case store::Answer::kMeasurement:
+        state.answers.emplace_back(
+            a.request_id(),
+            MeasurementResult{.cells_fused = a.measurement().cells_fused(),
+                              .trace = a.measurement().trace(),
+                              .measurements_fused = a.measurement().measurements_fused()});
+        break;
+      case store::Answer::kPlan: {
+        absl::StatusOr<PlannedPath> path = api::PlannedPathFromProto(a.plan());
+        if (!path.ok()) return Corrupt(absl::StrCat("answers: ", path.status().message()));
+        state.answers.emplace_back(a.request_id(), *std::move(path));
+        break;
+      }
+      case store::Answer::RESULT_NOT_SET:
+        return Corrupt("an answer without a result");
+    }
+  }
+  return state;
+}
+
+}  // namespace oaipp::server
