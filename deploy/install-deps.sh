@@ -16,8 +16,10 @@ packages=(
   # service: gRPC + protobuf (plugin and library must come together), logs, metrics, JSON
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libspdlog-dev prometheus-cpp-dev nlohmann-json3-dev
-  # durable missions: the embedded store, and its command-line tool for backups
-  libsqlite3-dev sqlite3
+  # durable missions: the embedded store and its command-line tool for backups;
+  # PostgreSQL for several servers (the server library, and PostgreSQL 15 itself,
+  # which the tests start in a temporary folder)
+  libsqlite3-dev sqlite3 libpqxx-dev postgresql-15 postgresql-client-15
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # figures

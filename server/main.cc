@@ -2,8 +2,9 @@
 //
 //   oaipp-server --listen=127.0.0.1:50051 --metrics_listen=127.0.0.1:9464 --data_dir=./data
 //
-// Missions are kept in --data_dir/missions.db (SQLite) and come back after a
-// restart or a crash; --store=memory keeps them in memory only.
+// Missions are kept in --data_dir/missions.db (SQLite), or in PostgreSQL
+// with --store=postgresql://..., and come back after a restart or a crash;
+// --store=memory keeps them in memory only.
 //
 // Health checking (grpc.health.v1) and server reflection are on. SIGTERM or
 // SIGINT: stop accepting calls, let in-flight calls finish (up to
@@ -22,7 +23,7 @@
 #include "grpcpp/health_check_service_interface.h"
 #include "prometheus/exposer.h"
 #include "server/service.h"
-#include "server/store/sqlite_store.h"
+#include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
 
 ABSL_FLAG(std::string, listen, "127.0.0.1:50051", "gRPC listen address (host:port)");
@@ -39,8 +40,9 @@ ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error or of
 ABSL_FLAG(std::string, metrics_listen, "127.0.0.1:9464",
           "Prometheus metrics address (host:port); empty disables");
 ABSL_FLAG(std::string, store, "sqlite",
-          "where missions are kept: sqlite (one file, missions.db, under --data_dir; every "
-          "acknowledged change is on disk first) or memory (lost on restart)");
+          "where missions are kept: sqlite (one file, missions.db, under --data_dir), a "
+          "PostgreSQL URI (postgresql://user@host:port/db; for several servers), or memory "
+          "(lost on restart); with a store every acknowledged change is durable first");
 ABSL_FLAG(std::string, data_dir, "./data",
           "folder of the sqlite store (created at start); back it up with sqlite3's .backup");
 ABSL_FLAG(double, shutdown_grace_s, 10.0, "time in-flight calls get to finish on SIGTERM");
@@ -84,25 +86,17 @@ int main(int argc, char** argv) {
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   std::unique_ptr<oaipp::server::MissionStore> store;
-  if (const std::string kind = absl::GetFlag(FLAGS_store); kind == "sqlite") {
-    const std::filesystem::path dir = absl::GetFlag(FLAGS_data_dir);
-    std::error_code error;
-    std::filesystem::create_directories(dir, error);
-    if (error) {
-      spdlog::error("store: cannot create --data_dir {}: {}", dir.string(), error.message());
-      return 1;
-    }
+  {
+    const std::string kind = absl::GetFlag(FLAGS_store);
+    const std::string dir = absl::GetFlag(FLAGS_data_dir);
     absl::StatusOr<std::unique_ptr<oaipp::server::MissionStore>> opened =
-        oaipp::server::OpenSqliteStore((dir / "missions.db").string());
+        oaipp::server::OpenStore(kind, dir);
     if (!opened.ok()) {
       spdlog::error("{}", opened.status().ToString());
-      return 1;
+      return opened.status().code() == absl::StatusCode::kInvalidArgument ? 2 : 1;
     }
     store = *std::move(opened);
-    spdlog::info("store: sqlite file {}", (dir / "missions.db").string());
-  } else if (kind != "memory") {
-    spdlog::error("bad flags: --store must be sqlite or memory, got '{}'", kind.substr(0, 64));
-    return 2;
+    spdlog::info("store: {}", oaipp::server::DescribeStore(kind, dir));
   }
 
   oaipp::server::MissionRegistry registry({.max_missions = absl::GetFlag(FLAGS_max_missions),
@@ -206,6 +200,9 @@ int main(int argc, char** argv) {
     server->Shutdown(std::chrono::system_clock::now() + grace);
   });
   server->Wait();
+  // Snapshots already asked for are written, so that the next start replays
+  // short tails.
+  registry.FlushSnapshots();
   waiter.join();
   store_watch.join();
   sweeper.join();

@@ -198,6 +198,9 @@ class Mission {
   // `every` records of any kind) were applied since the last stored one.
   // Set once, before the mission is shared.
   void SetSnapshotPolicy(int every, std::function<void()> wanted);
+  // Asks for a snapshot if the policy says one is due (called after every
+  // change, and by recovery for a mission read back with a long tail).
+  void MaybeWantSnapshot();
   // The snapshot taken by CaptureState at `sequence` is durable (stored) or
   // failed (the mission asks again after its next change).
   void SnapshotDone(bool stored, std::int64_t sequence, std::int64_t measurements_fused);
@@ -244,8 +247,6 @@ class Mission {
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                            const std::string& planner_state);
   void Emit(decltype(MissionEventData::event) event);
-  // After a change: asks for a snapshot when the policy says so.
-  void MaybeWantSnapshot();
   using Result = RequestResult;
   // The first result of a request_id, if it was applied before. Callers
   // hold the lock of the operation, so check and apply are one step.

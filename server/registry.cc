@@ -235,6 +235,11 @@ absl::StatusOr<int> MissionRegistry::Recover() {
     created_by_request_.Remember(stored[i].request_id, stored[i].id);
     ++recovered;
   }
+  // A mission read back with a long tail (its last snapshot was not written
+  // before the stop) is snapshotted now, so the next start is quick.
+  for (const std::shared_ptr<Mission>& m : List(0, static_cast<std::size_t>(-1))) {
+    m->MaybeWantSnapshot();
+  }
   return recovered;
 }
 
@@ -295,7 +300,7 @@ void MissionRegistry::TakeSnapshot(const std::string& mission_id) {
   {
     absl::MutexLock lock(&mu_);
     auto it = missions_.find(mission_id);
-    if (it == missions_.end() || it->second == nullptr) return;
+    if (it == missions_.end() || it->second == nullptr) return;  // deleted meanwhile
     mission = it->second;
   }
   const MissionState state = mission->CaptureState();

@@ -345,6 +345,20 @@ class SqliteStore final : public MissionStore {
   absl::Status InsertRecord(const std::string& mission_id, const LogRecord& r, std::int64_t now)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     const std::string what = absl::StrCat("append ", mission_id, "#", r.sequence);
+    if (r.sequence < 1) {
+      return absl::InvalidArgumentError(absl::StrCat("store: ", what, ": sequences start at 1"));
+    }
+    {
+      // A record a snapshot covers is gone from the table, so a second one
+      // there would not collide with it: refuse it here.
+      Statement snap(db_, "SELECT sequence FROM snapshots WHERE mission_id = ?");
+      OAIPP_RETURN_IF_ERROR(snap.prepared("append"));
+      snap.Bind(1, mission_id);
+      if (snap.Step() == SQLITE_ROW && r.sequence <= snap.Int(0)) {
+        return absl::AlreadyExistsError(
+            absl::StrCat("store: ", what, ": a snapshot already covers that sequence"));
+      }
+    }
     Statement s(db_,
                 "INSERT INTO records(mission_id, sequence, kind, payload, request_id, "
                 "fingerprint, result, planner_state, write_time_us) "

@@ -1,12 +1,16 @@
 // Durable missions against the real binary: eight clients drive eight
 // missions (obstacle changes, measurements, plans) while the server is
 // killed with SIGKILL at 20 seeded moments and stopped with SIGTERM at 3
-// more, restarted each time on the same --data_dir. Every call is retried
+// more, restarted each time on the same store: the SQLite file in a
+// temporary folder, and a real PostgreSQL the test starts itself (initdb in a
+// temporary folder, loopback only). Every call is retried
 // with its request_id until it is acknowledged. At the end each mission's
 // map equals an independent in-process replay of its acknowledged calls,
 // nothing was lost and nothing was fused twice; the store read back after
 // the last stop gives the same covariance.
+#include <algorithm>
 #include <atomic>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <random>
@@ -19,7 +23,9 @@
 #include "api/spec.h"
 #include "gtest/gtest.h"
 #include "server/registry.h"
+#include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
+#include "tests/server/postgres_instance.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixture.h"
 
@@ -61,22 +67,47 @@ void UntilAcknowledged(const char* what, Call call) {
   ADD_FAILURE() << what << ": never acknowledged";
 }
 
-class CrashTest : public ::testing::Test {
+// The parameter: the store's kind ("sqlite" or "postgresql").
+class CrashTest : public ::testing::TestWithParam<std::string> {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() / absl::StrCat("oaipp-crash-", getpid());
+    dir_ = std::filesystem::temp_directory_path() /
+           absl::StrCat("oaipp-crash-", GetParam(), "-", getpid());
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
+    if (GetParam() == "postgresql") {
+      if (!testing::PostgresInstance::Available()) {
+        if (std::getenv("OAIPP_REQUIRE_POSTGRES") != nullptr) {
+          FAIL() << "PostgreSQL 15 is not installed (deploy/install-deps.sh installs it)";
+        }
+        GTEST_SKIP() << "PostgreSQL 15 is not installed";
+      }
+      postgres_ = std::make_unique<testing::PostgresInstance>();
+      ASSERT_TRUE(postgres_->Start());
+    }
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string StoreFlag() const {
+    return GetParam() == "sqlite" ? absl::StrCat("--data_dir=", dir_.string())
+                                  : absl::StrCat("--store=", postgres_->uri());
+  }
+  absl::StatusOr<std::unique_ptr<MissionStore>> OpenDirectly() const {
+    return GetParam() == "sqlite" ? OpenSqliteStore((dir_ / "missions.db").string())
+                                  : OpenPostgresStore(postgres_->uri());
+  }
   std::filesystem::path dir_;
+  std::unique_ptr<testing::PostgresInstance> postgres_;
 };
 
-TEST_F(CrashTest, KilledServerLosesNothingAcknowledgedAndAppliesNothingTwice) {
+INSTANTIATE_TEST_SUITE_P(Stores, CrashTest, ::testing::Values("sqlite", "postgresql"),
+                         [](const auto& param_info) { return param_info.param; });
+
+TEST_P(CrashTest, KilledServerLosesNothingAcknowledgedAndAppliesNothingTwice) {
   std::mt19937 rng(20261123);
   const int port = 20000 + static_cast<int>(std::random_device{}() % 20000);
-  testing::ServerProcess server(
-      port, {absl::StrCat("--data_dir=", dir_.string()), "--shutdown_grace_s=2"});
+  // Snapshots every 4 measurements, so that kills also land while one is
+  // written and recovery starts from them.
+  testing::ServerProcess server(port, {StoreFlag(), "--shutdown_grace_s=2", "--snapshot_every=4"});
   ASSERT_TRUE(server.Start()) << "oaipp-server did not start on " << server.address();
   auto channel = testing::QuickReconnectChannel(server.address());
   auto stub = v1::MissionService::NewStub(channel);
@@ -233,9 +264,14 @@ TEST_F(CrashTest, KilledServerLosesNothingAcknowledgedAndAppliesNothingTwice) {
   server.Stop(SIGTERM);
 
   // The store itself, read back in-process: the same covariances.
-  absl::StatusOr<std::unique_ptr<MissionStore>> store =
-      OpenSqliteStore((dir_ / "missions.db").string());
+  absl::StatusOr<std::unique_ptr<MissionStore>> store = OpenDirectly();
   ASSERT_TRUE(store.ok()) << store.status();
+  // Recovery started from snapshots, not only from whole logs.
+  absl::StatusOr<std::vector<StoredMission>> stored = (*store)->LoadAll();
+  ASSERT_TRUE(stored.ok()) << stored.status();
+  EXPECT_EQ(std::count_if(stored->begin(), stored->end(),
+                          [](const StoredMission& m) { return m.snapshot.has_value(); }),
+            kMissions);
   MissionRegistry registry({.max_missions = 64, .max_cells_per_mission = 1600}, store->get());
   absl::StatusOr<int> recovered = registry.Recover();
   ASSERT_TRUE(recovered.ok()) << recovered.status();

@@ -1,35 +1,79 @@
-// The SQLite mission store against a real file in a temporary folder:
-// numbers never repeat, appends are conditional on (mission, sequence),
-// deletes cascade, and everything survives closing and reopening.
-#include "server/store/sqlite_store.h"
-
+// The MissionStore contract, against both backends for real: a SQLite file
+// in a temporary folder, and a PostgreSQL server the suite starts itself
+// (initdb in a temporary folder, loopback only; each test gets its own
+// database). Numbers never repeat, records come back byte for byte and in
+// order, appends are conditional on (mission, sequence) and a retry of the
+// same record succeeds, snapshots replace the records they cover, deletes
+// cascade, and many missions can append at once.
+#include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <thread>
 
 #include "absl/strings/str_cat.h"
 #include "gtest/gtest.h"
+#include "server/store/postgres_store.h"
+#include "server/store/sqlite_store.h"
+#include "tests/server/postgres_instance.h"
 
 namespace oaipp::server {
 namespace {
 
-class SqliteStoreTest : public ::testing::Test {
+// The parameter: "sqlite" or "postgresql".
+class StoreTest : public ::testing::TestWithParam<std::string> {
  protected:
+  static void SetUpTestSuite() {
+    if (testing::PostgresInstance::Available()) {
+      postgres_ = new testing::PostgresInstance();
+      if (!postgres_->Start()) {
+        delete postgres_;
+        postgres_ = nullptr;
+      }
+    }
+  }
+  static void TearDownTestSuite() {
+    delete postgres_;
+    postgres_ = nullptr;
+  }
+
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           absl::StrCat("oaipp-store-", ::testing::UnitTest::GetInstance()->random_seed(), "-",
-                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    dir_ = std::filesystem::temp_directory_path() / absl::StrCat("oaipp-store-", getpid());
     std::filesystem::remove_all(dir_);
     std::filesystem::create_directories(dir_);
+    if (GetParam() == "postgresql") {
+      if (postgres_ == nullptr) {
+        if (std::getenv("OAIPP_REQUIRE_POSTGRES") != nullptr) {
+          FAIL() << "PostgreSQL 15 is not installed or did not start";
+        }
+        GTEST_SKIP() << "PostgreSQL 15 is not installed";
+      }
+      const std::string database = absl::StrCat("t", ++databases_);
+      ASSERT_TRUE(postgres_->CreateDatabase(database));
+      uri_ = postgres_->uri(database);
+    }
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
+
   std::unique_ptr<MissionStore> Open() {
     absl::StatusOr<std::unique_ptr<MissionStore>> store =
-        OpenSqliteStore((dir_ / "missions.db").string());
+        GetParam() == "sqlite" ? OpenSqliteStore((dir_ / "missions.db").string())
+                               : OpenPostgresStore(uri_);
     EXPECT_TRUE(store.ok()) << store.status();
     return store.ok() ? *std::move(store) : nullptr;
   }
+
+  static testing::PostgresInstance* postgres_;
+  static int databases_;
   std::filesystem::path dir_;
+  std::string uri_;
 };
+
+testing::PostgresInstance* StoreTest::postgres_ = nullptr;
+int StoreTest::databases_ = 0;
+
+INSTANTIATE_TEST_SUITE_P(Backends, StoreTest, ::testing::Values("sqlite", "postgresql"),
+                         [](const auto& param_info) { return param_info.param; });
 
 LogRecord Record(std::int64_t sequence, std::string payload) {
   return {.sequence = sequence,
@@ -39,7 +83,7 @@ LogRecord Record(std::int64_t sequence, std::string payload) {
           .fingerprint = "f"};
 }
 
-TEST_F(SqliteStoreTest, MissionNumbersNeverRepeatAcrossReopening) {
+TEST_P(StoreTest, MissionNumbersNeverRepeatAcrossReopening) {
   {
     std::unique_ptr<MissionStore> store = Open();
     EXPECT_EQ(*store->NextMissionNumber(), 1);
@@ -49,16 +93,19 @@ TEST_F(SqliteStoreTest, MissionNumbersNeverRepeatAcrossReopening) {
   EXPECT_EQ(*store->NextMissionNumber(), 3);
 }
 
-TEST_F(SqliteStoreTest, RecordsComeBackInOrderByteForByte) {
-  const std::string binary("a\0b\xff", 4);  // payloads are bytes, not text
+TEST_P(StoreTest, RecordsComeBackInOrderByteForByte) {
+  std::string every_byte;
+  for (int b = 0; b < 256; ++b) every_byte.push_back(static_cast<char>(b));
   {
     std::unique_ptr<MissionStore> store = Open();
-    ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = binary, .request_id = "c1"}).ok());
+    ASSERT_TRUE(
+        store->CreateMission({.id = "m1", .spec = every_byte, .request_id = "c1"}).ok());
     ASSERT_TRUE(store->Append("m1", Record(1, "one")).ok());
-    LogRecord plan = Record(2, binary);
+    LogRecord plan = Record(2, every_byte);
     plan.kind = RecordKind::kPlan;
-    plan.result = "answer";
-    plan.planner_state = "7";
+    plan.result = every_byte + "answer";
+    plan.planner_state = std::string("7\0", 2);
+    plan.write_time_unix_us = 1234567;
     ASSERT_TRUE(store->Append("m1", plan).ok());
   }
   std::unique_ptr<MissionStore> store = Open();
@@ -67,63 +114,146 @@ TEST_F(SqliteStoreTest, RecordsComeBackInOrderByteForByte) {
   ASSERT_EQ(all->size(), 1u);
   const StoredMission& m = all->front();
   EXPECT_EQ(m.id, "m1");
-  EXPECT_EQ(m.spec, binary);
+  EXPECT_EQ(m.spec, every_byte);
   EXPECT_EQ(m.request_id, "c1");
+  EXPECT_FALSE(m.snapshot.has_value());
   ASSERT_EQ(m.log.size(), 2u);
   EXPECT_EQ(m.log[0].sequence, 1);
   EXPECT_EQ(m.log[0].payload, "one");
   EXPECT_EQ(m.log[0].request_id, "r1");
+  EXPECT_GT(m.log[0].write_time_unix_us, 1'700'000'000'000'000);  // the clock's, when unset
   EXPECT_EQ(m.log[1].kind, RecordKind::kPlan);
-  EXPECT_EQ(m.log[1].payload, binary);
-  EXPECT_EQ(m.log[1].result, "answer");
-  EXPECT_EQ(m.log[1].planner_state, "7");
+  EXPECT_EQ(m.log[1].payload, every_byte);
+  EXPECT_EQ(m.log[1].result, every_byte + "answer");
+  EXPECT_EQ(m.log[1].planner_state, std::string("7\0", 2));
+  EXPECT_EQ(m.log[1].write_time_unix_us, 1234567);
 }
 
-TEST_F(SqliteStoreTest, AppendsAreConditionalOnTheSequence) {
+TEST_P(StoreTest, AppendsAreConditionalAndARetryOfTheSameRecordSucceeds) {
   std::unique_ptr<MissionStore> store = Open();
   ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s"}).ok());
   ASSERT_TRUE(store->Append("m1", Record(1, "first")).ok());
+  // The same request again (its first write's outcome was in doubt): OK,
+  // and stored once.
+  EXPECT_TRUE(store->Append("m1", Record(1, "first")).ok());
   // A second writer of sequence 1 (a stale owner, a double apply) is refused.
   EXPECT_EQ(store->Append("m1", Record(1, "again")).code(), absl::StatusCode::kAlreadyExists);
+  LogRecord other_request = Record(1, "first");
+  other_request.request_id = "someone-else";
+  EXPECT_EQ(store->Append("m1", other_request).code(), absl::StatusCode::kAlreadyExists);
   EXPECT_EQ(store->Append("nobody", Record(1, "x")).code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(store->CreateMission({.id = "m1", .spec = "s"}).code(),
             absl::StatusCode::kAlreadyExists);
-  absl::StatusOr<std::vector<StoredMission>> all = store->LoadAll();
-  ASSERT_TRUE(all.ok());
-  ASSERT_EQ(all->front().log.size(), 1u);
-  EXPECT_EQ(all->front().log[0].payload, "first");
+  absl::StatusOr<StoredMission> m = store->Load("m1");
+  ASSERT_TRUE(m.ok()) << m.status();
+  ASSERT_EQ(m->log.size(), 1u);
+  EXPECT_EQ(m->log[0].payload, "first");
+  EXPECT_EQ(store->Load("nobody").status().code(), absl::StatusCode::kNotFound);
 }
 
-TEST_F(SqliteStoreTest, DeleteRemovesTheRecordsAndRemembersTheRequest) {
+TEST_P(StoreTest, ASnapshotReplacesTheRecordsItCovers) {
   std::unique_ptr<MissionStore> store = Open();
   ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s"}).ok());
-  ASSERT_TRUE(store->CreateMission({.id = "m2", .spec = "s"}).ok());
+  for (int i = 1; i <= 5; ++i) ASSERT_TRUE(store->Append("m1", Record(i, "x")).ok());
+  const std::string state("state\0\xff", 7);
+  ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 3, .state = state}).ok());
+  // An older snapshot (a slow writer) does not replace a newer one.
+  ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 2, .state = "old"}).ok());
+  EXPECT_EQ(store->PutSnapshot("nobody", {.sequence = 1, .state = "s"}).code(),
+            absl::StatusCode::kNotFound);
+  // A sequence the snapshot covers cannot be written again.
+  EXPECT_EQ(store->Append("m1", Record(3, "x")).code(), absl::StatusCode::kAlreadyExists);
+  ASSERT_TRUE(store->Append("m1", Record(6, "y")).ok());
+  store.reset();
+  store = Open();
+  absl::StatusOr<StoredMission> m = store->Load("m1");
+  ASSERT_TRUE(m.ok()) << m.status();
+  ASSERT_TRUE(m->snapshot.has_value());
+  EXPECT_EQ(m->snapshot->sequence, 3);
+  EXPECT_EQ(m->snapshot->state, state);
+  EXPECT_GT(m->snapshot->write_time_unix_us, 0);
+  ASSERT_EQ(m->log.size(), 3u);
+  EXPECT_EQ(m->log[0].sequence, 4);
+  EXPECT_EQ(m->log[2].sequence, 6);
+  // LoadAll gives the same.
+  absl::StatusOr<std::vector<StoredMission>> all = store->LoadAll();
+  ASSERT_TRUE(all.ok());
+  ASSERT_EQ(all->size(), 1u);
+  EXPECT_EQ(all->front().log.size(), 3u);
+  EXPECT_EQ(all->front().snapshot->sequence, 3);
+}
+
+TEST_P(StoreTest, DeleteRemovesEverythingAndRemembersTheRequest) {
+  std::unique_ptr<MissionStore> store = Open();
+  ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s", .create_time_unix_us = 1}).ok());
+  ASSERT_TRUE(store->CreateMission({.id = "m2", .spec = "s", .create_time_unix_us = 2}).ok());
   ASSERT_TRUE(store->Append("m1", Record(1, "x")).ok());
+  ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 1, .state = "s"}).ok());
   ASSERT_TRUE(store->DeleteMission("m1", "del-1").ok());
   EXPECT_EQ(store->DeleteMission("m1", "del-2").code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(*store->DeletedBy("del-1"), "m1");
   EXPECT_EQ(store->DeletedBy("del-2").status().code(), absl::StatusCode::kNotFound);
-  // The id is free again and starts a fresh log.
-  ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "t"}).ok());
+  // The id is free again and starts afresh: no records, no snapshot.
+  ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "t", .create_time_unix_us = 3}).ok());
   ASSERT_TRUE(store->Append("m1", Record(1, "y")).ok());
   absl::StatusOr<std::vector<StoredMission>> all = store->LoadAll();
   ASSERT_TRUE(all.ok());
   ASSERT_EQ(all->size(), 2u);
-  for (const StoredMission& m : *all) {
-    if (m.id == "m1") {
-      ASSERT_EQ(m.log.size(), 1u);
-      EXPECT_EQ(m.log[0].payload, "y");
-    } else {
-      EXPECT_TRUE(m.log.empty());
-    }
-  }
+  EXPECT_EQ((*all)[0].id, "m2");  // by creation time
+  EXPECT_TRUE((*all)[0].log.empty());
+  EXPECT_EQ((*all)[1].id, "m1");
+  ASSERT_EQ((*all)[1].log.size(), 1u);
+  EXPECT_EQ((*all)[1].log[0].payload, "y");
+  EXPECT_FALSE((*all)[1].snapshot.has_value());
+  // Retention forgets old deletions' request_ids.
+  ASSERT_TRUE(store->ForgetDeletionsBefore(1).ok());
+  EXPECT_TRUE(store->DeletedBy("del-1").ok());
+  ASSERT_TRUE(store->ForgetDeletionsBefore(std::numeric_limits<std::int64_t>::max()).ok());
+  EXPECT_EQ(store->DeletedBy("del-1").status().code(), absl::StatusCode::kNotFound);
   EXPECT_TRUE(store->Health().ok());
 }
 
-TEST_F(SqliteStoreTest, AFolderThatDoesNotExistIsUnavailable) {
+TEST_P(StoreTest, ManyMissionsAppendAtOnce) {
+  std::unique_ptr<MissionStore> store = Open();
+  constexpr int kMissions = 8, kRecords = 25;
+  for (int m = 0; m < kMissions; ++m) {
+    ASSERT_TRUE(store->CreateMission({.id = absl::StrCat("m", m), .spec = "s"}).ok());
+  }
+  std::vector<std::thread> writers;
+  std::atomic<int> failures{0};
+  for (int m = 0; m < kMissions; ++m) {
+    writers.emplace_back([&, m] {
+      for (int i = 1; i <= kRecords; ++i) {
+        if (!store->Append(absl::StrCat("m", m), Record(i, absl::StrCat(m, ":", i))).ok()) {
+          ++failures;
+        }
+      }
+    });
+  }
+  for (std::thread& t : writers) t.join();
+  EXPECT_EQ(failures.load(), 0);
+  absl::StatusOr<std::vector<StoredMission>> all = store->LoadAll();
+  ASSERT_TRUE(all.ok());
+  ASSERT_EQ(all->size(), static_cast<std::size_t>(kMissions));
+  for (const StoredMission& m : *all) {
+    ASSERT_EQ(m.log.size(), static_cast<std::size_t>(kRecords)) << m.id;
+    for (int i = 0; i < kRecords; ++i) {
+      EXPECT_EQ(m.log[i].payload, absl::StrCat(m.id.substr(1), ":", i + 1));
+    }
+  }
+}
+
+TEST(SqliteStoreTest, AFolderThatDoesNotExistIsUnavailable) {
   absl::StatusOr<std::unique_ptr<MissionStore>> store =
-      OpenSqliteStore((dir_ / "no" / "such" / "missions.db").string());
+      OpenSqliteStore("/nonexistent-oaipp/no/such/missions.db");
   EXPECT_EQ(store.status().code(), absl::StatusCode::kUnavailable);
+}
+
+TEST(PostgresStoreTest, NoServerIsUnavailable) {
+  // Port 1 on loopback: nothing listens there.
+  absl::StatusOr<std::unique_ptr<MissionStore>> store =
+      OpenPostgresStore("postgresql://postgres@127.0.0.1:1/postgres?connect_timeout=2");
+  EXPECT_EQ(store.status().code(), absl::StatusCode::kUnavailable) << store.status();
 }
 
 }  // namespace

@@ -1,22 +1,28 @@
 // Many missions at once on one server: each flies the E1 mission for its
 // budget (plan, fly the path in simulated time, measure at the sensor's
 // shots, replan), all concurrently over loopback TCP. Prints throughput,
-// per-method latency percentiles and memory per mission.
+// per-method latency percentiles and memory per mission. With several
+// --stores the same load runs once on each, one after the other, and the
+// wall times are compared with the first.
 //
 //   build/tests/bench/server/server_load --missions=50 --budget_s=150
+//   build/tests/bench/server/server_load --missions=50 --stores=memory,sqlite
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <map>
 #include <mutex>
+#include <filesystem>
 #include <thread>
+#include <unistd.h>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/strings/str_cat.h"
 #include "grpcpp/grpcpp.h"
 #include "server/service.h"
+#include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
 #include "tests/bench/server/e1_mission.h"
 
@@ -25,6 +31,11 @@ ABSL_FLAG(double, budget_s, 150.0, "flight budget per mission, seconds");
 ABSL_FLAG(int, generations, 45, "CMA-ES generations per plan");
 ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
 ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
+ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
+          "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
+          "--data_dir) or a postgresql:// URI");
+ABSL_FLAG(std::string, data_dir, "/tmp/oaipp-server-load", "where sqlite runs keep their file");
+ABSL_FLAG(int, snapshot_every, 16, "server snapshot interval (measurements)");
 
 namespace {
 
@@ -59,14 +70,16 @@ class Latencies {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  absl::ParseCommandLine(argc, argv);
-  spdlog::set_level(spdlog::level::warn);
+// Flies the load against a fresh server on `store` (nullptr: memory);
+// returns the wall time in seconds.
+double RunLoad(oaipp::server::MissionStore* store) {
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
   using namespace oaipp;
-  server::MissionRegistry registry(
-      {.max_missions = missions + 1, .prior_cache = absl::GetFlag(FLAGS_prior_cache)});
+  server::MissionRegistry registry({.max_missions = missions + 1,
+                                    .prior_cache = absl::GetFlag(FLAGS_prior_cache),
+                                    .snapshot_every = absl::GetFlag(FLAGS_snapshot_every)},
+                                   store);
   server::PlanningGate gate(absl::GetFlag(FLAGS_planning_threads), 4 * missions);
   server::MissionServiceImpl service(&registry, &gate, nullptr);
   grpc::ServerBuilder builder;
@@ -154,5 +167,36 @@ int main(int argc, char** argv) {
               static_cast<double>(map_bytes.load()) / missions / 1e6);
   latencies.Print(wall);
   server->Shutdown();
+  registry.FlushSnapshots();
+  std::printf("snapshots written: %lld\n", static_cast<long long>(registry.snapshots_written()));
+  return wall;
+}
+
+int main(int argc, char** argv) {
+  absl::ParseCommandLine(argc, argv);
+  spdlog::set_level(spdlog::level::warn);
+  std::vector<std::pair<std::string, double>> walls;
+  for (const std::string& kind : absl::GetFlag(FLAGS_stores)) {
+    const std::string dir =
+        absl::StrCat(absl::GetFlag(FLAGS_data_dir), "/run-", walls.size(), "-", getpid());
+    std::filesystem::remove_all(dir);
+    absl::StatusOr<std::unique_ptr<oaipp::server::MissionStore>> store =
+        oaipp::server::OpenStore(kind, dir);
+    if (!store.ok()) {
+      std::fprintf(stderr, "%s\n", store.status().ToString().c_str());
+      return 1;
+    }
+    std::printf("== store: %s\n", oaipp::server::DescribeStore(kind, dir).c_str());
+    std::fflush(stdout);
+    walls.emplace_back(kind, RunLoad(store->get()));
+    store->reset();
+    std::filesystem::remove_all(dir);
+  }
+  if (walls.size() > 1) {
+    std::printf("\nwall time against %s:\n", walls.front().first.c_str());
+    for (const auto& [kind, wall] : walls) {
+      std::printf("  %-12.12s %8.1f s  %.3f\n", kind.c_str(), wall, wall / walls.front().second);
+    }
+  }
   return 0;
 }

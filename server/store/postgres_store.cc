@@ -1,0 +1,579 @@
+#include "server/store/postgres_store.h"
+
+#include <poll.h>
+
+#include <cstdint>
+#include <exception>
+#include <memory>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <pqxx/pqxx>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/cord.h"
+#include "absl/strings/escaping.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
+#include "absl/strings/strip.h"
+#include "absl/synchronization/mutex.h"
+#include "absl/time/clock.h"
+#include "absl/time/time.h"
+#include "core/common/status_macros.h"
+
+namespace oaipp::server {
+namespace {
+
+// The schema version this code reads and writes (store_info 'schema_version').
+// 1: missions, records, snapshots, deletions, mission_numbers.
+constexpr std::int64_t kSchemaVersion = 1;
+
+// Every stored string is bytea, ids and request_ids too: the store keeps
+// bytes, and text would refuse a NUL or a byte sequence that is not valid in
+// the database's encoding. bytea also compares byte by byte, so missions
+// created in the same microsecond come back in the same order as from the
+// SQLite store, whatever the database's collation.
+constexpr const char* kSchema = R"sql(
+CREATE SEQUENCE IF NOT EXISTS mission_numbers;
+CREATE TABLE IF NOT EXISTS store_info(
+  key text PRIMARY KEY,
+  value bigint NOT NULL);
+CREATE TABLE IF NOT EXISTS missions(
+  id bytea PRIMARY KEY,
+  spec bytea NOT NULL,
+  request_id bytea NOT NULL,
+  fingerprint bytea NOT NULL,
+  create_time_us bigint NOT NULL);
+CREATE TABLE IF NOT EXISTS records(
+  mission_id bytea NOT NULL REFERENCES missions(id) ON DELETE CASCADE,
+  sequence bigint NOT NULL,
+  kind integer NOT NULL,
+  payload bytea NOT NULL,
+  request_id bytea NOT NULL,
+  fingerprint bytea NOT NULL,
+  result bytea NOT NULL,
+  planner_state bytea NOT NULL,
+  write_time_us bigint NOT NULL,
+  PRIMARY KEY(mission_id, sequence));
+CREATE TABLE IF NOT EXISTS snapshots(
+  mission_id bytea PRIMARY KEY REFERENCES missions(id) ON DELETE CASCADE,
+  sequence bigint NOT NULL,
+  state bytea NOT NULL,
+  write_time_us bigint NOT NULL);
+CREATE TABLE IF NOT EXISTS deletions(
+  request_id bytea PRIMARY KEY,
+  mission_id bytea NOT NULL,
+  time_us bigint NOT NULL);
+CREATE INDEX IF NOT EXISTS deletions_by_time ON deletions(time_us);
+)sql";
+
+// Held while the schema is created: CREATE ... IF NOT EXISTS is not atomic
+// against a concurrent create of the same name, so two servers opening a
+// new database at once take turns. Any constant works; this one is ours.
+constexpr std::int64_t kSchemaLockKey = 0x6f61697070;  // "oaipp"
+
+// libpq gives up on an unreachable host after this long instead of the TCP
+// timeout (minutes), so a call that cannot connect soon gives its pool slot
+// back.
+constexpr absl::string_view kConnectTimeout = "connect_timeout=10";
+
+std::int64_t NowUs() { return absl::ToUnixMicros(absl::Now()); }
+
+// libpqxx sends a std::string parameter as text, which libpq ends at the
+// first NUL byte; a binarystring goes as a binary parameter, byte for byte.
+pqxx::binarystring Blob(const std::string& bytes) { return pqxx::binarystring(bytes); }
+std::string ReadBytes(const pqxx::field& field) { return pqxx::binarystring(field).str(); }
+
+// A mission id as it appears in messages (ids are bytes to the store).
+std::string Printable(absl::string_view id) { return absl::CHexEscape(id); }
+
+std::string WithConnectTimeout(const std::string& uri) {
+  if (absl::StrContains(uri, "connect_timeout")) return uri;
+  if (absl::StartsWith(uri, "postgresql://") || absl::StartsWith(uri, "postgres://")) {
+    return absl::StrCat(uri, absl::StrContains(uri, '?') ? "&" : "?", kConnectTimeout);
+  }
+  return absl::StrCat(uri, " ", kConnectTimeout);
+}
+
+// The first line of a libpq or server message. The lines after it (DETAIL,
+// the query) can quote stored values, and the store's messages never echo
+// stored bytes.
+std::string FirstLine(absl::string_view message) {
+  message = message.substr(0, message.find('\n'));
+  absl::ConsumePrefix(&message, "ERROR:  ");
+  return std::string(absl::StripTrailingAsciiWhitespace(message));
+}
+
+absl::Status NoMission(absl::string_view what) {
+  return absl::NotFoundError(absl::StrCat("store: ", what, ": no such mission"));
+}
+
+// Unavailable, and maybe stored: the writer must read back before it writes
+// again (mission_store.h).
+absl::Status InDoubt(absl::string_view what, absl::string_view cause) {
+  std::string message = absl::StrCat(
+      "store: ", what, ": connection lost while committing, the write may or may not be stored");
+  if (!cause.empty()) absl::StrAppend(&message, " (", FirstLine(cause), ")");
+  absl::Status status = absl::UnavailableError(message);
+  status.SetPayload(kInDoubt, absl::Cord("1"));
+  return status;
+}
+
+// The status for the exception being handled (call only from a catch
+// block). A refused key, a missing mission and a full disk have codes of
+// their own; anything else means the store cannot be used now: Unavailable.
+absl::Status CurrentError(absl::string_view what, bool committing) {
+  try {
+    throw;
+  } catch (const pqxx::in_doubt_error&) {
+    return InDoubt(what, "");  // its text says no more than InDoubt's
+  } catch (const pqxx::broken_connection& e) {
+    // libpqxx itself turns a connection lost during COMMIT into
+    // in_doubt_error; this keeps a loss it reports otherwise on the safe side.
+    if (committing) return InDoubt(what, e.what());
+    return absl::UnavailableError(
+        absl::StrCat("store: ", what, ": no connection (", FirstLine(e.what()), ")"));
+  } catch (const pqxx::unique_violation& e) {
+    return absl::AlreadyExistsError(absl::StrCat("store: ", what, ": ", FirstLine(e.what())));
+  } catch (const pqxx::foreign_key_violation&) {
+    return NoMission(what);
+  } catch (const pqxx::disk_full& e) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("store: ", what, ": database disk full (", FirstLine(e.what()), ")"));
+  } catch (const pqxx::sql_error& e) {
+    return absl::UnavailableError(
+        absl::StrCat("store: ", what, ": ", FirstLine(e.what()), " (SQLSTATE ", e.sqlstate(), ")"));
+  } catch (const std::exception& e) {
+    return absl::UnavailableError(absl::StrCat("store: ", what, ": ", FirstLine(e.what())));
+  } catch (...) {
+    return absl::UnavailableError(absl::StrCat("store: ", what, ": unknown error"));
+  }
+}
+
+// One connection and the sink for its notices: libpqxx prints notices (the
+// server's, and its own about transactions it aborts on a lost connection)
+// to stderr unless a handler takes them, and the store reports through its
+// statuses only.
+class Connection {
+ public:
+  // Connects; throws pqxx::broken_connection when it cannot.
+  explicit Connection(const std::string& uri) : conn_(uri), quiet_(conn_) {}
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+
+  pqxx::connection& get() { return conn_; }
+
+  // Whether the connection still looks usable, found without a round trip.
+  // The store listens to no notifications, so an idle session hears from
+  // the server only when it is being closed (shutdown, restart, a
+  // terminated backend, an idle timeout): then its goodbye is waiting on the
+  // socket. Such a connection is replaced before a call uses it, so a
+  // restart of the server costs no failed call.
+  bool Alive() noexcept {
+    if (!conn_.is_open()) return false;
+    pollfd socket = {.fd = conn_.sock(), .events = POLLIN, .revents = 0};
+    return socket.fd >= 0 && poll(&socket, 1, /*timeout=*/0) == 0;
+  }
+
+ private:
+  class Quiet final : public pqxx::errorhandler {
+   public:
+    explicit Quiet(pqxx::connection_base& conn) : pqxx::errorhandler(conn) {}
+    bool operator()(const char[]) noexcept override { return false; }
+  };
+
+  pqxx::connection conn_;
+  Quiet quiet_;  // declared after conn_: unregisters before the connection closes
+};
+
+// At most `size` connections in use at once. Each call borrows a slot; a
+// free slot may keep an open connection for the next call.
+class ConnectionPool {
+ public:
+  explicit ConnectionPool(int size) : free_(size) {}
+
+  // Waits for a free slot and takes it, with its idle connection, or with
+  // none (nullptr): the caller then opens one.
+  std::unique_ptr<Connection> Borrow() {
+    absl::MutexLock lock(&mu_);
+    mu_.Await(absl::Condition(
+        +[](int* slots) { return *slots > 0; }, &free_));
+    --free_;
+    if (idle_.empty()) return nullptr;
+    std::unique_ptr<Connection> connection = std::move(idle_.back());
+    idle_.pop_back();
+    return connection;
+  }
+
+  // Gives the slot back, keeping `connection` for a later call while it is
+  // open. A broken one (or none: opening failed) most likely means the server
+  // restarted or went away, so the idle ones are dropped too rather than
+  // failing one call each.
+  void Return(std::unique_ptr<Connection> connection) {
+    std::vector<std::unique_ptr<Connection>> dropped;
+    absl::MutexLock lock(&mu_);
+    ++free_;
+    if (connection != nullptr && connection->get().is_open()) {
+      idle_.push_back(std::move(connection));
+    } else {
+      dropped.swap(idle_);
+    }
+  }  // `lock` is released before `dropped` and `connection` close
+
+ private:
+  absl::Mutex mu_;
+  int free_ ABSL_GUARDED_BY(mu_);
+  std::vector<std::unique_ptr<Connection>> idle_ ABSL_GUARDED_BY(mu_);
+};
+
+class PostgresStore final : public MissionStore {
+ public:
+  PostgresStore(std::string uri, int connections) : uri_(std::move(uri)), pool_(connections) {}
+
+  // Checks that commits are durable, then creates what is missing.
+  absl::Status Init() {
+    return Call("open", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      // A commit acknowledged before it is on disk would break the
+      // contract's "durably"; such a server is a configuration error, found
+      // here rather than after a crash.
+      const pqxx::row settings =
+          tx.exec1("SELECT current_setting('fsync'), current_setting('synchronous_commit')");
+      if (settings[0].as<std::string>() != "on" || settings[1].as<std::string>() == "off") {
+        return absl::FailedPreconditionError(
+            absl::StrCat("store: open: the database does not keep commits durable (fsync=",
+                         settings[0].as<std::string>(),
+                         ", synchronous_commit=", settings[1].as<std::string>(), ")"));
+      }
+      tx.exec_params("SELECT pg_advisory_xact_lock($1)", kSchemaLockKey);
+      tx.exec0(kSchema);
+      tx.exec_params0(
+          "INSERT INTO store_info(key, value) VALUES('schema_version', $1) "
+          "ON CONFLICT (key) DO NOTHING",
+          kSchemaVersion);
+      const auto version = tx.exec1("SELECT value FROM store_info WHERE key = 'schema_version'")[0]
+                               .as<std::int64_t>();
+      if (version > kSchemaVersion) {
+        return absl::FailedPreconditionError(absl::StrCat("store: open: schema version ", version,
+                                                          " is newer than this server's (",
+                                                          kSchemaVersion, ")"));
+      }
+      Commit(tx, state);
+      return absl::OkStatus();
+    });
+  }
+
+  absl::StatusOr<std::int64_t> NextMissionNumber() override {
+    return Call("next mission number",
+                [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<std::int64_t> {
+                  pqxx::work tx(conn);
+                  const auto number =
+                      tx.exec1("SELECT nextval('mission_numbers')")[0].as<std::int64_t>();
+                  // nextval logs only every 32nd value, and a transaction
+                  // that wrote nothing else commits without waiting for the
+                  // disk: if the call that logged ahead never committed, the
+                  // number could come back after a crash. Writing it makes
+                  // this commit flush the log up to and past that value.
+                  tx.exec_params0(
+                      "INSERT INTO store_info(key, value) VALUES('mission_number', $1) "
+                      "ON CONFLICT (key) DO UPDATE SET "
+                      "value = GREATEST(store_info.value, EXCLUDED.value)",
+                      number);
+                  Commit(tx, state);
+                  return number;
+                });
+  }
+
+  absl::Status CreateMission(const StoredMission& m) override {
+    return Call(absl::StrCat("create mission '", Printable(m.id), "'"),
+                [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+                  pqxx::work tx(conn);
+                  // A taken id is a unique violation: AlreadyExists.
+                  tx.exec_params0(
+                      "INSERT INTO missions(id, spec, request_id, fingerprint, create_time_us) "
+                      "VALUES($1, $2, $3, $4, $5)",
+                      Blob(m.id), Blob(m.spec), Blob(m.request_id), Blob(m.fingerprint),
+                      m.create_time_unix_us);
+                  Commit(tx, state);
+                  return absl::OkStatus();
+                });
+  }
+
+  absl::Status Append(const std::string& mission_id, const LogRecord& r) override {
+    const std::string what =
+        absl::StrCat("append to '", Printable(mission_id), "' at ", r.sequence);
+    if (r.sequence < 1) {
+      return absl::InvalidArgumentError(absl::StrCat("store: ", what, ": sequences start at 1"));
+    }
+    const std::int64_t write_time_us = r.write_time_unix_us != 0 ? r.write_time_unix_us : NowUs();
+    return Call(what, [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      // The share lock keeps PutSnapshot (which takes the mission row for
+      // update) from dropping records between this check and the insert,
+      // and DeleteMission from removing the mission under it; appends to
+      // the same mission share it.
+      const pqxx::result mission = tx.exec_params(
+          "SELECT s.sequence FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id "
+          "WHERE m.id = $1 FOR SHARE OF m",
+          Blob(mission_id));
+      if (mission.empty()) return NoMission(what);
+      // A snapshot dropped the records it covers, so a retry of one of them
+      // cannot be told from a reuse any more; the writer that sent it is
+      // behind the snapshot either way.
+      if (!mission[0][0].is_null() && r.sequence <= mission[0][0].as<std::int64_t>()) {
+        return absl::AlreadyExistsError(absl::StrCat(
+            "store: ", what, ": covered by the snapshot at ", mission[0][0].as<std::int64_t>()));
+      }
+      const pqxx::result inserted = tx.exec_params(
+          "INSERT INTO records(mission_id, sequence, kind, payload, request_id, fingerprint, "
+          "result, planner_state, write_time_us) VALUES($1, $2, $3, $4, $5, $6, $7, $8, $9) "
+          "ON CONFLICT (mission_id, sequence) DO NOTHING",
+          Blob(mission_id), r.sequence, static_cast<int>(r.kind), Blob(r.payload),
+          Blob(r.request_id), Blob(r.fingerprint), Blob(r.result), Blob(r.planner_state),
+          write_time_us);
+      if (inserted.affected_rows() == 1) {
+        Commit(tx, state);
+        return absl::OkStatus();
+      }
+      // The same request at the same place: a retry of a write whose outcome
+      // the writer could not know. Anything else is a second writer.
+      const pqxx::row stored = tx.exec_params1(
+          "SELECT payload, request_id, fingerprint FROM records "
+          "WHERE mission_id = $1 AND sequence = $2",
+          Blob(mission_id), r.sequence);
+      if (ReadBytes(stored[0]) == r.payload && ReadBytes(stored[1]) == r.request_id &&
+          ReadBytes(stored[2]) == r.fingerprint) {
+        return absl::OkStatus();
+      }
+      return absl::AlreadyExistsError(
+          absl::StrCat("store: ", what, ": the sequence holds another request"));
+    });
+  }
+
+  absl::Status PutSnapshot(const std::string& mission_id, const StoredSnapshot& snap) override {
+    const std::string what =
+        absl::StrCat("snapshot of '", Printable(mission_id), "' at ", snap.sequence);
+    if (snap.sequence < 1) {
+      return absl::InvalidArgumentError(absl::StrCat("store: ", what, ": sequences start at 1"));
+    }
+    const std::int64_t write_time_us =
+        snap.write_time_unix_us != 0 ? snap.write_time_unix_us : NowUs();
+    return Call(what, [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      // NO KEY UPDATE waits for appends in flight (FOR SHARE) but not for
+      // the key-share locks of foreign-key checks.
+      const pqxx::result mission = tx.exec_params(
+          "SELECT s.sequence FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id "
+          "WHERE m.id = $1 FOR NO KEY UPDATE OF m",
+          Blob(mission_id));
+      if (mission.empty()) return NoMission(what);
+      if (!mission[0][0].is_null() && snap.sequence <= mission[0][0].as<std::int64_t>()) {
+        return absl::OkStatus();  // not later than the stored one: ignored
+      }
+      tx.exec_params0(
+          "INSERT INTO snapshots(mission_id, sequence, state, write_time_us) "
+          "VALUES($1, $2, $3, $4) ON CONFLICT (mission_id) DO UPDATE SET "
+          "sequence = EXCLUDED.sequence, state = EXCLUDED.state, "
+          "write_time_us = EXCLUDED.write_time_us",
+          Blob(mission_id), snap.sequence, Blob(snap.state), write_time_us);
+      tx.exec_params0("DELETE FROM records WHERE mission_id = $1 AND sequence <= $2",
+                      Blob(mission_id), snap.sequence);
+      Commit(tx, state);
+      return absl::OkStatus();
+    });
+  }
+
+  absl::Status DeleteMission(const std::string& mission_id,
+                             const std::string& request_id) override {
+    const std::string what = absl::StrCat("delete mission '", Printable(mission_id), "'");
+    return Call(what, [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      // Records and snapshot go with it (ON DELETE CASCADE), in this
+      // transaction.
+      const pqxx::result deleted =
+          tx.exec_params("DELETE FROM missions WHERE id = $1", Blob(mission_id));
+      if (deleted.affected_rows() == 0) return NoMission(what);
+      if (!request_id.empty()) {
+        // A request_id that already deleted a mission keeps its first answer.
+        tx.exec_params0(
+            "INSERT INTO deletions(request_id, mission_id, time_us) VALUES($1, $2, $3) "
+            "ON CONFLICT (request_id) DO NOTHING",
+            Blob(request_id), Blob(mission_id), NowUs());
+      }
+      Commit(tx, state);
+      return absl::OkStatus();
+    });
+  }
+
+  absl::StatusOr<std::vector<StoredMission>> LoadAll() override {
+    return Call(
+        "load all missions",
+        [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<std::vector<StoredMission>> {
+          ReadOnly tx(conn);
+          return LoadMissions(tx, nullptr);
+        });
+  }
+
+  absl::StatusOr<StoredMission> Load(const std::string& mission_id) override {
+    const std::string what = absl::StrCat("load mission '", Printable(mission_id), "'");
+    return Call(what, [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<StoredMission> {
+      ReadOnly tx(conn);
+      OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found, LoadMissions(tx, &mission_id));
+      if (found.empty()) return NoMission(what);
+      return std::move(found.front());
+    });
+  }
+
+  absl::StatusOr<std::string> DeletedBy(const std::string& request_id) override {
+    return Call("deleted by",
+                [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<std::string> {
+                  pqxx::nontransaction tx(conn);
+                  const pqxx::result found = tx.exec_params(
+                      "SELECT mission_id FROM deletions WHERE request_id = $1", Blob(request_id));
+                  if (found.empty()) {
+                    return absl::NotFoundError("store: no deletion by that request_id");
+                  }
+                  return ReadBytes(found[0][0]);
+                });
+  }
+
+  absl::Status ForgetDeletionsBefore(std::int64_t unix_us) override {
+    return Call("forget deletions", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      tx.exec_params0("DELETE FROM deletions WHERE time_us < $1", unix_us);
+      Commit(tx, state);
+      return absl::OkStatus();
+    });
+  }
+
+  // A real write (one small durable transaction), so that a server that
+  // cannot write (or cannot be reached) shows.
+  absl::Status Health() override {
+    return Call("health", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      tx.exec0(
+          "INSERT INTO store_info(key, value) VALUES('health', 1) "
+          "ON CONFLICT (key) DO UPDATE SET value = store_info.value + 1");
+      Commit(tx, state);
+      return absl::OkStatus();
+    });
+  }
+
+ private:
+  // One snapshot of the database for all the queries of a load, so that a
+  // PutSnapshot committing in between cannot pair an old snapshot with the
+  // records after a new one.
+  using ReadOnly = pqxx::transaction<pqxx::repeatable_read, pqxx::read_only>;
+
+  // What a failure says about a write: once COMMIT is on its way, a lost
+  // connection leaves the write's outcome unknown.
+  struct CallState {
+    bool committing = false;
+  };
+
+  static void Commit(pqxx::work& tx, CallState& state) {
+    state.committing = true;
+    tx.commit();
+  }
+
+  // Runs `body(connection, state)` on a borrowed connection (opening it if
+  // the slot has none) and turns whatever it throws into a status.
+  template <typename Body>
+  std::invoke_result_t<Body, pqxx::connection&, CallState&> Call(absl::string_view what,
+                                                                 Body body) {
+    using Result = std::invoke_result_t<Body, pqxx::connection&, CallState&>;
+    std::unique_ptr<Connection> connection = pool_.Borrow();
+    if (connection != nullptr && !connection->Alive()) connection.reset();
+    CallState state;
+    Result result = [&]() -> Result {
+      try {
+        if (connection == nullptr) connection = std::make_unique<Connection>(uri_);
+        return body(connection->get(), state);
+      } catch (...) {
+        return CurrentError(what, state.committing);
+      }
+    }();
+    pool_.Return(std::move(connection));
+    return result;
+  }
+
+  // Missions (all, or the one with id *only) with their snapshot and the
+  // records after it, in the order LoadAll promises.
+  static absl::StatusOr<std::vector<StoredMission>> LoadMissions(ReadOnly& tx,
+                                                                 const std::string* only) {
+    constexpr absl::string_view kMissions =
+        "SELECT m.id, m.spec, m.request_id, m.fingerprint, m.create_time_us, "
+        "s.sequence, s.state, s.write_time_us "
+        "FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id ";
+    constexpr absl::string_view kRecords =
+        "SELECT r.mission_id, r.sequence, r.kind, r.payload, r.request_id, r.fingerprint, "
+        "r.result, r.planner_state, r.write_time_us "
+        "FROM records r JOIN missions m ON m.id = r.mission_id "
+        "LEFT JOIN snapshots s ON s.mission_id = r.mission_id "
+        "WHERE r.sequence > coalesce(s.sequence, 0) ";
+    const pqxx::result missions =
+        only == nullptr ? tx.exec(absl::StrCat(kMissions, "ORDER BY m.create_time_us, m.id"))
+                        : tx.exec_params(absl::StrCat(kMissions, "WHERE m.id = $1"), Blob(*only));
+    std::vector<StoredMission> out;
+    out.reserve(missions.size());
+    for (const pqxx::row& row : missions) {
+      StoredMission& m =
+          out.emplace_back(StoredMission{.id = ReadBytes(row[0]),
+                                         .spec = ReadBytes(row[1]),
+                                         .request_id = ReadBytes(row[2]),
+                                         .fingerprint = ReadBytes(row[3]),
+                                         .create_time_unix_us = row[4].as<std::int64_t>()});
+      if (!row[5].is_null()) {
+        m.snapshot = StoredSnapshot{.sequence = row[5].as<std::int64_t>(),
+                                    .state = ReadBytes(row[6]),
+                                    .write_time_unix_us = row[7].as<std::int64_t>()};
+      }
+    }
+    const pqxx::result records =
+        only == nullptr
+            ? tx.exec(absl::StrCat(kRecords, "ORDER BY m.create_time_us, m.id, r.sequence"))
+            : tx.exec_params(absl::StrCat(kRecords, "AND m.id = $1 ORDER BY r.sequence"),
+                             Blob(*only));
+    // Both results come in the same mission order: one walk pairs them.
+    std::size_t i = 0;
+    for (const pqxx::row& row : records) {
+      const std::string mission_id = ReadBytes(row[0]);
+      while (i < out.size() && out[i].id != mission_id) ++i;
+      if (i == out.size()) {
+        return absl::InternalError(
+            absl::StrCat("store: load: a record of '", Printable(mission_id), "' out of order"));
+      }
+      out[i].log.push_back({.sequence = row[1].as<std::int64_t>(),
+                            .kind = static_cast<RecordKind>(row[2].as<int>()),
+                            .payload = ReadBytes(row[3]),
+                            .request_id = ReadBytes(row[4]),
+                            .fingerprint = ReadBytes(row[5]),
+                            .result = ReadBytes(row[6]),
+                            .planner_state = ReadBytes(row[7]),
+                            .write_time_unix_us = row[8].as<std::int64_t>()});
+    }
+    return out;
+  }
+
+  const std::string uri_;
+  ConnectionPool pool_;
+};
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<MissionStore>> OpenPostgresStore(const std::string& uri,
+                                                                int connections) {
+  if (connections < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("store: open: connections must be at least 1, not ", connections));
+  }
+  auto store = std::make_unique<PostgresStore>(WithConnectTimeout(uri), connections);
+  OAIPP_RETURN_IF_ERROR(store->Init());
+  return store;
+}
+
+}  // namespace oaipp::server
