@@ -25,6 +25,7 @@
 #include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
 #include "tests/bench/server/e1_mission.h"
+#include "tests/server/postgres_instance.h"
 
 ABSL_FLAG(int, missions, 50, "missions flown at once");
 ABSL_FLAG(double, budget_s, 150.0, "flight budget per mission, seconds");
@@ -33,7 +34,8 @@ ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
 ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
-          "--data_dir) or a postgresql:// URI");
+          "--data_dir), postgresql (a PostgreSQL server started for the run, as the tests "
+          "start one) or a postgresql:// URI");
 ABSL_FLAG(std::string, data_dir, "/tmp/oaipp-server-load", "where sqlite runs keep their file");
 ABSL_FLAG(int, snapshot_every, 16, "server snapshot interval (measurements)");
 
@@ -176,7 +178,21 @@ int main(int argc, char** argv) {
   absl::ParseCommandLine(argc, argv);
   spdlog::set_level(spdlog::level::warn);
   std::vector<std::pair<std::string, double>> walls;
-  for (const std::string& kind : absl::GetFlag(FLAGS_stores)) {
+  std::unique_ptr<oaipp::server::testing::PostgresInstance> postgres;
+  for (std::string kind : absl::GetFlag(FLAGS_stores)) {
+    const std::string label = kind;
+    if (kind == "postgresql") {
+      if (postgres == nullptr) {
+        postgres = std::make_unique<oaipp::server::testing::PostgresInstance>();
+        if (!oaipp::server::testing::PostgresInstance::Available() || !postgres->Start()) {
+          std::fprintf(stderr, "cannot start PostgreSQL 15 (deploy/install-deps.sh installs it)\n");
+          return 1;
+        }
+      }
+      const std::string database = absl::StrCat("load", walls.size());
+      if (!postgres->CreateDatabase(database)) return 1;
+      kind = postgres->uri(database);
+    }
     const std::string dir =
         absl::StrCat(absl::GetFlag(FLAGS_data_dir), "/run-", walls.size(), "-", getpid());
     std::filesystem::remove_all(dir);
@@ -188,7 +204,7 @@ int main(int argc, char** argv) {
     }
     std::printf("== store: %s\n", oaipp::server::DescribeStore(kind, dir).c_str());
     std::fflush(stdout);
-    walls.emplace_back(kind, RunLoad(store->get()));
+    walls.emplace_back(label, RunLoad(store->get()));
     store->reset();
     std::filesystem::remove_all(dir);
   }

@@ -1,7 +1,9 @@
 // What durability costs: AddMeasurement on the E1 mission through the
-// service in-process, with the SQLite store (every call on disk before it is
-// answered) and with missions in memory, alternated in the same run; a bare
-// store append (the fsync); and how long recovery takes.
+// service in-process, with the SQLite store, with PostgreSQL (a real server
+// the benchmark starts on loopback, as the tests do) and with missions in
+// memory, in turn in the same run; a bare store append (the fsync, or the
+// round trip and commit); appends of many missions at once (group commit);
+// and how long recovery takes with snapshots.
 //
 //   build/tests/bench/server/store_bench --benchmark_repetitions=5
 //     (add --benchmark_report_aggregates_only=true for medians only)
@@ -10,13 +12,16 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <thread>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "grpcpp/grpcpp.h"
 #include "server/service.h"
+#include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
 #include "tests/bench/server/e1_mission.h"
+#include "tests/server/postgres_instance.h"
 
 namespace oaipp {
 namespace {
@@ -29,6 +34,29 @@ std::filesystem::path FreshDir(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+// One PostgreSQL server for the whole run, started on first use; each
+// benchmark takes its own database.
+std::string PostgresUri() {
+  static std::unique_ptr<server::testing::PostgresInstance> postgres;
+  static int databases = 0;
+  if (postgres == nullptr) {
+    if (!server::testing::PostgresInstance::Available()) return "";
+    postgres = std::make_unique<server::testing::PostgresInstance>();
+    if (!postgres->Start()) return "";
+  }
+  const std::string database = absl::StrCat("bench", ++databases);
+  return postgres->CreateDatabase(database) ? postgres->uri(database) : "";
+}
+
+// The store of kind 0 (SQLite, in a fresh folder) or 1 (PostgreSQL, a fresh
+// database); nullptr when it cannot be had.
+std::unique_ptr<server::MissionStore> OpenKind(int kind, const std::string& name) {
+  absl::StatusOr<std::unique_ptr<server::MissionStore>> store =
+      kind == 0 ? server::OpenSqliteStore((FreshDir(name) / "missions.db").string())
+                : server::OpenPostgresStore(PostgresUri());
+  return store.ok() ? *std::move(store) : nullptr;
 }
 
 // A service in-process over `store` (nullptr: memory) holding missions.
@@ -74,33 +102,42 @@ double Median(std::vector<double> v) {
   return v.empty() ? 0.0 : v[v.size() / 2];
 }
 
-// Both services measure in turn each iteration; counters: the median of
-// each and their difference (what durability adds per call).
-void BM_AddMeasurementSqliteVsMemory(benchmark::State& state) {
-  const std::filesystem::path dir = FreshDir("measure");
-  auto store = *server::OpenSqliteStore((dir / "missions.db").string());
-  Service durable(store.get()), memory(nullptr);
-  durable.Create("e1");
-  memory.Create("e1");
-  std::vector<double> durable_ms, memory_ms;
+// The three services measure in turn each iteration; counters: the median
+// of each and what each store adds to it.
+void BM_AddMeasurementStoresVsMemory(benchmark::State& state) {
+  std::unique_ptr<server::MissionStore> sqlite = OpenKind(0, "measure");
+  std::unique_ptr<server::MissionStore> postgres = OpenKind(1, "measure");
+  if (sqlite == nullptr || postgres == nullptr) {
+    state.SkipWithError("a store could not be opened");
+    return;
+  }
+  Service on_sqlite(sqlite.get()), on_postgres(postgres.get()), memory(nullptr);
+  for (Service* s : {&on_sqlite, &on_postgres, &memory}) s->Create("e1");
+  std::vector<double> sqlite_ms, postgres_ms, memory_ms;
   int k = 0;
   for (auto _ : state) {
-    durable_ms.push_back(durable.Measure("e1", k));
+    sqlite_ms.push_back(on_sqlite.Measure("e1", k));
+    postgres_ms.push_back(on_postgres.Measure("e1", k));
     memory_ms.push_back(memory.Measure("e1", k));
     ++k;
   }
-  state.counters["sqlite_p50_ms"] = Median(durable_ms);
   state.counters["memory_p50_ms"] = Median(memory_ms);
-  state.counters["added_p50_ms"] = Median(durable_ms) - Median(memory_ms);
-  std::filesystem::remove_all(dir);
+  state.counters["sqlite_p50_ms"] = Median(sqlite_ms);
+  state.counters["postgres_p50_ms"] = Median(postgres_ms);
+  state.counters["sqlite_added_ms"] = Median(sqlite_ms) - Median(memory_ms);
+  state.counters["postgres_added_ms"] = Median(postgres_ms) - Median(memory_ms);
 }
-BENCHMARK(BM_AddMeasurementSqliteVsMemory)->Iterations(200)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AddMeasurementStoresVsMemory)->Iterations(200)->Unit(benchmark::kMillisecond);
 
-// A bare append of a measurement-sized record: the cost of one durable
-// SQLite transaction (WAL, synchronous=FULL: one fsync) on this disk.
-void BM_SqliteAppend(benchmark::State& state) {
-  const std::filesystem::path dir = FreshDir("append");
-  auto store = *server::OpenSqliteStore((dir / "missions.db").string());
+// A bare append of a measurement-sized record: one durable transaction
+// (SQLite: WAL, synchronous=FULL, one fsync; PostgreSQL: a loopback round
+// trip and a commit that waits for its WAL flush). Arg: 0 SQLite, 1 PostgreSQL.
+void BM_Append(benchmark::State& state) {
+  std::unique_ptr<server::MissionStore> store = OpenKind(static_cast<int>(state.range(0)), "append");
+  if (store == nullptr) {
+    state.SkipWithError("the store could not be opened");
+    return;
+  }
   (void)store->CreateMission({.id = "m", .spec = "spec"});
   const std::string payload(4000, 'x');
   std::int64_t sequence = 1;
@@ -109,12 +146,50 @@ void BM_SqliteAppend(benchmark::State& state) {
         "m",
         {.sequence = sequence++, .kind = server::RecordKind::kMeasurement, .payload = payload}));
   }
-  std::filesystem::remove_all(dir);
 }
-BENCHMARK(BM_SqliteAppend)->Iterations(500)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Append)->Arg(0)->Arg(1)->Iterations(500)->Unit(benchmark::kMillisecond);
 
-// Recovery of `missions` E1 missions with `measurements` each: the time
-// Recover takes on a fresh registry over the written store.
+// 16 missions appending at once, 50 records each: appends per second.
+// SQLite commits whatever is queued in one transaction (one fsync for the
+// group); PostgreSQL spreads missions over its connections.
+void BM_ConcurrentAppends(benchmark::State& state) {
+  std::unique_ptr<server::MissionStore> store =
+      OpenKind(static_cast<int>(state.range(0)), "concurrent");
+  if (store == nullptr) {
+    state.SkipWithError("the store could not be opened");
+    return;
+  }
+  constexpr int kMissions = 16, kRecords = 50;
+  const std::string payload(4000, 'x');
+  int round = 0;
+  double appends = 0, seconds = 0;
+  for (auto _ : state) {
+    for (int m = 0; m < kMissions; ++m) {
+      (void)store->CreateMission({.id = absl::StrCat("r", round, "m", m), .spec = "spec"});
+    }
+    const auto t0 = Clock::now();
+    std::vector<std::thread> writers;
+    for (int m = 0; m < kMissions; ++m) {
+      writers.emplace_back([&, m] {
+        const std::string id = absl::StrCat("r", round, "m", m);
+        for (int i = 1; i <= kRecords; ++i) {
+          (void)store->Append(
+              id, {.sequence = i, .kind = server::RecordKind::kMeasurement, .payload = payload});
+        }
+      });
+    }
+    for (std::thread& t : writers) t.join();
+    seconds += std::chrono::duration<double>(Clock::now() - t0).count();
+    appends += kMissions * kRecords;
+    ++round;
+  }
+  state.counters["appends_per_s"] = appends / seconds;
+}
+BENCHMARK(BM_ConcurrentAppends)->Arg(0)->Arg(1)->Iterations(3)->Unit(benchmark::kMillisecond);
+
+// Recovery of `missions` E1 missions with `measurements` each, written with
+// a snapshot every 16 measurements (the server's default): the time Recover
+// takes on a fresh registry over the SQLite file.
 void BM_Recover(benchmark::State& state) {
   const int missions = static_cast<int>(state.range(0));
   const int measurements = static_cast<int>(state.range(1));
@@ -127,6 +202,8 @@ void BM_Recover(benchmark::State& state) {
       writer.Create(id);
       for (int k = 0; k < measurements; ++k) writer.Measure(id, k);
     }
+    writer.registry.FlushSnapshots();
+    state.counters["snapshots"] = static_cast<double>(writer.registry.snapshots_written());
   }
   for (auto _ : state) {
     auto store = *server::OpenSqliteStore((dir / "missions.db").string());
