@@ -1,7 +1,6 @@
 #include "server/store/open_store.h"
 
 #include <filesystem>
-#include <regex>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
@@ -42,8 +41,14 @@ std::string DescribeStore(const std::string& store, const std::string& data_dir)
   }
   if (IsPostgresUri(store)) {
     // postgresql://user:secret@host -> postgresql://user:***@host
-    return absl::StrCat("postgresql ",
-                        std::regex_replace(store, std::regex("(://[^:/@]*):[^@/]*@"), "$1:***@"));
+    std::string shown = store;
+    const std::size_t user = shown.find("://") + 3;
+    const std::size_t at = shown.find('@', user);
+    if (at != std::string::npos) {
+      const std::size_t colon = shown.find(':', user);
+      if (colon < at) shown.replace(colon + 1, at - colon - 1, "***");
+    }
+    return absl::StrCat("postgresql ", shown);
   }
   return store;
 }

@@ -3,10 +3,13 @@
 // same obstacles, map (mean and covariance bit for bit: the replay applies
 // the same calls through the same code), counters, planner state and
 // request_id answers; a store that fails leaves the mission untouched.
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
 #include "absl/strings/cord.h"
+#include "absl/strings/str_cat.h"
 #include "google/protobuf/util/message_differencer.h"
 #include "gtest/gtest.h"
 #include "server/store/sqlite_store.h"
@@ -458,6 +461,97 @@ TEST_F(RecoveryTest, RetentionDeletesFinishedAndIdleMissionsWithTheirRecords) {
             std::vector<std::string>{"flying"});
   EXPECT_TRUE(store->LoadAll()->empty());
   EXPECT_EQ(service.registry().size(), 0u);
+}
+
+// A real full disk: the store on a 1 MB tmpfs, filled up. The measurement
+// that no longer fits fails RESOURCE_EXHAUSTED and is not applied, health
+// fails, and once there is room again the retry is applied once and the file
+// recovers. Needs root to mount; skipped where mounting is not allowed.
+class DiskFullTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / absl::StrCat("oaipp-full-", getpid());
+    std::filesystem::create_directories(dir_);
+    const std::string mount = absl::StrCat("mount -t tmpfs -o size=1m tmpfs ", dir_.string(),
+                                           " 2>/dev/null");
+    mounted_ = std::system(mount.c_str()) == 0;
+    if (!mounted_) GTEST_SKIP() << "cannot mount a tmpfs here (needs root)";
+  }
+  void TearDown() override {
+    if (mounted_) (void)std::system(absl::StrCat("umount ", dir_.string()).c_str());
+    std::filesystem::remove_all(dir_);
+  }
+  std::filesystem::path dir_;
+  bool mounted_ = false;
+};
+
+// A measurement labelling every cell of the 20 x 20 field (~4 kB).
+v1::AddMeasurementRequest WholeFieldMeasurement(int i) {
+  v1::AddMeasurementRequest r = LabelMeasurement("missions/a", 0.0, 0.0, 8.0, 0.5 * i, 0.0);
+  r.mutable_labels()->Clear();
+  for (int c = 0; c < 400; ++c) {
+    r.mutable_labels()->add_cells(c);
+    r.mutable_labels()->add_labels((c + i) % 7 == 0 ? 1.0 : 0.0);
+  }
+  r.set_request_id(absl::StrCat("w", i));
+  return r;
+}
+
+TEST_F(DiskFullTest, AWriteThatDoesNotFitIsResourceExhaustedAndNotApplied) {
+  absl::StatusOr<std::unique_ptr<MissionStore>> store =
+      OpenSqliteStore((dir_ / "missions.db").string());
+  ASSERT_TRUE(store.ok()) << store.status();
+  InProcessService service(
+      RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600, .snapshot_every = 0}, 2, 64,
+      store->get());
+  v1::Mission created;
+  ASSERT_TRUE(Create(service.stub(), "a", v1::PLANNER_KIND_OAIPP, &created).ok());
+  // Fill what is left of the disk.
+  {
+    std::FILE* filler = std::fopen((dir_ / "filler").c_str(), "wb");
+    ASSERT_NE(filler, nullptr);
+    const std::string block(4096, 'f');
+    while (std::fwrite(block.data(), 1, block.size(), filler) == block.size() &&
+           std::fflush(filler) == 0) {
+    }
+    std::fclose(filler);
+  }
+  // Space the journal already holds may take a few more records; then one
+  // does not fit.
+  int fused = 0;
+  grpc::Status refused;
+  for (int i = 0; i < 300 && refused.ok(); ++i) {
+    grpc::ClientContext c;
+    v1::AddMeasurementResponse out;
+    refused = service.stub().AddMeasurement(&c, WholeFieldMeasurement(i), &out);
+    if (refused.ok()) fused = static_cast<int>(out.measurements_fused());
+  }
+  ASSERT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << refused.error_message();
+  const v1::GetMapResponse map = Map(service.stub(), "missions/a");
+  {
+    grpc::ClientContext c;
+    v1::GetMissionRequest r;
+    r.set_name("missions/a");
+    v1::Mission m;
+    ASSERT_TRUE(service.stub().GetMission(&c, r, &m).ok());
+    EXPECT_EQ(m.measurements_fused(), fused);  // the refused one is not in memory
+  }
+  EXPECT_FALSE((*store)->Health().ok());
+
+  std::filesystem::remove(dir_ / "filler");
+  EXPECT_TRUE((*store)->Health().ok());
+  grpc::ClientContext c;
+  v1::AddMeasurementResponse out;
+  ASSERT_TRUE(service.stub().AddMeasurement(&c, WholeFieldMeasurement(fused), &out).ok());
+  EXPECT_EQ(out.measurements_fused(), fused + 1);
+  EXPECT_NE(Map(service.stub(), "missions/a").trace(), map.trace());
+  // The file holds exactly what was acknowledged.
+  std::unique_ptr<MissionStore> reopened = *OpenSqliteStore((dir_ / "missions.db").string());
+  InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
+                         reopened.get());
+  ASSERT_TRUE(after.registry().Recover().ok());
+  EXPECT_EQ(Map(after.stub(), "missions/a").SerializeAsString(),
+            Map(service.stub(), "missions/a").SerializeAsString());
 }
 
 }  // namespace

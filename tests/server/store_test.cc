@@ -12,6 +12,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "gtest/gtest.h"
+#include "server/store/open_store.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
 #include "tests/server/postgres_instance.h"
@@ -247,6 +248,16 @@ TEST(SqliteStoreTest, AFolderThatDoesNotExistIsUnavailable) {
   absl::StatusOr<std::unique_ptr<MissionStore>> store =
       OpenSqliteStore("/nonexistent-oaipp/no/such/missions.db");
   EXPECT_EQ(store.status().code(), absl::StatusCode::kUnavailable);
+}
+
+TEST(OpenStoreTest, TheFlagNamesTheStoreAndLogsHideThePassword) {
+  EXPECT_EQ(OpenStore("mysql://x", "/tmp").status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(*OpenStore("memory", "/tmp"), nullptr);
+  const std::string shown = DescribeStore("postgresql://oaipp:s3cret@db:5432/missions", "");
+  EXPECT_EQ(shown, "postgresql postgresql://oaipp:***@db:5432/missions");
+  EXPECT_EQ(DescribeStore("postgresql://oaipp@db/missions", ""),
+            "postgresql postgresql://oaipp@db/missions");
+  EXPECT_EQ(DescribeStore("sqlite", "/var/lib/oaipp"), "sqlite file /var/lib/oaipp/missions.db");
 }
 
 TEST(PostgresStoreTest, NoServerIsUnavailable) {
