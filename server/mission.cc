@@ -245,9 +245,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
 
 absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           std::optional<double> next_shot_mission_s,
-                                          absl::Time deadline, const std::string& request_id,
-                                          PlanningGate* gate, std::function<bool()> cancelled,
-                                          const PersistPlanFn& persist) {
+                                          const std::string& request_id, const PlanCall& call) {
   absl::MutexLock planner_lock(&planner_mu_);
   if (auto done = Recall<PlannedPath>(request_id)) return *std::move(done);
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
@@ -265,9 +263,14 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   const std::string state_before = planner_->SaveState();
   std::optional<PlanningGate::Ticket> ticket;
-  if (gate != nullptr) {
-    OAIPP_ASSIGN_OR_RETURN(ticket, gate->Enter(deadline));
+  if (call.gate != nullptr) {
+    OAIPP_ASSIGN_OR_RETURN(ticket, call.gate->Enter(call.deadline, call.cancelled));
   }
+  // The planning budget counts from admission: waiting for a slot is not
+  // planning.
+  const absl::Time deadline =
+      call.budget == absl::InfiniteDuration() ? call.deadline
+                                              : std::min(call.deadline, absl::Now() + call.budget);
   absl::StatusOr<PlannedPath> path;
   {
     absl::ReaderMutexLock lock(&mu_);
@@ -277,7 +280,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                   .noise = config_.noise,
                                   .next_shot_mission_s = next_shot,
                                   .remaining_budget_s = config_.budget_s - elapsed,
-                                  .cancelled = std::move(cancelled)};
+                                  .cancelled = call.cancelled};
     path = planner_->Plan(context, state, deadline);
   }
   ticket.reset();
@@ -285,7 +288,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.
   const std::string state_after = planner_->SaveState();
-  if (absl::Status written = PersistPlan(persist, *path, state_after); !written.ok()) {
+  if (absl::Status written = PersistPlan(call.persist, *path, state_after); !written.ok()) {
     (void)planner_->RestoreState(state_before);
     return written;
   }

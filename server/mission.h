@@ -172,16 +172,23 @@ class Mission {
   // Plans from `state` (validated by the planner). next_shot: the sensor
   // phase; unset, the next multiple of 1 / rate at or after the state's
   // mission time. FailedPrecondition when the budget is spent.
-  // `cancelled` (if any) is asked between CMA-ES generations.
-  // The plan runs once `gate` (if any) admits it; the gate is entered after
-  // this mission's previous plan finished, so a mission queues behind
-  // itself, not in front of others.
+  // The plan runs once `call.gate` (if any) admits it; the gate is entered
+  // after this mission's previous plan finished, so a mission queues behind
+  // itself, not in front of others. Waiting ends at call.deadline (or when
+  // call.cancelled says so); planning at call.deadline or call.budget after
+  // admission, whichever comes first; call.cancelled is also asked between
+  // CMA-ES generations.
+  struct PlanCall {
+    absl::Time deadline = absl::InfiniteFuture();
+    absl::Duration budget = absl::InfiniteDuration();
+    PlanningGate* gate = nullptr;
+    std::function<bool()> cancelled = nullptr;
+    PersistPlanFn persist = nullptr;
+  };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,
-                                                 absl::Time deadline, const std::string& request_id,
-                                                 PlanningGate* gate = nullptr,
-                                                 std::function<bool()> cancelled = nullptr,
-                                                 const PersistPlanFn& persist = nullptr);
+                                                 const std::string& request_id,
+                                                 const PlanCall& call);
   // Recovery: a plan read back from storage, in log order. The planner takes
   // `planner_state`, the plan takes the next sequence number, and a retry of
   // `request_id` is answered with `path`.

@@ -1,6 +1,9 @@
 #include "server/planning_gate.h"
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 
 namespace oaipp::server {
 
@@ -18,7 +21,8 @@ void PlanningGate::Ticket::Release() {
   gate_ = nullptr;
 }
 
-absl::StatusOr<PlanningGate::Ticket> PlanningGate::Enter(absl::Time deadline) {
+absl::StatusOr<PlanningGate::Ticket> PlanningGate::Enter(absl::Time deadline,
+                                                        const std::function<bool()>& cancelled) {
   absl::MutexLock lock(&mu_);
   if (running_ < threads_) {
     ++running_;
@@ -30,7 +34,18 @@ absl::StatusOr<PlanningGate::Ticket> PlanningGate::Enter(absl::Time deadline) {
   }
   ++waiting_;
   auto free = [this]() ABSL_SHARED_LOCKS_REQUIRED(mu_) { return running_ < threads_; };
-  const bool admitted = mu_.AwaitWithDeadline(absl::Condition(&free), deadline);
+  // Woken every 50 ms to ask whether the caller gave up.
+  bool admitted = false;
+  while (!admitted) {
+    const absl::Time until = std::min(deadline, absl::Now() + absl::Milliseconds(50));
+    admitted = mu_.AwaitWithDeadline(absl::Condition(&free), until);
+    if (admitted) break;
+    if (cancelled && cancelled()) {
+      --waiting_;
+      return absl::CancelledError("cancelled by the caller while waiting for a planner");
+    }
+    if (absl::Now() >= deadline) break;
+  }
   --waiting_;
   if (!admitted) return absl::DeadlineExceededError("deadline passed while waiting for a planner");
   ++running_;

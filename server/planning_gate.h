@@ -8,6 +8,8 @@
 //   ... plan ...   // the slot is released when `ticket` is destroyed
 #pragma once
 
+#include <functional>
+
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
@@ -39,8 +41,10 @@ class PlanningGate {
   PlanningGate& operator=(const PlanningGate&) = delete;
 
   // A ticket when admitted; ResourceExhausted when the queue is full;
-  // DeadlineExceeded when `deadline` passes while waiting.
-  [[nodiscard]] absl::StatusOr<Ticket> Enter(absl::Time deadline);
+  // DeadlineExceeded when `deadline` passes while waiting; Cancelled when
+  // `cancelled` (asked every 50 ms while waiting) says the caller gave up.
+  [[nodiscard]] absl::StatusOr<Ticket> Enter(absl::Time deadline,
+                                             const std::function<bool()>& cancelled = nullptr);
   [[nodiscard]] int running() const;
 
  private:

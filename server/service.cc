@@ -261,26 +261,26 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
 grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
                                           const v1::PlanPathRequest* request,
                                           v1::PlanPathResponse* response) {
-  const absl::Time arrival = absl::Now();
   return Call("PlanPath", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     if (!request->has_state()) return absl::InvalidArgumentError("state: required");
     OAIPP_ASSIGN_OR_RETURN(UavState state, UavStateFromProto(request->state(), "state"));
     std::optional<double> next_shot;
     if (request->has_next_shot_mission_s()) next_shot = request->next_shot_mission_s();
-    absl::Time deadline = PlanningDeadline(context);
+    Mission::PlanCall call{.deadline = PlanningDeadline(context),
+                           .gate = gate_,
+                           .cancelled = [context] { return context->IsCancelled(); }};
     if (request->has_planning_budget_s()) {
       const double budget = request->planning_budget_s();
       if (!(budget > 0.0) || !std::isfinite(budget)) {
         return absl::InvalidArgumentError(
             absl::StrCat("planning_budget_s: must be > 0 and finite, got ", budget));
       }
-      deadline = std::min(deadline, arrival + absl::Seconds(budget));
+      call.budget = absl::Seconds(budget);
     }
     if (context->IsCancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
-    PersistPlanFn persist = nullptr;
     if (MissionStore* store = registry_->store(); store != nullptr) {
-      persist = [&, store](std::int64_t sequence, const PlannedPath& planned,
+      call.persist = [&, store](std::int64_t sequence, const PlannedPath& planned,
                            const std::string& planner_state) {
         v1::PlanPathResponse answer;
         PlannedPathToProto(planned, &answer);
@@ -295,7 +295,7 @@ grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
       };
     }
     absl::StatusOr<PlannedPath> planned =
-        mission->Plan(state, next_shot, deadline, request->request_id(), gate_, nullptr, persist);
+        mission->Plan(state, next_shot, request->request_id(), call);
     ReloadIfInDoubt(*registry_, mission->id(), planned);
     OAIPP_ASSIGN_OR_RETURN(PlannedPath path, std::move(planned));
     if (metrics_ != nullptr) {

@@ -261,6 +261,78 @@ TEST(ServiceTest, PlanningBudgetStopsThePlannerWithoutADeadline) {
   }
 }
 
+// A mission whose plans run until told to stop.
+void CreateEndless(v1::MissionService::Stub& stub, const std::string& id) {
+  grpc::ClientContext context;
+  v1::CreateMissionRequest create;
+  create.set_mission_id(id);
+  *create.mutable_spec() = SmallSpec();
+  create.mutable_spec()->mutable_planner()->set_generations(1000000);
+  v1::Mission mission;
+  ASSERT_TRUE(stub.CreateMission(&context, create, &mission).ok());
+}
+
+v1::PlanPathRequest PlanFromCorner(const std::string& id) {
+  v1::PlanPathRequest request;
+  request.set_name("missions/" + id);
+  request.mutable_state()->mutable_position_m()->set_x(-4);
+  request.mutable_state()->mutable_position_m()->set_y(4);
+  request.mutable_state()->mutable_position_m()->set_z(8);
+  return request;
+}
+
+// A cancelled plan stops planning and gives its slot back: with one
+// planning thread, another mission's plan then gets through well within its
+// deadline. (Before, the cancelled plan ran on and the other waited out its
+// deadline.)
+TEST(ServiceTest, ACancelledPlanGivesThePlannerBack) {
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1);
+  CreateEndless(s.stub(), "endless");
+  CreateEndless(s.stub(), "other");
+  grpc::ClientContext endless_context;  // no deadline, no budget: until cancelled
+  std::thread endless([&] {
+    v1::PlanPathResponse path;
+    const grpc::Status status =
+        s.stub().PlanPath(&endless_context, PlanFromCorner("endless"), &path);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::CANCELLED) << status.error_message();
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let it take the slot
+  endless_context.TryCancel();
+  v1::PlanPathRequest request = PlanFromCorner("other");
+  request.set_planning_budget_s(0.5);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(20));
+  v1::PlanPathResponse path;
+  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  endless.join();
+}
+
+// planning_budget_s counts planning, not the wait for a slot: behind a
+// 2 s plan, a 0.5 s budget with a 20 s deadline waits, then plans.
+TEST(ServiceTest, ThePlanningBudgetStartsWhenAPlannerIsFree) {
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1);
+  CreateEndless(s.stub(), "first");
+  CreateEndless(s.stub(), "second");
+  std::thread first([&] {
+    v1::PlanPathRequest request = PlanFromCorner("first");
+    request.set_planning_budget_s(2.0);
+    grpc::ClientContext context;
+    v1::PlanPathResponse path;
+    EXPECT_TRUE(s.stub().PlanPath(&context, request, &path).ok());
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it take the slot
+  v1::PlanPathRequest request = PlanFromCorner("second");
+  request.set_planning_budget_s(0.5);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(20));
+  v1::PlanPathResponse path;
+  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  EXPECT_EQ(path.stats().stop_reason(), "deadline");  // it did plan, for its budget
+  first.join();
+}
+
 // A long plan holds its own mission's planner, nothing else: creating and
 // reading missions (which also report memory for the metrics) go on while it
 // runs. Checked by order, not by time: they return before the plan does.
