@@ -18,4 +18,39 @@ absl::Status FromGrpcStatus(const grpc::Status& status, absl::string_view what) 
   return absl::Status(code, absl::StrCat(what, ": ", status.error_message()));
 }
 
+namespace {
+
+// Appends `input` with the bytes `escape` picks as \xNN, up to max_bytes.
+template <typename Pred>
+std::string Escaped(absl::string_view input, std::size_t max_bytes, Pred escape) {
+  std::string out;
+  const absl::string_view kept = input.substr(0, max_bytes);
+  out.reserve(kept.size() + 16);
+  for (const char c : kept) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (escape(byte)) {
+      absl::StrAppend(&out, "\\x", absl::Hex(byte, absl::kZeroPad2));
+    } else {
+      out.push_back(c);
+    }
+  }
+  if (kept.size() < input.size()) absl::StrAppend(&out, "... (", input.size(), " bytes)");
+  return out;
+}
+
+bool Control(unsigned char b) { return b < 0x20 || b >= 0x7f; }
+
+}  // namespace
+
+std::string EchoInput(absl::string_view input, std::size_t max_bytes) {
+  return absl::StrCat("\"", Escaped(input, max_bytes, [](unsigned char b) {
+                        return Control(b) || b == '"' || b == '\\';
+                      }),
+                      "\"");
+}
+
+std::string SafeMessage(absl::string_view message, std::size_t max_bytes) {
+  return Escaped(message, max_bytes, Control);
+}
+
 }  // namespace oaipp::api

@@ -7,6 +7,9 @@
 
 #include <grpcpp/support/status.h>
 
+#include <cstddef>
+#include <string>
+
 #include "absl/status/status.h"
 #include "absl/strings/string_view.h"
 
@@ -17,5 +20,14 @@ namespace oaipp::api {
 // The same code; the message prefixed with "<what>: " when `what` is not
 // empty (e.g. the RPC's name, for a client's error).
 [[nodiscard]] absl::Status FromGrpcStatus(const grpc::Status& status, absl::string_view what = "");
+
+// Client input that an error message repeats, made safe to send and to log:
+// in double quotes, at most `max_bytes` of it, control characters, quotes,
+// backslashes and non-ASCII bytes as \xNN, and when cut "..." with the full
+// length. EchoInput("a\nb") == "\"a\\x0ab\"".
+[[nodiscard]] std::string EchoInput(absl::string_view input, std::size_t max_bytes = 64);
+// A whole status message made safe the same way (control characters and
+// non-ASCII bytes escaped, cut at `max_bytes`), for the reply and the log.
+[[nodiscard]] std::string SafeMessage(absl::string_view message, std::size_t max_bytes = 1024);
 
 }  // namespace oaipp::api

@@ -3,6 +3,8 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "api/status.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/camera.h"
 
@@ -50,7 +52,7 @@ std::optional<absl::StatusOr<T>> Mission::Recall(const std::string& request_id) 
   if (done == nullptr) return std::nullopt;
   if (const T* result = std::get_if<T>(done)) return absl::StatusOr<T>(*result);
   return absl::StatusOr<T>(absl::InvalidArgumentError(
-      absl::StrCat("request_id: '", request_id, "' was used by another kind of call")));
+      absl::StrCat("request_id: ", api::EchoInput(request_id), " was used by another kind of call")));
 }
 
 void Mission::Remember(const std::string& request_id, Result result) {
@@ -73,6 +75,20 @@ Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap ma
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
                                                          PriorCache* priors) {
   OAIPP_ASSIGN_OR_RETURN(Environment env, config.MakeEnvironment());
+  // The UAV must start where it may fly: clear of every obstacle by half
+  // its radius, as PlanPath asks of every state (exact distance).
+  const Vec3& start = config.start.position_W;
+  const double clearance = env.SignedDistance(start);
+  const double needed = 0.5 * config.planner.common.limits.uav_radius_m;
+  if (clearance < needed) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "spec.start.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of clearance "
+        "(uav_radius_m / 2)",
+        start.x(), start.y(), start.z(),
+        clearance < 0 ? "inside an obstacle"
+                      : absl::StrFormat("%.3g m from an obstacle", clearance),
+        needed));
+  }
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
   OAIPP_ASSIGN_OR_RETURN(GpMap map, priors != nullptr ? priors->NewMap(grid, config.gp)
                                                       : GpMap::Create(grid, config.gp));
@@ -345,6 +361,9 @@ void Mission::SnapshotDone(bool stored, std::int64_t sequence, std::int64_t meas
     snapshot_measurements_ = measurements_fused;
   }
   snapshot_pending_ = false;
+  // Changes made while it was written may already call for the next one
+  // (after a failure, the next change asks again).
+  if (stored) MaybeWantSnapshot();
 }
 
 void Mission::MaybeWantSnapshot() {

@@ -12,6 +12,7 @@
 #include "api/measurement.h"
 #include "api/plan.h"
 #include "api/spec.h"
+#include "api/status.h"
 #include "core/common/status_macros.h"
 #include "server/store/state_codec.h"
 #include "spdlog/spdlog.h"
@@ -52,7 +53,7 @@ absl::StatusOr<std::string> MissionRegistry::ParseName(absl::string_view name,
                                                        absl::string_view field) {
   if (!absl::StartsWith(name, kPrefix) || !ValidId(name.substr(kPrefix.size()))) {
     return absl::InvalidArgumentError(absl::StrCat(
-        field, ": expected \"missions/{id}\" with id [a-z0-9-]{1,63}, got \"", name, "\""));
+        field, ": expected \"missions/{id}\" with id [a-z0-9-]{1,63}, got ", api::EchoInput(name)));
   }
   return std::string(name.substr(kPrefix.size()));
 }
@@ -63,7 +64,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
                                                                  const std::string& fingerprint) {
   if (!mission_id.empty() && !ValidId(mission_id)) {
     return absl::InvalidArgumentError(
-        absl::StrCat("mission_id: must match [a-z0-9-]{1,63}, got \"", mission_id, "\""));
+        absl::StrCat("mission_id: must match [a-z0-9-]{1,63}, got ", api::EchoInput(mission_id)));
   }
   const double nx = (config.field_max_W.x() - config.field_min_W.x()) / config.resolution_m;
   const double ny = (config.field_max_W.y() - config.field_min_W.y()) / config.resolution_m;
@@ -79,9 +80,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     if (const std::string* created = created_by_request_.Find(request_id)) {
       auto m = missions_.find(*created);
       if (m != missions_.end() && m->second != nullptr) return m->second;
-      return absl::FailedPreconditionError(absl::StrCat("request_id: '", request_id,
-                                                        "' created mission '", *created,
-                                                        "', which is gone or still being built"));
+      return absl::FailedPreconditionError(
+          absl::StrCat("request_id: ", api::EchoInput(request_id), " created mission '", *created,
+                       "', which is gone or still being built"));
     }
     if (mission_id.empty()) {
       // With a store the number comes from it, so ids never repeat across

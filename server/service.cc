@@ -5,6 +5,7 @@
 #include "absl/strings/cord.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_replace.h"
 #include "absl/time/clock.h"
 #include "api/geometry.h"
 #include "api/map.h"
@@ -150,9 +151,12 @@ grpc::Status MissionServiceImpl::Call(const char* method, Body body) {
   if (status.ok()) {
     spdlog::debug("rpc method={} code=OK ms={:.2f}", method, seconds * 1e3);
   } else {
+    // Whatever the message repeats, the reply and the log line stay short
+    // and one line (no control characters; quotes escaped in the log).
+    status = absl::Status(status.code(), api::SafeMessage(status.message()));
     spdlog::info("rpc method={} code={} ms={:.2f} error=\"{}\"", method,
                  absl::StatusCodeToString(status.code()), seconds * 1e3,
-                 std::string(status.message()));
+                 absl::StrReplaceAll(status.message(), {{"\"", "\\\""}}));
   }
   return ToGrpcStatus(status);
 }

@@ -75,6 +75,14 @@ v1::Obstacle BoxAt(const std::string& id, double x, double y, double sx) {
   return o;
 }
 
+// A 2 x 1 x 20 m tower (y from y - 0.5 to y + 0.5).
+v1::Obstacle TowerAt(double x, double y) {
+  v1::Obstacle o = BoxAt("tower", x, y, 2);
+  o.mutable_box()->mutable_centre_m()->set_z(10);
+  o.mutable_box()->mutable_size_m()->set_z(20);
+  return o;
+}
+
 const auto kInvalid = grpc::StatusCode::INVALID_ARGUMENT;
 
 std::vector<BadCase> Cases() {
@@ -107,6 +115,15 @@ std::vector<BadCase> Cases() {
       {"zero sensor rate", kInvalid, "rate_hz",
        [](auto& s) {
          return Create(s, "x7", [](auto& p) { p.mutable_sensor()->set_rate_hz(0); });
+       }},
+      {"start inside a building", kInvalid, "spec.start.position_m",
+       [](auto& s) {
+         return Create(s, "x10", [](auto& p) { *p.add_obstacles() = TowerAt(-4, 4); });
+       }},
+      {"start grazing a building", kInvalid, "spec.start.position_m",
+       [](auto& s) {
+         // The tower's face is 0.3 m from the start: less than uav_radius_m / 2.
+         return Create(s, "x11", [](auto& p) { *p.add_obstacles() = TowerAt(-4, 4.8); });
        }},
       {"fov 200 deg", kInvalid, "fov",
        [](auto& s) {
@@ -288,6 +305,36 @@ TEST(BadRequestTest, EachGetsItsCodeAndNamesTheField) {
   EXPECT_EQ(after.obstacles_size(), 1);
   EXPECT_DOUBLE_EQ(after.trace(), ok.trace());
   EXPECT_TRUE(Plan(s.stub(), [](auto&) {}).ok());
+}
+
+
+// What an error repeats of the request is short and one line: a 1 MB
+// mission_id does not come back as a 1 MB message, and a newline in an id
+// cannot start a forged log line.
+TEST(BadRequestTest, EchoedInputIsCappedAndEscaped) {
+  InProcessService s;
+  const std::string huge(1 << 20, 'a');
+  for (const std::string& id : {huge, std::string("x\nrpc method=DeleteMission code=OK")}) {
+    grpc::ClientContext context;
+    v1::CreateMissionRequest request;
+    request.set_mission_id(id);
+    *request.mutable_spec() = SmallSpec();
+    v1::Mission m;
+    const grpc::Status status = s.stub().CreateMission(&context, request, &m);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+    EXPECT_LT(status.error_message().size(), 200u);
+    EXPECT_EQ(status.error_message().find('\n'), std::string::npos);
+    EXPECT_NE(status.error_message().find("mission_id"), std::string::npos);
+  }
+  grpc::ClientContext context;
+  v1::GetMissionRequest get;
+  get.set_name("missions/" + huge);
+  v1::Mission m;
+  const grpc::Status status = s.stub().GetMission(&context, get, &m);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_LT(status.error_message().size(), 200u);
+  EXPECT_NE(status.error_message().find("(1048585 bytes)"), std::string::npos)
+      << status.error_message();
 }
 
 }  // namespace

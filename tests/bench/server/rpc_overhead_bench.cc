@@ -99,7 +99,7 @@ void BM_PlanPath(benchmark::State& state) {
   request.mutable_state()->mutable_position_m()->set_z(7);
   const UavState uav = *api::UavStateFromProto(request.state(), "state");
   CompareInProcessAndRpc(
-      state, [&] { (void)w.direct->Plan(uav, std::nullopt, absl::InfiniteFuture(), ""); },
+      state, [&] { (void)w.direct->Plan(uav, std::nullopt, "", {}); },
       [&] {
         grpc::ClientContext context;
         v1::PlanPathResponse response;
