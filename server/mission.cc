@@ -45,19 +45,26 @@ std::int64_t EventQueue::dropped() const {
 }
 
 template <typename T>
-std::optional<absl::StatusOr<T>> Mission::Recall(const std::string& request_id) {
-  if (request_id.empty()) return std::nullopt;
+std::optional<absl::StatusOr<T>> Mission::Recall(const RequestKey& request) {
+  if (request.request_id.empty()) return std::nullopt;
   absl::MutexLock lock(&idempotency_mu_);
-  const Result* done = done_.Find(request_id);
+  const RememberedAnswer* done = done_.Find(request.request_id);
   if (done == nullptr) return std::nullopt;
-  if (const T* result = std::get_if<T>(done)) return absl::StatusOr<T>(*result);
-  return absl::StatusOr<T>(absl::InvalidArgumentError(
-      absl::StrCat("request_id: ", api::EchoInput(request_id), " was used by another kind of call")));
+  if (!request.fingerprint.empty() && !done->fingerprint.empty() &&
+      request.fingerprint != done->fingerprint) {
+    return absl::StatusOr<T>(absl::InvalidArgumentError(absl::StrCat(
+        "request_id: ", api::EchoInput(request.request_id),
+        " was first used for a different request; a retry must repeat the request exactly, "
+        "a new request needs a new request_id")));
+  }
+  if (const T* result = std::get_if<T>(&done->result)) return absl::StatusOr<T>(*result);
+  return absl::StatusOr<T>(absl::InvalidArgumentError(absl::StrCat(
+      "request_id: ", api::EchoInput(request.request_id), " was used by another kind of call")));
 }
 
-void Mission::Remember(const std::string& request_id, Result result) {
+void Mission::Remember(const RequestKey& request, Result result) {
   absl::MutexLock lock(&idempotency_mu_);
-  done_.Remember(request_id, std::move(result));
+  done_.Remember(request.request_id, {request.fingerprint, std::move(result)});
 }
 
 Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap map,
@@ -173,12 +180,12 @@ absl::Status Mission::FuseCoveredCells() {
 }
 
 absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& change,
-                                                        const std::string& request_id,
+                                                        const RequestKey& request,
                                                         const PersistFn& persist) {
   ObstacleResult result;
   {
     absl::MutexLock lock(&mu_);
-    if (auto done = Recall<ObstacleResult>(request_id)) return *std::move(done);
+    if (auto done = Recall<ObstacleResult>(request)) return *std::move(done);
     // Applied to a copy first, so that neither a refused change nor a failed
     // write touches the mission.
     Environment next = env_.Clone();
@@ -191,7 +198,7 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
     log_.push_back(change);
     result.obstacle_count = static_cast<int>(env_.obstacles().size());
     result.esdf_voxels_recomputed = env_.esdf().last_recomputed_voxels();
-    Remember(request_id, result);
+    Remember(request, result);
   }
   Emit(MissionEventData::ObstaclesChanged{result.obstacle_count});
   MaybeWantSnapshot();
@@ -237,12 +244,12 @@ absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
 }
 
 absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput& input,
-                                                          const std::string& request_id,
+                                                          const RequestKey& request,
                                                           const PersistFn& persist) {
   MeasurementResult result;
   {
     absl::MutexLock lock(&mu_);
-    if (auto done = Recall<MeasurementResult>(request_id)) return *std::move(done);
+    if (auto done = Recall<MeasurementResult>(request)) return *std::move(done);
     OAIPP_ASSIGN_OR_RETURN(std::vector<CellObservation> observations, PrepareMeasurement(input));
     // Durable first: a failed write leaves the mission as it was.
     OAIPP_RETURN_IF_ERROR(Persist(persist));
@@ -252,7 +259,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     result =
         MeasurementResult{static_cast<int>(observations.size()), map_.Trace(), measurements_fused_};
     log_.push_back(input);
-    Remember(request_id, result);
+    Remember(request, result);
   }
   Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused, result.trace});
   MaybeWantSnapshot();
@@ -261,9 +268,9 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
 
 absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           std::optional<double> next_shot_mission_s,
-                                          const std::string& request_id, const PlanCall& call) {
+                                          const RequestKey& request, const PlanCall& call) {
   absl::MutexLock planner_lock(&planner_mu_);
-  if (auto done = Recall<PlannedPath>(request_id)) return *std::move(done);
+  if (auto done = Recall<PlannedPath>(request)) return *std::move(done);
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
   if (elapsed >= config_.budget_s) {
     return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
@@ -309,7 +316,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     return written;
   }
   ++paths_planned_;
-  Remember(request_id, *path);
+  Remember(request, *path);
   {
     absl::MutexLock lock(&mu_);
     mission_time_s_ = std::max(mission_time_s_, state.mission_time_s);
@@ -344,8 +351,8 @@ MissionState Mission::CaptureState() const {
   state.paths_planned = paths_planned_.load();
   state.planner_state = planner_->SaveState();
   absl::MutexLock memo_lock(&idempotency_mu_);
-  done_.ForEach([&](const std::string& request_id, const Result& result) {
-    state.answers.emplace_back(request_id, result);
+  done_.ForEach([&](const std::string& request_id, const RememberedAnswer& answer) {
+    state.answers.emplace_back(request_id, answer);
   });
   return state;
 }
@@ -402,13 +409,13 @@ absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPat
   return Persist([&](std::int64_t sequence) { return persist(sequence, path, planner_state); });
 }
 
-absl::Status Mission::RestorePlan(const std::string& request_id, PlannedPath path,
+absl::Status Mission::RestorePlan(const RequestKey& request, PlannedPath path,
                                   const std::string& planner_state) {
   absl::MutexLock planner_lock(&planner_mu_);
   OAIPP_RETURN_IF_ERROR(planner_->RestoreState(planner_state));
   OAIPP_RETURN_IF_ERROR(PersistPlan(nullptr, path, planner_state));
   ++paths_planned_;
-  Remember(request_id, std::move(path));
+  Remember(request, std::move(path));
   return absl::OkStatus();
 }
 

@@ -113,6 +113,24 @@ struct MissionSnapshot {
 // The first answer to a request_id.
 using RequestResult = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
 
+// A mutation's request_id (empty: none) and the fingerprint of the request
+// behind it (empty: not checked). A retry (same id, same fingerprint) gets
+// the first answer; the same id with another fingerprint is refused.
+struct RequestKey {
+  RequestKey(const std::string& id) : request_id(id) {}  // NOLINT: a bare id converts
+  RequestKey(const char* id) : request_id(id) {}         // NOLINT
+  RequestKey(std::string id, std::string print)
+      : request_id(std::move(id)), fingerprint(std::move(print)) {}
+  std::string request_id;
+  std::string fingerprint;
+};
+
+// A remembered answer: the request's fingerprint and its first result.
+struct RememberedAnswer {
+  std::string fingerprint;
+  RequestResult result;
+};
+
 // Everything a mission holds after the record `sequence` of its log, but its
 // config: what a snapshot stores, and what Mission::Restore starts from.
 struct MissionState {
@@ -125,8 +143,8 @@ struct MissionState {
   double mission_time_s = 0.0;
   std::int64_t paths_planned = 0;
   std::string planner_state = {};  // Planner::SaveState
-  // request_id -> first answer, oldest first.
-  std::vector<std::pair<std::string, RequestResult>> answers = {};
+  // request_id -> fingerprint and first answer, oldest first.
+  std::vector<std::pair<std::string, RememberedAnswer>> answers = {};
 };
 
 // Writes the record of a change to durable storage, given its sequence
@@ -164,10 +182,10 @@ class Mission {
   // every applied change takes the next sequence number of the log), then
   // applied. A refused change or a failed write changes nothing.
   [[nodiscard]] absl::StatusOr<ObstacleResult> UpdateObstacles(const ObstacleChange& change,
-                                                               const std::string& request_id,
+                                                               const RequestKey& request,
                                                                const PersistFn& persist = nullptr);
   [[nodiscard]] absl::StatusOr<MeasurementResult> AddMeasurement(
-      const MeasurementInput& input, const std::string& request_id,
+      const MeasurementInput& input, const RequestKey& request,
       const PersistFn& persist = nullptr);
   // Plans from `state` (validated by the planner). next_shot: the sensor
   // phase; unset, the next multiple of 1 / rate at or after the state's
@@ -187,12 +205,12 @@ class Mission {
   };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,
-                                                 const std::string& request_id,
+                                                 const RequestKey& request,
                                                  const PlanCall& call);
   // Recovery: a plan read back from storage, in log order. The planner takes
   // `planner_state`, the plan takes the next sequence number, and a retry of
   // `request_id` is answered with `path`.
-  [[nodiscard]] absl::Status RestorePlan(const std::string& request_id, PlannedPath path,
+  [[nodiscard]] absl::Status RestorePlan(const RequestKey& request, PlannedPath path,
                                          const std::string& planner_state);
   // The sequence number the next change of the log will take (1 for a new
   // mission).
@@ -258,8 +276,8 @@ class Mission {
   // The first result of a request_id, if it was applied before. Callers
   // hold the lock of the operation, so check and apply are one step.
   template <typename T>
-  std::optional<absl::StatusOr<T>> Recall(const std::string& request_id);
-  void Remember(const std::string& request_id, Result result);
+  std::optional<absl::StatusOr<T>> Recall(const RequestKey& request);
+  void Remember(const RequestKey& request, Result result);
 
   const std::string id_;
   const MissionConfig config_;
@@ -274,7 +292,7 @@ class Mission {
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
   // request_id -> first result (bounded, oldest forgotten first).
-  RequestMemo<Result> done_ ABSL_GUARDED_BY(idempotency_mu_);
+  RequestMemo<RememberedAnswer> done_ ABSL_GUARDED_BY(idempotency_mu_);
   mutable absl::Mutex idempotency_mu_;
 
   // The planner keeps state (lawnmower pattern): one plan at a time.

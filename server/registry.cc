@@ -77,12 +77,18 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   }
   {
     absl::MutexLock lock(&mu_);
-    if (const std::string* created = created_by_request_.Find(request_id)) {
-      auto m = missions_.find(*created);
+    if (const auto* created = created_by_request_.Find(request_id)) {
+      const auto& [created_id, created_print] = *created;
+      if (!fingerprint.empty() && !created_print.empty() && fingerprint != created_print) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "request_id: ", api::EchoInput(request_id), " was first used to create mission '",
+            created_id, "' with a different request; a new mission needs a new request_id"));
+      }
+      auto m = missions_.find(created_id);
       if (m != missions_.end() && m->second != nullptr) return m->second;
       return absl::FailedPreconditionError(
-          absl::StrCat("request_id: ", api::EchoInput(request_id), " created mission '", *created,
-                       "', which is gone or still being built"));
+          absl::StrCat("request_id: ", api::EchoInput(request_id), " created mission '",
+                       created_id, "', which is gone or still being built"));
     }
     if (mission_id.empty()) {
       // With a store the number comes from it, so ids never repeat across
@@ -129,7 +135,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   missions_[mission_id] = *mission;
   order_.push_back(mission_id);
   if (!request_id.empty()) {
-    created_by_request_.Remember(request_id, mission_id);
+    created_by_request_.Remember(request_id, {mission_id, fingerprint});
   }
   return mission;
 }
@@ -144,19 +150,20 @@ absl::Status Replay(Mission& mission, const LogRecord& record) {
       v1::UpdateObstaclesRequest request;
       if (!request.ParseFromString(record.payload)) break;
       OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, api::ObstacleChangeFromProto(request));
-      return mission.UpdateObstacles(change, record.request_id).status();
+      return mission.UpdateObstacles(change, {record.request_id, record.fingerprint}).status();
     }
     case RecordKind::kMeasurement: {
       v1::AddMeasurementRequest request;
       if (!request.ParseFromString(record.payload)) break;
       OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, api::MeasurementFromProto(request));
-      return mission.AddMeasurement(input, record.request_id).status();
+      return mission.AddMeasurement(input, {record.request_id, record.fingerprint}).status();
     }
     case RecordKind::kPlan: {
       v1::PlanPathResponse response;
       if (!response.ParseFromString(record.result)) break;
       OAIPP_ASSIGN_OR_RETURN(PlannedPath path, api::PlannedPathFromProto(response));
-      return mission.RestorePlan(record.request_id, std::move(path), record.planner_state);
+      return mission.RestorePlan({record.request_id, record.fingerprint}, std::move(path),
+                                 record.planner_state);
     }
   }
   return absl::DataLossError("the record does not parse");
@@ -233,7 +240,7 @@ absl::StatusOr<int> MissionRegistry::Recover() {
     absl::MutexLock lock(&mu_);
     missions_[stored[i].id] = *std::move(rebuilt[i]);
     order_.push_back(stored[i].id);
-    created_by_request_.Remember(stored[i].request_id, stored[i].id);
+    created_by_request_.Remember(stored[i].request_id, {stored[i].id, stored[i].fingerprint});
     ++recovered;
   }
   // A mission read back with a long tail (its last snapshot was not written
@@ -385,15 +392,27 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
   {
     absl::MutexLock write_lock(&snapshot_write_mu_);
     absl::MutexLock lock(&mu_);
+    // A retry of a delete is answered OK; the same request_id used to
+    // delete another mission is refused.
+    const auto same_delete = [&](const std::string& deleted) -> absl::Status {
+      if (deleted == id) return absl::OkStatus();
+      return absl::InvalidArgumentError(absl::StrCat("request_id: ", api::EchoInput(request_id),
+                                                     " deleted mission '", deleted, "', not '",
+                                                     id, "'; a new request needs a new id"));
+    };
     if (!request_id.empty()) {
-      if (deleted_by_request_.Find(request_id) != nullptr) return absl::OkStatus();
+      if (const std::string* deleted = deleted_by_request_.Find(request_id)) {
+        return same_delete(*deleted);
+      }
+      // Used by a delete before a restart?
+      if (store_ != nullptr) {
+        if (absl::StatusOr<std::string> deleted = store_->DeletedBy(request_id); deleted.ok()) {
+          return same_delete(*deleted);
+        }
+      }
     }
     auto it = missions_.find(id);
     if (it == missions_.end() || it->second == nullptr) {
-      // Deleted by this request_id before a restart?
-      if (store_ != nullptr && !request_id.empty() && store_->DeletedBy(request_id).ok()) {
-        return absl::OkStatus();
-      }
       return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
     }
     // Durable first: a failed delete leaves the mission in place.

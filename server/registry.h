@@ -132,8 +132,9 @@ class MissionRegistry {
   std::map<std::string, std::shared_ptr<Mission>> missions_ ABSL_GUARDED_BY(mu_);
   std::vector<std::string> order_ ABSL_GUARDED_BY(mu_);
   std::int64_t next_id_ ABSL_GUARDED_BY(mu_) = 1;
-  // request_id -> the mission it created / deleted.
-  RequestMemo<std::string> created_by_request_ ABSL_GUARDED_BY(mu_);
+  // request_id -> the mission it created (and the creating request's
+  // fingerprint) / deleted.
+  RequestMemo<std::pair<std::string, std::string>> created_by_request_ ABSL_GUARDED_BY(mu_);
   RequestMemo<std::string> deleted_by_request_ ABSL_GUARDED_BY(mu_);
 
   // Held while a snapshot is read and written and while a mission is

@@ -232,7 +232,7 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext*,
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
     absl::StatusOr<ObstacleResult> updated =
-        mission->UpdateObstacles(change, request->request_id(),
+        mission->UpdateObstacles(change, {request->request_id(), RequestFingerprint(*request)},
                                  Recorder(registry_->store(), mission->id(),
                                           RecordKind::kObstacles, *request));
     ReloadIfInDoubt(*registry_, mission->id(), updated);
@@ -250,7 +250,7 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
     absl::StatusOr<MeasurementResult> fused =
-        mission->AddMeasurement(input, request->request_id(),
+        mission->AddMeasurement(input, {request->request_id(), RequestFingerprint(*request)},
                                 Recorder(registry_->store(), mission->id(),
                                          RecordKind::kMeasurement, *request));
     ReloadIfInDoubt(*registry_, mission->id(), fused);
@@ -299,7 +299,7 @@ grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
       };
     }
     absl::StatusOr<PlannedPath> planned =
-        mission->Plan(state, next_shot, request->request_id(), call);
+        mission->Plan(state, next_shot, {request->request_id(), RequestFingerprint(*request)}, call);
     ReloadIfInDoubt(*registry_, mission->id(), planned);
     OAIPP_ASSIGN_OR_RETURN(PlannedPath path, std::move(planned));
     if (metrics_ != nullptr) {

@@ -43,9 +43,11 @@ std::string EncodeMissionState(const MissionState& state) {
   out.set_mission_time_s(state.mission_time_s);
   out.set_paths_planned(state.paths_planned);
   out.set_planner_state(state.planner_state);
-  for (const auto& [request_id, result] : state.answers) {
+  for (const auto& [request_id, answer] : state.answers) {
+    const RequestResult& result = answer.result;
     store::Answer* a = out.add_answers();
     a->set_request_id(request_id);
+    a->set_fingerprint(answer.fingerprint);
     if (const auto* o = std::get_if<ObstacleResult>(&result)) {
       a->mutable_obstacles()->set_obstacle_count(o->obstacle_count);
       a->mutable_obstacles()->set_esdf_voxels_recomputed(o->esdf_voxels_recomputed);
@@ -95,21 +97,26 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
     switch (a.result_case()) {
       case store::Answer::kObstacles:
         state.answers.emplace_back(
-            a.request_id(), ObstacleResult{.obstacle_count = a.obstacles().obstacle_count(),
-                                           .esdf_voxels_recomputed =
-                                               a.obstacles().esdf_voxels_recomputed()});
+            a.request_id(),
+            RememberedAnswer{a.fingerprint(),
+                             ObstacleResult{.obstacle_count = a.obstacles().obstacle_count(),
+                                            .esdf_voxels_recomputed =
+                                                a.obstacles().esdf_voxels_recomputed()}});
         break;
       case store::Answer::kMeasurement:
         state.answers.emplace_back(
             a.request_id(),
-            MeasurementResult{.cells_fused = a.measurement().cells_fused(),
-                              .trace = a.measurement().trace(),
-                              .measurements_fused = a.measurement().measurements_fused()});
+            RememberedAnswer{a.fingerprint(),
+                             MeasurementResult{
+                                 .cells_fused = a.measurement().cells_fused(),
+                                 .trace = a.measurement().trace(),
+                                 .measurements_fused = a.measurement().measurements_fused()}});
         break;
       case store::Answer::kPlan: {
         absl::StatusOr<PlannedPath> path = api::PlannedPathFromProto(a.plan());
         if (!path.ok()) return Corrupt(absl::StrCat("answers: ", path.status().message()));
-        state.answers.emplace_back(a.request_id(), *std::move(path));
+        state.answers.emplace_back(a.request_id(),
+                                   RememberedAnswer{a.fingerprint(), *std::move(path)});
         break;
       }
       case store::Answer::RESULT_NOT_SET:

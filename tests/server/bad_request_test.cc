@@ -337,5 +337,80 @@ TEST(BadRequestTest, EchoedInputIsCappedAndEscaped) {
       << status.error_message();
 }
 
+
+// A request_id names one request: its retry gets the first answer, its reuse
+// for a different request is refused naming request_id (and changes
+// nothing), for every mutation.
+TEST(BadRequestTest, AReusedRequestIdWithADifferentRequestIsRefused) {
+  InProcessService s;
+  const auto create = [&](const std::string& id, const std::string& request_id) {
+    grpc::ClientContext context;
+    v1::CreateMissionRequest request;
+    request.set_mission_id(id);
+    request.set_request_id(request_id);
+    *request.mutable_spec() = SmallSpec();
+    v1::Mission m;
+    return s.stub().CreateMission(&context, request, &m);
+  };
+  const auto expect_refused = [](const grpc::Status& status) {
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find("request_id"), std::string::npos);
+  };
+  ASSERT_TRUE(create("a", "c1").ok());
+  ASSERT_TRUE(create("a", "c1").ok());  // a retry
+  expect_refused(create("b", "c1"));
+  ASSERT_TRUE(create("b", "c2").ok());
+
+  const auto measure = [&](double x, v1::AddMeasurementResponse* out) {
+    grpc::ClientContext context;
+    v1::AddMeasurementRequest request = LabelMeasurement("missions/a", x, 2, 10, 5, 1);
+    request.set_request_id("m1");
+    return s.stub().AddMeasurement(&context, request, out);
+  };
+  v1::AddMeasurementResponse first, again;
+  ASSERT_TRUE(measure(2, &first).ok());
+  expect_refused(measure(-3, &again));
+  ASSERT_TRUE(measure(2, &again).ok());
+  EXPECT_EQ(again.SerializeAsString(), first.SerializeAsString());
+  EXPECT_EQ(again.measurements_fused(), 1);
+
+  const auto obstacles = [&](double x) {
+    return Obstacles(s.stub(), [x](v1::UpdateObstaclesRequest& r) {
+      r.set_name("missions/a");
+      r.set_request_id("o1");
+      *r.add_add() = BoxAt("shed", x, -4, 1);
+    });
+  };
+  ASSERT_TRUE(obstacles(3).ok());
+  expect_refused(obstacles(5));
+
+  const auto plan = [&](double z) {
+    grpc::ClientContext context;
+    v1::PlanPathRequest request;
+    request.set_name("missions/a");
+    request.set_request_id("p1");
+    request.mutable_state()->mutable_position_m()->set_x(-4);
+    request.mutable_state()->mutable_position_m()->set_y(4);
+    request.mutable_state()->mutable_position_m()->set_z(z);
+    v1::PlanPathResponse path;
+    return s.stub().PlanPath(&context, request, &path);
+  };
+  ASSERT_TRUE(plan(8).ok());
+  expect_refused(plan(9));
+
+  const auto remove = [&](const std::string& name) {
+    grpc::ClientContext context;
+    v1::DeleteMissionRequest request;
+    request.set_name(name);
+    request.set_request_id("d1");
+    v1::DeleteMissionResponse r;
+    return s.stub().DeleteMission(&context, request, &r);
+  };
+  ASSERT_TRUE(remove("missions/a").ok());
+  ASSERT_TRUE(remove("missions/a").ok());  // a retry
+  expect_refused(remove("missions/b"));
+  EXPECT_EQ(s.registry().size(), 1u);  // b is still there
+}
+
 }  // namespace
 }  // namespace oaipp::server

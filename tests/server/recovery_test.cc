@@ -190,6 +190,16 @@ TEST_F(RecoveryTest, RetriesAfterARestartAreAnsweredOnceWithTheFirstResult) {
   v1::PlanPathResponse plan;
   ASSERT_TRUE(Plan(after.stub(), "missions/l", 20.0, "p2", &plan).ok());
   EXPECT_EQ(plan.SerializeAsString(), first_plan.SerializeAsString());
+  // The same request_id for another measurement is refused after the
+  // restart too.
+  {
+    grpc::ClientContext c;
+    v1::AddMeasurementRequest other = LabelMeasurement("missions/a", 1, 1, 8, 30, 1);
+    other.set_request_id("m3");
+    v1::AddMeasurementResponse out;
+    EXPECT_EQ(after.stub().AddMeasurement(&c, other, &out).error_code(),
+              grpc::StatusCode::INVALID_ARGUMENT);
+  }
   // A retried create returns the mission, not a new one; nothing was fused
   // twice.
   v1::Mission again;

@@ -20,9 +20,11 @@ MissionState SomeState() {
   s.mission_time_s = 33.25;
   s.paths_planned = 4;
   s.planner_state = std::string("lawn\0mower 3", 12);
-  s.answers.emplace_back("m1", MeasurementResult{.cells_fused = 7, .trace = 1.0 / 3.0,
-                                                 .measurements_fused = 1});
-  s.answers.emplace_back("o1", ObstacleResult{.obstacle_count = 2, .esdf_voxels_recomputed = 99});
+  s.answers.emplace_back(
+      "m1", RememberedAnswer{"fp-m1", MeasurementResult{.cells_fused = 7, .trace = 1.0 / 3.0,
+                                                       .measurements_fused = 1}});
+  s.answers.emplace_back(
+      "o1", RememberedAnswer{"", ObstacleResult{.obstacle_count = 2, .esdf_voxels_recomputed = 99}});
   return s;
 }
 
@@ -41,8 +43,9 @@ TEST(StateCodecTest, AStateComesBackExactly) {
   EXPECT_EQ(back->planner_state, s.planner_state);
   ASSERT_EQ(back->answers.size(), 2u);
   EXPECT_EQ(back->answers[0].first, "m1");
-  EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second).trace, 1.0 / 3.0);
-  EXPECT_EQ(std::get<ObstacleResult>(back->answers[1].second).esdf_voxels_recomputed, 99);
+  EXPECT_EQ(back->answers[0].second.fingerprint, "fp-m1");
+  EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second.result).trace, 1.0 / 3.0);
+  EXPECT_EQ(std::get<ObstacleResult>(back->answers[1].second.result).esdf_voxels_recomputed, 99);
   // Half the matrix: n means + n (n + 1) / 2 covariances, plus a little.
   EXPECT_LT(bytes.size(), (5 + 15) * 8 + 200);
 }
