@@ -133,7 +133,8 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     return mission.status();
   }
   missions_[mission_id] = *mission;
-  order_.push_back(mission_id);
+  number_of_[mission_id] = next_number_;
+  order_[next_number_++] = mission_id;
   if (!request_id.empty()) {
     created_by_request_.Remember(request_id, {mission_id, fingerprint});
   }
@@ -239,7 +240,8 @@ absl::StatusOr<int> MissionRegistry::Recover() {
     }
     absl::MutexLock lock(&mu_);
     missions_[stored[i].id] = *std::move(rebuilt[i]);
-    order_.push_back(stored[i].id);
+    number_of_[stored[i].id] = next_number_;
+    order_[next_number_++] = stored[i].id;
     created_by_request_.Remember(stored[i].request_id, {stored[i].id, stored[i].fingerprint});
     ++recovered;
   }
@@ -380,8 +382,18 @@ std::vector<std::shared_ptr<Mission>> MissionRegistry::List(std::size_t offset,
                                                             std::size_t limit) const {
   absl::MutexLock lock(&mu_);
   std::vector<std::shared_ptr<Mission>> out;
-  for (std::size_t i = offset; i < order_.size() && out.size() < limit; ++i) {
-    out.push_back(missions_.at(order_[i]));
+  auto it = order_.begin();
+  for (std::size_t i = 0; i < offset && it != order_.end(); ++i) ++it;
+  for (; it != order_.end() && out.size() < limit; ++it) out.push_back(missions_.at(it->second));
+  return out;
+}
+
+std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> MissionRegistry::ListAfter(
+    std::int64_t after, std::size_t limit) const {
+  absl::MutexLock lock(&mu_);
+  std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> out;
+  for (auto it = order_.upper_bound(after); it != order_.end() && out.size() < limit; ++it) {
+    out.emplace_back(it->first, missions_.at(it->second));
   }
   return out;
 }
@@ -421,7 +433,8 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
     }
     mission = it->second;
     missions_.erase(it);
-    std::erase(order_, id);
+    order_.erase(number_of_[id]);
+    number_of_.erase(id);
     if (!request_id.empty()) {
       deleted_by_request_.Remember(request_id, id);
     }

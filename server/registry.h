@@ -75,6 +75,10 @@ class MissionRegistry {
   // Missions in creation order from `offset`, at most `limit`.
   [[nodiscard]] std::vector<std::shared_ptr<Mission>> List(std::size_t offset,
                                                            std::size_t limit) const;
+  // Missions in creation order created after the one numbered `after` (0:
+  // from the first), at most `limit`, each with its creation number.
+  [[nodiscard]] std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> ListAfter(
+      std::int64_t after, std::size_t limit) const;
   // Removes a mission (watchers are told), from the store first when there
   // is one. NotFound unless it exists or the same request_id deleted it
   // before (also before a restart).
@@ -130,7 +134,11 @@ class MissionRegistry {
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).
   std::map<std::string, std::shared_ptr<Mission>> missions_ ABSL_GUARDED_BY(mu_);
-  std::vector<std::string> order_ ABSL_GUARDED_BY(mu_);
+  // Creation number -> id: the listing order. Numbers are never reused, so a
+  // page token (the last number shown) stays valid when missions go.
+  std::map<std::int64_t, std::string> order_ ABSL_GUARDED_BY(mu_);
+  std::map<std::string, std::int64_t> number_of_ ABSL_GUARDED_BY(mu_);
+  std::int64_t next_number_ ABSL_GUARDED_BY(mu_) = 1;
   std::int64_t next_id_ ABSL_GUARDED_BY(mu_) = 1;
   // request_id -> the mission it created (and the creating request's
   // fingerprint) / deleted.

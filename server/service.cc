@@ -3,7 +3,9 @@
 #include <chrono>
 
 #include "absl/strings/cord.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/numbers.h"
+#include "absl/strings/str_split.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
 #include "absl/time/clock.h"
@@ -95,6 +97,32 @@ PersistFn Recorder(MissionStore* store, const std::string& mission_id, RecordKin
                                                    .request_id = request.request_id(),
                                                    .fingerprint = RequestFingerprint(request)}));
   };
+}
+
+// ListMissions page tokens: the creation number of the last mission shown
+// (numbers are never reused, so deleting missions between pages neither
+// hides nor repeats one), with a check value, in URL-safe base64. A token
+// this server did not make is refused.
+constexpr absl::string_view kPageTokenKey = "oaipp.v1.ListMissions";
+
+std::string PageToken(std::int64_t after) {
+  const std::string body = absl::StrCat("p1.", after);
+  return absl::WebSafeBase64Escape(
+      absl::StrCat(body, ".", FingerprintBytes(absl::StrCat(kPageTokenKey, body))));
+}
+
+absl::StatusOr<std::int64_t> ParsePageToken(const std::string& token) {
+  const absl::Status bad = absl::InvalidArgumentError(
+      "page_token: not a token this server gave out (pass next_page_token unchanged)");
+  std::string decoded;
+  if (token.size() > 128 || !absl::WebSafeBase64Unescape(token, &decoded)) return bad;
+  const std::vector<absl::string_view> parts = absl::StrSplit(decoded, '.');
+  std::int64_t after = 0;
+  if (parts.size() != 3 || parts[0] != "p1" || !absl::SimpleAtoi(parts[1], &after) || after < 0 ||
+      parts[2] != FingerprintBytes(absl::StrCat(kPageTokenKey, parts[0], ".", parts[1]))) {
+    return bad;
+  }
+  return after;
 }
 
 void FillMission(const Mission& mission, v1::Mission* out) {
@@ -198,15 +226,15 @@ grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext*,
           absl::StrCat("page_size: must be in [0, 1000], got ", request->page_size()));
     }
     const std::size_t size = request->page_size() == 0 ? 50 : request->page_size();
-    std::size_t offset = 0;
-    if (!request->page_token().empty() && !absl::SimpleAtoi(request->page_token(), &offset)) {
-      return absl::InvalidArgumentError("page_token: not a token this server gave out");
+    std::int64_t after = 0;
+    if (!request->page_token().empty()) {
+      OAIPP_ASSIGN_OR_RETURN(after, ParsePageToken(request->page_token()));
     }
-    const auto missions = registry_->List(offset, size + 1);
+    const auto missions = registry_->ListAfter(after, size + 1);
     for (std::size_t i = 0; i < missions.size() && i < size; ++i) {
-      FillMission(*missions[i], response->add_missions());
+      FillMission(*missions[i].second, response->add_missions());
     }
-    if (missions.size() > size) response->set_next_page_token(std::to_string(offset + size));
+    if (missions.size() > size) response->set_next_page_token(PageToken(missions[size - 1].first));
     return absl::OkStatus();
   });
 }

@@ -63,6 +63,45 @@ TEST(ServiceTest, CreateGetListDelete) {
   EXPECT_EQ(s.stub().GetMission(&again, gone, &got).error_code(), grpc::StatusCode::NOT_FOUND);
 }
 
+// Page tokens are opaque and stable: deleting missions between pages
+// neither hides nor repeats one, and a token made up by the client (the old
+// raw offsets) is refused naming page_token.
+TEST(ServiceTest, PagesStayRightWhenMissionsAreDeletedBetweenThem) {
+  InProcessService s;
+  for (const char* id : {"m0", "m1", "m2", "m3", "m4"}) CreateSmall(s.stub(), id);
+  const auto list = [&](const std::string& token, v1::ListMissionsResponse* page) {
+    grpc::ClientContext context;
+    v1::ListMissionsRequest request;
+    request.set_page_size(2);
+    request.set_page_token(token);
+    return s.stub().ListMissions(&context, request, page);
+  };
+  v1::ListMissionsResponse first;
+  ASSERT_TRUE(list("", &first).ok());
+  ASSERT_EQ(first.missions_size(), 2);
+  EXPECT_EQ(first.missions(1).name(), "missions/m1");
+  for (const char* gone : {"missions/m1", "missions/m2"}) {
+    grpc::ClientContext context;
+    v1::DeleteMissionRequest del;
+    del.set_name(gone);
+    v1::DeleteMissionResponse deleted;
+    ASSERT_TRUE(s.stub().DeleteMission(&context, del, &deleted).ok());
+  }
+  v1::ListMissionsResponse second;
+  ASSERT_TRUE(list(first.next_page_token(), &second).ok());
+  ASSERT_EQ(second.missions_size(), 2);  // with offsets, m3 was skipped
+  EXPECT_EQ(second.missions(0).name(), "missions/m3");
+  EXPECT_EQ(second.missions(1).name(), "missions/m4");
+  EXPECT_TRUE(second.next_page_token().empty());
+  for (const std::string& forged :
+       std::vector<std::string>{"2", "cDEuMg", first.next_page_token() + "x"}) {
+    v1::ListMissionsResponse page;
+    const grpc::Status status = list(forged, &page);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << forged;
+    EXPECT_NE(status.error_message().find("page_token"), std::string::npos);
+  }
+}
+
 // Missions over the same kind of field share one prior computation, and
 // start from the map a mission built on its own would have.
 TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
