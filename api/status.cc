@@ -43,9 +43,9 @@ bool Control(unsigned char b) { return b < 0x20 || b >= 0x7f; }
 }  // namespace
 
 std::string EchoInput(absl::string_view input, std::size_t max_bytes) {
-  return absl::StrCat("\"", Escaped(input, max_bytes, [](unsigned char b) {
-                        return Control(b) || b == '"' || b == '\\';
-                      }),
+  return absl::StrCat("\"",
+                      Escaped(input, max_bytes,
+                              [](unsigned char b) { return Control(b) || b == '"' || b == '\\'; }),
                       "\"");
 }
 

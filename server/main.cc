@@ -10,7 +10,6 @@
 // SIGINT: stop accepting calls, let in-flight calls finish (up to
 // --shutdown_grace_s), exit 0.
 #include <csignal>
-#include <filesystem>
 #include <memory>
 #include <thread>
 
@@ -99,13 +98,13 @@ int main(int argc, char** argv) {
     spdlog::info("store: {}", oaipp::server::DescribeStore(kind, dir));
   }
 
-  oaipp::server::MissionRegistry registry({.max_missions = absl::GetFlag(FLAGS_max_missions),
-                                           .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells),
-                                           .prior_cache = absl::GetFlag(FLAGS_prior_cache),
-                                           .snapshot_every = absl::GetFlag(FLAGS_snapshot_every),
-                                           .recovery_threads =
-                                               absl::GetFlag(FLAGS_recovery_threads)},
-                                          store.get());
+  oaipp::server::MissionRegistry registry(
+      {.max_missions = absl::GetFlag(FLAGS_max_missions),
+       .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells),
+       .prior_cache = absl::GetFlag(FLAGS_prior_cache),
+       .snapshot_every = absl::GetFlag(FLAGS_snapshot_every),
+       .recovery_threads = absl::GetFlag(FLAGS_recovery_threads)},
+      store.get());
   {
     const absl::Time started = absl::Now();
     absl::StatusOr<int> recovered = registry.Recover();

@@ -121,11 +121,12 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   }
   for (int cell : state.covered_cells) {
     if (!grid.IsValidCell(cell)) {
-      return absl::InvalidArgumentError(absl::StrCat("state: covered cell ", cell, " is outside the field"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("state: covered cell ", cell, " is outside the field"));
     }
   }
-  OAIPP_ASSIGN_OR_RETURN(GpMap map,
-                         GpMap::FromPrior(grid, std::move(state.mean), std::move(state.covariance)));
+  OAIPP_ASSIGN_OR_RETURN(
+      GpMap map, GpMap::FromPrior(grid, std::move(state.mean), std::move(state.covariance)));
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
@@ -291,9 +292,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   // The planning budget counts from admission: waiting for a slot is not
   // planning.
-  const absl::Time deadline =
-      call.budget == absl::InfiniteDuration() ? call.deadline
-                                              : std::min(call.deadline, absl::Now() + call.budget);
+  const absl::Time deadline = call.budget == absl::InfiniteDuration()
+                                  ? call.deadline
+                                  : std::min(call.deadline, absl::Now() + call.budget);
   absl::StatusOr<PlannedPath> path;
   {
     absl::ReaderMutexLock lock(&mu_);

@@ -24,10 +24,10 @@
 #include <variant>
 #include <vector>
 
+#include "Eigen/Core"
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
-#include "Eigen/Core"
 #include "api/mission_config.h"
 #include "core/environment/environment.h"
 #include "core/mapping/gp_map.h"
@@ -169,8 +169,9 @@ class Mission {
   // obstacles, map, counters, planner state and request_id answers; its log
   // goes on at state.sequence + 1. InvalidArgument when the state does not
   // fit the config (another grid, a planner state the planner refuses).
-  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(
-      std::string id, MissionConfig config, MissionState state);
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(std::string id,
+                                                                        MissionConfig config,
+                                                                        MissionState state);
   // A fresh mission with `log` applied in order (what persistence would do).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Replay(
       std::string id, MissionConfig config, const std::vector<LogEntry>& log);
@@ -185,8 +186,7 @@ class Mission {
                                                                const RequestKey& request,
                                                                const PersistFn& persist = nullptr);
   [[nodiscard]] absl::StatusOr<MeasurementResult> AddMeasurement(
-      const MeasurementInput& input, const RequestKey& request,
-      const PersistFn& persist = nullptr);
+      const MeasurementInput& input, const RequestKey& request, const PersistFn& persist = nullptr);
   // Plans from `state` (validated by the planner). next_shot: the sensor
   // phase; unset, the next multiple of 1 / rate at or after the state's
   // mission time. FailedPrecondition when the budget is spent.
@@ -205,8 +205,7 @@ class Mission {
   };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,
-                                                 const RequestKey& request,
-                                                 const PlanCall& call);
+                                                 const RequestKey& request, const PlanCall& call);
   // Recovery: a plan read back from storage, in log order. The planner takes
   // `planner_state`, the plan takes the next sequence number, and a retry of
   // `request_id` is answered with `path`.

@@ -22,7 +22,7 @@ void PlanningGate::Ticket::Release() {
 }
 
 absl::StatusOr<PlanningGate::Ticket> PlanningGate::Enter(absl::Time deadline,
-                                                        const std::function<bool()>& cancelled) {
+                                                         const std::function<bool()>& cancelled) {
   absl::MutexLock lock(&mu_);
   if (running_ < threads_) {
     ++running_;

@@ -86,9 +86,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
       }
       auto m = missions_.find(created_id);
       if (m != missions_.end() && m->second != nullptr) return m->second;
-      return absl::FailedPreconditionError(
-          absl::StrCat("request_id: ", api::EchoInput(request_id), " created mission '",
-                       created_id, "', which is gone or still being built"));
+      return absl::FailedPreconditionError(absl::StrCat("request_id: ", api::EchoInput(request_id),
+                                                        " created mission '", created_id,
+                                                        "', which is gone or still being built"));
     }
     if (mission_id.empty()) {
       // With a store the number comes from it, so ids never repeat across
@@ -204,8 +204,8 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMi
                           absl::StrCat("record ", record.sequence, ": ", status.message()));
     };
     if (record.sequence != (*mission)->next_sequence()) {
-      return failed(absl::DataLossError(
-          absl::StrCat("expected sequence ", (*mission)->next_sequence())));
+      return failed(
+          absl::DataLossError(absl::StrCat("expected sequence ", (*mission)->next_sequence())));
     }
     if (absl::Status status = Replay(**mission, record); !status.ok()) return failed(status);
     last_write_us = std::max(last_write_us, record.write_time_unix_us);
@@ -222,7 +222,7 @@ absl::StatusOr<int> MissionRegistry::Recover() {
   // Missions are rebuilt beside each other (each replays only its own
   // tail); they are registered in creation order.
   std::vector<absl::StatusOr<std::shared_ptr<Mission>>> rebuilt(stored.size(),
-                                                               absl::UnknownError("not rebuilt"));
+                                                                absl::UnknownError("not rebuilt"));
   std::atomic<std::size_t> next{0};
   const auto work = [&] {
     for (std::size_t i = next++; i < stored.size(); i = next++) rebuilt[i] = Rebuild(stored[i]);
@@ -234,9 +234,9 @@ absl::StatusOr<int> MissionRegistry::Recover() {
   int recovered = 0;
   for (std::size_t i = 0; i < stored.size(); ++i) {
     if (!rebuilt[i].ok()) {
-      return absl::Status(rebuilt[i].status().code(),
-                          absl::StrCat("recovering mission '", stored[i].id,
-                                       "': ", rebuilt[i].status().message()));
+      return absl::Status(
+          rebuilt[i].status().code(),
+          absl::StrCat("recovering mission '", stored[i].id, "': ", rebuilt[i].status().message()));
     }
     absl::MutexLock lock(&mu_);
     missions_[stored[i].id] = *std::move(rebuilt[i]);
@@ -409,8 +409,8 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
     const auto same_delete = [&](const std::string& deleted) -> absl::Status {
       if (deleted == id) return absl::OkStatus();
       return absl::InvalidArgumentError(absl::StrCat("request_id: ", api::EchoInput(request_id),
-                                                     " deleted mission '", deleted, "', not '",
-                                                     id, "'; a new request needs a new id"));
+                                                     " deleted mission '", deleted, "', not '", id,
+                                                     "'; a new request needs a new id"));
     };
     if (!request_id.empty()) {
       if (const std::string* deleted = deleted_by_request_.Find(request_id)) {

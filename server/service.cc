@@ -5,9 +5,9 @@
 #include "absl/strings/cord.h"
 #include "absl/strings/escaping.h"
 #include "absl/strings/numbers.h"
-#include "absl/strings/str_split.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_replace.h"
+#include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
 #include "api/geometry.h"
 #include "api/map.h"
@@ -88,14 +88,14 @@ void ReloadIfInDoubt(MissionRegistry& registry, const std::string& mission_id,
 // the mission gives it.
 template <typename Request>
 PersistFn Recorder(MissionStore* store, const std::string& mission_id, RecordKind kind,
-                   const Request& request) {
+                   const Request& request, const std::string& fingerprint) {
   if (store == nullptr) return nullptr;
-  return [store, &mission_id, kind, &request](std::int64_t sequence) {
+  return [store, &mission_id, kind, &request, &fingerprint](std::int64_t sequence) {
     return AppendStatus(store->Append(mission_id, {.sequence = sequence,
                                                    .kind = kind,
                                                    .payload = request.SerializeAsString(),
                                                    .request_id = request.request_id(),
-                                                   .fingerprint = RequestFingerprint(request)}));
+                                                   .fingerprint = fingerprint}));
   };
 }
 
@@ -259,10 +259,10 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext*,
   return Call("UpdateObstacles", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
-    absl::StatusOr<ObstacleResult> updated =
-        mission->UpdateObstacles(change, {request->request_id(), RequestFingerprint(*request)},
-                                 Recorder(registry_->store(), mission->id(),
-                                          RecordKind::kObstacles, *request));
+    const std::string fingerprint = RequestFingerprint(*request);
+    absl::StatusOr<ObstacleResult> updated = mission->UpdateObstacles(
+        change, {request->request_id(), fingerprint},
+        Recorder(registry_->store(), mission->id(), RecordKind::kObstacles, *request, fingerprint));
     ReloadIfInDoubt(*registry_, mission->id(), updated);
     OAIPP_ASSIGN_OR_RETURN(ObstacleResult result, std::move(updated));
     response->set_obstacle_count(result.obstacle_count);
@@ -277,10 +277,11 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
   return Call("AddMeasurement", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
+    const std::string fingerprint = RequestFingerprint(*request);
     absl::StatusOr<MeasurementResult> fused =
-        mission->AddMeasurement(input, {request->request_id(), RequestFingerprint(*request)},
+        mission->AddMeasurement(input, {request->request_id(), fingerprint},
                                 Recorder(registry_->store(), mission->id(),
-                                         RecordKind::kMeasurement, *request));
+                                         RecordKind::kMeasurement, *request, fingerprint));
     ReloadIfInDoubt(*registry_, mission->id(), fused);
     OAIPP_ASSIGN_OR_RETURN(MeasurementResult result, std::move(fused));
     response->set_cells_fused(result.cells_fused);
@@ -311,23 +312,23 @@ grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
       call.budget = absl::Seconds(budget);
     }
     if (context->IsCancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
+    const std::string fingerprint = RequestFingerprint(*request);
     if (MissionStore* store = registry_->store(); store != nullptr) {
       call.persist = [&, store](std::int64_t sequence, const PlannedPath& planned,
-                           const std::string& planner_state) {
+                                const std::string& planner_state) {
         v1::PlanPathResponse answer;
         PlannedPathToProto(planned, &answer);
-        return AppendStatus(store->Append(mission->id(),
-                                          {.sequence = sequence,
-                                           .kind = RecordKind::kPlan,
-                                           .payload = request->SerializeAsString(),
-                                           .request_id = request->request_id(),
-                                           .fingerprint = RequestFingerprint(*request),
-                                           .result = answer.SerializeAsString(),
-                                           .planner_state = planner_state}));
+        return AppendStatus(store->Append(mission->id(), {.sequence = sequence,
+                                                          .kind = RecordKind::kPlan,
+                                                          .payload = request->SerializeAsString(),
+                                                          .request_id = request->request_id(),
+                                                          .fingerprint = fingerprint,
+                                                          .result = answer.SerializeAsString(),
+                                                          .planner_state = planner_state}));
       };
     }
     absl::StatusOr<PlannedPath> planned =
-        mission->Plan(state, next_shot, {request->request_id(), RequestFingerprint(*request)}, call);
+        mission->Plan(state, next_shot, {request->request_id(), fingerprint}, call);
     ReloadIfInDoubt(*registry_, mission->id(), planned);
     OAIPP_ASSIGN_OR_RETURN(PlannedPath path, std::move(planned));
     if (metrics_ != nullptr) {

@@ -398,11 +398,10 @@ class SqliteStore final : public MissionStore {
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     std::vector<StoredMission> out;
     {
-      Statement s(db_,
-                  only.empty() ? "SELECT id, spec, request_id, fingerprint, create_time_us "
-                                 "FROM missions ORDER BY create_time_us, id"
-                               : "SELECT id, spec, request_id, fingerprint, create_time_us "
-                                 "FROM missions WHERE id = ?");
+      Statement s(db_, only.empty() ? "SELECT id, spec, request_id, fingerprint, create_time_us "
+                                      "FROM missions ORDER BY create_time_us, id"
+                                    : "SELECT id, spec, request_id, fingerprint, create_time_us "
+                                      "FROM missions WHERE id = ?");
       OAIPP_RETURN_IF_ERROR(s.prepared("load missions"));
       if (!only.empty()) s.Bind(1, only);
       int code;
@@ -450,8 +449,7 @@ class SqliteStore final : public MissionStore {
   }
 
   template <typename Body>
-  absl::Status InTransaction(absl::string_view what, Body body)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+  absl::Status InTransaction(absl::string_view what, Body body) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", what));
     absl::Status status = body();
     if (!status.ok()) {

@@ -98,19 +98,19 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
       case store::Answer::kObstacles:
         state.answers.emplace_back(
             a.request_id(),
-            RememberedAnswer{a.fingerprint(),
-                             ObstacleResult{.obstacle_count = a.obstacles().obstacle_count(),
-                                            .esdf_voxels_recomputed =
-                                                a.obstacles().esdf_voxels_recomputed()}});
+            RememberedAnswer{
+                a.fingerprint(),
+                ObstacleResult{.obstacle_count = a.obstacles().obstacle_count(),
+                               .esdf_voxels_recomputed = a.obstacles().esdf_voxels_recomputed()}});
         break;
       case store::Answer::kMeasurement:
         state.answers.emplace_back(
             a.request_id(),
-            RememberedAnswer{a.fingerprint(),
-                             MeasurementResult{
-                                 .cells_fused = a.measurement().cells_fused(),
-                                 .trace = a.measurement().trace(),
-                                 .measurements_fused = a.measurement().measurements_fused()}});
+            RememberedAnswer{
+                a.fingerprint(),
+                MeasurementResult{.cells_fused = a.measurement().cells_fused(),
+                                  .trace = a.measurement().trace(),
+                                  .measurements_fused = a.measurement().measurements_fused()}});
         break;
       case store::Answer::kPlan: {
         absl::StatusOr<PlannedPath> path = api::PlannedPathFromProto(a.plan());

@@ -307,7 +307,6 @@ TEST(BadRequestTest, EachGetsItsCodeAndNamesTheField) {
   EXPECT_TRUE(Plan(s.stub(), [](auto&) {}).ok());
 }
 
-
 // What an error repeats of the request is short and one line: a 1 MB
 // mission_id does not come back as a 1 MB message, and a newline in an id
 // cannot start a forged log line.
@@ -336,7 +335,6 @@ TEST(BadRequestTest, EchoedInputIsCappedAndEscaped) {
   EXPECT_NE(status.error_message().find("(1048585 bytes)"), std::string::npos)
       << status.error_message();
 }
-
 
 // A request_id names one request: its retry gets the first answer, its reuse
 // for a different request is refused naming request_id (and changes

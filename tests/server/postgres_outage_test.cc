@@ -9,9 +9,9 @@
 #include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "grpc/health/v1/health.grpc.pb.h"
 #include "gtest/gtest.h"
 #include "tests/server/postgres_instance.h"
-#include "grpc/health/v1/health.grpc.pb.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixture.h"
 

@@ -387,7 +387,8 @@ TEST_F(RecoveryTest, AWriteInDoubtIsReadBackAndAppliedOnce) {
 // short tail, and the mission read back from them is the one that wrote
 // them (map bit for bit, counters, answers, the next plans).
 TEST_F(RecoveryTest, SnapshotsBoundTheTailAndRestoreTheMissionExactly) {
-  const RegistryLimits limits{.max_missions = 8, .max_cells_per_mission = 1600, .snapshot_every = 2};
+  const RegistryLimits limits{
+      .max_missions = 8, .max_cells_per_mission = 1600, .snapshot_every = 2};
   std::unique_ptr<MissionStore> store = Open();
   InProcessService running(limits, 2, 64, store.get());
   Drive(running.stub());
@@ -459,11 +460,10 @@ TEST_F(RecoveryTest, RetentionDeletesFinishedAndIdleMissionsWithTheirRecords) {
   ASSERT_TRUE(service.stub().AddMeasurement(&c, last, &fused).ok());
   const absl::Time now = absl::Now();
   // Not yet: changed less than a minute ago.
-  EXPECT_TRUE(
-      service.registry().Sweep(now, absl::Minutes(1), absl::InfiniteDuration()).empty());
-  EXPECT_EQ(service.registry().Sweep(now + absl::Minutes(2), absl::Minutes(1),
-                                     absl::InfiniteDuration()),
-            std::vector<std::string>{"done"});
+  EXPECT_TRUE(service.registry().Sweep(now, absl::Minutes(1), absl::InfiniteDuration()).empty());
+  EXPECT_EQ(
+      service.registry().Sweep(now + absl::Minutes(2), absl::Minutes(1), absl::InfiniteDuration()),
+      std::vector<std::string>{"done"});
   absl::StatusOr<std::vector<StoredMission>> left = store->LoadAll();
   ASSERT_TRUE(left.ok());
   ASSERT_EQ(left->size(), 1u);
@@ -484,8 +484,8 @@ class DiskFullTest : public ::testing::Test {
   void SetUp() override {
     dir_ = std::filesystem::temp_directory_path() / absl::StrCat("oaipp-full-", getpid());
     std::filesystem::create_directories(dir_);
-    const std::string mount = absl::StrCat("mount -t tmpfs -o size=1m tmpfs ", dir_.string(),
-                                           " 2>/dev/null");
+    const std::string mount =
+        absl::StrCat("mount -t tmpfs -o size=1m tmpfs ", dir_.string(), " 2>/dev/null");
     mounted_ = std::system(mount.c_str()) == 0;
     if (!mounted_) GTEST_SKIP() << "cannot mount a tmpfs here (needs root)";
   }

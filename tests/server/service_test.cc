@@ -320,6 +320,16 @@ v1::PlanPathRequest PlanFromCorner(const std::string& id) {
   return request;
 }
 
+// A plan from the corner with `budget_s` of planning and a 20 s deadline.
+grpc::Status PlanWithBudget(v1::MissionService::Stub& stub, const std::string& id, double budget_s,
+                            v1::PlanPathResponse* path) {
+  v1::PlanPathRequest request = PlanFromCorner(id);
+  request.set_planning_budget_s(budget_s);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(20));
+  return stub.PlanPath(&context, request, path);
+}
+
 // A cancelled plan stops planning and gives its slot back: with one
 // planning thread, another mission's plan then gets through well within its
 // deadline. (Before, the cancelled plan ran on and the other waited out its
@@ -337,12 +347,8 @@ TEST(ServiceTest, ACancelledPlanGivesThePlannerBack) {
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let it take the slot
   endless_context.TryCancel();
-  v1::PlanPathRequest request = PlanFromCorner("other");
-  request.set_planning_budget_s(0.5);
-  grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(20));
   v1::PlanPathResponse path;
-  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  const grpc::Status status = PlanWithBudget(s.stub(), "other", 0.5, &path);
   EXPECT_TRUE(status.ok()) << status.error_message();
   endless.join();
 }
@@ -361,12 +367,8 @@ TEST(ServiceTest, ThePlanningBudgetStartsWhenAPlannerIsFree) {
     EXPECT_TRUE(s.stub().PlanPath(&context, request, &path).ok());
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it take the slot
-  v1::PlanPathRequest request = PlanFromCorner("second");
-  request.set_planning_budget_s(0.5);
-  grpc::ClientContext context;
-  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(20));
   v1::PlanPathResponse path;
-  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  const grpc::Status status = PlanWithBudget(s.stub(), "second", 0.5, &path);
   EXPECT_TRUE(status.ok()) << status.error_message();
   EXPECT_EQ(path.stats().stop_reason(), "deadline");  // it did plan, for its budget
   first.join();

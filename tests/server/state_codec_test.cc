@@ -21,10 +21,11 @@ MissionState SomeState() {
   s.paths_planned = 4;
   s.planner_state = std::string("lawn\0mower 3", 12);
   s.answers.emplace_back(
-      "m1", RememberedAnswer{"fp-m1", MeasurementResult{.cells_fused = 7, .trace = 1.0 / 3.0,
-                                                       .measurements_fused = 1}});
-  s.answers.emplace_back(
-      "o1", RememberedAnswer{"", ObstacleResult{.obstacle_count = 2, .esdf_voxels_recomputed = 99}});
+      "m1", RememberedAnswer{
+                "fp-m1",
+                MeasurementResult{.cells_fused = 7, .trace = 1.0 / 3.0, .measurements_fused = 1}});
+  s.answers.emplace_back("o1", RememberedAnswer{"", ObstacleResult{.obstacle_count = 2,
+                                                                   .esdf_voxels_recomputed = 99}});
   return s;
 }
 

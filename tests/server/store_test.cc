@@ -99,8 +99,7 @@ TEST_P(StoreTest, RecordsComeBackInOrderByteForByte) {
   for (int b = 0; b < 256; ++b) every_byte.push_back(static_cast<char>(b));
   {
     std::unique_ptr<MissionStore> store = Open();
-    ASSERT_TRUE(
-        store->CreateMission({.id = "m1", .spec = every_byte, .request_id = "c1"}).ok());
+    ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = every_byte, .request_id = "c1"}).ok());
     ASSERT_TRUE(store->Append("m1", Record(1, "one")).ok());
     LogRecord plan = Record(2, every_byte);
     plan.kind = RecordKind::kPlan;

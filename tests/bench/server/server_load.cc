@@ -7,15 +7,15 @@
 //
 //   build/tests/bench/server/server_load --missions=50 --budget_s=150
 //   build/tests/bench/server/server_load --missions=50 --stores=memory,sqlite
+#include <unistd.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <mutex>
-#include <filesystem>
 #include <thread>
-#include <unistd.h>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"

@@ -133,7 +133,8 @@ BENCHMARK(BM_AddMeasurementStoresVsMemory)->Iterations(200)->Unit(benchmark::kMi
 // (SQLite: WAL, synchronous=FULL, one fsync; PostgreSQL: a loopback round
 // trip and a commit that waits for its WAL flush). Arg: 0 SQLite, 1 PostgreSQL.
 void BM_Append(benchmark::State& state) {
-  std::unique_ptr<server::MissionStore> store = OpenKind(static_cast<int>(state.range(0)), "append");
+  std::unique_ptr<server::MissionStore> store =
+      OpenKind(static_cast<int>(state.range(0)), "append");
   if (store == nullptr) {
     state.SkipWithError("the store could not be opened");
     return;
