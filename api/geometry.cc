@@ -1,4 +1,5 @@
 #include "api/geometry.h"
+#include "api/limits.h"
 
 #include <set>
 #include <string>
@@ -12,9 +13,11 @@
 namespace oaipp::api {
 namespace {
 
+using internal::CheckBoundedVector;
 using internal::CheckFiniteVector;
 using internal::CheckId;
 using internal::CheckNonNegative;
+using internal::CheckPositiveAtMost;
 
 double RadToDeg(double rad) { return rad * 180.0 / kPi; }
 
@@ -38,10 +41,14 @@ absl::StatusOr<Obstacle> ObstacleFromProto(const v1::Obstacle& obstacle, absl::s
     case v1::Obstacle::kBox: {
       const v1::Box& b = obstacle.box();
       const std::string name = absl::StrCat(field, ".box");
-      OAIPP_RETURN_IF_ERROR(CheckFiniteVector(absl::StrCat(name, ".centre_m"), b.centre_m()));
-      OAIPP_RETURN_IF_ERROR(CheckPositive(absl::StrCat(name, ".size_m.x"), b.size_m().x()));
-      OAIPP_RETURN_IF_ERROR(CheckPositive(absl::StrCat(name, ".size_m.y"), b.size_m().y()));
-      OAIPP_RETURN_IF_ERROR(CheckPositive(absl::StrCat(name, ".size_m.z"), b.size_m().z()));
+      OAIPP_RETURN_IF_ERROR(
+          CheckBoundedVector(absl::StrCat(name, ".centre_m"), b.centre_m(), kMaxCoordinateM));
+      OAIPP_RETURN_IF_ERROR(
+          CheckPositiveAtMost(absl::StrCat(name, ".size_m.x"), b.size_m().x(), kMaxCoordinateM));
+      OAIPP_RETURN_IF_ERROR(
+          CheckPositiveAtMost(absl::StrCat(name, ".size_m.y"), b.size_m().y(), kMaxCoordinateM));
+      OAIPP_RETURN_IF_ERROR(
+          CheckPositiveAtMost(absl::StrCat(name, ".size_m.z"), b.size_m().z(), kMaxCoordinateM));
       OAIPP_RETURN_IF_ERROR(CheckFinite(absl::StrCat(name, ".yaw_deg"), b.yaw_deg()));
       out.shape = Box{.centre_W = FromProto(b.centre_m()),
                       .size_m = FromProto(b.size_m()),
@@ -51,9 +58,12 @@ absl::StatusOr<Obstacle> ObstacleFromProto(const v1::Obstacle& obstacle, absl::s
     case v1::Obstacle::kCylinder: {
       const v1::Cylinder& cyl = obstacle.cylinder();
       const std::string name = absl::StrCat(field, ".cylinder");
-      OAIPP_RETURN_IF_ERROR(CheckFiniteVector(absl::StrCat(name, ".centre_m"), cyl.centre_m()));
-      OAIPP_RETURN_IF_ERROR(CheckPositive(absl::StrCat(name, ".radius_m"), cyl.radius_m()));
-      OAIPP_RETURN_IF_ERROR(CheckPositive(absl::StrCat(name, ".height_m"), cyl.height_m()));
+      OAIPP_RETURN_IF_ERROR(
+          CheckBoundedVector(absl::StrCat(name, ".centre_m"), cyl.centre_m(), kMaxCoordinateM));
+      OAIPP_RETURN_IF_ERROR(
+          CheckPositiveAtMost(absl::StrCat(name, ".radius_m"), cyl.radius_m(), kMaxCoordinateM));
+      OAIPP_RETURN_IF_ERROR(
+          CheckPositiveAtMost(absl::StrCat(name, ".height_m"), cyl.height_m(), kMaxCoordinateM));
       out.shape = Cylinder{.centre_W = FromProto(cyl.centre_m()),
                            .radius_m = cyl.radius_m(),
                            .height_m = cyl.height_m()};
@@ -87,6 +97,11 @@ v1::Obstacle ObstacleToProto(const Obstacle& obstacle) {
 
 absl::StatusOr<ObstacleChange> ObstacleChangeFromProto(const v1::UpdateObstaclesRequest& request) {
   ObstacleChange change;
+  if (request.add_size() + request.remove_size() + request.replace_size() > kMaxObstacles) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "add: ", request.add_size(), " + remove: ", request.remove_size(), " + replace: ",
+        request.replace_size(), " obstacles in one change; at most ", kMaxObstacles));
+  }
   std::set<std::string> seen;
   const auto note = [&](const std::string& field, const std::string& id) -> absl::Status {
     if (seen.insert(id).second) return absl::OkStatus();

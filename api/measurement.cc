@@ -1,4 +1,5 @@
 #include "api/measurement.h"
+#include "api/limits.h"
 
 #include <map>
 #include <optional>
@@ -22,6 +23,10 @@ absl::StatusOr<CellLabels> LabelsFromProto(const v1::CellLabels& in) {
     return absl::InvalidArgumentError(absl::StrCat("labels.labels: has ", in.labels_size(),
                                                    " entries but labels.cells has ",
                                                    in.cells_size(), " (must match)"));
+  }
+  if (in.cells_size() > kMaxLabels) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("labels.cells: ", in.cells_size(), " cells; at most ", kMaxLabels));
   }
   CellLabels out;
   out.cells.reserve(in.cells_size());
@@ -64,6 +69,10 @@ absl::StatusOr<MeasurementInput::Detections> DetectionsFromProto(const v1::Image
     out.intrinsics = IntrinsicsFromProto(in.intrinsics());
     // CameraIntrinsics::Validate names its fields "intrinsics.<name>".
     OAIPP_RETURN_IF_ERROR(Prefixed("detections.", out.intrinsics->Validate()));
+  }
+  if (in.boxes_size() > kMaxBoxes) {
+    return absl::InvalidArgumentError(absl::StrCat("detections.boxes: ", in.boxes_size(),
+                                                   " boxes; at most ", kMaxBoxes, " per image"));
   }
   out.boxes.reserve(in.boxes_size());
   for (int i = 0; i < in.boxes_size(); ++i) {

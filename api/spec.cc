@@ -1,4 +1,5 @@
 #include "api/spec.h"
+#include "api/limits.h"
 
 #include <cmath>
 #include <map>
@@ -157,9 +158,11 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       OrDefault(p.has_lawnmower_start_corner(), p.lawnmower_start_corner(), lawnmower.start_corner);
 
   OAIPP_RETURN_IF_ERROR(
-      CheckIntRange("spec.planner.num_waypoints", c.planner.oaipp.num_waypoints, 2, 20));
-  OAIPP_RETURN_IF_ERROR(CheckAtLeast("spec.planner.population", c.planner.oaipp.population, 5));
-  OAIPP_RETURN_IF_ERROR(CheckAtLeast("spec.planner.generations", c.planner.oaipp.generations, 0));
+      CheckIntRange("spec.planner.num_waypoints", c.planner.oaipp.num_waypoints, 2, kMaxWaypoints));
+  OAIPP_RETURN_IF_ERROR(
+      CheckIntRange("spec.planner.population", c.planner.oaipp.population, 5, kMaxPopulation));
+  OAIPP_RETURN_IF_ERROR(
+      CheckIntRange("spec.planner.generations", c.planner.oaipp.generations, 0, kMaxGenerations));
   OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.kappa", common.information.kappa));
   OAIPP_RETURN_IF_ERROR(CheckFinite("spec.planner.h_opt_m", common.information.h_opt_m));
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.sigma1_m", common.information.sigma1_m));
@@ -174,6 +177,10 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
 
 absl::Status FillObstacles(const google::protobuf::RepeatedPtrField<v1::Obstacle>& obstacles,
                            MissionConfig& c) {
+  if (obstacles.size() > kMaxObstacles) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.obstacles: ", obstacles.size(), " obstacles; at most ", kMaxObstacles));
+  }
   std::map<std::string, int> first_index;
   c.obstacles.reserve(obstacles.size());
   for (int i = 0; i < obstacles.size(); ++i) {

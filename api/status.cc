@@ -3,6 +3,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_replace.h"
 
 namespace oaipp::api {
 
@@ -51,6 +52,27 @@ std::string EchoInput(absl::string_view input, std::size_t max_bytes) {
 
 std::string SafeMessage(absl::string_view message, std::size_t max_bytes) {
   return Escaped(message, max_bytes, Control);
+}
+
+absl::Status WithApiFieldNames(const absl::Status& status) {
+  if (status.ok()) return status;
+  // Longest first where one name starts another.
+  const std::string message = absl::StrReplaceAll(
+      status.message(), {{"state.position_W", "state.position_m"},
+                         {"state.velocity_W_m_s", "state.velocity_m_s"},
+                         {"state.accel_W_m_s2", "state.acceleration_m_s2"},
+                         {"limits.max_speed_m_s", "spec.flight.max_speed_m_s"},
+                         {"limits.max_accel_m_s2", "spec.flight.max_accel_m_s2"},
+                         {"limits.uav_radius_m", "spec.flight.uav_radius_m"},
+                         {"esdf.voxel_size_m", "spec.flight.esdf_voxel_m"},
+                         {"esdf.truncation_m", "spec.flight.esdf_truncation_m"},
+                         {"esdf: ", "spec.flight.esdf_voxel_m: "},
+                         {".box.centre_W", ".box.centre_m"},
+                         {".cylinder.centre_W", ".cylinder.centre_m"}});
+  absl::Status out(status.code(), message);
+  status.ForEachPayload(
+      [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
+  return out;
 }
 
 }  // namespace oaipp::api

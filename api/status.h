@@ -29,5 +29,10 @@ namespace oaipp::api {
 // A whole status message made safe the same way (control characters and
 // non-ASCII bytes escaped, cut at `max_bytes`), for the reply and the log.
 [[nodiscard]] std::string SafeMessage(absl::string_view message, std::size_t max_bytes = 1024);
+// The core names its fields as the code does (state.position_W,
+// limits.max_speed_m_s, esdf.voxel_size_m); a caller knows them by the API's
+// paths (state.position_m, spec.flight.max_speed_m_s,
+// spec.flight.esdf_voxel_m). The same status with the API's names.
+[[nodiscard]] absl::Status WithApiFieldNames(const absl::Status& status);
 
 }  // namespace oaipp::api

@@ -1,6 +1,7 @@
 #include "api/internal/checks.h"
 
 #include <cmath>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
@@ -16,6 +17,22 @@ absl::Status CheckFiniteVector(absl::string_view field, const v1::Vector3& v) {
   OAIPP_RETURN_IF_ERROR(CheckFinite(absl::StrCat(field, ".x"), v.x()));
   OAIPP_RETURN_IF_ERROR(CheckFinite(absl::StrCat(field, ".y"), v.y()));
   return CheckFinite(absl::StrCat(field, ".z"), v.z());
+}
+
+absl::Status CheckBoundedVector(absl::string_view field, const v1::Vector3& v, double bound) {
+  for (const auto& [axis, value] : {std::pair{".x", v.x()}, {".y", v.y()}, {".z", v.z()}}) {
+    if (!(std::abs(value) <= bound)) {  // true for NaN
+      return absl::InvalidArgumentError(absl::StrCat(field, axis, ": must be finite and within +-",
+                                                     bound, ", got ", value));
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status CheckPositiveAtMost(absl::string_view field, double value, double bound) {
+  if (value > 0.0 && value <= bound) return absl::OkStatus();  // false for NaN
+  return absl::InvalidArgumentError(
+      absl::StrCat(field, ": must be positive and at most ", bound, ", got ", value));
 }
 
 absl::Status CheckNonNegative(absl::string_view field, double value) {

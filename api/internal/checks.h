@@ -27,6 +27,12 @@ template <typename T>
 [[nodiscard]] absl::Status Prefixed(absl::string_view prefix, const absl::Status& status);
 
 [[nodiscard]] absl::Status CheckFiniteVector(absl::string_view field, const v1::Vector3& v);
+// Each component finite and within [-bound, bound].
+[[nodiscard]] absl::Status CheckBoundedVector(absl::string_view field, const v1::Vector3& v,
+                                              double bound);
+// 0 < value <= bound.
+[[nodiscard]] absl::Status CheckPositiveAtMost(absl::string_view field, double value,
+                                               double bound);
 [[nodiscard]] absl::Status CheckNonNegative(absl::string_view field, double value);
 [[nodiscard]] absl::Status CheckUnitInterval(absl::string_view field, double value);
 // lo < value < hi.

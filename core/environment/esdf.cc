@@ -109,8 +109,11 @@ VoxelBox Esdf::BoxAround(const Aabb& region_W, double margin_m) const {
   for (int a = 0; a < 3; ++a) {
     const double lo = (region_W.min_W[a] - margin_m - origin_W_[a]) / voxel_m_ - 0.5;
     const double hi = (region_W.max_W[a] + margin_m - origin_W_[a]) / voxel_m_ - 0.5;
-    box.lo[a] = std::clamp(static_cast<int>(std::floor(lo)), 0, dims_[a]);
-    box.hi[a] = std::clamp(static_cast<int>(std::ceil(hi)) + 1, 0, dims_[a]);
+    // Clamped as doubles first: a region far outside the grid must not
+    // overflow the conversion to int.
+    const double limit = static_cast<double>(dims_[a]);
+    box.lo[a] = static_cast<int>(std::clamp(std::floor(lo), 0.0, limit));
+    box.hi[a] = static_cast<int>(std::clamp(std::ceil(hi) + 1.0, 0.0, limit));
   }
   return box;
 }

@@ -1,0 +1,27 @@
+// Upper bounds on what one request may ask for, so that a request's cost in
+// memory and time is known before anything is allocated. Every conversion in
+// api/ enforces them (InvalidArgument naming the field and the bound);
+// docs/limits.md lists them with the reasons.
+#pragma once
+
+#include <cstdint>
+
+namespace oaipp::api {
+
+// CMA-ES population (lambda) and generations of one plan.
+inline constexpr int kMaxPopulation = 10'000;
+inline constexpr int kMaxGenerations = 100'000;
+// Control waypoints of one plan.
+inline constexpr int kMaxWaypoints = 20;
+// Obstacles of one mission, and of one UpdateObstacles change.
+inline constexpr int kMaxObstacles = 1'000;
+// Detection boxes of one image, and labelled cells of one measurement.
+inline constexpr int kMaxBoxes = 1'000;
+inline constexpr int kMaxLabels = 65'536;
+// Obstacle coordinates and sizes, metres: 1000 km, far past any field, so
+// that every obstacle maps to voxel indices an int can hold.
+inline constexpr double kMaxCoordinateM = 1e6;
+// One gRPC message, either way (a 4096-cell GetMap with cells is 0.2 MB).
+inline constexpr std::int64_t kMaxMessageBytes = 16 << 20;
+
+}  // namespace oaipp::api
