@@ -30,6 +30,10 @@ absl::StatusOr<v1::Scenario> ParseScenario(absl::string_view json, absl::string_
       what = what.substr(pos);
     }
     return absl::InvalidArgumentError(absl::StrCat(source, ":", line, ":", column, ": ", what));
+  } catch (const nlohmann::json::out_of_range&) {
+    // A number beyond a double's range (1e400): nlohmann gives no place.
+    return absl::InvalidArgumentError(
+        absl::StrCat(source, ": a number is out of range (beyond +-1.8e308)"));
   }
   v1::Scenario scenario;
   google::protobuf::util::JsonParseOptions options;
