@@ -20,8 +20,12 @@ packages=(
   # PostgreSQL for several servers (the server library, and PostgreSQL 15 itself,
   # which the tests start in a temporary folder)
   libsqlite3-dev sqlite3 libpqxx-dev postgresql-15 postgresql-client-15
+  # who gets in: token hashes (libssl's SHA-256), and openssl to make test certificates
+  libssl-dev openssl
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # fuzzing (fuzz/run.sh): clang, with libFuzzer and the sanitizer runtimes
+  clang libclang-rt-14-dev
   # figures
   python3-matplotlib python3-numpy
 )

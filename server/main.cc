@@ -6,21 +6,32 @@
 // with --store=postgresql://..., and come back after a restart or a crash;
 // --store=memory keeps them in memory only.
 //
-// Health checking (grpc.health.v1) and server reflection are on. SIGTERM or
-// SIGINT: stop accepting calls, let in-flight calls finish (up to
+// Health checking (grpc.health.v1) is on, and server reflection unless
+// --reflection=false. TLS (--tls_cert, --tls_key; mutual with
+// --tls_client_ca) and bearer tokens (--token_file) say who gets in; without
+// TLS the server listens only on loopback unless --allow_insecure_remote.
+// SIGTERM or SIGINT: stop accepting calls, let in-flight calls finish (up to
 // --shutdown_grace_s), exit 0.
+#include <unistd.h>
+
 #include <csignal>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <thread>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "absl/strings/match.h"
 #include "absl/synchronization/notification.h"
+#include "api/limits.h"
+#include "google/protobuf/stubs/logging.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/grpcpp.h"
 #include "grpcpp/health_check_service_interface.h"
 #include "prometheus/exposer.h"
+#include "server/auth.h"
 #include "server/service.h"
 #include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
@@ -45,6 +56,89 @@ ABSL_FLAG(std::string, store, "sqlite",
 ABSL_FLAG(std::string, data_dir, "./data",
           "folder of the sqlite store (created at start); back it up with sqlite3's .backup");
 ABSL_FLAG(double, shutdown_grace_s, 10.0, "time in-flight calls get to finish on SIGTERM");
+ABSL_FLAG(int, max_streams, 256, "open WatchMission streams in all");
+ABSL_FLAG(int, max_streams_per_client, 16,
+          "open WatchMission streams per client (per tenant with --token_file, per connection "
+          "without)");
+ABSL_FLAG(int, max_plans_per_tenant, 0, "plans one tenant may have queued or running; 0: no quota");
+ABSL_FLAG(double, max_planning_s, 60.0,
+          "longest one plan may run; a plan asking for more (or no planning_budget_s) returns "
+          "the best path found by then");
+ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
+ABSL_FLAG(int64_t, max_memory_mb, 0,
+          "memory all missions together may need (admission control, estimated from each spec "
+          "before anything is allocated); 0: half of this machine's memory");
+ABSL_FLAG(int64_t, max_mission_memory_mb, 4096, "memory one mission may need (see max_memory_mb)");
+ABSL_FLAG(std::string, tls_cert, "", "PEM server certificate (chain); with --tls_key turns TLS on");
+ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert");
+ABSL_FLAG(std::string, tls_client_ca, "",
+          "PEM CA bundle: clients must present a certificate it signed (mutual TLS)");
+ABSL_FLAG(bool, allow_insecure_remote, false,
+          "listen on a non-loopback address without TLS (calls and tokens cross the network in "
+          "the clear)");
+ABSL_FLAG(std::string, token_file, "",
+          "bearer tokens: lines '<tenant> <sha256 hex of token>'; callers must send "
+          "'authorization: Bearer <token>' and see only their tenant's missions");
+ABSL_FLAG(bool, reflection, true, "serve gRPC server reflection (for grpcurl and similar tools)");
+
+namespace {
+
+// Whether `address` (host:port, [v6]:port or unix:path) can be reached only
+// from this machine.
+bool IsLoopback(const std::string& address) {
+  if (absl::StartsWith(address, "unix:") || absl::StartsWith(address, "unix-abstract:")) {
+    return true;
+  }
+  std::string host = address.substr(0, address.rfind(':'));
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') {
+    host = host.substr(1, host.size() - 2);
+  }
+  return host == "localhost" || host == "::1" || absl::StartsWith(host, "127.");
+}
+
+absl::StatusOr<std::string> ReadFile(const std::string& flag, const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return absl::InvalidArgumentError(absl::StrCat(flag, ": cannot read '", path, "'"));
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The listening credentials the TLS flags ask for; InvalidArgument for an
+// incomplete or unreadable set.
+absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> ServerCredentials() {
+  const std::string cert = absl::GetFlag(FLAGS_tls_cert);
+  const std::string key = absl::GetFlag(FLAGS_tls_key);
+  const std::string client_ca = absl::GetFlag(FLAGS_tls_client_ca);
+  if (cert.empty() && key.empty()) {
+    if (!client_ca.empty()) {
+      return absl::InvalidArgumentError("--tls_client_ca needs --tls_cert and --tls_key");
+    }
+    return grpc::InsecureServerCredentials();
+  }
+  if (cert.empty() || key.empty()) {
+    return absl::InvalidArgumentError("--tls_cert and --tls_key go together");
+  }
+  grpc::SslServerCredentialsOptions options(
+      client_ca.empty() ? GRPC_SSL_DONT_REQUEST_CLIENT_CERTIFICATE
+                        : GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY);
+  grpc::SslServerCredentialsOptions::PemKeyCertPair pair;
+  absl::StatusOr<std::string> cert_pem = ReadFile("--tls_cert", cert);
+  if (!cert_pem.ok()) return cert_pem.status();
+  absl::StatusOr<std::string> key_pem = ReadFile("--tls_key", key);
+  if (!key_pem.ok()) return key_pem.status();
+  pair.cert_chain = *cert_pem;
+  pair.private_key = *key_pem;
+  options.pem_key_cert_pairs.push_back(std::move(pair));
+  if (!client_ca.empty()) {
+    absl::StatusOr<std::string> ca_pem = ReadFile("--tls_client_ca", client_ca);
+    if (!ca_pem.ok()) return ca_pem.status();
+    options.pem_root_certs = *ca_pem;
+  }
+  return grpc::SslServerCredentials(options);
+}
+
+}  // namespace
 ABSL_FLAG(int, snapshot_every, 16,
           "with a store: snapshot a mission's map and state after this many measurements (or 4x "
           "as many records) since its last one, so recovery replays at most that many; 0: never");
@@ -60,6 +154,22 @@ int main(int argc, char** argv) {
   absl::ParseCommandLine(argc, argv);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
   spdlog::set_pattern("%Y-%m-%dT%H:%M:%S.%e %^%l%$ %v");
+  // Protobuf writes a line to stderr for every request it cannot parse (a
+  // string field that is not UTF-8, say), so any client could flood the
+  // log; the caller is told by its status, and the line becomes debug.
+  google::protobuf::SetLogHandler(
+      [](google::protobuf::LogLevel, const char*, int, const std::string& message) {
+        spdlog::debug("protobuf: {}", message.substr(0, 200));
+      });
+
+  // Signals are taken by a thread of ours, not by whichever thread runs:
+  // blocked before any thread starts (gRPC starts its own as soon as it is
+  // first used), so that every thread inherits the mask.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   const int threads = absl::GetFlag(FLAGS_worker_threads);
   const int planning_threads = absl::GetFlag(FLAGS_planning_threads);
@@ -69,20 +179,49 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_snapshot_every) < 0 || absl::GetFlag(FLAGS_recovery_threads) < 1 ||
       absl::GetFlag(FLAGS_keep_finished) <= absl::ZeroDuration() ||
       absl::GetFlag(FLAGS_keep_idle) <= absl::ZeroDuration() ||
-      absl::GetFlag(FLAGS_prior_cache) < 0) {
+      absl::GetFlag(FLAGS_prior_cache) < 0 || absl::GetFlag(FLAGS_max_streams) < 1 ||
+      absl::GetFlag(FLAGS_max_streams_per_client) < 1 ||
+      absl::GetFlag(FLAGS_max_plans_per_tenant) < 0 ||
+      !(absl::GetFlag(FLAGS_max_planning_s) > 0 && absl::GetFlag(FLAGS_max_planning_s) < 1e6) ||
+      absl::GetFlag(FLAGS_max_missions_per_tenant) < 0 || absl::GetFlag(FLAGS_max_memory_mb) < 0 ||
+      absl::GetFlag(FLAGS_max_mission_memory_mb) < 0) {
     spdlog::error(
         "bad flags: need worker_threads >= 2, planning_threads >= 1, "
         "planning_queue >= 0, max_missions >= 1, max_cells >= 1, prior_cache >= 0, "
-        "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0");
+        "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0, "
+        "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas "
+        "and memory limits >= 0");
     return 2;
   }
-
-  // Signals are taken by a thread of ours, not by whichever thread runs.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials();
+  if (!credentials.ok()) {
+    spdlog::error("{}", std::string(credentials.status().message()));
+    return 2;
+  }
+  const bool tls = !absl::GetFlag(FLAGS_tls_cert).empty();
+  if (!tls && !IsLoopback(absl::GetFlag(FLAGS_listen)) &&
+      !absl::GetFlag(FLAGS_allow_insecure_remote)) {
+    spdlog::error(
+        "--listen={} is not a loopback address and TLS is off: give --tls_cert and --tls_key, or "
+        "--allow_insecure_remote to serve in the clear",
+        absl::GetFlag(FLAGS_listen));
+    return 2;
+  }
+  oaipp::server::Authenticator auth;
+  if (const std::string path = absl::GetFlag(FLAGS_token_file); !path.empty()) {
+    absl::StatusOr<oaipp::server::Authenticator> loaded =
+        oaipp::server::Authenticator::FromFile(path);
+    if (!loaded.ok()) {
+      spdlog::error("--token_file: {}", std::string(loaded.status().message()));
+      return 2;
+    }
+    auth = *std::move(loaded);
+    spdlog::info("auth: {} tenants from {}", auth.tenants(), path);
+  }
+  std::int64_t max_memory = absl::GetFlag(FLAGS_max_memory_mb) << 20;
+  if (max_memory == 0) {
+    max_memory = static_cast<std::int64_t>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGE_SIZE) / 2;
+  }
 
   std::unique_ptr<oaipp::server::MissionStore> store;
   {
@@ -103,7 +242,10 @@ int main(int argc, char** argv) {
        .max_cells_per_mission = absl::GetFlag(FLAGS_max_cells),
        .prior_cache = absl::GetFlag(FLAGS_prior_cache),
        .snapshot_every = absl::GetFlag(FLAGS_snapshot_every),
-       .recovery_threads = absl::GetFlag(FLAGS_recovery_threads)},
+       .recovery_threads = absl::GetFlag(FLAGS_recovery_threads),
+       .max_missions_per_tenant = absl::GetFlag(FLAGS_max_missions_per_tenant),
+       .max_mission_memory_bytes = absl::GetFlag(FLAGS_max_mission_memory_mb) << 20,
+       .max_memory_bytes = max_memory},
       store.get());
   {
     const absl::Time started = absl::Now();
@@ -117,7 +259,7 @@ int main(int argc, char** argv) {
                    absl::ToDoubleSeconds(absl::Now() - started));
     }
   }
-  oaipp::server::PlanningGate gate(planning_threads, planning_queue);
+  oaipp::server::PlanningPool planners(planning_threads, planning_queue);
   oaipp::server::Metrics metrics;
   std::unique_ptr<prometheus::Exposer> exposer;
   if (const std::string address = absl::GetFlag(FLAGS_metrics_listen); !address.empty()) {
@@ -129,17 +271,23 @@ int main(int argc, char** argv) {
       return 1;
     }
   }
-  oaipp::server::MissionServiceImpl service(&registry, &gate, &metrics);
+  oaipp::server::MissionServiceImpl service(
+      &registry, &planners, &metrics, &auth,
+      {.max_streams = absl::GetFlag(FLAGS_max_streams),
+       .max_streams_per_client = absl::GetFlag(FLAGS_max_streams_per_client),
+       .max_plans_per_tenant = absl::GetFlag(FLAGS_max_plans_per_tenant),
+       .max_planning = absl::Seconds(absl::GetFlag(FLAGS_max_planning_s))});
 
   grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  if (absl::GetFlag(FLAGS_reflection)) grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   int port = 0;
-  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), grpc::InsecureServerCredentials(), &port);
+  builder.AddListeningPort(absl::GetFlag(FLAGS_listen), *credentials, &port);
   grpc::ResourceQuota quota("oaipp-server");
   quota.SetMaxThreads(threads);
   builder.SetResourceQuota(quota);
-  builder.SetMaxReceiveMessageSize(64 << 20);
+  builder.SetMaxReceiveMessageSize(static_cast<int>(oaipp::api::kMaxMessageBytes));
+  builder.SetMaxSendMessageSize(static_cast<int>(oaipp::api::kMaxMessageBytes));
   // Idle serving threads wake up this often; it bounds how long shutdown
   // waits for them once the last call has finished.
   builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::CQ_TIMEOUT_MSEC, 200);
@@ -152,25 +300,42 @@ int main(int argc, char** argv) {
   server->GetHealthCheckService()->SetServingStatus("oaipp.v1.MissionService", true);
   server->GetHealthCheckService()->SetServingStatus(true);
   spdlog::info(
-      "oaipp-server listening on {} (metrics on {})", absl::GetFlag(FLAGS_listen),
+      "oaipp-server listening on {} ({}{}; metrics on {})", absl::GetFlag(FLAGS_listen),
+      tls ? "TLS" : "plaintext", absl::GetFlag(FLAGS_tls_client_ca).empty() ? "" : ", mutual",
       absl::GetFlag(FLAGS_metrics_listen).empty() ? "-" : absl::GetFlag(FLAGS_metrics_listen));
 
-  // Health follows the store: NOT_SERVING while it cannot be written (the
-  // disk gone or full), so that a balancer sends calls elsewhere.
+  // Health follows the store and the load: NOT_SERVING while the store
+  // cannot be written (the disk gone or full) or while new plans or streams
+  // would be refused, so that a balancer sends calls elsewhere. The store is
+  // probed every second, the load four times a second.
   absl::Notification stopping;
   std::thread store_watch([&] {
-    if (store == nullptr) return;
-    bool healthy = true;
-    while (!stopping.WaitForNotificationWithTimeout(absl::Seconds(1))) {
-      const absl::Status status = store->Health();
-      if (status.ok() != healthy) {
-        healthy = status.ok();
-        if (healthy) {
-          spdlog::info("store: writable again; SERVING");
-        } else {
-          spdlog::warn("store: {}; NOT_SERVING", status.ToString());
+    bool store_ok = true;
+    bool overloaded = false;
+    bool serving = true;
+    int tick = 0;
+    while (!stopping.WaitForNotificationWithTimeout(absl::Milliseconds(250))) {
+      if (store != nullptr && tick++ % 4 == 0) {
+        const absl::Status status = store->Health();
+        if (status.ok() != store_ok) {
+          store_ok = status.ok();
+          if (store_ok) {
+            spdlog::info("store: writable again");
+          } else {
+            spdlog::warn("store: {}", status.ToString());
+          }
         }
-        server->GetHealthCheckService()->SetServingStatus("oaipp.v1.MissionService", healthy);
+      }
+      if (service.Overloaded() != overloaded) {
+        overloaded = !overloaded;
+        spdlog::warn("load: {}", overloaded ? "overloaded (planners and queue full, or every "
+                                              "stream taken)"
+                                            : "back under the limits");
+      }
+      if ((store_ok && !overloaded) != serving) {
+        serving = !serving;
+        spdlog::info("health: {}", serving ? "SERVING" : "NOT_SERVING");
+        server->GetHealthCheckService()->SetServingStatus("oaipp.v1.MissionService", serving);
       }
     }
   });

@@ -4,19 +4,38 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "api/limits.h"
 #include "api/status.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/camera.h"
 
 namespace oaipp::server {
 void EventQueue::Push(MissionEventData event) {
-  absl::MutexLock lock(&mu_);
-  if (closed_) return;
-  if (events_.size() >= capacity_) {
-    events_.pop_front();
-    ++dropped_;
+  std::function<void()> listener;
+  {
+    absl::MutexLock lock(&mu_);
+    if (closed_) return;
+    if (events_.size() >= capacity_) {
+      events_.pop_front();
+      ++dropped_;
+    }
+    events_.push_back(std::move(event));
+    listener = listener_;
   }
-  events_.push_back(std::move(event));
+  if (listener) listener();
+}
+
+std::optional<MissionEventData> EventQueue::TryPop() {
+  absl::MutexLock lock(&mu_);
+  if (events_.empty()) return std::nullopt;
+  MissionEventData event = std::move(events_.front());
+  events_.pop_front();
+  return event;
+}
+
+void EventQueue::SetListener(std::function<void()> listener) {
+  absl::MutexLock lock(&mu_);
+  listener_ = std::move(listener);
 }
 
 std::optional<MissionEventData> EventQueue::Pop(absl::Time until) {
@@ -30,8 +49,13 @@ std::optional<MissionEventData> EventQueue::Pop(absl::Time until) {
 }
 
 void EventQueue::Close() {
-  absl::MutexLock lock(&mu_);
-  closed_ = true;
+  std::function<void()> listener;
+  {
+    absl::MutexLock lock(&mu_);
+    closed_ = true;
+    listener = listener_;
+  }
+  if (listener) listener();
 }
 
 bool EventQueue::closed() const {
@@ -75,8 +99,8 @@ Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap ma
       memory_bytes_(8 * static_cast<std::int64_t>(map.num_cells()) *
                         (static_cast<std::int64_t>(map.num_cells()) + 1) +
                     static_cast<std::int64_t>(env.esdf().MemoryBytes())),
-      env_(std::move(env)),
-      map_(std::move(map)),
+      env_(std::make_shared<const Environment>(std::move(env))),
+      map_(std::make_shared<GpMap>(std::move(map))),
       planner_(std::move(planner)) {}
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
@@ -105,6 +129,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   absl::MutexLock lock(&mission->mu_);
   OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
   mission->mission_time_s_ = mission->config_.start.mission_time_s;
+  mission->Publish();
   return mission;
 }
 
@@ -136,6 +161,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
     mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
     mission->measurements_fused_ = state.measurements_fused;
     mission->mission_time_s_ = state.mission_time_s;
+    mission->Publish();
   }
   {
     absl::MutexLock lock(&mission->sequence_mu_);
@@ -170,14 +196,39 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Replay(std::string id, Mission
 
 absl::Status Mission::FuseCoveredCells() {
   std::vector<int> fresh;
-  for (int c : map_.grid().CellsUnderObstacles(
-           [&](const Vec3& p_W) { return env_.IsInsideObstacle(p_W); })) {
+  for (int c : map_->grid().CellsUnderObstacles(
+           [&](const Vec3& p_W) { return env_->IsInsideObstacle(p_W); })) {
     if (!covered_cells_.contains(c)) fresh.push_back(c);
   }
   if (fresh.empty()) return absl::OkStatus();
-  OAIPP_RETURN_IF_ERROR(map_.FuseNearCertainZeros(fresh));
+  OAIPP_RETURN_IF_ERROR(MutableMap().FuseNearCertainZeros(fresh));
   covered_cells_.insert(fresh.begin(), fresh.end());
   return absl::OkStatus();
+}
+
+GpMap& Mission::MutableMap() {
+  // Only holders of mu_ copy map_, and this one holds it for writing: a
+  // count of 1 cannot grow under us. A plan that lets go meanwhile costs
+  // one needless copy, no harm.
+  if (map_.use_count() > 1) map_ = std::make_shared<GpMap>(map_->Clone());
+  return *map_;
+}
+
+void Mission::Publish(bool obstacles_changed) {
+  Summary next;
+  if (obstacles_changed) {
+    auto obstacles = std::make_shared<std::vector<Obstacle>>();
+    for (const auto& [id, o] : env_->obstacles()) obstacles->push_back(o);
+    next.obstacles = std::move(obstacles);
+  } else {
+    absl::MutexLock lock(&summary_mu_);
+    next.obstacles = summary_.obstacles;  // shared, not copied
+  }
+  next.trace = map_->Trace();
+  next.measurements_fused = measurements_fused_;
+  next.mission_time_s = mission_time_s_;
+  absl::MutexLock lock(&summary_mu_);
+  summary_ = std::move(next);
 }
 
 absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& change,
@@ -185,20 +236,35 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
                                                         const PersistFn& persist) {
   ObstacleResult result;
   {
-    absl::MutexLock lock(&mu_);
+    absl::MutexLock order(&mutation_mu_);
     if (auto done = Recall<ObstacleResult>(request)) return *std::move(done);
     // Applied to a copy first, so that neither a refused change nor a failed
-    // write touches the mission.
-    Environment next = env_.Clone();
+    // write touches the mission; the ESDF is recomputed while readers and
+    // plans go on with the current world (only mutations change it, and
+    // they wait for this one).
+    std::shared_ptr<const Environment> current;
+    {
+      absl::ReaderMutexLock lock(&mu_);
+      current = env_;
+    }
+    Environment next = current->Clone();
+    current.reset();
     OAIPP_RETURN_IF_ERROR(next.Apply(change));
+    if (next.obstacles().size() > static_cast<std::size_t>(api::kMaxObstacles)) {
+      return absl::InvalidArgumentError(absl::StrCat("add: the mission would hold ",
+                                                     next.obstacles().size(),
+                                                     " obstacles; at most ", api::kMaxObstacles));
+    }
     OAIPP_RETURN_IF_ERROR(Persist(persist));
-    env_ = std::move(next);
+    absl::MutexLock lock(&mu_);
+    env_ = std::make_shared<const Environment>(std::move(next));
     // Ground newly under a building holds no targets. (Ground uncovered by a
     // removal keeps what was fused: the map cannot forget a measurement.)
     OAIPP_RETURN_IF_ERROR(FuseCoveredCells());
     log_.push_back(change);
-    result.obstacle_count = static_cast<int>(env_.obstacles().size());
-    result.esdf_voxels_recomputed = env_.esdf().last_recomputed_voxels();
+    result.obstacle_count = static_cast<int>(env_->obstacles().size());
+    result.esdf_voxels_recomputed = env_->esdf().last_recomputed_voxels();
+    Publish();
     Remember(request, result);
   }
   Emit(MissionEventData::ObstaclesChanged{result.obstacle_count});
@@ -208,9 +274,9 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
 
 absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
     const MeasurementInput& input) const {
-  const FieldGrid& grid = map_.grid();
+  const FieldGrid& grid = map_->grid();
   const Vec3& p = input.pose.p_WC;
-  if (!env_.flight_volume().Contains(p, 1e-6)) {
+  if (!env_->flight_volume().Contains(p, 1e-6)) {
     return absl::InvalidArgumentError(absl::StrCat("camera_position_m: (", p.x(), ", ", p.y(), ", ",
                                                    p.z(), ") lies outside the flight volume"));
   }
@@ -233,7 +299,7 @@ absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
     }
     absl::StatusOr<CellLabels> projected =
         DetectionsToLabels(grid, intrinsics, input.pose, input.detections->boxes,
-                           input.detections->min_confidence, &env_);
+                           input.detections->min_confidence, env_.get());
     if (!projected.ok()) {
       return absl::InvalidArgumentError(absl::StrCat("detections.", projected.status().message()));
     }
@@ -249,17 +315,24 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
                                                           const PersistFn& persist) {
   MeasurementResult result;
   {
-    absl::MutexLock lock(&mu_);
+    absl::MutexLock order(&mutation_mu_);
     if (auto done = Recall<MeasurementResult>(request)) return *std::move(done);
-    OAIPP_ASSIGN_OR_RETURN(std::vector<CellObservation> observations, PrepareMeasurement(input));
+    std::vector<CellObservation> observations;
+    {
+      absl::ReaderMutexLock lock(&mu_);
+      OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
+    }
     // Durable first: a failed write leaves the mission as it was.
     OAIPP_RETURN_IF_ERROR(Persist(persist));
-    OAIPP_RETURN_IF_ERROR(map_.Update(observations));
+    absl::MutexLock lock(&mu_);
+    GpMap& map = MutableMap();
+    OAIPP_RETURN_IF_ERROR(map.Update(observations));
     ++measurements_fused_;
     mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
     result =
-        MeasurementResult{static_cast<int>(observations.size()), map_.Trace(), measurements_fused_};
+        MeasurementResult{static_cast<int>(observations.size()), map.Trace(), measurements_fused_};
     log_.push_back(input);
+    Publish(/*obstacles_changed=*/false);
     Remember(request, result);
   }
   Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused, result.trace});
@@ -286,28 +359,30 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     next_shot = period * std::ceil(state.mission_time_s / period - 1e-9);
   }
   const std::string state_before = planner_->SaveState();
-  std::optional<PlanningGate::Ticket> ticket;
-  if (call.gate != nullptr) {
-    OAIPP_ASSIGN_OR_RETURN(ticket, call.gate->Enter(call.deadline, call.cancelled));
-  }
-  // The planning budget counts from admission: waiting for a slot is not
-  // planning.
+  // The planning budget counts from here: a caller that queued the plan
+  // calls this once a planner is free, and waiting is not planning.
   const absl::Time deadline = call.budget == absl::InfiniteDuration()
                                   ? call.deadline
                                   : std::min(call.deadline, absl::Now() + call.budget);
-  absl::StatusOr<PlannedPath> path;
+  // The world and map as they are now; changes made while planning go to
+  // copies (MutableMap) and count from the next plan.
+  std::shared_ptr<const Environment> env;
+  std::shared_ptr<const GpMap> map;
   {
     absl::ReaderMutexLock lock(&mu_);
-    const PlanningContext context{.environment = &env_,
-                                  .map = &map_,
-                                  .camera = config_.camera,
-                                  .noise = config_.noise,
-                                  .next_shot_mission_s = next_shot,
-                                  .remaining_budget_s = config_.budget_s - elapsed,
-                                  .cancelled = call.cancelled};
-    path = planner_->Plan(context, state, deadline);
+    env = env_;
+    map = map_;
   }
-  ticket.reset();
+  const PlanningContext context{.environment = env.get(),
+                                .map = map.get(),
+                                .camera = config_.camera,
+                                .noise = config_.noise,
+                                .next_shot_mission_s = next_shot,
+                                .remaining_budget_s = config_.budget_s - elapsed,
+                                .cancelled = call.cancelled};
+  absl::StatusOr<PlannedPath> path = planner_->Plan(context, state, deadline);
+  env.reset();
+  map.reset();
   if (!path.ok()) return path.status();
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.
@@ -321,6 +396,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   {
     absl::MutexLock lock(&mu_);
     mission_time_s_ = std::max(mission_time_s_, state.mission_time_s);
+    Publish(/*obstacles_changed=*/false);
   }
   Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
                                      path->objective, path->control_waypoints_W});
@@ -337,16 +413,18 @@ absl::Status Mission::Persist(const PersistFn& persist) {
 }
 
 MissionState Mission::CaptureState() const {
-  // The locks every change takes (a plan holds planner_mu_, a mutation mu_),
+  // The locks every change takes (a plan holds planner_mu_, a mutation
+  // mutation_mu_),
   // so that nothing changes while the state is copied.
   absl::MutexLock planner_lock(&planner_mu_);
+  absl::MutexLock order(&mutation_mu_);
   absl::ReaderMutexLock lock(&mu_);
   MissionState state;
   state.sequence = next_sequence() - 1;
-  for (const auto& [id, o] : env_.obstacles()) state.obstacles.push_back(o);
+  for (const auto& [id, o] : env_->obstacles()) state.obstacles.push_back(o);
   state.covered_cells.assign(covered_cells_.begin(), covered_cells_.end());
-  state.mean = map_.Mean();
-  state.covariance = map_.Covariance();
+  state.mean = map_->Mean();
+  state.covariance = map_->Covariance();
   state.measurements_fused = measurements_fused_;
   state.mission_time_s = mission_time_s_;
   state.paths_planned = paths_planned_.load();
@@ -378,8 +456,8 @@ void Mission::MaybeWantSnapshot() {
   if (snapshot_every_ <= 0 || !snapshot_wanted_ || snapshot_pending_.load()) return;
   std::int64_t measurements;
   {
-    absl::ReaderMutexLock lock(&mu_);
-    measurements = measurements_fused_;
+    absl::MutexLock lock(&summary_mu_);
+    measurements = summary_.measurements_fused;
   }
   const std::int64_t records = next_sequence() - 1 - snapshot_sequence_.load();
   if (measurements - snapshot_measurements_.load() < snapshot_every_ &&
@@ -400,8 +478,8 @@ void Mission::set_last_change_time(absl::Time time) {
 }
 
 bool Mission::finished() const {
-  absl::ReaderMutexLock lock(&mu_);
-  return mission_time_s_ - config_.start.mission_time_s >= config_.budget_s;
+  absl::MutexLock lock(&summary_mu_);
+  return summary_.mission_time_s - config_.start.mission_time_s >= config_.budget_s;
 }
 
 absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
@@ -431,11 +509,11 @@ MissionSnapshot Mission::Snapshot() const {
   s.config = config_;
   s.create_time = create_time_;
   {
-    absl::ReaderMutexLock lock(&mu_);
-    for (const auto& [id, o] : env_.obstacles()) s.obstacles.push_back(o);
-    s.trace = map_.Trace();
-    s.measurements_fused = measurements_fused_;
-    s.mission_time_s = mission_time_s_;
+    absl::MutexLock lock(&summary_mu_);
+    s.obstacles = *summary_.obstacles;
+    s.trace = summary_.trace;
+    s.measurements_fused = summary_.measurements_fused;
+    s.mission_time_s = summary_.mission_time_s;
   }
   s.memory_bytes = memory_bytes_;
   s.paths_planned = paths_planned_.load();
@@ -444,7 +522,7 @@ MissionSnapshot Mission::Snapshot() const {
 
 void Mission::ReadMap(const std::function<void(const GpMap&)>& reader) const {
   absl::ReaderMutexLock lock(&mu_);
-  reader(map_);
+  reader(*map_);
 }
 
 std::vector<LogEntry> Mission::Log() const {
@@ -487,6 +565,8 @@ void Mission::MarkDeleted() {
 void Mission::Emit(decltype(MissionEventData::event) event) {
   absl::MutexLock lock(&events_mu_);
   MissionEventData data{++sequence_, absl::Now(), std::move(event)};
+  // Streams that ended close their queue; they go here.
+  std::erase_if(watchers_, [](const std::shared_ptr<EventQueue>& w) { return w->closed(); });
   for (const auto& w : watchers_) w->Push(data);
 }
 

@@ -1,16 +1,21 @@
 // One mission's state: its world (obstacles + ESDF), field map, planner,
 // the ordered log of what was applied to it, and its event subscribers.
 //
-// Mutations (obstacle changes, measurements) take the mission's writer lock,
-// so they are applied one at a time in arrival order; planning and reads
-// take the reader lock and run beside each other. Each mutation is
-// validated completely before it touches anything: on error nothing
-// changes. A mutation that carries a request_id is applied at most once;
-// a retry gets the first result back.
+// Mutations (obstacle changes, measurements) are applied one at a time in
+// arrival order; each is validated completely before it touches anything:
+// on error nothing changes. A mutation that carries a request_id is applied
+// at most once; a retry gets the first result back.
+//
+// A plan works on the world and map as they were when it started: the two
+// are shared, copy-on-write, so a measurement that arrives during a long
+// plan is fused at once (into a copy, if the plan still holds the map)
+// instead of waiting for the plan. Reading a mission's summary
+// (Snapshot(), for GetMission and ListMissions) never waits for a mutation
+// or a plan.
 //
 //   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> m, Mission::Create("m1", config));
 //   OAIPP_ASSIGN_OR_RETURN(MeasurementResult r, m->AddMeasurement(input, "req-17"));
-//   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, m->Plan(state, std::nullopt, deadline, "req-18"));
+//   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, m->Plan(state, std::nullopt, "req-18", {}));
 #pragma once
 
 #include <atomic>
@@ -33,7 +38,6 @@
 #include "core/mapping/gp_map.h"
 #include "core/mapping/prior_cache.h"
 #include "core/planning/planners.h"
-#include "server/planning_gate.h"
 #include "server/request_memo.h"
 
 namespace oaipp::server {
@@ -86,6 +90,11 @@ class EventQueue {
   void Push(MissionEventData event);
   // Waits until an event is there or `until`; nullopt on timeout.
   std::optional<MissionEventData> Pop(absl::Time until);
+  // The oldest event, without waiting; nullopt when there is none.
+  std::optional<MissionEventData> TryPop();
+  // Called after every Push and Close, outside the queue's lock (a stream
+  // is woken this way instead of a thread waiting in Pop).
+  void SetListener(std::function<void()> listener);
   void Close();
   [[nodiscard]] bool closed() const;
   [[nodiscard]] std::int64_t dropped() const;
@@ -95,6 +104,7 @@ class EventQueue {
   std::deque<MissionEventData> events_ ABSL_GUARDED_BY(mu_);
   bool closed_ ABSL_GUARDED_BY(mu_) = false;
   std::int64_t dropped_ ABSL_GUARDED_BY(mu_) = 0;
+  std::function<void()> listener_ ABSL_GUARDED_BY(mu_);
   std::size_t capacity_;
 };
 
@@ -190,16 +200,13 @@ class Mission {
   // Plans from `state` (validated by the planner). next_shot: the sensor
   // phase; unset, the next multiple of 1 / rate at or after the state's
   // mission time. FailedPrecondition when the budget is spent.
-  // The plan runs once `call.gate` (if any) admits it; the gate is entered
-  // after this mission's previous plan finished, so a mission queues behind
-  // itself, not in front of others. Waiting ends at call.deadline (or when
-  // call.cancelled says so); planning at call.deadline or call.budget after
-  // admission, whichever comes first; call.cancelled is also asked between
-  // CMA-ES generations.
+  // Planning stops at call.deadline or call.budget after this call,
+  // whichever comes first, and when call.cancelled (asked between CMA-ES
+  // generations) says so. Plans of one mission run one at a time; callers
+  // that queue plans (PlanningPool) keep one mission's plans in order.
   struct PlanCall {
     absl::Time deadline = absl::InfiniteFuture();
     absl::Duration budget = absl::InfiniteDuration();
-    PlanningGate* gate = nullptr;
     std::function<bool()> cancelled = nullptr;
     PersistPlanFn persist = nullptr;
   };
@@ -237,7 +244,8 @@ class Mission {
   // start + budget_s).
   [[nodiscard]] bool finished() const;
 
-  // Waits only for a mutation in progress (reader lock), never for a plan.
+  // The summary as of the last finished change: waits for no mutation and
+  // no plan.
   [[nodiscard]] MissionSnapshot Snapshot() const;
   // Memory held by the map and the ESDF: fixed at creation, so reading it
   // takes no lock (the server reports it after every call).
@@ -262,10 +270,15 @@ class Mission {
           std::unique_ptr<Planner> planner);
   // Fuses, once, the cells under obstacles that were not fused before.
   absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // The map, to change: copied first when a plan still reads it.
+  GpMap& MutableMap() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Publishes the summary Snapshot() reads (after every change); the
+  // obstacle list is rebuilt only when obstacles changed.
+  void Publish(bool obstacles_changed = true) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Everything a measurement needs checked and computed before it is
   // written and fused: the observations of its cells.
   absl::StatusOr<std::vector<CellObservation>> PrepareMeasurement(
-      const MeasurementInput& input) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+      const MeasurementInput& input) const ABSL_SHARED_LOCKS_REQUIRED(mu_);
   // Runs `persist` with the next sequence number and takes it on success.
   absl::Status Persist(const PersistFn& persist);
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
@@ -283,9 +296,16 @@ class Mission {
   absl::Time create_time_;  // set by the constructor, or by recovery before the mission is shared
   const std::int64_t memory_bytes_;
 
+  // Locks, outermost first: planner_mu_, mutation_mu_, mu_, then the leaf
+  // locks (sequence_mu_, idempotency_mu_, summary_mu_, events_mu_).
+  // mutation_mu_ orders mutations and is held for a whole one; mu_ guards
+  // the state and is held for writing only while a change is put in place.
+  mutable absl::Mutex mutation_mu_;
   mutable absl::Mutex mu_;
-  Environment env_ ABSL_GUARDED_BY(mu_);
-  GpMap map_ ABSL_GUARDED_BY(mu_);
+  // Shared with plans in progress; replaced, never changed in place, while
+  // a plan holds them.
+  std::shared_ptr<const Environment> env_ ABSL_GUARDED_BY(mu_);
+  std::shared_ptr<GpMap> map_ ABSL_GUARDED_BY(mu_);
   std::set<int> covered_cells_ ABSL_GUARDED_BY(mu_);
   std::vector<LogEntry> log_ ABSL_GUARDED_BY(mu_);
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
@@ -296,6 +316,15 @@ class Mission {
 
   // The planner keeps state (lawnmower pattern): one plan at a time.
   mutable absl::Mutex planner_mu_;
+  // What Snapshot() reports, published at the end of every change.
+  struct Summary {
+    std::shared_ptr<const std::vector<Obstacle>> obstacles;
+    double trace = 0.0;
+    std::int64_t measurements_fused = 0;
+    double mission_time_s = 0.0;
+  };
+  mutable absl::Mutex summary_mu_;
+  Summary summary_ ABSL_GUARDED_BY(summary_mu_);
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
   // Not under planner_mu_: that is held for a whole plan, and Snapshot
   // must not wait for one.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <thread>
 
+#include "absl/cleanup/cleanup.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -49,6 +50,20 @@ MissionRegistry::~MissionRegistry() {
   if (snapshot_thread_.joinable()) snapshot_thread_.join();
 }
 
+std::string MissionRegistry::Key(absl::string_view tenant, absl::string_view id) {
+  return tenant.empty() ? std::string(id) : absl::StrCat(tenant, "/", id);
+}
+
+absl::string_view MissionRegistry::PublicId(absl::string_view key) {
+  const std::size_t slash = key.find('/');
+  return slash == absl::string_view::npos ? key : key.substr(slash + 1);
+}
+
+absl::string_view MissionRegistry::TenantOfKey(absl::string_view key) {
+  const std::size_t slash = key.find('/');
+  return slash == absl::string_view::npos ? absl::string_view() : key.substr(0, slash);
+}
+
 absl::StatusOr<std::string> MissionRegistry::ParseName(absl::string_view name,
                                                        absl::string_view field) {
   if (!absl::StartsWith(name, kPrefix) || !ValidId(name.substr(kPrefix.size()))) {
@@ -61,7 +76,8 @@ absl::StatusOr<std::string> MissionRegistry::ParseName(absl::string_view name,
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mission_id,
                                                                  MissionConfig config,
                                                                  const std::string& request_id,
-                                                                 const std::string& fingerprint) {
+                                                                 const std::string& fingerprint,
+                                                                 const std::string& tenant) {
   if (!mission_id.empty() && !ValidId(mission_id)) {
     return absl::InvalidArgumentError(
         absl::StrCat("mission_id: must match [a-z0-9-]{1,63}, got ", api::EchoInput(mission_id)));
@@ -75,19 +91,24 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
         "would take %.0f MB); use a coarser resolution_m or a smaller field",
         cells, limits_.max_cells_per_mission, 8.0 * cells * cells / 1e6));
   }
+  OAIPP_ASSIGN_OR_RETURN(const std::int64_t estimate, AdmitMemory(config));
+  // request_ids, like mission ids, are the tenant's own.
+  const std::string request_key = request_id.empty() ? "" : Key(tenant, request_id);
+  std::string key;
   {
     absl::MutexLock lock(&mu_);
-    if (const auto* created = created_by_request_.Find(request_id)) {
+    if (const auto* created = created_by_request_.Find(request_key)) {
       const auto& [created_id, created_print] = *created;
       if (!fingerprint.empty() && !created_print.empty() && fingerprint != created_print) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "request_id: ", api::EchoInput(request_id), " was first used to create mission '",
-            created_id, "' with a different request; a new mission needs a new request_id"));
+        return absl::InvalidArgumentError(
+            absl::StrCat("request_id: ", api::EchoInput(request_id),
+                         " was first used to create mission '", PublicId(created_id),
+                         "' with a different request; a new mission needs a new request_id"));
       }
       auto m = missions_.find(created_id);
       if (m != missions_.end() && m->second != nullptr) return m->second;
       return absl::FailedPreconditionError(absl::StrCat("request_id: ", api::EchoInput(request_id),
-                                                        " created mission '", created_id,
+                                                        " created mission '", PublicId(created_id),
                                                         "', which is gone or still being built"));
     }
     if (mission_id.empty()) {
@@ -99,9 +120,10 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
           OAIPP_ASSIGN_OR_RETURN(number, store_->NextMissionNumber());
         }
         mission_id = absl::StrFormat("m-%06d", number);
-      } while (missions_.contains(mission_id));
+      } while (missions_.contains(Key(tenant, mission_id)));
     }
-    if (missions_.contains(mission_id)) {
+    key = Key(tenant, mission_id);
+    if (missions_.contains(key)) {
       return absl::AlreadyExistsError(
           absl::StrCat("mission_id: '", mission_id, "' already exists"));
     }
@@ -109,36 +131,107 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
       return absl::ResourceExhaustedError(absl::StrCat(
           "this server holds its limit of ", limits_.max_missions, " missions; delete one first"));
     }
-    missions_[mission_id] = nullptr;  // reserve the id while the map is built
+    if (limits_.max_missions_per_tenant > 0) {
+      int own = 0;
+      for (const auto& [k, m] : missions_) own += TenantOfKey(k) == tenant ? 1 : 0;
+      if (own >= limits_.max_missions_per_tenant) {
+        return absl::ResourceExhaustedError(
+            absl::StrCat("your quota is ", limits_.max_missions_per_tenant,
+                         " missions and you hold them all; delete one first"));
+      }
+    }
+    if (limits_.max_memory_bytes > 0 && ReservedBytes() + estimate > limits_.max_memory_bytes) {
+      return absl::ResourceExhaustedError(absl::StrFormat(
+          "spec: this server's missions already need about %.0f MB of its %.0f MB; this one "
+          "would need %.0f MB more; delete a mission or use a coarser spec",
+          ReservedBytes() / 1e6, limits_.max_memory_bytes / 1e6, estimate / 1e6));
+    }
+    missions_[key] = nullptr;  // reserve the id while the map is built
+    building_bytes_[key] = estimate;
   }
+  // Whatever happens while the mission is built (an error, or an exception
+  // such as running out of memory), a reservation that did not become a
+  // mission is released, so the id and the slot are free again.
+  auto release = absl::MakeCleanup([&] {
+    absl::MutexLock lock(&mu_);
+    if (auto it = missions_.find(key); it != missions_.end() && it->second == nullptr) {
+      missions_.erase(it);
+    }
+    building_bytes_.erase(key);
+  });
   // The effective spec, written with every default filled in (only when
   // there is a store to write it to).
   const std::string spec =
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
   absl::StatusOr<std::shared_ptr<Mission>> mission =
-      Mission::Create(mission_id, std::move(config), priors_.get());
+      Mission::Create(key, std::move(config), priors_.get());
   if (mission.ok()) WatchForSnapshots(**mission);
   if (mission.ok() && store_ != nullptr) {
     const absl::Status stored = store_->CreateMission(
-        {.id = mission_id,
+        {.id = key,
          .spec = spec,
-         .request_id = request_id,
+         .request_id = request_key,
          .fingerprint = fingerprint,
          .create_time_unix_us = absl::ToUnixMicros((*mission)->Snapshot().create_time)});
     if (!stored.ok()) mission = stored;
   }
+  if (!mission.ok()) return mission.status();
   absl::MutexLock lock(&mu_);
-  if (!mission.ok()) {
-    missions_.erase(mission_id);
-    return mission.status();
-  }
-  missions_[mission_id] = *mission;
-  number_of_[mission_id] = next_number_;
-  order_[next_number_++] = mission_id;
-  if (!request_id.empty()) {
-    created_by_request_.Remember(request_id, {mission_id, fingerprint});
+  std::move(release).Cancel();
+  building_bytes_.erase(key);
+  missions_[key] = *mission;
+  number_of_[key] = next_number_;
+  order_[next_number_++] = key;
+  if (!request_key.empty()) {
+    created_by_request_.Remember(request_key, {key, fingerprint});
   }
   return mission;
+}
+
+MemoryEstimate EstimateMissionBytes(const MissionConfig& config) {
+  MemoryEstimate e;
+  const double nx =
+      std::round((config.field_max_W.x() - config.field_min_W.x()) / config.resolution_m);
+  const double ny =
+      std::round((config.field_max_W.y() - config.field_min_W.y()) / config.resolution_m);
+  const double cells = std::max(0.0, nx * ny);
+  e.map_bytes = static_cast<std::int64_t>(2.0 * 8.0 * cells * (cells + 1.0));
+  // The ESDF covers the flight volume padded by the truncation distance on
+  // every side, 4 bytes a voxel.
+  const Aabb volume = config.FlightVolume();
+  double voxels = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    const double extent = volume.max_W[a] - volume.min_W[a] + 2.0 * config.esdf.truncation_m;
+    voxels *= std::ceil(extent / config.esdf.voxel_size_m) + 1.0;
+  }
+  e.esdf_bytes = static_cast<std::int64_t>(std::min(2.0 * 4.0 * voxels, 1e18));
+  // Each CMA-ES sample: its waypoints, the trajectory and its scored poses
+  // (a population of 2,000,000 was seen holding 787 MB, about 400 bytes a
+  // sample; counted as 1 KB to leave room).
+  e.planner_bytes = static_cast<std::int64_t>(config.planner.oaipp.population) * 1024;
+  return e;
+}
+
+absl::StatusOr<std::int64_t> MissionRegistry::AdmitMemory(const MissionConfig& config) const {
+  const MemoryEstimate e = EstimateMissionBytes(config);
+  if (limits_.max_mission_memory_bytes > 0 && e.total() > limits_.max_mission_memory_bytes) {
+    return absl::ResourceExhaustedError(absl::StrFormat(
+        "spec: the mission would need about %.0f MB (map %.0f, ESDF %.0f, planner %.0f); this "
+        "server allows %.0f MB per mission; use a coarser resolution_m or voxel_size_m, a lower "
+        "max_altitude_m or a smaller population",
+        e.total() / 1e6, e.map_bytes / 1e6, e.esdf_bytes / 1e6, e.planner_bytes / 1e6,
+        limits_.max_mission_memory_bytes / 1e6));
+  }
+  return e.total();
+}
+
+std::int64_t MissionRegistry::ReservedBytes() const {
+  std::int64_t total = 0;
+  for (const auto& [key, mission] : missions_) {
+    if (mission != nullptr) total += EstimateMissionBytes(mission->config()).total();
+  }
+  for (const auto& [key, bytes] : building_bytes_) total += bytes;
+  return total;
 }
 
 namespace {
@@ -350,7 +443,7 @@ std::vector<std::string> MissionRegistry::Sweep(absl::Time now, absl::Duration k
   }
   std::vector<std::string> deleted;
   for (const std::string& id : expired) {
-    const absl::Status status = Delete(absl::StrCat(kPrefix, id), "");
+    const absl::Status status = DeleteKey(id, "", "");
     if (status.ok()) {
       deleted.push_back(id);
     } else if (status.code() != absl::StatusCode::kNotFound) {
@@ -368,10 +461,13 @@ std::vector<std::string> MissionRegistry::Sweep(absl::Time now, absl::Duration k
   return deleted;
 }
 
-absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view name) const {
+absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view name,
+                                                              const std::string& tenant) const {
   OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
   absl::MutexLock lock(&mu_);
-  auto it = missions_.find(id);
+  // Another tenant's mission is not found, in the same words as a missing
+  // one: whether it exists is not the caller's to know.
+  auto it = missions_.find(Key(tenant, id));
   if (it == missions_.end() || it->second == nullptr) {
     return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
   }
@@ -389,17 +485,25 @@ std::vector<std::shared_ptr<Mission>> MissionRegistry::List(std::size_t offset,
 }
 
 std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> MissionRegistry::ListAfter(
-    std::int64_t after, std::size_t limit) const {
+    std::int64_t after, std::size_t limit, const std::string& tenant) const {
   absl::MutexLock lock(&mu_);
   std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> out;
   for (auto it = order_.upper_bound(after); it != order_.end() && out.size() < limit; ++it) {
+    if (TenantOfKey(it->second) != tenant) continue;
     out.emplace_back(it->first, missions_.at(it->second));
   }
   return out;
 }
 
-absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& request_id) {
+absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& request_id,
+                                     const std::string& tenant) {
   OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
+  return DeleteKey(Key(tenant, id), request_id.empty() ? "" : Key(tenant, request_id), request_id);
+}
+
+absl::Status MissionRegistry::DeleteKey(const std::string& id, const std::string& request_key,
+                                        const std::string& request_id) {
+  const std::string name = absl::StrCat(kPrefix, PublicId(id));
   std::shared_ptr<Mission> mission;
   {
     absl::MutexLock write_lock(&snapshot_write_mu_);
@@ -408,17 +512,17 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
     // delete another mission is refused.
     const auto same_delete = [&](const std::string& deleted) -> absl::Status {
       if (deleted == id) return absl::OkStatus();
-      return absl::InvalidArgumentError(absl::StrCat("request_id: ", api::EchoInput(request_id),
-                                                     " deleted mission '", deleted, "', not '", id,
-                                                     "'; a new request needs a new id"));
+      return absl::InvalidArgumentError(absl::StrCat(
+          "request_id: ", api::EchoInput(request_id), " deleted mission '", PublicId(deleted),
+          "', not '", PublicId(id), "'; a new request needs a new id"));
     };
-    if (!request_id.empty()) {
-      if (const std::string* deleted = deleted_by_request_.Find(request_id)) {
+    if (!request_key.empty()) {
+      if (const std::string* deleted = deleted_by_request_.Find(request_key)) {
         return same_delete(*deleted);
       }
       // Used by a delete before a restart?
       if (store_ != nullptr) {
-        if (absl::StatusOr<std::string> deleted = store_->DeletedBy(request_id); deleted.ok()) {
+        if (absl::StatusOr<std::string> deleted = store_->DeletedBy(request_key); deleted.ok()) {
           return same_delete(*deleted);
         }
       }
@@ -429,14 +533,14 @@ absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& 
     }
     // Durable first: a failed delete leaves the mission in place.
     if (store_ != nullptr) {
-      OAIPP_RETURN_IF_ERROR(store_->DeleteMission(id, request_id));
+      OAIPP_RETURN_IF_ERROR(store_->DeleteMission(id, request_key));
     }
     mission = it->second;
     missions_.erase(it);
     order_.erase(number_of_[id]);
     number_of_.erase(id);
-    if (!request_id.empty()) {
-      deleted_by_request_.Remember(request_id, id);
+    if (!request_key.empty()) {
+      deleted_by_request_.Remember(request_key, id);
     }
   }
   mission->MarkDeleted();

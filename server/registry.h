@@ -38,7 +38,27 @@ struct RegistryLimits {
   int snapshot_every = 16;
   // Threads that rebuild missions at recovery. Valid: >= 1.
   int recovery_threads = 2;
+  // Missions one tenant may hold; 0: only max_missions applies.
+  int max_missions_per_tenant = 0;
+  // Memory admission (EstimateMissionBytes): what one mission and all of
+  // them together may need, checked before anything is allocated; 0: no
+  // limit.
+  std::int64_t max_mission_memory_bytes = 0;
+  std::int64_t max_memory_bytes = 0;
 };
+
+// What a mission of `config` may hold at its peak, in bytes: its map (mean
+// and covariance, twice: a plan reads one copy while a measurement writes
+// another), its ESDF (twice: an obstacle change builds the next one beside
+// the current), and the planner's CMA-ES population. Estimated from the
+// config alone, before anything is allocated.
+struct MemoryEstimate {
+  std::int64_t map_bytes = 0;
+  std::int64_t esdf_bytes = 0;
+  std::int64_t planner_bytes = 0;
+  [[nodiscard]] std::int64_t total() const { return map_bytes + esdf_bytes + planner_bytes; }
+};
+[[nodiscard]] MemoryEstimate EstimateMissionBytes(const MissionConfig& config);
 
 class MissionRegistry {
  public:
@@ -67,22 +87,33 @@ class MissionRegistry {
   // answered (Unavailable, or ResourceExhausted for a full disk, when that
   // fails; the id is then free again); fingerprint identifies the request
   // behind request_id.
-  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Create(
-      std::string mission_id, MissionConfig config, const std::string& request_id,
-      const std::string& fingerprint = "");
-  // name: "missions/{mission_id}". InvalidArgument if malformed, NotFound.
-  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Get(absl::string_view name) const;
+  //
+  // tenant: whose mission it is ("" for the anonymous tenant of a server
+  // without tokens). Ids and request_ids are the tenant's own: other
+  // tenants neither see nor collide with them. ResourceExhausted past
+  // max_missions_per_tenant or the memory limits.
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Create(std::string mission_id,
+                                                                MissionConfig config,
+                                                                const std::string& request_id,
+                                                                const std::string& fingerprint = "",
+                                                                const std::string& tenant = "");
+  // name: "missions/{mission_id}". InvalidArgument if malformed, NotFound
+  // (also for another tenant's mission, in the same words).
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Get(absl::string_view name,
+                                                             const std::string& tenant = "") const;
   // Missions in creation order from `offset`, at most `limit`.
   [[nodiscard]] std::vector<std::shared_ptr<Mission>> List(std::size_t offset,
                                                            std::size_t limit) const;
   // Missions in creation order created after the one numbered `after` (0:
   // from the first), at most `limit`, each with its creation number.
+  // Only `tenant`'s missions.
   [[nodiscard]] std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> ListAfter(
-      std::int64_t after, std::size_t limit) const;
+      std::int64_t after, std::size_t limit, const std::string& tenant = "") const;
   // Removes a mission (watchers are told), from the store first when there
   // is one. NotFound unless it exists or the same request_id deleted it
   // before (also before a restart).
-  [[nodiscard]] absl::Status Delete(absl::string_view name, const std::string& request_id);
+  [[nodiscard]] absl::Status Delete(absl::string_view name, const std::string& request_id,
+                                    const std::string& tenant = "");
   [[nodiscard]] std::size_t size() const;
 
   // Reads a mission back from the store and puts it in place of the one in
@@ -112,6 +143,13 @@ class MissionRegistry {
     return priors_ != nullptr ? priors_->computations() : 0;
   }
 
+  // A mission's key in the registry and the store: its id, prefixed by
+  // "tenant/" for a named tenant (so the anonymous tenant's keys are the
+  // bare ids).
+  [[nodiscard]] static std::string Key(absl::string_view tenant, absl::string_view id);
+  // The id part of a key (what the tenant calls the mission).
+  [[nodiscard]] static absl::string_view PublicId(absl::string_view key);
+  [[nodiscard]] static absl::string_view TenantOfKey(absl::string_view key);
   // "missions/{id}" -> id, or InvalidArgument naming `field`.
   [[nodiscard]] static absl::StatusOr<std::string> ParseName(absl::string_view name,
                                                              absl::string_view field = "name");
@@ -125,6 +163,14 @@ class MissionRegistry {
   void QueueSnapshot(const std::string& mission_id);
   void SnapshotLoop();
   void TakeSnapshot(const std::string& mission_id);
+  // Deletes by key; request_key is the tenant's request_id as a key.
+  absl::Status DeleteKey(const std::string& key, const std::string& request_key,
+                         const std::string& request_id);
+  // The memory estimate of a mission of `config`; ResourceExhausted when it
+  // is over the per-mission limit.
+  absl::StatusOr<std::int64_t> AdmitMemory(const MissionConfig& config) const;
+  // What the missions held and being built may need together.
+  std::int64_t ReservedBytes() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const RegistryLimits limits_;
   // Prior covariances shared by missions over the same kind of field: a
@@ -134,6 +180,8 @@ class MissionRegistry {
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).
   std::map<std::string, std::shared_ptr<Mission>> missions_ ABSL_GUARDED_BY(mu_);
+  // The memory estimate of each mission being built.
+  std::map<std::string, std::int64_t> building_bytes_ ABSL_GUARDED_BY(mu_);
   // Creation number -> id: the listing order. Numbers are never reused, so a
   // page token (the last number shown) stays valid when missions go.
   std::map<std::int64_t, std::string> order_ ABSL_GUARDED_BY(mu_);

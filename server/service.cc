@@ -40,7 +40,7 @@ using api::UavStateFromProto;
 using google::protobuf::util::TimeUtil;
 
 // The call's deadline as absl::Time (infinite when the client set none).
-absl::Time Deadline(const grpc::ServerContext* context) {
+absl::Time Deadline(const grpc::ServerContextBase* context) {
   const auto deadline = context->deadline();
   if (deadline == std::chrono::system_clock::time_point::max()) return absl::InfiniteFuture();
   return absl::FromChrono(deadline);
@@ -49,7 +49,7 @@ absl::Time Deadline(const grpc::ServerContext* context) {
 // When the planner must stop: the call's deadline less a margin for the
 // exact check and the reply to reach the client (10 % of the time left,
 // between 50 and 250 ms), so that an anytime plan still arrives in time.
-absl::Time PlanningDeadline(const grpc::ServerContext* context) {
+absl::Time PlanningDeadline(const grpc::ServerContextBase* context) {
   const absl::Time deadline = Deadline(context);
   if (deadline == absl::InfiniteFuture()) return deadline;
   const absl::Duration left = deadline - absl::Now();
@@ -127,7 +127,7 @@ absl::StatusOr<std::int64_t> ParsePageToken(const std::string& token) {
 
 void FillMission(const Mission& mission, v1::Mission* out) {
   const MissionSnapshot s = mission.Snapshot();
-  out->set_name(absl::StrCat("missions/", s.id));
+  out->set_name(absl::StrCat("missions/", MissionRegistry::PublicId(s.id)));
   *out->mutable_spec() = ConfigToMissionSpec(s.config);
   for (const Obstacle& o : s.obstacles) *out->add_obstacles() = ObstacleToProto(o);
   out->set_trace(s.trace);
@@ -162,15 +162,21 @@ void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
 }  // namespace
 
 template <typename Body>
-grpc::Status MissionServiceImpl::Call(const char* method, Body body) {
+absl::Status MissionServiceImpl::Run(const char* method, Body body, bool record_ok) {
   const absl::Time start = absl::Now();
   absl::Status status;
   try {
     status = body();
+  } catch (const std::bad_alloc&) {
+    // Admission control should keep this from happening; if it does, the
+    // caller learns it is about resources, not a bug.
+    status = absl::ResourceExhaustedError(
+        absl::StrCat(method, ": the server ran out of memory for this call; retry later"));
   } catch (const std::exception& e) {
     // A bug must not take the server down with every other mission.
     status = absl::InternalError(absl::StrCat(method, ": ", e.what()));
   }
+  if (status.ok() && !record_ok) return status;
   const double seconds = absl::ToDoubleSeconds(absl::Now() - start);
   if (metrics_ != nullptr) {
     metrics_->RecordCall(method, static_cast<int>(status.code()), seconds);
@@ -181,46 +187,119 @@ grpc::Status MissionServiceImpl::Call(const char* method, Body body) {
   } else {
     // Whatever the message repeats, the reply and the log line stay short
     // and one line (no control characters; quotes escaped in the log).
-    status = absl::Status(status.code(), api::SafeMessage(status.message()));
+    status =
+        absl::Status(status.code(), api::SafeMessage(api::WithApiFieldNames(status).message()));
     spdlog::info("rpc method={} code={} ms={:.2f} error=\"{}\"", method,
                  absl::StatusCodeToString(status.code()), seconds * 1e3,
                  absl::StrReplaceAll(status.message(), {{"\"", "\\\""}}));
   }
-  return ToGrpcStatus(status);
+  return status;
 }
 
-grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext*,
+template <typename Body>
+grpc::Status MissionServiceImpl::Call(const char* method, Body body) {
+  return ToGrpcStatus(Run(method, std::move(body)));
+}
+
+absl::StatusOr<std::string> MissionServiceImpl::TenantOf(
+    const grpc::ServerContextBase& context) const {
+  if (auth_ == nullptr) return std::string();
+  return auth_->TenantOf(context);
+}
+
+absl::Status MissionServiceImpl::AcquireStream(const std::string& client) {
+  absl::MutexLock lock(&quota_mu_);
+  if (streams_ >= limits_.max_streams) {
+    return absl::ResourceExhaustedError(absl::StrCat("WatchMission: the server has its limit of ",
+                                                     limits_.max_streams,
+                                                     " open streams; close one or retry later"));
+  }
+  int& mine = streams_by_client_[client];
+  if (mine >= limits_.max_streams_per_client) {
+    if (mine == 0) streams_by_client_.erase(client);
+    return absl::ResourceExhaustedError(absl::StrCat("WatchMission: you have ", mine,
+                                                     " open streams, the limit per client; "
+                                                     "close one first"));
+  }
+  ++mine;
+  ++streams_;
+  return absl::OkStatus();
+}
+
+void MissionServiceImpl::ReleaseStream(const std::string& client) {
+  absl::MutexLock lock(&quota_mu_);
+  --streams_;
+  if (--streams_by_client_[client] <= 0) streams_by_client_.erase(client);
+}
+
+absl::Status MissionServiceImpl::AcquirePlan(const std::string& tenant) {
+  absl::MutexLock lock(&quota_mu_);
+  int& mine = plans_by_tenant_[tenant];
+  if (limits_.max_plans_per_tenant > 0 && mine >= limits_.max_plans_per_tenant) {
+    if (mine == 0) plans_by_tenant_.erase(tenant);
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "PlanPath: you have ", mine, " plans queued or running, your quota; retry when one ends"));
+  }
+  ++mine;
+  return absl::OkStatus();
+}
+
+void MissionServiceImpl::ReleasePlan(const std::string& tenant) {
+  absl::MutexLock lock(&quota_mu_);
+  if (--plans_by_tenant_[tenant] <= 0) plans_by_tenant_.erase(tenant);
+}
+
+bool MissionServiceImpl::Overloaded() const {
+  if (planners_->waiting() >= planners_->queue_capacity() &&
+      planners_->running() >= planners_->threads()) {
+    return true;
+  }
+  absl::MutexLock lock(&quota_mu_);
+  return streams_ >= limits_.max_streams;
+}
+
+int MissionServiceImpl::open_streams() const {
+  absl::MutexLock lock(&quota_mu_);
+  return streams_;
+}
+
+grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext* context,
                                                const v1::CreateMissionRequest* request,
                                                v1::Mission* response) {
   return Call("CreateMission", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(MissionConfig config, MissionSpecToConfig(request->spec()));
-    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
-                           registry_->Create(request->mission_id(), std::move(config),
-                                             request->request_id(), RequestFingerprint(*request)));
+    OAIPP_ASSIGN_OR_RETURN(
+        std::shared_ptr<Mission> mission,
+        registry_->Create(request->mission_id(), std::move(config), request->request_id(),
+                          RequestFingerprint(*request), tenant));
     FillMission(*mission, response);
     if (metrics_ != nullptr) {
       metrics_->SetMissions(static_cast<double>(registry_->size()),
                             static_cast<double>(registry_->MemoryBytes()));
     }
-    spdlog::info("mission event=created name={}", response->name());
+    spdlog::info("mission event=created name={} tenant={}", response->name(), tenant);
     return absl::OkStatus();
   });
 }
 
-grpc::Status MissionServiceImpl::GetMission(grpc::ServerContext*,
+grpc::Status MissionServiceImpl::GetMission(grpc::ServerContext* context,
                                             const v1::GetMissionRequest* request,
                                             v1::Mission* response) {
   return Call("GetMission", [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
+                           registry_->Get(request->name(), tenant));
     FillMission(*mission, response);
     return absl::OkStatus();
   });
 }
 
-grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext*,
+grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext* context,
                                               const v1::ListMissionsRequest* request,
                                               v1::ListMissionsResponse* response) {
   return Call("ListMissions", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     if (request->page_size() < 0 || request->page_size() > 1000) {
       return absl::InvalidArgumentError(
           absl::StrCat("page_size: must be in [0, 1000], got ", request->page_size()));
@@ -230,7 +309,7 @@ grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext*,
     if (!request->page_token().empty()) {
       OAIPP_ASSIGN_OR_RETURN(after, ParsePageToken(request->page_token()));
     }
-    const auto missions = registry_->ListAfter(after, size + 1);
+    const auto missions = registry_->ListAfter(after, size + 1, tenant);
     for (std::size_t i = 0; i < missions.size() && i < size; ++i) {
       FillMission(*missions[i].second, response->add_missions());
     }
@@ -239,25 +318,28 @@ grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext*,
   });
 }
 
-grpc::Status MissionServiceImpl::DeleteMission(grpc::ServerContext*,
+grpc::Status MissionServiceImpl::DeleteMission(grpc::ServerContext* context,
                                                const v1::DeleteMissionRequest* request,
                                                v1::DeleteMissionResponse*) {
   return Call("DeleteMission", [&]() -> absl::Status {
-    OAIPP_RETURN_IF_ERROR(registry_->Delete(request->name(), request->request_id()));
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_RETURN_IF_ERROR(registry_->Delete(request->name(), request->request_id(), tenant));
     if (metrics_ != nullptr) {
       metrics_->SetMissions(static_cast<double>(registry_->size()),
                             static_cast<double>(registry_->MemoryBytes()));
     }
-    spdlog::info("mission event=deleted name={}", request->name());
+    spdlog::info("mission event=deleted name={} tenant={}", request->name(), tenant);
     return absl::OkStatus();
   });
 }
 
-grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext*,
+grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
                                                  const v1::UpdateObstaclesRequest* request,
                                                  v1::UpdateObstaclesResponse* response) {
   return Call("UpdateObstacles", [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
+                           registry_->Get(request->name(), tenant));
     OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
     const std::string fingerprint = RequestFingerprint(*request);
     absl::StatusOr<ObstacleResult> updated = mission->UpdateObstacles(
@@ -271,11 +353,13 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext*,
   });
 }
 
-grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
+grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
                                                 const v1::AddMeasurementRequest* request,
                                                 v1::AddMeasurementResponse* response) {
   return Call("AddMeasurement", [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
+                           registry_->Get(request->name(), tenant));
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
     const std::string fingerprint = RequestFingerprint(*request);
     absl::StatusOr<MeasurementResult> fused =
@@ -291,58 +375,13 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext*,
   });
 }
 
-grpc::Status MissionServiceImpl::PlanPath(grpc::ServerContext* context,
-                                          const v1::PlanPathRequest* request,
-                                          v1::PlanPathResponse* response) {
-  return Call("PlanPath", [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
-    if (!request->has_state()) return absl::InvalidArgumentError("state: required");
-    OAIPP_ASSIGN_OR_RETURN(UavState state, UavStateFromProto(request->state(), "state"));
-    std::optional<double> next_shot;
-    if (request->has_next_shot_mission_s()) next_shot = request->next_shot_mission_s();
-    Mission::PlanCall call{.deadline = PlanningDeadline(context),
-                           .gate = gate_,
-                           .cancelled = [context] { return context->IsCancelled(); }};
-    if (request->has_planning_budget_s()) {
-      const double budget = request->planning_budget_s();
-      if (!(budget > 0.0) || !std::isfinite(budget)) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("planning_budget_s: must be > 0 and finite, got ", budget));
-      }
-      call.budget = absl::Seconds(budget);
-    }
-    if (context->IsCancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
-    const std::string fingerprint = RequestFingerprint(*request);
-    if (MissionStore* store = registry_->store(); store != nullptr) {
-      call.persist = [&, store](std::int64_t sequence, const PlannedPath& planned,
-                                const std::string& planner_state) {
-        v1::PlanPathResponse answer;
-        PlannedPathToProto(planned, &answer);
-        return AppendStatus(store->Append(mission->id(), {.sequence = sequence,
-                                                          .kind = RecordKind::kPlan,
-                                                          .payload = request->SerializeAsString(),
-                                                          .request_id = request->request_id(),
-                                                          .fingerprint = fingerprint,
-                                                          .result = answer.SerializeAsString(),
-                                                          .planner_state = planner_state}));
-      };
-    }
-    absl::StatusOr<PlannedPath> planned =
-        mission->Plan(state, next_shot, {request->request_id(), fingerprint}, call);
-    ReloadIfInDoubt(*registry_, mission->id(), planned);
-    OAIPP_ASSIGN_OR_RETURN(PlannedPath path, std::move(planned));
-    if (metrics_ != nullptr) {
-      metrics_->RecordPlan(path.stats.wall_time_s, static_cast<double>(path.stats.evaluations));
-    }
-    PlannedPathToProto(path, response);
-    return absl::OkStatus();
-  });
-}
-
-grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext*, const v1::GetMapRequest* request,
+grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
+                                        const v1::GetMapRequest* request,
                                         v1::GetMapResponse* response) {
   return Call("GetMap", [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request->name()));
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
+                           registry_->Get(request->name(), tenant));
     render::MapLayers layers;
     mission->ReadMap([&](const GpMap& map) {
       MapToProto(map, request->include_cells(), response);
@@ -365,40 +404,260 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext*, const v1::GetMapRe
                                .resolution_m = response->resolution_m(),
                                .x_min_m = response->x_min_m(),
                                .y_min_m = response->y_min_m()};
-    OAIPP_ASSIGN_OR_RETURN(std::string png,
-                           render::RenderMapPng(grid, layers, overlay,
-                                                {.mission = absl::StrCat("missions/", snapshot.id),
-                                                 .mission_time_s = snapshot.mission_time_s,
-                                                 .trace = response->trace()}));
+    OAIPP_ASSIGN_OR_RETURN(
+        std::string png,
+        render::RenderMapPng(
+            grid, layers, overlay,
+            {.mission = absl::StrCat("missions/", MissionRegistry::PublicId(snapshot.id)),
+             .mission_time_s = snapshot.mission_time_s,
+             .trace = response->trace()}));
     response->set_png(std::move(png));
     return absl::OkStatus();
   });
 }
 
-grpc::Status MissionServiceImpl::WatchMission(grpc::ServerContext* context,
-                                              const v1::WatchMissionRequest* request,
-                                              grpc::ServerWriter<v1::MissionEvent>* writer) {
-  std::shared_ptr<Mission> mission;
-  grpc::Status opened = Call("WatchMission", [&]() -> absl::Status {
-    OAIPP_ASSIGN_OR_RETURN(mission, registry_->Get(request->name()));
-    return absl::OkStatus();
-  });
-  if (!opened.ok()) return opened;
-  std::shared_ptr<EventQueue> queue = mission->Subscribe();
-  // Wake up now and then to notice a client that went away.
-  while (!context->IsCancelled()) {
-    std::optional<MissionEventData> event = queue->Pop(absl::Now() + absl::Milliseconds(200));
-    if (!event.has_value()) {
-      if (queue->closed()) break;
-      continue;
-    }
-    v1::MissionEvent out;
-    FillEvent(*event, &out);
-    if (!writer->Write(out)) break;
-    if (std::holds_alternative<MissionEventData::Deleted>(event->event)) break;
+// One PlanPath call: checked at once, then a job in the planning pool. While
+// it waits it holds no thread; a client that cancels (or whose deadline
+// passes) takes it out of the queue, or stops the planner within one CMA-ES
+// generation once it runs.
+class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
+ public:
+  PlanReactor(MissionServiceImpl* service, grpc::CallbackServerContext* context,
+              const v1::PlanPathRequest* request, v1::PlanPathResponse* response)
+      : service_(service), context_(context), request_(request), response_(response) {
+    // A plan that was queued is counted (metrics, log) when it ends.
+    const absl::Status status = service_->Run(
+        "PlanPath", [&] { return Start(); }, /*record_ok=*/false);
+    if (!status.ok()) Finish(ToGrpcStatus(status));
   }
-  mission->Unsubscribe(queue);
-  return grpc::Status::OK;
+
+  void OnCancel() override {
+    cancelled_ = true;
+    bool dropped = false;
+    {
+      absl::MutexLock lock(&mu_);
+      dropped = job_.Cancel();
+    }
+    if (dropped) {
+      End(
+          absl::CancelledError("PlanPath: cancelled (by the client, or its deadline passed) "
+                               "while waiting for a planner"));
+    }
+  }
+
+  void OnDone() override { delete this; }
+
+ private:
+  // Everything checked before the plan is queued; an error here finishes
+  // the call at once.
+  absl::Status Start() {
+    OAIPP_ASSIGN_OR_RETURN(tenant_, service_->TenantOf(*context_));
+    OAIPP_ASSIGN_OR_RETURN(mission_, service_->registry_->Get(request_->name(), tenant_));
+    if (!request_->has_state()) return absl::InvalidArgumentError("state: required");
+    OAIPP_ASSIGN_OR_RETURN(state_, UavStateFromProto(request_->state(), "state"));
+    if (request_->has_next_shot_mission_s()) next_shot_ = request_->next_shot_mission_s();
+    call_.deadline = PlanningDeadline(context_);
+    call_.cancelled = [this] { return cancelled_.load() || context_->IsCancelled(); };
+    if (request_->has_planning_budget_s()) {
+      const double budget = request_->planning_budget_s();
+      if (!(budget > 0.0) || !std::isfinite(budget)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("planning_budget_s: must be > 0 and finite, got ", budget));
+      }
+      call_.budget = absl::Seconds(budget);
+    }
+    call_.budget = std::min(call_.budget, service_->limits_.max_planning);
+    fingerprint_ = RequestFingerprint(*request_);
+    if (MissionStore* store = service_->registry_->store(); store != nullptr) {
+      call_.persist = [this, store](std::int64_t sequence, const PlannedPath& planned,
+                                    const std::string& planner_state) {
+        v1::PlanPathResponse answer;
+        PlannedPathToProto(planned, &answer);
+        return AppendStatus(store->Append(mission_->id(), {.sequence = sequence,
+                                                           .kind = RecordKind::kPlan,
+                                                           .payload = request_->SerializeAsString(),
+                                                           .request_id = request_->request_id(),
+                                                           .fingerprint = fingerprint_,
+                                                           .result = answer.SerializeAsString(),
+                                                           .planner_state = planner_state}));
+      };
+    }
+    OAIPP_RETURN_IF_ERROR(service_->AcquirePlan(tenant_));
+    holds_plan_ = true;
+    absl::MutexLock lock(&mu_);
+    absl::StatusOr<PlanningPool::Handle> job =
+        service_->planners_->Submit(mission_->id(), [this] { Plan(); });
+    if (!job.ok()) {
+      service_->ReleasePlan(tenant_);
+      holds_plan_ = false;
+      return job.status();
+    }
+    job_ = *std::move(job);
+    return absl::OkStatus();
+  }
+
+  // On a planning thread.
+  void Plan() {
+    const absl::Status status = service_->Run("PlanPath", [&]() -> absl::Status {
+      if (call_.cancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
+      if (absl::Now() >= call_.deadline) {
+        return absl::DeadlineExceededError("PlanPath: the deadline passed waiting for a planner");
+      }
+      absl::StatusOr<PlannedPath> planned =
+          mission_->Plan(state_, next_shot_, {request_->request_id(), fingerprint_}, call_);
+      ReloadIfInDoubt(*service_->registry_, mission_->id(), planned);
+      OAIPP_ASSIGN_OR_RETURN(PlannedPath path, std::move(planned));
+      if (service_->metrics_ != nullptr) {
+        service_->metrics_->RecordPlan(path.stats.wall_time_s,
+                                       static_cast<double>(path.stats.evaluations));
+      }
+      PlannedPathToProto(path, response_);
+      return absl::OkStatus();
+    });
+    End(status);
+  }
+
+  // The last thing either path does: after Finish the reactor may be gone.
+  void End(const absl::Status& status) {
+    if (holds_plan_) service_->ReleasePlan(tenant_);
+    Finish(ToGrpcStatus(status));
+  }
+
+  MissionServiceImpl* const service_;
+  grpc::CallbackServerContext* const context_;
+  const v1::PlanPathRequest* const request_;
+  v1::PlanPathResponse* const response_;
+  std::string tenant_;
+  std::shared_ptr<Mission> mission_;
+  UavState state_;
+  std::optional<double> next_shot_;
+  Mission::PlanCall call_;
+  std::string fingerprint_;
+  bool holds_plan_ = false;
+  std::atomic<bool> cancelled_{false};
+  absl::Mutex mu_;
+  PlanningPool::Handle job_ ABSL_GUARDED_BY(mu_);
+};
+
+grpc::ServerUnaryReactor* MissionServiceImpl::PlanPath(grpc::CallbackServerContext* context,
+                                                       const v1::PlanPathRequest* request,
+                                                       v1::PlanPathResponse* response) {
+  return new PlanReactor(this, context, request, response);
+}
+
+// One WatchMission stream: woken by its event queue's listener, it writes
+// one event at a time and holds no thread between events.
+class MissionServiceImpl::WatchReactor final : public grpc::ServerWriteReactor<v1::MissionEvent> {
+ public:
+  WatchReactor(MissionServiceImpl* service, grpc::CallbackServerContext* context,
+               const v1::WatchMissionRequest* request)
+      : service_(service) {
+    const absl::Status opened = service_->Run("WatchMission", [&]() -> absl::Status {
+      OAIPP_ASSIGN_OR_RETURN(const std::string tenant, service_->TenantOf(*context));
+      OAIPP_ASSIGN_OR_RETURN(mission_, service_->registry_->Get(request->name(), tenant));
+      // Per client: the tenant with tokens, the connection without.
+      client_ = tenant.empty() ? context->peer() : tenant;
+      OAIPP_RETURN_IF_ERROR(service_->AcquireStream(client_));
+      holds_stream_ = true;
+      return absl::OkStatus();
+    });
+    if (!opened.ok()) {
+      Finish(ToGrpcStatus(opened));
+      return;
+    }
+    link_ = std::make_shared<Link>();
+    link_->reactor = this;
+    queue_ = mission_->Subscribe();
+    queue_->SetListener([link = std::weak_ptr<Link>(link_)] {
+      if (std::shared_ptr<Link> l = link.lock()) l->Wake();
+    });
+    Wake();
+  }
+
+  void OnWriteDone(bool ok) override {
+    absl::MutexLock lock(&link_->mu);
+    writing_ = false;
+    if (!ok) {
+      FinishOnce(grpc::Status::OK);
+      return;
+    }
+    PumpLocked();
+  }
+
+  void OnCancel() override {
+    if (link_ == nullptr) return;
+    absl::MutexLock lock(&link_->mu);
+    FinishOnce(grpc::Status::OK);
+  }
+
+  void OnDone() override {
+    if (link_ != nullptr) {
+      {
+        absl::MutexLock lock(&link_->mu);
+        link_->reactor = nullptr;
+      }
+      queue_->SetListener(nullptr);
+      queue_->Close();
+      mission_->Unsubscribe(queue_);
+    }
+    if (holds_stream_) service_->ReleaseStream(client_);
+    delete this;
+  }
+
+ private:
+  // Shared with the queue's listener, which may outlive the reactor.
+  struct Link {
+    absl::Mutex mu;
+    WatchReactor* reactor ABSL_GUARDED_BY(mu) = nullptr;
+    void Wake() {
+      absl::MutexLock lock(&mu);
+      if (reactor != nullptr) reactor->PumpLocked();
+    }
+  };
+
+  void Wake() { link_->Wake(); }
+
+  // Starts the next write when none is in flight (gRPC runs its reactions
+  // on its own threads, never inside StartWrite, so holding the link's lock
+  // here is safe).
+  void PumpLocked() {
+    if (writing_ || finished_) return;
+    std::optional<MissionEventData> event = queue_->TryPop();
+    if (!event.has_value()) {
+      if (queue_->closed()) FinishOnce(grpc::Status::OK);
+      return;
+    }
+    out_.Clear();
+    FillEvent(*event, &out_);
+    writing_ = true;
+    if (std::holds_alternative<MissionEventData::Deleted>(event->event)) {
+      finished_ = true;
+      StartWriteAndFinish(&out_, grpc::WriteOptions(), grpc::Status::OK);
+      return;
+    }
+    StartWrite(&out_);
+  }
+
+  void FinishOnce(const grpc::Status& status) {
+    if (finished_) return;
+    finished_ = true;
+    Finish(status);
+  }
+
+  MissionServiceImpl* const service_;
+  std::shared_ptr<Mission> mission_;
+  std::string client_;
+  bool holds_stream_ = false;
+  std::shared_ptr<Link> link_;
+  std::shared_ptr<EventQueue> queue_;
+  v1::MissionEvent out_;
+  bool writing_ = false;   // under link_->mu
+  bool finished_ = false;  // under link_->mu
+};
+
+grpc::ServerWriteReactor<v1::MissionEvent>* MissionServiceImpl::WatchMission(
+    grpc::CallbackServerContext* context, const v1::WatchMissionRequest* request) {
+  return new WatchReactor(this, context, request);
 }
 
 }  // namespace oaipp::server

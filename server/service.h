@@ -5,28 +5,57 @@
 // offending field named. Testable in-process without a network:
 //
 //   MissionRegistry registry({});
-//   PlanningGate gate(2, 8);
-//   MissionServiceImpl service(&registry, &gate, /*metrics=*/nullptr);
+//   PlanningPool planners(2, 8);
+//   MissionServiceImpl service(&registry, &planners, /*metrics=*/nullptr);
 //   grpc::ServerBuilder builder;
 //   builder.RegisterService(&service);
 //   auto server = builder.BuildAndStart();
 //   auto channel = server->InProcessChannel({});
+//
+// PlanPath and WatchMission use gRPC's callback API: a queued plan is a job
+// in the PlanningPool and an open stream is a reactor woken by its events,
+// so neither holds one of the server's threads while it waits. The quick
+// calls run on the synchronous thread pool.
 #pragma once
 
+#include <map>
 #include <memory>
+#include <string>
 
+#include "absl/synchronization/mutex.h"
+#include "absl/time/time.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/auth.h"
 #include "server/metrics.h"
-#include "server/planning_gate.h"
+#include "server/planning_pool.h"
 #include "server/registry.h"
 
 namespace oaipp::server {
 
-class MissionServiceImpl final : public v1::MissionService::Service {
+struct ServiceLimits {
+  // Open WatchMission streams in all, and per client (per tenant with
+  // tokens; per connection without). Valid: >= 1.
+  int max_streams = 256;
+  int max_streams_per_client = 16;
+  // Plans one tenant may have queued or running at once; 0: only the
+  // planning pool's queue applies.
+  int max_plans_per_tenant = 0;
+  // The longest one plan may hold a planner: a plan without a
+  // planning_budget_s, or with a longer one, gets this budget (and returns
+  // the best path found by then). Valid: > 0.
+  absl::Duration max_planning = absl::Seconds(60);
+};
+
+using MissionServiceBase = v1::MissionService::WithCallbackMethod_PlanPath<
+    v1::MissionService::WithCallbackMethod_WatchMission<v1::MissionService::Service>>;
+
+class MissionServiceImpl final : public MissionServiceBase {
  public:
-  // Pointers must outlive the service; metrics may be null.
-  MissionServiceImpl(MissionRegistry* registry, PlanningGate* gate, Metrics* metrics)
-      : registry_(registry), gate_(gate), metrics_(metrics) {}
+  // Pointers must outlive the service; metrics and auth may be null (no
+  // metrics; everyone is the anonymous tenant).
+  MissionServiceImpl(MissionRegistry* registry, PlanningPool* planners, Metrics* metrics,
+                     const Authenticator* auth = nullptr, ServiceLimits limits = {})
+      : registry_(registry), planners_(planners), metrics_(metrics), auth_(auth), limits_(limits) {}
 
   grpc::Status CreateMission(grpc::ServerContext* context, const v1::CreateMissionRequest* request,
                              v1::Mission* response) override;
@@ -42,21 +71,49 @@ class MissionServiceImpl final : public v1::MissionService::Service {
   grpc::Status AddMeasurement(grpc::ServerContext* context,
                               const v1::AddMeasurementRequest* request,
                               v1::AddMeasurementResponse* response) override;
-  grpc::Status PlanPath(grpc::ServerContext* context, const v1::PlanPathRequest* request,
-                        v1::PlanPathResponse* response) override;
   grpc::Status GetMap(grpc::ServerContext* context, const v1::GetMapRequest* request,
                       v1::GetMapResponse* response) override;
-  grpc::Status WatchMission(grpc::ServerContext* context, const v1::WatchMissionRequest* request,
-                            grpc::ServerWriter<v1::MissionEvent>* writer) override;
+  grpc::ServerUnaryReactor* PlanPath(grpc::CallbackServerContext* context,
+                                     const v1::PlanPathRequest* request,
+                                     v1::PlanPathResponse* response) override;
+  grpc::ServerWriteReactor<v1::MissionEvent>* WatchMission(
+      grpc::CallbackServerContext* context, const v1::WatchMissionRequest* request) override;
+
+  // True while new plans or streams would be refused: every planner busy
+  // and the queue full, or the stream limit reached (health reports it).
+  [[nodiscard]] bool Overloaded() const;
+  [[nodiscard]] int open_streams() const;
 
  private:
-  // Runs one RPC body, recording its latency and status in the metrics.
+  class PlanReactor;
+  class WatchReactor;
+
+  // Runs one RPC body, recording its latency and status in the metrics;
+  // an error's message is made safe to repeat (api::SafeMessage).
+  // record_ok: false for the first part of a call that goes on elsewhere
+  // (only its errors are recorded then).
+  template <typename Body>
+  absl::Status Run(const char* method, Body body, bool record_ok = true);
   template <typename Body>
   grpc::Status Call(const char* method, Body body);
+  [[nodiscard]] absl::StatusOr<std::string> TenantOf(const grpc::ServerContextBase& context) const;
+
+  // Stream and plan quotas: Acquire* refuses with ResourceExhausted.
+  absl::Status AcquireStream(const std::string& client);
+  void ReleaseStream(const std::string& client);
+  absl::Status AcquirePlan(const std::string& tenant);
+  void ReleasePlan(const std::string& tenant);
 
   MissionRegistry* registry_;
-  PlanningGate* gate_;
+  PlanningPool* planners_;
   Metrics* metrics_;
+  const Authenticator* auth_;
+  const ServiceLimits limits_;
+
+  mutable absl::Mutex quota_mu_;
+  int streams_ ABSL_GUARDED_BY(quota_mu_) = 0;
+  std::map<std::string, int> streams_by_client_ ABSL_GUARDED_BY(quota_mu_);
+  std::map<std::string, int> plans_by_tenant_ ABSL_GUARDED_BY(quota_mu_);
 };
 
 }  // namespace oaipp::server

@@ -10,8 +10,8 @@ namespace {
 
 TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
   server::MissionRegistry registry({});
-  server::PlanningGate gate(2, 8);
-  server::MissionServiceImpl service(&registry, &gate, nullptr);
+  server::PlanningPool planners(2, 8);
+  server::MissionServiceImpl service(&registry, &planners, nullptr);
   grpc::ServerBuilder builder;
   builder.RegisterService(&service);
   std::unique_ptr<grpc::Server> server = builder.BuildAndStart();

@@ -2,6 +2,9 @@
 // its message must name; the server keeps serving afterwards.
 #include <functional>
 
+#include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
+#include "api/limits.h"
 #include "gtest/gtest.h"
 #include "tests/server/service_fixture.h"
 
@@ -284,11 +287,163 @@ std::vector<BadCase> Cases() {
   };
 }
 
+// Every number of a spec that must be finite, as NaN and as +infinity: the
+// error names the field by its API path.
+void AddNonFiniteSpecCases(std::vector<BadCase>& cases) {
+  using Edit = std::function<void(v1::MissionSpec&, double)>;
+  const std::vector<std::pair<std::string, Edit>> fields = {
+      {"spec.field.resolution_m",
+       [](auto& s, double v) { s.mutable_field()->set_resolution_m(v); }},
+      {"spec.field.x_min_m", [](auto& s, double v) { s.mutable_field()->set_x_min_m(v); }},
+      {"spec.field.y_min_m", [](auto& s, double v) { s.mutable_field()->set_y_min_m(v); }},
+      {"spec.flight.esdf_truncation_m",
+       [](auto& s, double v) { s.mutable_flight()->set_esdf_truncation_m(v); }},
+      {"spec.gp.length_scale_m", [](auto& s, double v) { s.mutable_gp()->set_length_scale_m(v); }},
+      {"spec.gp.signal_var", [](auto& s, double v) { s.mutable_gp()->set_signal_var(v); }},
+      {"spec.gp.noise_var", [](auto& s, double v) { s.mutable_gp()->set_noise_var(v); }},
+      {"spec.gp.prior_mean", [](auto& s, double v) { s.mutable_gp()->set_prior_mean(v); }},
+      {"spec.sensor.fov_x_deg", [](auto& s, double v) { s.mutable_sensor()->set_fov_x_deg(v); }},
+      {"spec.sensor.noise_a_var",
+       [](auto& s, double v) { s.mutable_sensor()->set_noise_a_var(v); }},
+      {"spec.sensor.noise_b_per_m",
+       [](auto& s, double v) { s.mutable_sensor()->set_noise_b_per_m(v); }},
+      {"spec.sensor.rate_hz", [](auto& s, double v) { s.mutable_sensor()->set_rate_hz(v); }},
+      {"spec.flight.max_altitude_m",
+       [](auto& s, double v) { s.mutable_flight()->set_max_altitude_m(v); }},
+      {"spec.flight.max_speed_m_s",
+       [](auto& s, double v) { s.mutable_flight()->set_max_speed_m_s(v); }},
+      {"spec.flight.max_accel_m_s2",
+       [](auto& s, double v) { s.mutable_flight()->set_max_accel_m_s2(v); }},
+      {"spec.flight.uav_radius_m",
+       [](auto& s, double v) { s.mutable_flight()->set_uav_radius_m(v); }},
+      {"spec.flight.esdf_voxel_m",
+       [](auto& s, double v) { s.mutable_flight()->set_esdf_voxel_m(v); }},
+      {"spec.planner.kappa", [](auto& s, double v) { s.mutable_planner()->set_kappa(v); }},
+      {"spec.planner.h_opt_m", [](auto& s, double v) { s.mutable_planner()->set_h_opt_m(v); }},
+      {"spec.planner.sigma1_m", [](auto& s, double v) { s.mutable_planner()->set_sigma1_m(v); }},
+      {"spec.planner.h_sat_m", [](auto& s, double v) { s.mutable_planner()->set_h_sat_m(v); }},
+      {"spec.planner.lawnmower_altitude_m",
+       [](auto& s, double v) { s.mutable_planner()->set_lawnmower_altitude_m(v); }},
+  };
+  for (const auto& [field, edit] : fields) {
+    for (const double value : {static_cast<double>(NAN), static_cast<double>(INFINITY)}) {
+      cases.push_back(
+          {absl::StrCat(field, " = ", value), kInvalid, field, [edit = edit, value](auto& s) {
+             return Create(s, "nonfinite", [&](auto& spec) { edit(spec, value); });
+           }});
+    }
+  }
+}
+
+// The documented upper bounds (api/limits.h), each refused naming its field.
+void AddLimitCases(std::vector<BadCase>& cases) {
+  cases.push_back({"population above the bound", kInvalid, "spec.planner.population", [](auto& s) {
+                     return Create(s, "big", [](auto& spec) {
+                       spec.mutable_planner()->set_population(api::kMaxPopulation + 1);
+                     });
+                   }});
+  cases.push_back({"population 2^31-1", kInvalid, "spec.planner.population", [](auto& s) {
+                     return Create(s, "big", [](auto& spec) {
+                       spec.mutable_planner()->set_population(2147483647);
+                     });
+                   }});
+  cases.push_back(
+      {"generations above the bound", kInvalid, "spec.planner.generations", [](auto& s) {
+         return Create(s, "big", [](auto& spec) {
+           spec.mutable_planner()->set_generations(api::kMaxGenerations + 1);
+         });
+       }});
+  cases.push_back(
+      {"waypoints above the bound", kInvalid, "spec.planner.num_waypoints", [](auto& s) {
+         return Create(s, "big", [](auto& spec) {
+           spec.mutable_planner()->set_num_waypoints(api::kMaxWaypoints + 1);
+         });
+       }});
+  cases.push_back({"too many obstacles in a spec", kInvalid, "spec.obstacles", [](auto& s) {
+                     return Create(s, "big", [](auto& spec) {
+                       for (int i = 0; i <= api::kMaxObstacles; ++i) {
+                         *spec.add_obstacles() = BoxAt(absl::StrCat("o", i), 5, 5, 0.1);
+                       }
+                     });
+                   }});
+  // Far-off obstacles once overflowed the ESDF's voxel indices (found by
+  // fuzz/fuzz_requests).
+  cases.push_back({"obstacle 1e20 m away", kInvalid, "spec.obstacles[0].box.centre_m.x",
+                   [](auto& s) {
+                     return Create(s, "far", [](auto& spec) {
+                       spec.mutable_obstacles(0)->mutable_box()->mutable_centre_m()->set_x(1e20);
+                     });
+                   }});
+  cases.push_back({"cylinder taller than the bound", kInvalid, "add[0].cylinder.height_m",
+                   [](auto& s) {
+                     return Obstacles(s, [](auto& r) {
+                       auto* c = r.add_add();
+                       c->set_id("tall");
+                       c->mutable_cylinder()->set_radius_m(1);
+                       c->mutable_cylinder()->set_height_m(api::kMaxCoordinateM * 2);
+                     });
+                   }});
+  cases.push_back({"too many obstacles in a change", kInvalid, "add", [](auto& s) {
+                     return Obstacles(s, [](auto& r) {
+                       for (int i = 0; i <= api::kMaxObstacles; ++i) {
+                         *r.add_add() = BoxAt(absl::StrCat("o", i), 5, 5, 0.1);
+                       }
+                     });
+                   }});
+  cases.push_back({"too many boxes", kInvalid, "detections.boxes", [](auto& s) {
+                     return Measure(s, [](auto& r) {
+                       auto* d = r.mutable_detections();
+                       for (int i = 0; i <= api::kMaxBoxes; ++i) {
+                         auto* b = d->add_boxes();
+                         b->set_x_min_px(1);
+                         b->set_y_min_px(1);
+                         b->set_x_max_px(2);
+                         b->set_y_max_px(2);
+                       }
+                     });
+                   }});
+  cases.push_back({"too many labels", kInvalid, "labels.cells", [](auto& s) {
+                     return Measure(s, [](auto& r) {
+                       r.mutable_labels()->clear_cells();
+                       r.mutable_labels()->clear_labels();
+                       for (int i = 0; i <= api::kMaxLabels; ++i) {
+                         r.mutable_labels()->add_cells(i);
+                         r.mutable_labels()->add_labels(0);
+                       }
+                     });
+                   }});
+  cases.push_back({"NaN planning budget", kInvalid, "planning_budget_s",
+                   [](auto& s) { return Plan(s, [](auto& r) { r.set_planning_budget_s(NAN); }); }});
+  cases.push_back({"negative planning budget", kInvalid, "planning_budget_s",
+                   [](auto& s) { return Plan(s, [](auto& r) { r.set_planning_budget_s(-1); }); }});
+  // The core's own field names never reach the caller.
+  cases.push_back(
+      {"inside a building, by the API's name", kInvalid, "state.position_m:", [](auto& s) {
+         return Plan(s, [](auto& r) {
+           r.mutable_state()->mutable_position_m()->set_x(0);
+           r.mutable_state()->mutable_position_m()->set_y(-2);
+         });
+       }});
+  cases.push_back(
+      {"too fast, by the API's names", kInvalid, "spec.flight.max_speed_m_s", [](auto& s) {
+         return Plan(s, [](auto& r) { r.mutable_state()->mutable_velocity_m_s()->set_x(20); });
+       }});
+  cases.push_back({"forged page token", kInvalid, "page_token", [](auto& s) {
+                     grpc::ClientContext c;
+                     v1::ListMissionsRequest r;
+                     r.set_page_token(absl::WebSafeBase64Escape("p1.1.0000000000000000"));
+                     v1::ListMissionsResponse out;
+                     return s.ListMissions(&c, r, &out);
+                   }});
+}
+
 TEST(BadRequestTest, EachGetsItsCodeAndNamesTheField) {
   InProcessService s;
   const v1::Mission ok = CreateSmall(s.stub(), "ok");
-  const std::vector<BadCase> cases = Cases();
-  ASSERT_GE(cases.size(), 30u);
+  std::vector<BadCase> cases = Cases();
+  AddNonFiniteSpecCases(cases);
+  AddLimitCases(cases);
+  ASSERT_GE(cases.size(), 105u);
   for (const BadCase& c : cases) {
     const grpc::Status status = c.call(s.stub());
     EXPECT_EQ(status.error_code(), c.code) << c.name << ": " << status.error_message();

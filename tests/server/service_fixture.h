@@ -1,9 +1,10 @@
 // An in-process MissionService for tests: no network, real registry,
-// planning gate and service.
+// planning pool and service.
 #pragma once
 
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "grpcpp/grpcpp.h"
 #include "gtest/gtest.h"
@@ -17,10 +18,11 @@ class InProcessService {
   explicit InProcessService(RegistryLimits limits = {.max_missions = 64,
                                                      .max_cells_per_mission = 1600},
                             int planning_threads = 2, int planning_queue = 64,
-                            MissionStore* store = nullptr)
+                            MissionStore* store = nullptr, const Authenticator* auth = nullptr,
+                            ServiceLimits service_limits = {})
       : registry_(limits, store),
-        gate_(planning_threads, planning_queue),
-        service_(&registry_, &gate_, &metrics_) {
+        planners_(planning_threads, planning_queue),
+        service_(&registry_, &planners_, &metrics_, auth, service_limits) {
     grpc::ServerBuilder builder;
     builder.RegisterService(&service_);
     server_ = builder.BuildAndStart();
@@ -32,10 +34,12 @@ class InProcessService {
 
   v1::MissionService::Stub& stub() { return *stub_; }
   MissionRegistry& registry() { return registry_; }
+  MissionServiceImpl& service() { return service_; }
+  PlanningPool& planners() { return planners_; }
 
  private:
   MissionRegistry registry_;
-  PlanningGate gate_;
+  PlanningPool planners_;
   Metrics metrics_;
   MissionServiceImpl service_;
   std::unique_ptr<grpc::Server> server_;
@@ -82,6 +86,41 @@ inline v1::Mission CreateSmall(v1::MissionService::Stub& stub, const std::string
   const grpc::Status status = stub.CreateMission(&context, request, &mission);
   EXPECT_TRUE(status.ok()) << status.error_message();
   return mission;
+}
+
+// A mission whose plans run until their deadline, budget or cancellation
+// stops them (100,000 CMA-ES generations).
+inline void CreateEndless(v1::MissionService::Stub& stub, const std::string& id) {
+  grpc::ClientContext context;
+  v1::CreateMissionRequest create;
+  create.set_mission_id(id);
+  *create.mutable_spec() = SmallSpec();
+  create.mutable_spec()->mutable_planner()->set_generations(100000);
+  v1::Mission mission;
+  const grpc::Status status = stub.CreateMission(&context, create, &mission);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+}
+
+// A plan of mission `id` from its start corner; budget_s > 0 sets
+// planning_budget_s.
+inline v1::PlanPathRequest PlanFromCorner(const std::string& id, double budget_s = 0) {
+  v1::PlanPathRequest request;
+  request.set_name("missions/" + id);
+  request.mutable_state()->mutable_position_m()->set_x(-4);
+  request.mutable_state()->mutable_position_m()->set_y(4);
+  request.mutable_state()->mutable_position_m()->set_z(8);
+  if (budget_s > 0) request.set_planning_budget_s(budget_s);
+  return request;
+}
+
+// Waits (up to 10 s) until `done` holds; false if it never did.
+template <typename Predicate>
+bool Eventually(Predicate done) {
+  for (int i = 0; i < 200; ++i) {
+    if (done()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return done();
 }
 
 // Labels for the cells under a camera at (x, y): a 3 x 3 block of cells

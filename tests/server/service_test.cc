@@ -12,10 +12,13 @@
 namespace oaipp::server {
 namespace {
 
+using testing::CreateEndless;
 using testing::CreateSmall;
+using testing::Eventually;
 using ::testing::HasSubstr;
 using testing::InProcessService;
 using testing::LabelMeasurement;
+using testing::PlanFromCorner;
 using testing::SmallSpec;
 
 TEST(ServiceTest, CreateGetListDelete) {
@@ -247,7 +250,7 @@ TEST(ServiceTest, PlanPathAnswersWithinTheCallsDeadline) {
   v1::CreateMissionRequest create;
   create.set_mission_id("slow");
   *create.mutable_spec() = SmallSpec();
-  create.mutable_spec()->mutable_planner()->set_generations(1000000);
+  create.mutable_spec()->mutable_planner()->set_generations(100000);
   v1::Mission mission;
   ASSERT_TRUE(s.stub().CreateMission(&create_context, create, &mission).ok());
   v1::PlanPathRequest request;
@@ -272,7 +275,7 @@ TEST(ServiceTest, PlanningBudgetStopsThePlannerWithoutADeadline) {
   v1::CreateMissionRequest create;
   create.set_mission_id("budget");
   *create.mutable_spec() = SmallSpec();
-  create.mutable_spec()->mutable_planner()->set_generations(1000000);
+  create.mutable_spec()->mutable_planner()->set_generations(100000);
   v1::Mission mission;
   ASSERT_TRUE(s.stub().CreateMission(&create_context, create, &mission).ok());
   v1::PlanPathRequest request;
@@ -300,26 +303,6 @@ TEST(ServiceTest, PlanningBudgetStopsThePlannerWithoutADeadline) {
   }
 }
 
-// A mission whose plans run until told to stop.
-void CreateEndless(v1::MissionService::Stub& stub, const std::string& id) {
-  grpc::ClientContext context;
-  v1::CreateMissionRequest create;
-  create.set_mission_id(id);
-  *create.mutable_spec() = SmallSpec();
-  create.mutable_spec()->mutable_planner()->set_generations(1000000);
-  v1::Mission mission;
-  ASSERT_TRUE(stub.CreateMission(&context, create, &mission).ok());
-}
-
-v1::PlanPathRequest PlanFromCorner(const std::string& id) {
-  v1::PlanPathRequest request;
-  request.set_name("missions/" + id);
-  request.mutable_state()->mutable_position_m()->set_x(-4);
-  request.mutable_state()->mutable_position_m()->set_y(4);
-  request.mutable_state()->mutable_position_m()->set_z(8);
-  return request;
-}
-
 // A plan from the corner with `budget_s` of planning and a 20 s deadline.
 grpc::Status PlanWithBudget(v1::MissionService::Stub& stub, const std::string& id, double budget_s,
                             v1::PlanPathResponse* path) {
@@ -345,7 +328,7 @@ TEST(ServiceTest, ACancelledPlanGivesThePlannerBack) {
         s.stub().PlanPath(&endless_context, PlanFromCorner("endless"), &path);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::CANCELLED) << status.error_message();
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let it take the slot
+  ASSERT_TRUE(Eventually([&] { return s.planners().running() == 1; }));  // it holds the slot
   endless_context.TryCancel();
   v1::PlanPathResponse path;
   const grpc::Status status = PlanWithBudget(s.stub(), "other", 0.5, &path);
@@ -383,7 +366,7 @@ TEST(ServiceTest, CallsDoNotWaitForAnotherMissionsPlan) {
   v1::CreateMissionRequest create;
   create.set_mission_id("long");
   *create.mutable_spec() = SmallSpec();
-  create.mutable_spec()->mutable_planner()->set_generations(1000000);
+  create.mutable_spec()->mutable_planner()->set_generations(100000);
   v1::Mission mission;
   ASSERT_TRUE(s.stub().CreateMission(&create_context, create, &mission).ok());
   std::atomic<bool> plan_returned{false};

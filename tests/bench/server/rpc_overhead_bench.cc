@@ -22,8 +22,8 @@ using Clock = std::chrono::steady_clock;
 
 struct Loopback {
   server::MissionRegistry registry{{}};
-  server::PlanningGate gate{2, 16};
-  server::MissionServiceImpl service{&registry, &gate, nullptr};
+  server::PlanningPool planners{2, 16};
+  server::MissionServiceImpl service{&registry, &planners, nullptr};
   std::unique_ptr<grpc::Server> server;
   std::unique_ptr<v1::MissionService::Stub> stub;
   std::shared_ptr<server::Mission> direct;  // a twin mission called in-process

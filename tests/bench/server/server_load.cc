@@ -25,6 +25,7 @@
 #include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
 #include "tests/bench/server/e1_mission.h"
+#include "tests/bench/server/latencies.h"
 #include "tests/server/postgres_instance.h"
 
 ABSL_FLAG(int, missions, 50, "missions flown at once");
@@ -43,32 +44,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-class Latencies {
- public:
-  void Add(const std::string& method, double ms, bool ok) {
-    std::lock_guard<std::mutex> lock(mu_);
-    samples_[method].push_back(ms);
-    if (!ok) ++errors_[method];
-  }
-  void Print(double wall_s) {
-    std::lock_guard<std::mutex> lock(mu_);
-    std::printf("%-16s %8s %10s %10s %10s %10s %8s\n", "method", "calls", "calls/s", "p50 ms",
-                "p99 ms", "max ms", "errors");
-    for (auto& [method, v] : samples_) {
-      std::sort(v.begin(), v.end());
-      auto pct = [&](double q) {
-        return v[std::min(v.size() - 1, static_cast<std::size_t>(q * v.size()))];
-      };
-      std::printf("%-16s %8zu %10.1f %10.2f %10.2f %10.2f %8d\n", method.c_str(), v.size(),
-                  v.size() / wall_s, pct(0.5), pct(0.99), v.back(), errors_[method]);
-    }
-  }
-
- private:
-  std::mutex mu_;
-  std::map<std::string, std::vector<double>> samples_;
-  std::map<std::string, int> errors_;
-};
+using oaipp::bench::Latencies;
 
 }  // namespace
 
@@ -82,8 +58,8 @@ double RunLoad(oaipp::server::MissionStore* store) {
                                     .prior_cache = absl::GetFlag(FLAGS_prior_cache),
                                     .snapshot_every = absl::GetFlag(FLAGS_snapshot_every)},
                                    store);
-  server::PlanningGate gate(absl::GetFlag(FLAGS_planning_threads), 4 * missions);
-  server::MissionServiceImpl service(&registry, &gate, nullptr);
+  server::PlanningPool planners(absl::GetFlag(FLAGS_planning_threads), 4 * missions);
+  server::MissionServiceImpl service(&registry, &planners, nullptr);
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);

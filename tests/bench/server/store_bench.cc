@@ -91,8 +91,8 @@ struct Service {
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   }
   server::MissionRegistry registry;
-  server::PlanningGate gate{2, 16};
-  server::MissionServiceImpl service{&registry, &gate, nullptr};
+  server::PlanningPool planners{2, 16};
+  server::MissionServiceImpl service{&registry, &planners, nullptr};
   std::unique_ptr<grpc::Server> server;
   std::unique_ptr<v1::MissionService::Stub> stub;
 };

@@ -1,0 +1,118 @@
+// The planning pool: bounded admission, jobs of one mission in order, and a
+// queued job taken back out without ever running.
+#include "server/planning_pool.h"
+
+#include <algorithm>
+#include <atomic>
+#include <vector>
+
+#include "absl/synchronization/notification.h"
+#include "absl/time/clock.h"
+#include "gtest/gtest.h"
+
+namespace oaipp::server {
+namespace {
+
+TEST(PlanningPoolTest, RunsUpToThreadsPlusQueueThenRefuses) {
+  PlanningPool pool(/*threads=*/1, /*queue=*/1);
+  absl::Notification release;
+  absl::Notification started;
+  ASSERT_TRUE(pool.Submit("a",
+                          [&] {
+                            started.Notify();
+                            release.WaitForNotification();
+                          })
+                  .ok());
+  started.WaitForNotification();
+  EXPECT_EQ(pool.running(), 1);
+  std::atomic<int> ran{0};
+  ASSERT_TRUE(pool.Submit("b", [&] { ++ran; }).ok());
+  EXPECT_EQ(pool.waiting(), 1);
+  const absl::StatusOr<PlanningPool::Handle> refused = pool.Submit("c", [&] { ++ran; });
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
+  release.Notify();
+  while (pool.running() + pool.waiting() > 0) absl::SleepFor(absl::Milliseconds(1));
+  EXPECT_EQ(ran.load(), 1);
+}
+
+TEST(PlanningPoolTest, ACancelledJobNeverRunsAndFreesItsPlaceAtOnce) {
+  PlanningPool pool(/*threads=*/1, /*queue=*/1);
+  absl::Notification release;
+  absl::Notification started;
+  ASSERT_TRUE(pool.Submit("a",
+                          [&] {
+                            started.Notify();
+                            release.WaitForNotification();
+                          })
+                  .ok());
+  started.WaitForNotification();
+  bool ran = false;
+  absl::StatusOr<PlanningPool::Handle> queued = pool.Submit("b", [&] { ran = true; });
+  ASSERT_TRUE(queued.ok());
+  EXPECT_TRUE(queued->Cancel());
+  EXPECT_FALSE(queued->Cancel());  // once
+  EXPECT_EQ(pool.waiting(), 0);
+  EXPECT_TRUE(pool.Submit("c", [] {}).ok());  // the place is free again
+  release.Notify();
+  while (pool.running() + pool.waiting() > 0) absl::SleepFor(absl::Milliseconds(1));
+  EXPECT_FALSE(ran);
+}
+
+TEST(PlanningPoolTest, AStartedJobCannotBeCancelled) {
+  PlanningPool pool(/*threads=*/1, /*queue=*/0);
+  absl::Notification release;
+  absl::Notification started;
+  absl::StatusOr<PlanningPool::Handle> job = pool.Submit("a", [&] {
+    started.Notify();
+    release.WaitForNotification();
+  });
+  ASSERT_TRUE(job.ok());
+  started.WaitForNotification();
+  EXPECT_FALSE(job->Cancel());
+  release.Notify();
+}
+
+TEST(PlanningPoolTest, OneMissionsJobsRunInOrderAndLetOthersPass) {
+  // Two threads; mission "a" submits three jobs, then "b" one. "a"'s jobs
+  // must not take both threads: "b" runs beside "a"'s first.
+  PlanningPool pool(/*threads=*/2, /*queue=*/8);
+  absl::Mutex mu;
+  std::vector<std::string> order;
+  absl::Notification a_first_may_end;
+  absl::Notification b_ran;
+  auto record = [&](const std::string& what) {
+    absl::MutexLock lock(&mu);
+    order.push_back(what);
+  };
+  ASSERT_TRUE(pool.Submit("a",
+                          [&] {
+                            record("a1");
+                            a_first_may_end.WaitForNotification();
+                          })
+                  .ok());
+  ASSERT_TRUE(pool.Submit("a", [&] { record("a2"); }).ok());
+  ASSERT_TRUE(pool.Submit("a", [&] { record("a3"); }).ok());
+  ASSERT_TRUE(pool.Submit("b",
+                          [&] {
+                            record("b1");
+                            b_ran.Notify();
+                          })
+                  .ok());
+  // "b" runs while "a1" still holds its thread.
+  b_ran.WaitForNotification();
+  a_first_may_end.Notify();
+  while (pool.running() + pool.waiting() > 0) absl::SleepFor(absl::Milliseconds(1));
+  absl::MutexLock lock(&mu);
+  ASSERT_EQ(order.size(), 4u);
+  std::vector<std::string> a_only;
+  for (const auto& o : order) {
+    if (o[0] == 'a') a_only.push_back(o);
+  }
+  EXPECT_EQ(a_only, (std::vector<std::string>{"a1", "a2", "a3"}));
+  // a2 could start only after a1 ended, which waited for b1.
+  EXPECT_LT(std::find(order.begin(), order.end(), "b1") - order.begin(),
+            std::find(order.begin(), order.end(), "a2") - order.begin());
+}
+
+}  // namespace
+}  // namespace oaipp::server
