@@ -1,16 +1,55 @@
 #include "client/client.h"
 
+#include <fstream>
 #include <random>
+#include <sstream>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "api/status.h"
+#include "core/common/status_macros.h"
 
 namespace oaipp::client {
 
+namespace {
+
+absl::StatusOr<std::string> ReadPem(const char* what, const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return absl::InvalidArgumentError(absl::StrCat(what, ": cannot read '", path, "'"));
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
 Client Client::Connect(const std::string& address, ClientOptions options) {
   return Client(grpc::CreateChannel(address, grpc::InsecureChannelCredentials()), options);
+}
+
+absl::StatusOr<std::shared_ptr<grpc::Channel>> Client::OpenChannel(const std::string& address,
+                                                                   const ClientOptions& options) {
+  if (options.tls_ca_file.empty() && options.tls_cert_file.empty() &&
+      options.tls_key_file.empty()) {
+    return grpc::CreateChannel(address, grpc::InsecureChannelCredentials());
+  }
+  if (options.tls_cert_file.empty() != options.tls_key_file.empty()) {
+    return absl::InvalidArgumentError("tls_cert and tls_key go together");
+  }
+  grpc::SslCredentialsOptions ssl;
+  if (!options.tls_ca_file.empty()) {
+    OAIPP_ASSIGN_OR_RETURN(ssl.pem_root_certs, ReadPem("tls_ca", options.tls_ca_file));
+  }
+  if (!options.tls_cert_file.empty()) {
+    OAIPP_ASSIGN_OR_RETURN(ssl.pem_cert_chain, ReadPem("tls_cert", options.tls_cert_file));
+    OAIPP_ASSIGN_OR_RETURN(ssl.pem_private_key, ReadPem("tls_key", options.tls_key_file));
+  }
+  return grpc::CreateChannel(address, grpc::SslCredentials(ssl));
+}
+
+void Client::Prepare(grpc::ClientContext& context) const {
+  if (!options_.token.empty()) context.AddMetadata("authorization", "Bearer " + options_.token);
 }
 
 Client::Client(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
@@ -30,6 +69,7 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
   grpc::Status status;
   for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
     grpc::ClientContext context;
+    Prepare(context);
     context.set_deadline(absl::ToChronoTime(absl::Now() + timeout));
     Response response;
     status = (stub_.get()->*method)(&context, request, &response);
@@ -46,6 +86,7 @@ absl::Status Client::WaitUntilServing(absl::Duration timeout) {
   while (absl::Now() < until) {
     if (channel_->WaitForConnected(absl::ToChronoTime(absl::Now() + absl::Milliseconds(500)))) {
       grpc::ClientContext context;
+      Prepare(context);
       context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(2)));
       v1::ListMissionsRequest request;
       request.set_page_size(1);

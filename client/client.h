@@ -23,12 +23,27 @@ struct ClientOptions {
   absl::Duration plan_timeout = absl::Seconds(60);  // PlanPath (the planner is anytime)
   int max_attempts = 4;                             // for UNAVAILABLE
   absl::Duration first_backoff = absl::Milliseconds(200);
+  // Who the client is, for a server with --token_file: sent as
+  // "authorization: Bearer <token>" on every call. Empty: none.
+  std::string token;
+  // TLS: the CA bundle that signed the server's certificate (PEM file; empty
+  // with no client certificate: plaintext), and for mutual TLS the client's
+  // certificate and key.
+  std::string tls_ca_file;
+  std::string tls_cert_file;
+  std::string tls_key_file;
 };
 
 class Client {
  public:
-  // A channel to `address` (host:port); does not wait for the server.
+  // A plaintext channel to `address` (host:port); does not wait for the
+  // server.
   [[nodiscard]] static Client Connect(const std::string& address, ClientOptions options = {});
+  // A channel to `address` as `options` ask (TLS when a tls_* file is
+  // given). InvalidArgument when a file cannot be read or only one of
+  // tls_cert / tls_key is given.
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel(
+      const std::string& address, const ClientOptions& options);
   // Uses an existing channel (e.g. an in-process one in tests).
   Client(std::shared_ptr<grpc::Channel> channel, ClientOptions options);
 
@@ -54,6 +69,8 @@ class Client {
 
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::MissionService::Stub> stub_;
+  // Adds what every call carries (the token).
+  void Prepare(grpc::ClientContext& context) const;
   ClientOptions options_;
   std::string id_prefix_;
   std::atomic<std::int64_t> next_id_{1};

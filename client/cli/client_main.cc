@@ -23,6 +23,12 @@
 #include "sim/scenario.h"
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051", "address of the oaipp-server (host:port)");
+ABSL_FLAG(std::string, token, "",
+          "bearer token for a server with --token_file (or the OAIPP_TOKEN environment variable, "
+          "which keeps it out of the process list)");
+ABSL_FLAG(std::string, tls_ca, "", "PEM CA bundle that signed the server's certificate (TLS)");
+ABSL_FLAG(std::string, tls_cert, "", "PEM client certificate, for a server that asks for one");
+ABSL_FLAG(std::string, tls_key, "", "PEM private key of --tls_cert");
 ABSL_FLAG(std::string, out, "",
           "run: folder for steps.csv and map.png (default out/<scenario name>); eval: folder "
           "for trials.csv, summary.md and figures (default out/eval/<experiment>)");
@@ -77,6 +83,23 @@ int Fail(const absl::Status& status) {
   return 1;
 }
 
+// How to reach the server: the token and TLS flags.
+oaipp::client::ClientOptions Options() {
+  oaipp::client::ClientOptions options;
+  options.token = absl::GetFlag(FLAGS_token);
+  if (options.token.empty()) {
+    if (const char* env = std::getenv("OAIPP_TOKEN"); env != nullptr) options.token = env;
+  }
+  options.tls_ca_file = absl::GetFlag(FLAGS_tls_ca);
+  options.tls_cert_file = absl::GetFlag(FLAGS_tls_cert);
+  options.tls_key_file = absl::GetFlag(FLAGS_tls_key);
+  return options;
+}
+
+absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel() {
+  return Client::OpenChannel(absl::GetFlag(FLAGS_server), Options());
+}
+
 int Run(const std::string& path) {
   absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
   if (!scenario.ok()) return Fail(scenario.status());
@@ -84,7 +107,9 @@ int Run(const std::string& path) {
   if (!sim.ok())
     return Fail(
         absl::Status(sim.status().code(), absl::StrCat(path, ": ", sim.status().message())));
-  Client client = Client::Connect(absl::GetFlag(FLAGS_server));
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
+  if (!channel.ok()) return Fail(channel.status());
+  Client client(*channel, Options());
   if (absl::Status up = client.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
   std::printf("scenario %s: %d targets, %.0f s budget, planner %s\n", scenario->name().c_str(),
               sim->num_targets(), sim->config().budget_s,
@@ -229,11 +254,14 @@ int Eval(const std::string& experiment) {
     return Fail(absl::InvalidArgumentError(
         "--trials and --parallel must be >= 1, --plan_budget_s >= 0, --e3_budget_s > 0"));
   }
-  Client probe = Client::Connect(absl::GetFlag(FLAGS_server));
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
+  if (!channel.ok()) return Fail(channel.status());
+  Client probe(*channel, Options());
   if (absl::Status up = probe.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
   oaipp::client::EvalOptions options{.trials = absl::GetFlag(FLAGS_trials),
                                      .parallel = absl::GetFlag(FLAGS_parallel),
-                                     .plan_budget_s = absl::GetFlag(FLAGS_plan_budget_s)};
+                                     .plan_budget_s = absl::GetFlag(FLAGS_plan_budget_s),
+                                     .client = Options()};
   const auto start = absl::Now();
   auto progress = [&](int done, int total) {
     const double elapsed = absl::ToDoubleSeconds(absl::Now() - start);
@@ -293,14 +321,18 @@ int main(int argc, char** argv) {
   if (command == "run" && args.size() == 3) return Run(args[2]);
   if (command == "eval" && args.size() == 3) return Eval(args[2]);
   if (command == "health" && args.size() == 2) {
-    Client client = Client::Connect(absl::GetFlag(FLAGS_server));
+    absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
+    if (!channel.ok()) return Fail(channel.status());
+    Client client(*channel, Options());
     absl::Status up = client.WaitUntilServing(absl::Seconds(5));
     if (!up.ok()) return Fail(up);
     std::printf("%s: serving\n", absl::GetFlag(FLAGS_server).c_str());
     return 0;
   }
   if (command == "map" && args.size() == 3 && !absl::GetFlag(FLAGS_png).empty()) {
-    Client client = Client::Connect(absl::GetFlag(FLAGS_server));
+    absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
+    if (!channel.ok()) return Fail(channel.status());
+    Client client(*channel, Options());
     absl::StatusOr<oaipp::v1::GetMapResponse> map = client.GetMap(args[2], false, true);
     if (!map.ok()) return Fail(map.status());
     std::ofstream(absl::GetFlag(FLAGS_png), std::ios::binary) << map->png();

@@ -92,7 +92,12 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
   std::atomic<int> done{0};
   std::mutex progress_mu;
   auto worker = [&] {
-    Client client = Client::Connect(address);
+    // Checked by the caller; a file that went away meanwhile fails each call.
+    absl::StatusOr<std::shared_ptr<grpc::Channel>> channel =
+        Client::OpenChannel(address, options.client);
+    Client client(
+        channel.ok() ? *channel : grpc::CreateChannel(address, grpc::InsecureChannelCredentials()),
+        options.client);
     for (std::size_t j = next++; j < jobs.size(); j = next++) {
       TrialResult& out = result.trials[j];
       out.variant = jobs[j].variant->label;

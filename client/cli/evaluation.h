@@ -24,6 +24,8 @@ struct EvalOptions {
   // Wall-clock seconds per replan (sets Scenario.planning_budget_s);
   // 0: the scenario's own setting.
   double plan_budget_s = 0.0;
+  // How each worker connects (token, TLS).
+  ClientOptions client = {};
 };
 
 // What is compared: a label and the scenario of each trial.
