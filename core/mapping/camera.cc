@@ -6,19 +6,16 @@
 #include "core/common/status_macros.h"
 
 namespace oaipp {
-namespace {
 
-absl::Status CheckFov(absl::string_view field, double fov_deg) {
-  if (std::isfinite(fov_deg) && fov_deg > 0.0 && fov_deg < 180.0) return absl::OkStatus();
+absl::Status CheckFovDeg(absl::string_view field, double fov_deg) {
+  if (fov_deg >= kMinFovDeg && fov_deg < 180.0) return absl::OkStatus();  // false for NaN
   return absl::InvalidArgumentError(
-      absl::StrCat(field, ": must be in (0, 180) degrees, got ", fov_deg));
+      absl::StrCat(field, ": must be in [", kMinFovDeg, ", 180) degrees, got ", fov_deg));
 }
 
-}  // namespace
-
 absl::Status DownwardCamera::Validate() const {
-  OAIPP_RETURN_IF_ERROR(CheckFov("fov_x_deg", fov_x_deg));
-  OAIPP_RETURN_IF_ERROR(CheckFov("fov_y_deg", fov_y_deg));
+  OAIPP_RETURN_IF_ERROR(CheckFovDeg("fov_x_deg", fov_x_deg));
+  OAIPP_RETURN_IF_ERROR(CheckFovDeg("fov_y_deg", fov_y_deg));
   return CheckPositive("rate_hz", rate_hz);
 }
 

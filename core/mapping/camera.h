@@ -22,6 +22,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "core/common/geometry.h"
 #include "core/mapping/field_grid.h"
 #include "core/mapping/gp_map.h"
@@ -29,12 +30,21 @@
 
 namespace oaipp {
 
+// Narrowest field of view a camera may have, degrees. Far below it the
+// focal length that a field of view gives an image overflows to infinity;
+// no real lens comes near it.
+inline constexpr double kMinFovDeg = 0.1;
+
+// OK when fov_deg is in [kMinFovDeg, 180); else InvalidArgument naming
+// `field`.
+[[nodiscard]] absl::Status CheckFovDeg(absl::string_view field, double fov_deg);
+
 struct DownwardCamera {
   // Full field of view along the camera's x axis (world x at yaw 0), degrees.
-  // Valid: (0, 180).
+  // Valid: [kMinFovDeg, 180).
   double fov_x_deg = 45.0;
   // Full field of view along the camera's y axis (world y at yaw 0), degrees.
-  // Valid: (0, 180).
+  // Valid: [kMinFovDeg, 180).
   double fov_y_deg = 60.0;
   // Shots per second on the mission clock (0.15 in the paper). Valid: > 0.
   double rate_hz = 0.15;

@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
+#include "core/mapping/camera.h"
 #include "opencv2/calib3d.hpp"
 #include "opencv2/core.hpp"
 
@@ -16,12 +17,6 @@ namespace {
 // Projected cell centres this close outside the image (pixels) still count
 // as inside, so that a centre exactly on the image edge does not flicker.
 constexpr double kPixelTolerance = 1e-9;
-
-absl::Status CheckFovDeg(absl::string_view field, double fov_deg) {
-  if (std::isfinite(fov_deg) && fov_deg > 0.0 && fov_deg < 180.0) return absl::OkStatus();
-  return absl::InvalidArgumentError(
-      absl::StrCat(field, ": must be in (0, 180) degrees, got ", fov_deg));
-}
 
 absl::Status ValidateCommon(const CameraIntrinsics& intrinsics, const CameraPose& pose) {
   OAIPP_RETURN_IF_ERROR(intrinsics.Validate());

@@ -100,7 +100,7 @@ struct CellLabels {
 // width and height are fov_x_deg and fov_y_deg (the paper's camera is
 // (45, 60) deg, docs/method.md §4), principal point at the image centre. At yaw
 // 0 its image footprint matches DownwardCamera's footprint. InvalidArgument
-// when a size is < 1 or a field of view is outside (0, 180).
+// when a size is < 1 or a field of view is outside [kMinFovDeg, 180).
 [[nodiscard]] absl::StatusOr<CameraIntrinsics> IntrinsicsForFov(int width_px, int height_px,
                                                                 double fov_x_deg = 45.0,
                                                                 double fov_y_deg = 60.0);

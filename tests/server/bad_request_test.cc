@@ -132,6 +132,10 @@ std::vector<BadCase> Cases() {
        [](auto& s) {
          return Create(s, "x8", [](auto& p) { p.mutable_sensor()->set_fov_x_deg(200); });
        }},
+      {"fov 3e-307 deg", kInvalid, "spec.sensor.fov_y_deg",
+       [](auto& s) {
+         return Create(s, "x8", [](auto& p) { p.mutable_sensor()->set_fov_y_deg(3.3e-307); });
+       }},
       {"altitudes inverted", kInvalid, "altitude",
        [](auto& s) {
          return Create(s, "x9", [](auto& p) { p.mutable_flight()->set_min_altitude_m(30); });
@@ -368,21 +372,21 @@ void AddLimitCases(std::vector<BadCase>& cases) {
                    }});
   // Far-off obstacles once overflowed the ESDF's voxel indices (found by
   // fuzz/fuzz_requests).
-  cases.push_back({"obstacle 1e20 m away", kInvalid, "spec.obstacles[0].box.centre_m.x",
-                   [](auto& s) {
-                     return Create(s, "far", [](auto& spec) {
-                       spec.mutable_obstacles(0)->mutable_box()->mutable_centre_m()->set_x(1e20);
-                     });
-                   }});
-  cases.push_back({"cylinder taller than the bound", kInvalid, "add[0].cylinder.height_m",
-                   [](auto& s) {
-                     return Obstacles(s, [](auto& r) {
-                       auto* c = r.add_add();
-                       c->set_id("tall");
-                       c->mutable_cylinder()->set_radius_m(1);
-                       c->mutable_cylinder()->set_height_m(api::kMaxCoordinateM * 2);
-                     });
-                   }});
+  cases.push_back(
+      {"obstacle 1e20 m away", kInvalid, "spec.obstacles[0].box.centre_m.x", [](auto& s) {
+         return Create(s, "far", [](auto& spec) {
+           spec.mutable_obstacles(0)->mutable_box()->mutable_centre_m()->set_x(1e20);
+         });
+       }});
+  cases.push_back(
+      {"cylinder taller than the bound", kInvalid, "add[0].cylinder.height_m", [](auto& s) {
+         return Obstacles(s, [](auto& r) {
+           auto* c = r.add_add();
+           c->set_id("tall");
+           c->mutable_cylinder()->set_radius_m(1);
+           c->mutable_cylinder()->set_height_m(api::kMaxCoordinateM * 2);
+         });
+       }});
   cases.push_back({"too many obstacles in a change", kInvalid, "add", [](auto& s) {
                      return Obstacles(s, [](auto& r) {
                        for (int i = 0; i <= api::kMaxObstacles; ++i) {
@@ -443,7 +447,7 @@ TEST(BadRequestTest, EachGetsItsCodeAndNamesTheField) {
   std::vector<BadCase> cases = Cases();
   AddNonFiniteSpecCases(cases);
   AddLimitCases(cases);
-  ASSERT_GE(cases.size(), 105u);
+  ASSERT_GE(cases.size(), 106u);
   for (const BadCase& c : cases) {
     const grpc::Status status = c.call(s.stub());
     EXPECT_EQ(status.error_code(), c.code) << c.name << ": " << status.error_message();

@@ -32,6 +32,11 @@ TEST(DownwardCameraTest, FootprintSizesMatchReference) {
   EXPECT_NEAR(camera.FootprintSize(26).y(), 30.022214, 5e-7);
   EXPECT_EQ(camera.FootprintSize(-1), Vec2::Zero());
   EXPECT_THAT(DownwardCamera{.fov_x_deg = 180}.Validate().message(), HasSubstr("fov_x_deg"));
+  // A field of view of 3e-307 deg once passed and made an infinite focal
+  // length (found by fuzz/fuzz_requests).
+  EXPECT_THAT(DownwardCamera{.fov_y_deg = 3.3e-307}.Validate().message(),
+              HasSubstr("fov_y_deg: must be in [0.1, 180)"));
+  EXPECT_TRUE(DownwardCamera{.fov_x_deg = kMinFovDeg}.Validate().ok());
 }
 
 TEST(DownwardCameraTest, FootprintCellsAtTheFieldCentre) {
