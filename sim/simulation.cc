@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "api/limits.h"
 #include "api/spec.h"
 #include "core/common/status_macros.h"
 
@@ -56,8 +57,10 @@ absl::StatusOr<Simulation> Simulation::Create(const v1::Scenario& scenario) {
     return absl::InvalidArgumentError(
         "detector.width_m, detector.h_best_m: must be finite, width > 0");
   }
-  if (!(p.fp_per_image_at_10m >= 0) || !std::isfinite(p.fp_per_image_at_10m)) {
-    return absl::InvalidArgumentError("detector.fp_per_image_at_10m: must be >= 0 and finite");
+  if (!(p.fp_per_image_at_10m >= 0 && p.fp_per_image_at_10m <= kMaxFalsePositivesAt10m)) {
+    return absl::InvalidArgumentError(absl::StrCat("detector.fp_per_image_at_10m: must be in [0, ",
+                                                   kMaxFalsePositivesAt10m, "], got ",
+                                                   p.fp_per_image_at_10m));
   }
   if (!(p.min_confidence >= 0 && p.min_confidence <= 1)) {
     return absl::InvalidArgumentError("detector.min_confidence: must be in [0, 1]");
@@ -114,7 +117,10 @@ std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng) 
     hi = hi.cwiseMin(Vec2(intrinsics_.width_px, intrinsics_.height_px));
     keep_valid({lo.x(), lo.y(), hi.x(), hi.y(), 0.5 + 0.5 * unit(rng)});
   }
-  std::poisson_distribution<int> false_positives(detector_.FalsePositiveRate(h));
+  // The server takes at most api::kMaxBoxes boxes an image; a mean far
+  // above that (a high camera) would only draw boxes to be refused.
+  std::poisson_distribution<int> false_positives(
+      std::min(detector_.FalsePositiveRate(h), static_cast<double>(api::kMaxBoxes)));
   const int n = false_positives(rng);
   // A person's size in pixels at this altitude.
   const double w = intrinsics_.fx_px * 0.75 / h, l = intrinsics_.fy_px * 2.0 / h;

@@ -19,6 +19,10 @@
 
 namespace oaipp::sim {
 
+// Most false positives per image at 10 m a scenario may ask for: a
+// detector that sees 100 people who are not there in every image.
+inline constexpr double kMaxFalsePositivesAt10m = 100.0;
+
 struct DetectorParams {
   double p_max = 0.95;
   double h_best_m = 10.0;

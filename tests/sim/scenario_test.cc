@@ -85,6 +85,12 @@ TEST(ScenarioTest, BadContentNamesTheField) {
   s = ParseScenario(R"({"detector": {"p_max": 1.5}})", "s.json");
   ASSERT_TRUE(s.ok());
   EXPECT_THAT(Simulation::Create(*s).status().message(), HasSubstr("detector.p_max"));
+  // 8.9e81 false positives an image once drew Poisson samples for ever
+  // (found by fuzz/fuzz_scenario).
+  s = ParseScenario(R"({"detector": {"fp_per_image_at_10m": 8.9e81}})", "s.json");
+  ASSERT_TRUE(s.ok());
+  EXPECT_THAT(Simulation::Create(*s).status().message(),
+              HasSubstr("detector.fp_per_image_at_10m: must be in [0, 100]"));
   s = ParseScenario(R"({"mission": {"field": {"resolution_m": -1}}})", "s.json");
   ASSERT_TRUE(s.ok());
   EXPECT_THAT(Simulation::Create(*s).status().message(), HasSubstr("resolution_m"));
