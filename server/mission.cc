@@ -10,6 +10,34 @@
 #include "core/mapping/camera.h"
 
 namespace oaipp::server {
+
+namespace {
+
+// Bytes one log entry holds: the entry and what its vectors and strings own.
+std::int64_t LogEntryBytes(const LogEntry& entry) {
+  std::int64_t bytes = sizeof(LogEntry);
+  if (const auto* input = std::get_if<MeasurementInput>(&entry)) {
+    if (input->labels.has_value()) {
+      bytes += static_cast<std::int64_t>(input->labels->cells.size() * sizeof(int) +
+                                         input->labels->labels.size() * sizeof(double));
+    }
+    if (input->detections.has_value()) {
+      bytes += static_cast<std::int64_t>(input->detections->boxes.size() *
+                                         sizeof(input->detections->boxes[0]));
+    }
+  } else if (const auto* change = std::get_if<ObstacleChange>(&entry)) {
+    bytes +=
+        static_cast<std::int64_t>((change->add.size() + change->replace.size()) * sizeof(Obstacle));
+    for (const Obstacle& o : change->add) bytes += static_cast<std::int64_t>(o.id.size());
+    for (const Obstacle& o : change->replace) bytes += static_cast<std::int64_t>(o.id.size());
+    for (const std::string& id : change->remove) {
+      bytes += static_cast<std::int64_t>(sizeof(std::string) + id.size());
+    }
+  }
+  return bytes;
+}
+
+}  // namespace
 void EventQueue::Push(MissionEventData event) {
   std::function<void()> listener;
   {
@@ -255,6 +283,8 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
                                                      next.obstacles().size(),
                                                      " obstacles; at most ", api::kMaxObstacles));
     }
+    const std::int64_t entry_bytes = LogEntryBytes(change);
+    OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
     OAIPP_RETURN_IF_ERROR(Persist(persist));
     absl::MutexLock lock(&mu_);
     env_ = std::make_shared<const Environment>(std::move(next));
@@ -262,6 +292,7 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
     // removal keeps what was fused: the map cannot forget a measurement.)
     OAIPP_RETURN_IF_ERROR(FuseCoveredCells());
     log_.push_back(change);
+    log_bytes_ += entry_bytes;
     result.obstacle_count = static_cast<int>(env_->obstacles().size());
     result.esdf_voxels_recomputed = env_->esdf().last_recomputed_voxels();
     Publish();
@@ -322,6 +353,8 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
       absl::ReaderMutexLock lock(&mu_);
       OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
     }
+    const std::int64_t entry_bytes = LogEntryBytes(input);
+    OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
     // Durable first: a failed write leaves the mission as it was.
     OAIPP_RETURN_IF_ERROR(Persist(persist));
     absl::MutexLock lock(&mu_);
@@ -332,6 +365,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     result =
         MeasurementResult{static_cast<int>(observations.size()), map.Trace(), measurements_fused_};
     log_.push_back(input);
+    log_bytes_ += entry_bytes;
     Publish(/*obstacles_changed=*/false);
     Remember(request, result);
   }
@@ -523,6 +557,15 @@ MissionSnapshot Mission::Snapshot() const {
 void Mission::ReadMap(const std::function<void(const GpMap&)>& reader) const {
   absl::ReaderMutexLock lock(&mu_);
   reader(*map_);
+}
+
+absl::Status Mission::CheckLogRoom(std::int64_t bytes) const {
+  const std::int64_t held = log_bytes_.load();
+  if (bytes <= log_limit_.load() - held) return absl::OkStatus();
+  return absl::ResourceExhaustedError(absl::StrFormat(
+      "name: the mission's log of applied changes holds %.1f MB, all that this server's "
+      "per-mission memory limit leaves beside its map and ESDF; continue in a new mission",
+      static_cast<double>(held) / 1e6));
 }
 
 std::vector<LogEntry> Mission::Log() const {

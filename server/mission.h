@@ -21,6 +21,7 @@
 #include <atomic>
 #include <deque>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -250,6 +251,13 @@ class Mission {
   // Memory held by the map and the ESDF: fixed at creation, so reading it
   // takes no lock (the server reports it after every call).
   [[nodiscard]] std::int64_t MemoryBytes() const { return memory_bytes_; }
+  // Bytes held by the log of applied changes (Log()), which grows with
+  // every measurement and obstacle change; read without a lock.
+  [[nodiscard]] std::int64_t LogBytes() const { return log_bytes_.load(); }
+  // Changes that would take LogBytes() past `bytes` are refused with
+  // RESOURCE_EXHAUSTED before anything is applied or stored. The registry
+  // sets it from the mission's memory budget; no limit until then.
+  void set_log_limit(std::int64_t bytes) { log_limit_.store(bytes); }
   // Reads the map under the reader lock.
   void ReadMap(const std::function<void(const GpMap&)>& reader) const;
   [[nodiscard]] std::vector<LogEntry> Log() const;
@@ -296,6 +304,9 @@ class Mission {
   absl::Time create_time_;  // set by the constructor, or by recovery before the mission is shared
   const std::int64_t memory_bytes_;
 
+  // OK when `bytes` more fit the log (log_limit_); else RESOURCE_EXHAUSTED.
+  [[nodiscard]] absl::Status CheckLogRoom(std::int64_t bytes) const;
+
   // Locks, outermost first: planner_mu_, mutation_mu_, mu_, then the leaf
   // locks (sequence_mu_, idempotency_mu_, summary_mu_, events_mu_).
   // mutation_mu_ orders mutations and is held for a whole one; mu_ guards
@@ -308,6 +319,8 @@ class Mission {
   std::shared_ptr<GpMap> map_ ABSL_GUARDED_BY(mu_);
   std::set<int> covered_cells_ ABSL_GUARDED_BY(mu_);
   std::vector<LogEntry> log_ ABSL_GUARDED_BY(mu_);
+  std::atomic<std::int64_t> log_bytes_{0};
+  std::atomic<std::int64_t> log_limit_{std::numeric_limits<std::int64_t>::max()};
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
   // request_id -> first result (bounded, oldest forgotten first).

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <thread>
 
 #include "absl/cleanup/cleanup.h"
@@ -165,7 +166,10 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
   absl::StatusOr<std::shared_ptr<Mission>> mission =
       Mission::Create(key, std::move(config), priors_.get());
-  if (mission.ok()) WatchForSnapshots(**mission);
+  if (mission.ok()) {
+    (*mission)->set_log_limit(LogLimit(estimate));
+    WatchForSnapshots(**mission);
+  }
   if (mission.ok() && store_ != nullptr) {
     const absl::Status stored = store_->CreateMission(
         {.id = key,
@@ -196,14 +200,8 @@ MemoryEstimate EstimateMissionBytes(const MissionConfig& config) {
       std::round((config.field_max_W.y() - config.field_min_W.y()) / config.resolution_m);
   const double cells = std::max(0.0, nx * ny);
   e.map_bytes = static_cast<std::int64_t>(2.0 * 8.0 * cells * (cells + 1.0));
-  // The ESDF covers the flight volume padded by the truncation distance on
-  // every side, 4 bytes a voxel.
-  const Aabb volume = config.FlightVolume();
-  double voxels = 1.0;
-  for (int a = 0; a < 3; ++a) {
-    const double extent = volume.max_W[a] - volume.min_W[a] + 2.0 * config.esdf.truncation_m;
-    voxels *= std::ceil(extent / config.esdf.voxel_size_m) + 1.0;
-  }
+  // The ESDF: 4 bytes a voxel.
+  const double voxels = static_cast<double>(Esdf::VoxelCount(config.FlightVolume(), config.esdf));
   e.esdf_bytes = static_cast<std::int64_t>(std::min(2.0 * 4.0 * voxels, 1e18));
   // Each CMA-ES sample: its waypoints, the trajectory and its scored poses
   // (a population of 2,000,000 was seen holding 787 MB, about 400 bytes a
@@ -225,10 +223,17 @@ absl::StatusOr<std::int64_t> MissionRegistry::AdmitMemory(const MissionConfig& c
   return e.total();
 }
 
+std::int64_t MissionRegistry::LogLimit(std::int64_t estimate) const {
+  if (limits_.max_mission_memory_bytes <= 0) return std::numeric_limits<std::int64_t>::max();
+  return std::max<std::int64_t>(0, limits_.max_mission_memory_bytes - estimate);
+}
+
 std::int64_t MissionRegistry::ReservedBytes() const {
   std::int64_t total = 0;
   for (const auto& [key, mission] : missions_) {
-    if (mission != nullptr) total += EstimateMissionBytes(mission->config()).total();
+    if (mission != nullptr) {
+      total += EstimateMissionBytes(mission->config()).total() + mission->LogBytes();
+    }
   }
   for (const auto& [key, bytes] : building_bytes_) total += bytes;
   return total;
@@ -303,6 +308,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMi
     if (absl::Status status = Replay(**mission, record); !status.ok()) return failed(status);
     last_write_us = std::max(last_write_us, record.write_time_unix_us);
   }
+  // Set after the replay: what was stored is rebuilt even if the limit has
+  // shrunk since.
+  (*mission)->set_log_limit(LogLimit(EstimateMissionBytes((*mission)->config()).total()));
   (*mission)->set_create_time(absl::FromUnixMicros(m.create_time_unix_us));
   (*mission)->set_last_change_time(absl::FromUnixMicros(last_write_us));
   WatchForSnapshots(**mission);

@@ -171,6 +171,9 @@ class MissionRegistry {
   absl::StatusOr<std::int64_t> AdmitMemory(const MissionConfig& config) const;
   // What the missions held and being built may need together.
   std::int64_t ReservedBytes() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // What a mission estimated at `estimate` bytes may keep in its log:
+  // the rest of max_mission_memory_bytes (no limit without one).
+  std::int64_t LogLimit(std::int64_t estimate) const;
 
   const RegistryLimits limits_;
   // Prior covariances shared by missions over the same kind of field: a

@@ -22,8 +22,8 @@ absl::Status CheckFiniteVector(absl::string_view field, const v1::Vector3& v) {
 absl::Status CheckBoundedVector(absl::string_view field, const v1::Vector3& v, double bound) {
   for (const auto& [axis, value] : {std::pair{".x", v.x()}, {".y", v.y()}, {".z", v.z()}}) {
     if (!(std::abs(value) <= bound)) {  // true for NaN
-      return absl::InvalidArgumentError(absl::StrCat(field, axis, ": must be finite and within +-",
-                                                     bound, ", got ", value));
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, axis, ": must be finite and within +-", bound, ", got ", value));
     }
   }
   return absl::OkStatus();

@@ -53,6 +53,28 @@ void DistanceTransform1d(const float* f, int n, float* d, int* v, double* z) {
 
 }  // namespace
 
+namespace {
+
+// Voxels along axis `a` of `domain` (already padded): Create's rule.
+double AxisVoxels(const Aabb& domain, int a, double voxel_m) {
+  return std::ceil(domain.Size()[a] / voxel_m - 1e-9);
+}
+
+}  // namespace
+
+std::int64_t Esdf::VoxelCount(const Aabb& volume, const EsdfConfig& config) {
+  constexpr std::int64_t kTooMany = std::numeric_limits<std::int64_t>::max();
+  if (!(config.voxel_size_m > 0.0)) return kTooMany;
+  const Aabb domain = volume.Inflated(config.truncation_m);
+  std::int64_t count = 1;
+  for (int a = 0; a < 3; ++a) {
+    const double n = AxisVoxels(domain, a, config.voxel_size_m);
+    if (!(n <= 1e6)) return kTooMany;
+    count *= std::max<std::int64_t>(1, static_cast<std::int64_t>(n));
+  }
+  return count;
+}
+
 absl::StatusOr<Esdf> Esdf::Create(const Aabb& volume, const EsdfConfig& config) {
   if (!AllFinite(volume.min_W) || !AllFinite(volume.max_W)) {
     return absl::InvalidArgumentError("volume: bounds must be finite");
@@ -79,7 +101,7 @@ absl::StatusOr<Esdf> Esdf::Create(const Aabb& volume, const EsdfConfig& config) 
   esdf.origin_W_ = domain.min_W;
   std::int64_t count = 1;
   for (int a = 0; a < 3; ++a) {
-    const double n = std::ceil(domain.Size()[a] / config.voxel_size_m - 1e-9);
+    const double n = AxisVoxels(domain, a, config.voxel_size_m);
     if (n > 1e6) return absl::ResourceExhaustedError("esdf: grid too large along one axis");
     esdf.dims_[a] = std::max(1, static_cast<int>(n));
     count *= esdf.dims_[a];

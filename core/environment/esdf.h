@@ -61,6 +61,12 @@ class Esdf {
   // volume, ResourceExhausted when the grid would exceed config.max_voxels.
   [[nodiscard]] static absl::StatusOr<Esdf> Create(const Aabb& volume, const EsdfConfig& config);
 
+  // The voxels Create would allocate for `volume` and `config`, counted
+  // before allocating anything (memory admission, size guards); int64 max
+  // when Create would refuse an axis as too long or the voxel size is not
+  // positive.
+  [[nodiscard]] static std::int64_t VoxelCount(const Aabb& volume, const EsdfConfig& config);
+
   Esdf(Esdf&&) = default;
   Esdf& operator=(Esdf&&) = default;
   // The grid holds megabytes: copies are explicit.

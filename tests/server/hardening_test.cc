@@ -131,6 +131,47 @@ TEST(HardeningTest, APlanWithoutABudgetEndsAtTheServersLimit) {
   EXPECT_EQ(path.stats().stop_reason(), "deadline");
 }
 
+// The log of applied changes counts against the mission's memory: past
+// what max_mission_memory leaves beside the map and the ESDF, measurements
+// are refused before anything is applied, and other missions go on.
+TEST(HardeningTest, AMissionsLogIsBoundedByItsMemoryLimit) {
+  const std::int64_t estimate =
+      EstimateMissionBytes(*api::MissionSpecToConfig(SmallSpec())).total();
+  InProcessService s({.max_missions = 8,
+                      .max_cells_per_mission = 1600,
+                      .max_mission_memory_bytes = estimate + 4096});
+  CreateSmall(s.stub(), "full");
+  CreateSmall(s.stub(), "other");
+  int accepted = 0;
+  grpc::Status refused;
+  for (int i = 1; i <= 200 && refused.ok(); ++i) {
+    grpc::ClientContext context;
+    v1::AddMeasurementResponse out;
+    refused =
+        s.stub().AddMeasurement(&context, LabelMeasurement("missions/full", -4, 4, 8, i, 0), &out);
+    if (refused.ok()) ++accepted;
+  }
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_EQ(refused.error_message().rfind("name: the mission's log", 0), 0u)
+      << refused.error_message();
+  // A 9-label measurement's entry is a few hundred bytes: 4096 bytes hold
+  // a handful, far fewer than 200.
+  EXPECT_GE(accepted, 3);
+  EXPECT_LE(accepted, 40);
+  grpc::ClientContext get_context;
+  v1::GetMissionRequest get;
+  get.set_name("missions/full");
+  v1::Mission mission;
+  ASSERT_TRUE(s.stub().GetMission(&get_context, get, &mission).ok());
+  EXPECT_EQ(mission.measurements_fused(), accepted);
+  grpc::ClientContext other_context;
+  v1::AddMeasurementResponse out;
+  EXPECT_TRUE(
+      s.stub()
+          .AddMeasurement(&other_context, LabelMeasurement("missions/other", -4, 4, 8, 1, 0), &out)
+          .ok());
+}
+
 // Tenants: two tokens, two namespaces.
 class TenantTest : public ::testing::Test {
  protected:
