@@ -1,5 +1,6 @@
 #include "core/mapping/gp_params.h"
 
+#include "absl/strings/str_cat.h"
 #include "core/common/geometry.h"
 #include "core/common/status_macros.h"
 
@@ -9,6 +10,14 @@ absl::Status GpParams::Validate() const {
   OAIPP_RETURN_IF_ERROR(CheckPositive("length_scale_m", length_scale_m));
   OAIPP_RETURN_IF_ERROR(CheckPositive("signal_var", signal_var));
   OAIPP_RETURN_IF_ERROR(CheckPositive("noise_var", noise_var));
+  // The prior is computed as sn2 I - sn2^2 (K + sn2 I)^-1 (gp_map.cc), whose
+  // round-off grows with sn2: far past the signal it swamps the covariance
+  // (sn2 = 1e20 with sf2 = 0.3 made it indefinite).
+  if (!(noise_var <= kMaxNoiseToSignal * signal_var)) {
+    return absl::InvalidArgumentError(absl::StrCat("noise_var: must be at most ", kMaxNoiseToSignal,
+                                                   " x signal_var (", signal_var, "), got ",
+                                                   noise_var));
+  }
   return CheckFinite("prior_mean", prior_mean);
 }
 

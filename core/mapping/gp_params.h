@@ -25,13 +25,17 @@ namespace oaipp {
 }
 
 // Hyper-parameters of the field map. The defaults are PaperPreset(0.75).
+// Largest noise_var / signal_var a GpParams may have (see Validate).
+inline constexpr double kMaxNoiseToSignal = 1e6;
+
 struct GpParams {
   // Matérn length scale l, metres. Valid: > 0.
   double length_scale_m = 2.7519725007144333;
   // Kernel signal variance sf2 (label units squared). Valid: > 0.
   double signal_var = 1.8221188003905089;
   // Noise variance sn2 used only to build the prior P0 = K - K (K + sn2 I)^-1 K.
-  // Valid: > 0 (sn2 = 0 would make P0 zero).
+  // Valid: > 0 (sn2 = 0 would make P0 zero) and at most kMaxNoiseToSignal
+  // x signal_var.
   double noise_var = 2.0137527074704766;
   // Prior mean mu0 of every cell: targets are sparse. Valid: finite.
   double prior_mean = 0.1;

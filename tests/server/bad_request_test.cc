@@ -136,6 +136,10 @@ std::vector<BadCase> Cases() {
        [](auto& s) {
          return Create(s, "x8", [](auto& p) { p.mutable_sensor()->set_fov_y_deg(3.3e-307); });
        }},
+      {"noise 1e20 x the signal", kInvalid, "spec.gp.noise_var",
+       [](auto& s) {
+         return Create(s, "x8", [](auto& p) { p.mutable_gp()->set_noise_var(1e20); });
+       }},
       {"altitudes inverted", kInvalid, "altitude",
        [](auto& s) {
          return Create(s, "x9", [](auto& p) { p.mutable_flight()->set_min_altitude_m(30); });
@@ -447,7 +451,7 @@ TEST(BadRequestTest, EachGetsItsCodeAndNamesTheField) {
   std::vector<BadCase> cases = Cases();
   AddNonFiniteSpecCases(cases);
   AddLimitCases(cases);
-  ASSERT_GE(cases.size(), 106u);
+  ASSERT_GE(cases.size(), 107u);
   for (const BadCase& c : cases) {
     const grpc::Status status = c.call(s.stub());
     EXPECT_EQ(status.error_code(), c.code) << c.name << ": " << status.error_message();
