@@ -3,10 +3,11 @@
 # project twice and runs the whole test suite with ctest in each build:
 #   1. Release, warnings as errors (./build);
 #   2. Debug with AddressSanitizer + UndefinedBehaviorSanitizer, asserts live,
-#      warnings as errors (./build-asan; -O1 so the suite fits CI's time).
-#   bash deploy/test.sh                 # both
+#      warnings as errors (./build-asan; -O1 so the suite fits CI's time);
+# then runs each libFuzzer target for 30 s (fuzz/run.sh, clang, ./build-fuzz).
+#   bash deploy/test.sh                 # all three
 #   OAIPP_SANITIZERS=0 bash deploy/test.sh   # the Release build only
-#   BUILD_DIR=/tmp/b bash deploy/test.sh     # build dirs /tmp/b and /tmp/b-asan
+#   BUILD_DIR=/tmp/b bash deploy/test.sh     # build dirs /tmp/b, /tmp/b-asan and /tmp/b-fuzz
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -45,3 +46,10 @@ if [ "${OAIPP_SANITIZERS:-1}" != "0" ]; then
   unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
 fi
 build_and_test "$build" -DCMAKE_BUILD_TYPE=Release
+
+if [ "${OAIPP_SANITIZERS:-1}" != "0" ]; then
+  # Saved crash inputs (fuzz/regressions/) must run clean, and 30 s of
+  # fuzzing per target (seeded, so a failure can be repeated) must find
+  # nothing new.
+  BUILD_DIR="$build-fuzz" JOBS="$jobs" FUZZ_SECONDS=30 FUZZ_SEED=1 bash "$root/fuzz/run.sh"
+fi
