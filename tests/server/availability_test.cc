@@ -12,9 +12,11 @@
 #include <sstream>
 #include <thread>
 
+#include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "absl/time/clock.h"
 #include "grpc/health/v1/health.grpc.pb.h"
+#include "grpcpp/generic/generic_stub.h"
 #include "gtest/gtest.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
 #include "tests/server/server_process.h"
@@ -231,6 +233,67 @@ TEST(ListenTest, PlaintextOffLoopbackIsRefusedUnlessAllowed) {
   EXPECT_EQ(WEXITSTATUS(status), 2);
   // (Serving in the clear off loopback with --allow_insecure_remote is not
   // tried here: the tests never listen beyond 127.0.0.1.)
+}
+
+// Asks the server's reflection service to list its services (a hand-made
+// grpc.reflection.v1alpha.ServerReflectionRequest with list_services set:
+// Debian ships no client stubs for it). The answer's bytes, or the status
+// when the call failed.
+absl::StatusOr<std::string> ListServicesByReflection(
+    const std::shared_ptr<grpc::Channel>& channel) {
+  grpc::GenericStub generic(channel);
+  grpc::CompletionQueue queue;
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  const auto wait = [&queue] {
+    void* tag = nullptr;
+    bool ok = false;
+    return queue.Next(&tag, &ok) && ok;
+  };
+  auto call = generic.PrepareCall(
+      &context, "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &queue);
+  call->StartCall(nullptr);
+  wait();
+  const std::string request("\x3a\x00", 2);  // field 7 (list_services), empty
+  grpc::Slice slice(request);
+  grpc::ByteBuffer out(&slice, 1);
+  call->Write(out, nullptr);
+  wait();
+  call->WritesDone(nullptr);
+  wait();
+  grpc::ByteBuffer in;
+  call->Read(&in, nullptr);
+  const bool read = wait();
+  grpc::Status status;
+  call->Finish(&status, nullptr);
+  wait();
+  queue.Shutdown();
+  if (!status.ok()) return absl::Status(static_cast<absl::StatusCode>(status.error_code()), "");
+  if (!read) return absl::UnknownError("no answer");
+  std::vector<grpc::Slice> slices;
+  (void)in.Dump(&slices);
+  std::string answer;
+  for (const grpc::Slice& piece : slices) {
+    answer.append(reinterpret_cast<const char*>(piece.begin()), piece.size());
+  }
+  return answer;
+}
+
+TEST(ReflectionTest, OnByDefaultAndOffByFlag) {
+  const int port = FreePort();
+  {
+    testing::ServerProcess server(port, {"--store=memory"});
+    ASSERT_TRUE(server.Start());
+    const absl::StatusOr<std::string> answer =
+        ListServicesByReflection(testing::QuickReconnectChannel(server.address()));
+    ASSERT_TRUE(answer.ok()) << answer.status();
+    EXPECT_NE(answer->find("oaipp.v1.MissionService"), std::string::npos);
+  }
+  testing::ServerProcess server(port + 1, {"--store=memory", "--reflection=false"});
+  ASSERT_TRUE(server.Start());
+  const absl::StatusOr<std::string> answer =
+      ListServicesByReflection(testing::QuickReconnectChannel(server.address()));
+  EXPECT_EQ(answer.status().code(), absl::StatusCode::kUnimplemented) << answer.status();
 }
 
 }  // namespace
