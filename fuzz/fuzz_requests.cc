@@ -67,24 +67,6 @@ using api::MissionConfig;
 using google::protobuf::util::DefaultFieldComparator;
 using google::protobuf::util::MessageDifferencer;
 
-// Byte 0 of an input, modulo kNumKinds. New kinds go at the end, so that
-// the committed corpus keeps its meaning.
-enum class MessageKind : std::uint8_t {
-  kCreateMission = 0,
-  kGetMission = 1,
-  kListMissions = 2,
-  kDeleteMission = 3,
-  kUpdateObstacles = 4,
-  kAddMeasurement = 5,
-  kPlanPath = 6,
-  kGetMap = 7,
-  kWatchMission = 8,
-  // Not a request: the server reads its stored first answers back with
-  // api::PlannedPathFromProto (server/registry.cc, store/state_codec.cc).
-  kPlanPathResponse = 9,
-};
-constexpr int kNumKinds = 10;
-
 constexpr std::int64_t kMaxFuzzVoxels = 1 << 17;
 constexpr std::int64_t kMaxFuzzVoxelWork = 1 << 21;
 constexpr int kMaxFuzzCells = 256;

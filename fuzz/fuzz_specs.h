@@ -1,13 +1,32 @@
-// Messages shared by the fuzz targets and the seed writer: the fixed small
-// mission that fuzz_requests applies measurements and obstacle changes to,
-// and the vector and obstacle helpers that build requests for it.
+// What the fuzz targets and the seed writer share: fuzz_requests' message
+// types, the fixed small mission it applies measurements and obstacle
+// changes to, and the vector and obstacle helpers that build requests.
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 #include "oaipp/v1/mission_service.pb.h"
 
 namespace oaipp::fuzz {
+
+// fuzz_requests' message types: byte 0 of an input, modulo kNumKinds. New
+// kinds go at the end, so that the committed corpus keeps its meaning.
+enum class MessageKind : std::uint8_t {
+  kCreateMission = 0,
+  kGetMission = 1,
+  kListMissions = 2,
+  kDeleteMission = 3,
+  kUpdateObstacles = 4,
+  kAddMeasurement = 5,
+  kPlanPath = 6,
+  kGetMap = 7,
+  kWatchMission = 8,
+  // Not a request: the server reads its stored first answers back with
+  // api::PlannedPathFromProto (server/registry.cc, store/state_codec.cc).
+  kPlanPathResponse = 9,
+};
+inline constexpr int kNumKinds = 10;
 
 [[nodiscard]] v1::Vector3 V(double x, double y, double z);
 

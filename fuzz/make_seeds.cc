@@ -33,19 +33,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// As in fuzz_requests.cc.
-enum Kind : std::uint8_t {
-  kCreateMission = 0,
-  kGetMission = 1,
-  kListMissions = 2,
-  kDeleteMission = 3,
-  kUpdateObstacles = 4,
-  kAddMeasurement = 5,
-  kPlanPath = 6,
-  kGetMap = 7,
-  kWatchMission = 8,
-  kPlanPathResponse = 9,
-};
+using Kind = MessageKind;
 
 // The scenario files that seed both targets.
 constexpr const char* kScenarios[] = {"e1", "e4", "e5"};
@@ -145,36 +133,37 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
     create.set_mission_id(name);
     *create.mutable_spec() = scenario->mission();
     create.set_request_id(absl::StrCat("seed-", name));
-    WriteSeed(dir, absl::StrCat("create_mission-", name), kCreateMission, create);
+    WriteSeed(dir, absl::StrCat("create_mission-", name), Kind::kCreateMission, create);
     // The effective spec (every field set) of the same mission.
     absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(scenario->mission());
     if (config.ok()) {
       *create.mutable_spec() = api::ConfigToMissionSpec(*config);
-      WriteSeed(dir, absl::StrCat("create_mission-", name, "-effective"), kCreateMission, create);
+      WriteSeed(dir, absl::StrCat("create_mission-", name, "-effective"), Kind::kCreateMission,
+                create);
     }
   }
   v1::CreateMissionRequest create;
-  WriteSeed(dir, "create_mission-default", kCreateMission, create);
+  WriteSeed(dir, "create_mission-default", Kind::kCreateMission, create);
   create.set_mission_id("custom");
   *create.mutable_spec() = CustomSpec();
-  WriteSeed(dir, "create_mission-custom", kCreateMission, create);
+  WriteSeed(dir, "create_mission-custom", Kind::kCreateMission, create);
   create.set_mission_id("small");
   // The fixed mission, which the fuzzer can afford to build.
   *create.mutable_spec() = FixedMissionSpec();
   *create.mutable_spec()->mutable_start()->mutable_position_m() = V(-2, -2, 6);
-  WriteSeed(dir, "create_mission-small", kCreateMission, create);
+  WriteSeed(dir, "create_mission-small", Kind::kCreateMission, create);
 
   v1::GetMissionRequest get;
   get.set_name("missions/e1");
-  WriteSeed(dir, "get_mission", kGetMission, get);
+  WriteSeed(dir, "get_mission", Kind::kGetMission, get);
   v1::ListMissionsRequest list;
   list.set_page_size(10);
   list.set_page_token("cDEuMy5hYmNkZWY");
-  WriteSeed(dir, "list_missions", kListMissions, list);
+  WriteSeed(dir, "list_missions", Kind::kListMissions, list);
   v1::DeleteMissionRequest del;
   del.set_name("missions/e1");
   del.set_request_id("delete-1");
-  WriteSeed(dir, "delete_mission", kDeleteMission, del);
+  WriteSeed(dir, "delete_mission", Kind::kDeleteMission, del);
 
   // Against fuzz_requests.cc's fixed mission: obstacles "tower" and "mast".
   v1::UpdateObstaclesRequest update;
@@ -188,7 +177,7 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
   update.add_remove("mast");
   *update.add_replace() = BoxObstacle("tower", V(2, -1, 6), V(2, 2, 12), 0);
   update.set_request_id("obstacles-1");
-  WriteSeed(dir, "update_obstacles", kUpdateObstacles, update);
+  WriteSeed(dir, "update_obstacles", Kind::kUpdateObstacles, update);
 
   v1::AddMeasurementRequest labels;
   labels.set_name("missions/e1");
@@ -201,7 +190,7 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
     labels.mutable_labels()->add_labels(label);
   }
   labels.set_request_id("measurement-1");
-  WriteSeed(dir, "add_measurement-labels", kAddMeasurement, labels);
+  WriteSeed(dir, "add_measurement-labels", Kind::kAddMeasurement, labels);
 
   v1::AddMeasurementRequest detections;
   detections.set_name("missions/e1");
@@ -232,14 +221,14 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
   }
   d.set_min_confidence(0.5);
   detections.set_request_id("measurement-2");
-  WriteSeed(dir, "add_measurement-detections", kAddMeasurement, detections);
+  WriteSeed(dir, "add_measurement-detections", Kind::kAddMeasurement, detections);
   // The default image (480 x 640) of the mission's field of view.
   d.clear_intrinsics();
   d.mutable_boxes(1)->set_y_max_px(600);
   d.mutable_boxes(2)->set_x_max_px(470);
   d.mutable_boxes(2)->set_x_min_px(400);
   detections.set_camera_yaw_deg(-90);
-  WriteSeed(dir, "add_measurement-default_image", kAddMeasurement, detections);
+  WriteSeed(dir, "add_measurement-default_image", Kind::kAddMeasurement, detections);
 
   v1::PlanPathRequest plan;
   plan.set_name("missions/e1");
@@ -251,16 +240,16 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
   plan.set_next_shot_mission_s(6.6);
   plan.set_planning_budget_s(0.5);
   plan.set_request_id("plan-1");
-  WriteSeed(dir, "plan_path", kPlanPath, plan);
+  WriteSeed(dir, "plan_path", Kind::kPlanPath, plan);
 
   v1::GetMapRequest map;
   map.set_name("missions/e1");
   map.set_include_cells(true);
   map.set_include_png(true);
-  WriteSeed(dir, "get_map", kGetMap, map);
+  WriteSeed(dir, "get_map", Kind::kGetMap, map);
   v1::WatchMissionRequest watch;
   watch.set_name("missions/e1");
-  WriteSeed(dir, "watch_mission", kWatchMission, watch);
+  WriteSeed(dir, "watch_mission", Kind::kWatchMission, watch);
 
   // A two-segment path as the server writes it: climb, then cruise.
   PolynomialTrajectory::SegmentCoefficients climb =
@@ -294,7 +283,7 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
                 .initial_objective = 0.6};
   v1::PlanPathResponse response;
   api::PlannedPathToProto(path, &response);
-  WriteSeed(dir, "plan_path_response", kPlanPathResponse, response);
+  WriteSeed(dir, "plan_path_response", Kind::kPlanPathResponse, response);
 }
 
 void WriteScenarioSeeds(const fs::path& root, const fs::path& dir) {

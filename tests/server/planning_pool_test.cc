@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <memory>
 #include <vector>
 
 #include "absl/synchronization/notification.h"
@@ -13,17 +14,23 @@
 namespace oaipp::server {
 namespace {
 
+// Submits a job of mission `key` that holds its planner until `release` is
+// notified, and waits until it runs (unless the pool refused it).
+absl::StatusOr<PlanningPool::Handle> HoldAPlanner(PlanningPool& pool, const std::string& key,
+                                                  absl::Notification& release) {
+  auto started = std::make_shared<absl::Notification>();
+  absl::StatusOr<PlanningPool::Handle> job = pool.Submit(key, [started, &release] {
+    started->Notify();
+    release.WaitForNotification();
+  });
+  if (job.ok()) started->WaitForNotification();
+  return job;
+}
+
 TEST(PlanningPoolTest, RunsUpToThreadsPlusQueueThenRefuses) {
   PlanningPool pool(/*threads=*/1, /*queue=*/1);
   absl::Notification release;
-  absl::Notification started;
-  ASSERT_TRUE(pool.Submit("a",
-                          [&] {
-                            started.Notify();
-                            release.WaitForNotification();
-                          })
-                  .ok());
-  started.WaitForNotification();
+  ASSERT_TRUE(HoldAPlanner(pool, "a", release).ok());
   EXPECT_EQ(pool.running(), 1);
   std::atomic<int> ran{0};
   ASSERT_TRUE(pool.Submit("b", [&] { ++ran; }).ok());
@@ -38,14 +45,7 @@ TEST(PlanningPoolTest, RunsUpToThreadsPlusQueueThenRefuses) {
 TEST(PlanningPoolTest, ACancelledJobNeverRunsAndFreesItsPlaceAtOnce) {
   PlanningPool pool(/*threads=*/1, /*queue=*/1);
   absl::Notification release;
-  absl::Notification started;
-  ASSERT_TRUE(pool.Submit("a",
-                          [&] {
-                            started.Notify();
-                            release.WaitForNotification();
-                          })
-                  .ok());
-  started.WaitForNotification();
+  ASSERT_TRUE(HoldAPlanner(pool, "a", release).ok());
   bool ran = false;
   absl::StatusOr<PlanningPool::Handle> queued = pool.Submit("b", [&] { ran = true; });
   ASSERT_TRUE(queued.ok());
@@ -61,13 +61,8 @@ TEST(PlanningPoolTest, ACancelledJobNeverRunsAndFreesItsPlaceAtOnce) {
 TEST(PlanningPoolTest, AStartedJobCannotBeCancelled) {
   PlanningPool pool(/*threads=*/1, /*queue=*/0);
   absl::Notification release;
-  absl::Notification started;
-  absl::StatusOr<PlanningPool::Handle> job = pool.Submit("a", [&] {
-    started.Notify();
-    release.WaitForNotification();
-  });
+  absl::StatusOr<PlanningPool::Handle> job = HoldAPlanner(pool, "a", release);
   ASSERT_TRUE(job.ok());
-  started.WaitForNotification();
   EXPECT_FALSE(job->Cancel());
   release.Notify();
 }
