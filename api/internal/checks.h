@@ -31,8 +31,7 @@ template <typename T>
 [[nodiscard]] absl::Status CheckBoundedVector(absl::string_view field, const v1::Vector3& v,
                                               double bound);
 // 0 < value <= bound.
-[[nodiscard]] absl::Status CheckPositiveAtMost(absl::string_view field, double value,
-                                               double bound);
+[[nodiscard]] absl::Status CheckPositiveAtMost(absl::string_view field, double value, double bound);
 [[nodiscard]] absl::Status CheckNonNegative(absl::string_view field, double value);
 [[nodiscard]] absl::Status CheckUnitInterval(absl::string_view field, double value);
 // lo < value < hi.
