@@ -165,6 +165,11 @@ ABSL_FLAG(absl::Duration, keep_finished, absl::Hours(7 * 24),
           "then deleted with its records ('inf': forever)");
 ABSL_FLAG(absl::Duration, keep_idle, absl::Hours(30 * 24),
           "how long any mission is kept after its last change ('inf': forever)");
+ABSL_FLAG(bool, cluster, false,
+          "this server is one of several replicas sharing a PostgreSQL --store behind a proxy "
+          "that routes by the x-oaipp-mission header: it loads no mission at start, takes a "
+          "mission over from the store when a call for it arrives, and drops a mission another "
+          "replica has taken (docs/cluster.md)");
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("OA-IPP planning service (oaipp.v1.MissionService)");
@@ -240,6 +245,11 @@ int main(int argc, char** argv) {
     max_memory = static_cast<std::int64_t>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGE_SIZE) / 2;
   }
 
+  const bool cluster = absl::GetFlag(FLAGS_cluster);
+  if (cluster && !absl::StartsWith(absl::GetFlag(FLAGS_store), "postgres")) {
+    spdlog::error("--cluster needs a store the replicas share: --store=postgresql://...");
+    return 2;
+  }
   std::unique_ptr<oaipp::server::MissionStore> store;
   {
     const std::string kind = absl::GetFlag(FLAGS_store);
@@ -262,7 +272,8 @@ int main(int argc, char** argv) {
        .recovery_threads = absl::GetFlag(FLAGS_recovery_threads),
        .max_missions_per_tenant = absl::GetFlag(FLAGS_max_missions_per_tenant),
        .max_mission_memory_bytes = absl::GetFlag(FLAGS_max_mission_memory_mb) << 20,
-       .max_memory_bytes = max_memory},
+       .max_memory_bytes = max_memory,
+       .shared_store = cluster},
       store.get());
   {
     const absl::Time started = absl::Now();
@@ -271,7 +282,9 @@ int main(int argc, char** argv) {
       spdlog::error("store: {}", recovered.status().ToString());
       return 1;
     }
-    if (store != nullptr) {
+    if (cluster) {
+      spdlog::info("cluster: missions are taken over from the store as calls for them arrive");
+    } else if (store != nullptr) {
       spdlog::info("store: recovered {} missions in {:.3f} s", *recovered,
                    absl::ToDoubleSeconds(absl::Now() - started));
     }

@@ -76,10 +76,11 @@ std::optional<MissionEventData> EventQueue::Pop(absl::Time until) {
   return event;
 }
 
-void EventQueue::Close() {
+void EventQueue::Close(absl::Status reason) {
   std::function<void()> listener;
   {
     absl::MutexLock lock(&mu_);
+    if (!closed_) close_reason_ = std::move(reason);
     closed_ = true;
     listener = listener_;
   }
@@ -89,6 +90,11 @@ void EventQueue::Close() {
 bool EventQueue::closed() const {
   absl::MutexLock lock(&mu_);
   return closed_ && events_.empty();
+}
+
+absl::Status EventQueue::close_reason() const {
+  absl::MutexLock lock(&mu_);
+  return close_reason_;
 }
 
 std::int64_t EventQueue::dropped() const {
@@ -602,6 +608,12 @@ void Mission::MarkDeleted() {
   Emit(MissionEventData::Deleted{});
   absl::MutexLock lock(&events_mu_);
   for (const auto& w : watchers_) w->Close();
+  watchers_.clear();
+}
+
+void Mission::MarkMoved(const absl::Status& reason) {
+  absl::MutexLock lock(&events_mu_);
+  for (const auto& w : watchers_) w->Close(reason);
   watchers_.clear();
 }
 

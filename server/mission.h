@@ -96,14 +96,18 @@ class EventQueue {
   // Called after every Push and Close, outside the queue's lock (a stream
   // is woken this way instead of a thread waiting in Pop).
   void SetListener(std::function<void()> listener);
-  void Close();
+  // No more events; the watcher's stream ends with `reason` (OK: the
+  // mission was deleted and the watcher was told so by an event).
+  void Close(absl::Status reason = absl::OkStatus());
   [[nodiscard]] bool closed() const;
+  [[nodiscard]] absl::Status close_reason() const;
   [[nodiscard]] std::int64_t dropped() const;
 
  private:
   mutable absl::Mutex mu_;
   std::deque<MissionEventData> events_ ABSL_GUARDED_BY(mu_);
   bool closed_ ABSL_GUARDED_BY(mu_) = false;
+  absl::Status close_reason_ ABSL_GUARDED_BY(mu_);
   std::int64_t dropped_ ABSL_GUARDED_BY(mu_) = 0;
   std::function<void()> listener_ ABSL_GUARDED_BY(mu_);
   std::size_t capacity_;
@@ -272,6 +276,16 @@ class Mission {
   void HandWatchersTo(Mission& successor);
   // Tells watchers the mission is gone and closes their queues.
   void MarkDeleted();
+  // This copy of the mission is no longer this server's to serve (another
+  // server of a cluster took it over): closes the watchers' queues with
+  // `reason`, so that their streams end and they watch again where the
+  // mission is now.
+  void MarkMoved(const absl::Status& reason);
+
+  // The store's ownership epoch this copy was read at (MissionStore::Claim);
+  // every record it writes states it.
+  [[nodiscard]] std::int64_t epoch() const { return epoch_.load(); }
+  void set_epoch(std::int64_t epoch) { epoch_.store(epoch); }
 
  private:
   Mission(std::string id, MissionConfig config, Environment env, GpMap map,
@@ -357,6 +371,7 @@ class Mission {
   std::atomic<std::int64_t> snapshot_measurements_{0};
   std::atomic<bool> snapshot_pending_{false};
   std::atomic<std::int64_t> last_change_unix_us_{0};
+  std::atomic<std::int64_t> epoch_{1};
 
   absl::Mutex events_mu_;
   std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;

@@ -95,16 +95,54 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   OAIPP_ASSIGN_OR_RETURN(const std::int64_t estimate, AdmitMemory(config));
   // request_ids, like mission ids, are the tenant's own.
   const std::string request_key = request_id.empty() ? "" : Key(tenant, request_id);
+  const auto reused = [&](absl::string_view created_id) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("request_id: ", api::EchoInput(request_id),
+                     " was first used to create mission '", PublicId(created_id),
+                     "' with a different request; a new mission needs a new request_id"));
+  };
+  // With a shared store, the first attempt of a retried create may have
+  // reached another server: the store knows what the request_id created.
+  if (limits_.shared_store && !request_key.empty()) {
+    std::string created_id;
+    std::string created_print;
+    {
+      absl::MutexLock lock(&mu_);
+      if (const auto* created = created_by_request_.Find(request_key)) {
+        std::tie(created_id, created_print) = *created;
+      }
+    }
+    if (created_id.empty()) {
+      absl::StatusOr<StoredMission> found = store_->CreatedBy(request_key);
+      if (found.ok()) {
+        created_id = found->id;
+        created_print = found->fingerprint;
+      } else if (found.status().code() != absl::StatusCode::kNotFound) {
+        return found.status();
+      }
+    }
+    if (!created_id.empty()) {
+      if (!fingerprint.empty() && !created_print.empty() && fingerprint != created_print) {
+        return reused(created_id);
+      }
+      absl::StatusOr<std::shared_ptr<Mission>> held =
+          Hold(created_id, Find(created_id), absl::StrCat(kPrefix, PublicId(created_id)));
+      if (held.status().code() == absl::StatusCode::kNotFound) {
+        return absl::FailedPreconditionError(absl::StrCat("request_id: ",
+                                                          api::EchoInput(request_id),
+                                                          " created mission '",
+                                                          PublicId(created_id), "', which is gone"));
+      }
+      return held;
+    }
+  }
   std::string key;
   {
     absl::MutexLock lock(&mu_);
     if (const auto* created = created_by_request_.Find(request_key)) {
       const auto& [created_id, created_print] = *created;
       if (!fingerprint.empty() && !created_print.empty() && fingerprint != created_print) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("request_id: ", api::EchoInput(request_id),
-                         " was first used to create mission '", PublicId(created_id),
-                         "' with a different request; a new mission needs a new request_id"));
+        return reused(created_id);
       }
       auto m = missions_.find(created_id);
       if (m != missions_.end() && m->second != nullptr) return m->second;
@@ -183,13 +221,144 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   absl::MutexLock lock(&mu_);
   std::move(release).Cancel();
   building_bytes_.erase(key);
-  missions_[key] = *mission;
-  number_of_[key] = next_number_;
-  order_[next_number_++] = key;
+  Register(key, *mission);
   if (!request_key.empty()) {
     created_by_request_.Remember(request_key, {key, fingerprint});
   }
   return mission;
+}
+
+void MissionRegistry::Register(const std::string& key, std::shared_ptr<Mission> mission) {
+  missions_[key] = std::move(mission);
+  if (!number_of_.contains(key)) {
+    number_of_[key] = next_number_;
+    order_[next_number_++] = key;
+  }
+}
+
+std::shared_ptr<Mission> MissionRegistry::Find(const std::string& key) const {
+  absl::MutexLock lock(&mu_);
+  auto it = missions_.find(key);
+  return it == missions_.end() ? nullptr : it->second;
+}
+
+absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Hold(const std::string& key,
+                                                               std::shared_ptr<Mission> held,
+                                                               absl::string_view name) {
+  if (held != nullptr) {
+    // One indexed read: whether another server has claimed the mission
+    // since this copy was read.
+    absl::StatusOr<std::int64_t> epoch = store_->Epoch(key);
+    if (epoch.ok() && *epoch == held->epoch()) return held;
+    if (!epoch.ok() && epoch.status().code() != absl::StatusCode::kNotFound) {
+      return epoch.status();
+    }
+    Drop(key, held,
+         absl::UnavailableError(absl::StrCat("name: mission '", name,
+                                             "' moved to another server; watch it again")));
+    if (!epoch.ok()) return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+  }
+  return TakeOver(key, name);
+}
+
+absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::string& key,
+                                                                   absl::string_view name) {
+  std::shared_ptr<Takeover> takeover;
+  bool first = false;
+  {
+    absl::MutexLock lock(&mu_);
+    std::shared_ptr<Takeover>& slot = takeovers_in_progress_[key];
+    if (slot == nullptr) {
+      slot = std::make_shared<Takeover>();
+      first = true;
+    }
+    takeover = slot;
+    // A takeover holds a mission like a create does: checked before the
+    // claim, so that a full server does not take a mission it cannot hold.
+    if (first && static_cast<int>(missions_.size()) >= limits_.max_missions &&
+        !missions_.contains(key)) {
+      takeovers_in_progress_.erase(key);
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "this server holds its limit of ", limits_.max_missions,
+          " missions and cannot take over '", name, "'; retry later"));
+    }
+  }
+  if (!first) {
+    takeover->done.WaitForNotification();
+    return takeover->result;
+  }
+  takeover->result = [&]() -> absl::StatusOr<std::shared_ptr<Mission>> {
+    absl::StatusOr<StoredMission> claimed = store_->Claim(key);
+    if (claimed.status().code() == absl::StatusCode::kNotFound) {
+      return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+    }
+    OAIPP_RETURN_IF_ERROR(claimed.status());
+    absl::StatusOr<std::shared_ptr<Mission>> mission = Rebuild(*claimed);
+    if (!mission.ok()) {
+      return absl::Status(mission.status().code(), absl::StrCat("taking over mission '", name,
+                                                                "': ", mission.status().message()));
+    }
+    std::shared_ptr<Mission> replaced;
+    {
+      absl::MutexLock lock(&mu_);
+      if (auto it = missions_.find(key); it != missions_.end()) replaced = it->second;
+      Register(key, *mission);
+      created_by_request_.Remember(claimed->request_id, {key, claimed->fingerprint});
+      ++takeovers_;
+    }
+    if (replaced != nullptr) {
+      replaced->MarkMoved(absl::UnavailableError(
+          absl::StrCat("name: mission '", name, "' was read back; watch it again")));
+    }
+    spdlog::info("mission event=taken_over name={} epoch={}", std::string(name), claimed->epoch);
+    return mission;
+  }();
+  {
+    absl::MutexLock lock(&mu_);
+    takeovers_in_progress_.erase(key);
+  }
+  takeover->done.Notify();
+  return takeover->result;
+}
+
+void MissionRegistry::Drop(const std::string& key, const std::shared_ptr<Mission>& mission,
+                           const absl::Status& reason) {
+  {
+    absl::MutexLock lock(&mu_);
+    auto it = missions_.find(key);
+    if (it == missions_.end() || it->second != mission) return;
+    missions_.erase(it);
+    order_.erase(number_of_[key]);
+    number_of_.erase(key);
+  }
+  spdlog::info("mission event=dropped name=missions/{} reason=\"taken over by another server\"",
+               std::string(PublicId(key)));
+  mission->MarkMoved(reason);
+}
+
+absl::Status MissionRegistry::AfterFailedWrite(const std::shared_ptr<Mission>& mission,
+                                               absl::Status status) {
+  if (status.ok()) return status;
+  const std::string name = absl::StrCat(kPrefix, PublicId(mission->id()));
+  if (status.GetPayload(kFenced).has_value()) {
+    absl::Status moved = absl::UnavailableError(absl::StrCat(
+        "name: mission '", name, "' is now served by another server; nothing was applied; retry"));
+    Drop(mission->id(), mission, moved);
+    return moved;
+  }
+  if (status.GetPayload(kInDoubt).has_value()) {
+    if (absl::Status reloaded = Reload(mission->id()); !reloaded.ok()) {
+      spdlog::warn("store: {}", reloaded.ToString());
+    } else {
+      spdlog::info("store: mission '{}' read back after a write in doubt", mission->id());
+    }
+  }
+  return status;
+}
+
+std::int64_t MissionRegistry::takeovers() const {
+  absl::MutexLock lock(&mu_);
+  return takeovers_;
 }
 
 MemoryEstimate EstimateMissionBytes(const MissionConfig& config) {
@@ -312,13 +481,15 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMi
   // shrunk since.
   (*mission)->set_log_limit(LogLimit(EstimateMissionBytes((*mission)->config()).total()));
   (*mission)->set_create_time(absl::FromUnixMicros(m.create_time_unix_us));
+  (*mission)->set_epoch(m.epoch);
   (*mission)->set_last_change_time(absl::FromUnixMicros(last_write_us));
   WatchForSnapshots(**mission);
   return mission;
 }
 
 absl::StatusOr<int> MissionRegistry::Recover() {
-  if (store_ == nullptr) return 0;
+  // Servers sharing a store take missions over one by one, as calls come.
+  if (store_ == nullptr || limits_.shared_store) return 0;
   OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> stored, store_->LoadAll());
   // Missions are rebuilt beside each other (each replays only its own
   // tail); they are registered in creation order.
@@ -367,7 +538,14 @@ absl::Status MissionRegistry::Reload(const std::string& mission_id) {
     absl::MutexLock lock(&mu_);
     auto it = missions_.find(mission_id);
     if (it == missions_.end() || it->second == nullptr) return absl::OkStatus();  // deleted since
-    old = std::exchange(it->second, *mission);
+    if (it->second->epoch() == stored.epoch) old = std::exchange(it->second, *mission);
+  }
+  if (old == nullptr) {
+    // Another server claimed it: what it wrote is no longer this server's.
+    Drop(mission_id, Find(mission_id),
+         absl::UnavailableError(absl::StrCat("name: mission 'missions/", PublicId(mission_id),
+                                             "' moved to another server; watch it again")));
+    return absl::OkStatus();
   }
   old->HandWatchersTo(**mission);
   return absl::OkStatus();
@@ -416,7 +594,14 @@ void MissionRegistry::TakeSnapshot(const std::string& mission_id) {
   }
   const MissionState state = mission->CaptureState();
   const absl::Status stored = store_->PutSnapshot(
-      mission_id, {.sequence = state.sequence, .state = EncodeMissionState(state)});
+      mission_id,
+      {.sequence = state.sequence, .state = EncodeMissionState(state), .epoch = mission->epoch()});
+  if (stored.GetPayload(kFenced).has_value()) {
+    Drop(mission_id, mission,
+         absl::UnavailableError(absl::StrCat("name: mission 'missions/", PublicId(mission_id),
+                                             "' moved to another server; watch it again")));
+    return;
+  }
   if (!stored.ok()) {
     spdlog::warn("store: snapshot of mission '{}' at record {}: {}", mission_id, state.sequence,
                  stored.ToString());
@@ -472,14 +657,16 @@ std::vector<std::string> MissionRegistry::Sweep(absl::Time now, absl::Duration k
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view name,
                                                               const std::string& tenant) const {
   OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
-  absl::MutexLock lock(&mu_);
   // Another tenant's mission is not found, in the same words as a missing
-  // one: whether it exists is not the caller's to know.
-  auto it = missions_.find(Key(tenant, id));
-  if (it == missions_.end() || it->second == nullptr) {
-    return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+  // one: whether it exists is not the caller's to know (keys carry the
+  // tenant, in memory and in the store).
+  const std::string key = Key(tenant, id);
+  std::shared_ptr<Mission> held = Find(key);
+  if (limits_.shared_store) {
+    return const_cast<MissionRegistry*>(this)->Hold(key, std::move(held), name);
   }
-  return it->second;
+  if (held == nullptr) return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+  return held;
 }
 
 std::vector<std::shared_ptr<Mission>> MissionRegistry::List(std::size_t offset,
@@ -506,15 +693,23 @@ std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> MissionRegistry::
 absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& request_id,
                                      const std::string& tenant) {
   OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
-  return DeleteKey(Key(tenant, id), request_id.empty() ? "" : Key(tenant, request_id), request_id);
+  const std::string key = Key(tenant, id);
+  if (limits_.shared_store) {
+    // Deleted where it is held; a mission already gone is left to
+    // DeleteKey, which tells a retry from a miss.
+    absl::StatusOr<std::shared_ptr<Mission>> held = Hold(key, Find(key), name);
+    if (!held.ok() && held.status().code() != absl::StatusCode::kNotFound) return held.status();
+  }
+  return DeleteKey(key, request_id.empty() ? "" : Key(tenant, request_id), request_id);
 }
 
 absl::Status MissionRegistry::DeleteKey(const std::string& id, const std::string& request_key,
                                         const std::string& request_id) {
   const std::string name = absl::StrCat(kPrefix, PublicId(id));
   std::shared_ptr<Mission> mission;
+  absl::Status fenced;
+  absl::MutexLock write_lock(&snapshot_write_mu_);
   {
-    absl::MutexLock write_lock(&snapshot_write_mu_);
     absl::MutexLock lock(&mu_);
     // A retry of a delete is answered OK; the same request_id used to
     // delete another mission is refused.
@@ -539,18 +734,26 @@ absl::Status MissionRegistry::DeleteKey(const std::string& id, const std::string
     if (it == missions_.end() || it->second == nullptr) {
       return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
     }
+    mission = it->second;
     // Durable first: a failed delete leaves the mission in place.
     if (store_ != nullptr) {
-      OAIPP_RETURN_IF_ERROR(store_->DeleteMission(id, request_key));
+      const absl::Status deleted = store_->DeleteMission(id, request_key, mission->epoch());
+      if (deleted.GetPayload(kFenced).has_value()) {
+        fenced = deleted;
+      } else if (!deleted.ok()) {
+        return deleted;
+      }
     }
-    mission = it->second;
-    missions_.erase(it);
-    order_.erase(number_of_[id]);
-    number_of_.erase(id);
-    if (!request_key.empty()) {
-      deleted_by_request_.Remember(request_key, id);
+    if (fenced.ok()) {
+      missions_.erase(it);
+      order_.erase(number_of_[id]);
+      number_of_.erase(id);
+      if (!request_key.empty()) deleted_by_request_.Remember(request_key, id);
     }
   }
+  // Another server holds the mission now: this copy goes, and the retry
+  // deletes it there.
+  if (!fenced.ok()) return AfterFailedWrite(mission, fenced);
   mission->MarkDeleted();
   return absl::OkStatus();
 }

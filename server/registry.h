@@ -15,6 +15,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
+#include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
 #include "core/mapping/prior_cache.h"
 #include "server/mission.h"
@@ -45,6 +46,13 @@ struct RegistryLimits {
   // limit.
   std::int64_t max_mission_memory_bytes = 0;
   std::int64_t max_memory_bytes = 0;
+  // Several servers share the store (a cluster on PostgreSQL,
+  // docs/cluster.md). Recover then loads nothing: a mission is taken over
+  // (MissionStore::Claim, then rebuilt from its snapshot and log tail) by
+  // the first call for it that reaches this server, every call checks that
+  // this server still holds the mission it names, and a copy another server
+  // took over is dropped.
+  bool shared_store = false;
 };
 
 // What a mission of `config` may hold at its peak, in bytes: its map (mean
@@ -118,8 +126,21 @@ class MissionRegistry {
 
   // Reads a mission back from the store and puts it in place of the one in
   // memory: after a write whose outcome was in doubt (the store may hold a
-  // record the mission never applied). Watchers keep watching.
+  // record the mission never applied). Watchers keep watching. With a
+  // shared store, a mission another server has taken over meanwhile is
+  // dropped instead.
   [[nodiscard]] absl::Status Reload(const std::string& mission_id);
+
+  // After a mutation of `mission` failed: a write refused because another
+  // server took the mission over (kFenced) drops this copy; a write in
+  // doubt (kInDoubt) reads the mission back. Returns the status the caller
+  // should see (Unavailable for the first: retry, the proxy routes the call
+  // to the mission's server).
+  [[nodiscard]] absl::Status AfterFailedWrite(const std::shared_ptr<Mission>& mission,
+                                              absl::Status status);
+
+  // Missions taken over from another server (shared store) since start.
+  [[nodiscard]] std::int64_t takeovers() const;
 
   // Retention: deletes missions whose budget is spent and that have not
   // changed for `keep_finished`, and any mission unchanged for `keep_idle`
@@ -156,8 +177,27 @@ class MissionRegistry {
 
  private:
   // A mission rebuilt from what the store holds: its snapshot (if any),
-  // then the records after it replayed.
+  // then the records after it replayed; it writes at stored.epoch.
   absl::StatusOr<std::shared_ptr<Mission>> Rebuild(const StoredMission& stored);
+  // The mission held under `key`, or nullptr.
+  std::shared_ptr<Mission> Find(const std::string& key) const;
+  // Shared store: `held` (or nullptr) if this server still holds the
+  // mission, else the mission taken over from the store; NotFound (naming
+  // `name`) when the store has no such mission.
+  absl::StatusOr<std::shared_ptr<Mission>> Hold(const std::string& key,
+                                                std::shared_ptr<Mission> held,
+                                                absl::string_view name);
+  // Claims the mission, rebuilds it and holds it. Concurrent calls for one
+  // key share one takeover.
+  absl::StatusOr<std::shared_ptr<Mission>> TakeOver(const std::string& key,
+                                                    absl::string_view name);
+  // Registers a mission in the listing order (mu_ held).
+  void Register(const std::string& key, std::shared_ptr<Mission> mission)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Forgets this server's copy `mission` of `key` (if it is still the one
+  // held) and ends its watchers' streams with `reason`.
+  void Drop(const std::string& key, const std::shared_ptr<Mission>& mission,
+            const absl::Status& reason);
   // Hooks a mission up to the snapshot thread.
   void WatchForSnapshots(Mission& mission);
   void QueueSnapshot(const std::string& mission_id);
@@ -195,6 +235,14 @@ class MissionRegistry {
   // fingerprint) / deleted.
   RequestMemo<std::pair<std::string, std::string>> created_by_request_ ABSL_GUARDED_BY(mu_);
   RequestMemo<std::string> deleted_by_request_ ABSL_GUARDED_BY(mu_);
+  // Takeovers in progress (shared store), by key: later callers wait for
+  // the first one's result.
+  struct Takeover {
+    absl::Notification done;
+    absl::StatusOr<std::shared_ptr<Mission>> result = absl::UnknownError("not taken over");
+  };
+  std::map<std::string, std::shared_ptr<Takeover>> takeovers_in_progress_ ABSL_GUARDED_BY(mu_);
+  std::int64_t takeovers_ ABSL_GUARDED_BY(mu_) = 0;
 
   // Held while a snapshot is read and written and while a mission is
   // deleted (before mu_), so that a snapshot of a deleted mission never

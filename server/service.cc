@@ -70,32 +70,30 @@ absl::Status AppendStatus(absl::Status status) {
   return status;
 }
 
-// After a mutation failed: reads the mission back when the store may hold
-// more than memory.
+// After a mutation failed: the registry drops a copy another server took
+// over, or reads back a mission whose write was in doubt; the caller sees
+// what the registry says.
 template <typename T>
-void ReloadIfInDoubt(MissionRegistry& registry, const std::string& mission_id,
-                     const absl::StatusOr<T>& result) {
-  if (result.ok() || !result.status().GetPayload(kInDoubt).has_value()) return;
-  if (absl::Status reloaded = registry.Reload(mission_id); !reloaded.ok()) {
-    spdlog::warn("store: {}", reloaded.ToString());
-  } else {
-    spdlog::info("store: mission '{}' read back after a write in doubt", mission_id);
-  }
+absl::StatusOr<T> AfterWrite(MissionRegistry& registry, const std::shared_ptr<Mission>& mission,
+                             absl::StatusOr<T> result) {
+  if (result.ok()) return result;
+  return registry.AfterFailedWrite(mission, result.status());
 }
 
 // The writer of one mutation's record, or nullptr without a store: the
 // request as received, its request_id and fingerprint, at the sequence number
-// the mission gives it.
+// the mission gives it and the ownership epoch this copy holds.
 template <typename Request>
-PersistFn Recorder(MissionStore* store, const std::string& mission_id, RecordKind kind,
+PersistFn Recorder(MissionStore* store, const Mission& mission, RecordKind kind,
                    const Request& request, const std::string& fingerprint) {
   if (store == nullptr) return nullptr;
-  return [store, &mission_id, kind, &request, &fingerprint](std::int64_t sequence) {
-    return AppendStatus(store->Append(mission_id, {.sequence = sequence,
-                                                   .kind = kind,
-                                                   .payload = request.SerializeAsString(),
-                                                   .request_id = request.request_id(),
-                                                   .fingerprint = fingerprint}));
+  return [store, &mission, kind, &request, &fingerprint](std::int64_t sequence) {
+    return AppendStatus(store->Append(mission.id(), {.sequence = sequence,
+                                                     .kind = kind,
+                                                     .payload = request.SerializeAsString(),
+                                                     .request_id = request.request_id(),
+                                                     .fingerprint = fingerprint,
+                                                     .epoch = mission.epoch()}));
   };
 }
 
@@ -342,11 +340,13 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
                            registry_->Get(request->name(), tenant));
     OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
     const std::string fingerprint = RequestFingerprint(*request);
-    absl::StatusOr<ObstacleResult> updated = mission->UpdateObstacles(
-        change, {request->request_id(), fingerprint},
-        Recorder(registry_->store(), mission->id(), RecordKind::kObstacles, *request, fingerprint));
-    ReloadIfInDoubt(*registry_, mission->id(), updated);
-    OAIPP_ASSIGN_OR_RETURN(ObstacleResult result, std::move(updated));
+    OAIPP_ASSIGN_OR_RETURN(
+        ObstacleResult result,
+        AfterWrite(*registry_, mission,
+                   mission->UpdateObstacles(change, {request->request_id(), fingerprint},
+                                            Recorder(registry_->store(), *mission,
+                                                     RecordKind::kObstacles, *request,
+                                                     fingerprint))));
     response->set_obstacle_count(result.obstacle_count);
     response->set_esdf_voxels_recomputed(result.esdf_voxels_recomputed);
     return absl::OkStatus();
@@ -362,12 +362,13 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
                            registry_->Get(request->name(), tenant));
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
     const std::string fingerprint = RequestFingerprint(*request);
-    absl::StatusOr<MeasurementResult> fused =
-        mission->AddMeasurement(input, {request->request_id(), fingerprint},
-                                Recorder(registry_->store(), mission->id(),
-                                         RecordKind::kMeasurement, *request, fingerprint));
-    ReloadIfInDoubt(*registry_, mission->id(), fused);
-    OAIPP_ASSIGN_OR_RETURN(MeasurementResult result, std::move(fused));
+    OAIPP_ASSIGN_OR_RETURN(
+        MeasurementResult result,
+        AfterWrite(*registry_, mission,
+                   mission->AddMeasurement(input, {request->request_id(), fingerprint},
+                                           Recorder(registry_->store(), *mission,
+                                                    RecordKind::kMeasurement, *request,
+                                                    fingerprint))));
     response->set_cells_fused(result.cells_fused);
     response->set_trace(result.trace);
     response->set_measurements_fused(result.measurements_fused);
@@ -479,7 +480,8 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
                                                            .request_id = request_->request_id(),
                                                            .fingerprint = fingerprint_,
                                                            .result = answer.SerializeAsString(),
-                                                           .planner_state = planner_state}));
+                                                           .planner_state = planner_state,
+                                                           .epoch = mission_->epoch()}));
       };
     }
     OAIPP_RETURN_IF_ERROR(service_->AcquirePlan(tenant_));
@@ -503,10 +505,11 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
       if (absl::Now() >= call_.deadline) {
         return absl::DeadlineExceededError("PlanPath: the deadline passed waiting for a planner");
       }
-      absl::StatusOr<PlannedPath> planned =
-          mission_->Plan(state_, next_shot_, {request_->request_id(), fingerprint_}, call_);
-      ReloadIfInDoubt(*service_->registry_, mission_->id(), planned);
-      OAIPP_ASSIGN_OR_RETURN(PlannedPath path, std::move(planned));
+      OAIPP_ASSIGN_OR_RETURN(
+          PlannedPath path,
+          AfterWrite(*service_->registry_, mission_,
+                     mission_->Plan(state_, next_shot_, {request_->request_id(), fingerprint_},
+                                    call_)));
       if (service_->metrics_ != nullptr) {
         service_->metrics_->RecordPlan(path.stats.wall_time_s,
                                        static_cast<double>(path.stats.evaluations));
@@ -624,7 +627,7 @@ class MissionServiceImpl::WatchReactor final : public grpc::ServerWriteReactor<v
     if (writing_ || finished_) return;
     std::optional<MissionEventData> event = queue_->TryPop();
     if (!event.has_value()) {
-      if (queue_->closed()) FinishOnce(grpc::Status::OK);
+      if (queue_->closed()) FinishOnce(ToGrpcStatus(queue_->close_reason()));
       return;
     }
     out_.Clear();

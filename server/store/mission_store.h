@@ -12,6 +12,13 @@
 // Appends are conditional: (mission, sequence) is unique, so a record is
 // never written twice and a writer that lost track is refused.
 //
+// Ownership: each mission has an epoch, kFirstEpoch when it is created.
+// Servers that share a store (a cluster on PostgreSQL) take a mission over
+// with Claim, which raises the epoch; every write states the epoch its
+// writer holds, and a write from an older epoch (a server that lost the
+// mission without knowing it) is refused with kFenced. A single server
+// never claims, so its writes all carry kFirstEpoch.
+//
 // Every method may be called from many threads at once.
 //
 //   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<MissionStore> store, OpenSqliteStore("data"));
@@ -27,8 +34,14 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/cord.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/string_view.h"
 
 namespace oaipp::server {
+
+// The epoch a mission has when it is created.
+inline constexpr std::int64_t kFirstEpoch = 1;
 
 // What a log record holds.
 enum class RecordKind : int {
@@ -49,6 +62,8 @@ struct LogRecord {
   // gives it; empty when the planner keeps none.
   std::string planner_state = {};
   std::int64_t write_time_unix_us = 0;  // when it was written (set by the writer)
+  // The ownership epoch the writer holds (not stored: checked).
+  std::int64_t epoch = kFirstEpoch;
 };
 
 // A mission's state after record `sequence` (the server's own encoding).
@@ -56,6 +71,7 @@ struct StoredSnapshot {
   std::int64_t sequence = 0;
   std::string state = {};
   std::int64_t write_time_unix_us = 0;
+  std::int64_t epoch = kFirstEpoch;  // the writer's, as for LogRecord
 };
 
 struct StoredMission {
@@ -64,6 +80,8 @@ struct StoredMission {
   std::string request_id = {};
   std::string fingerprint = {};
   std::int64_t create_time_unix_us = 0;
+  // The ownership epoch (CreateMission stores kFirstEpoch whatever this says).
+  std::int64_t epoch = kFirstEpoch;
   // The latest snapshot, if any; `log` then holds only the records after it.
   std::optional<StoredSnapshot> snapshot = std::nullopt;
   std::vector<LogRecord> log = {};  // by sequence
@@ -85,17 +103,35 @@ class MissionStore {
   // Unavailable (ResourceExhausted for a full disk) when the store cannot
   // be written; the record is then not stored, unless the status carries
   // the payload kInDoubt (the connection was lost while committing).
+  // Aborted with the payload kFenced when record.epoch is not the mission's
+  // epoch (nothing stored).
   [[nodiscard]] virtual absl::Status Append(const std::string& mission_id,
                                             const LogRecord& record) = 0;
   // Replaces the mission's snapshot with a later one and drops the records
   // it covers. A snapshot older than the stored one is ignored (OK).
-  // NotFound for an unknown mission.
+  // NotFound for an unknown mission; Aborted + kFenced from an old epoch.
   [[nodiscard]] virtual absl::Status PutSnapshot(const std::string& mission_id,
                                                  const StoredSnapshot& snapshot) = 0;
   // Removes the mission, its records and snapshot; remembers request_id (if
-  // any) as having deleted it. NotFound for an unknown mission.
+  // any) as having deleted it. NotFound for an unknown mission; Aborted +
+  // kFenced when `epoch` is not the mission's.
   [[nodiscard]] virtual absl::Status DeleteMission(const std::string& mission_id,
-                                                   const std::string& request_id) = 0;
+                                                   const std::string& request_id,
+                                                   std::int64_t epoch) = 0;
+  // Takes the mission over: raises its epoch by one and returns the
+  // mission as Load gives it, read after the raise in the same transaction,
+  // with `epoch` the new one. From then on, writes of earlier epochs are
+  // refused, so what was returned is all a previous owner will ever have
+  // written. NotFound for an unknown mission.
+  [[nodiscard]] virtual absl::StatusOr<StoredMission> Claim(const std::string& mission_id) = 0;
+  // The mission's current epoch (one cheap read). NotFound for an unknown
+  // mission.
+  [[nodiscard]] virtual absl::StatusOr<std::int64_t> Epoch(const std::string& mission_id) = 0;
+  // The mission a CreateMission with `request_id` made (its id,
+  // request_id, fingerprint, creation time and epoch; spec, snapshot and log
+  // left empty), or NotFound. For servers that share a store: a retry of a
+  // create may reach another server than the first attempt.
+  [[nodiscard]] virtual absl::StatusOr<StoredMission> CreatedBy(const std::string& request_id) = 0;
   // Every mission: its latest snapshot and the records after it.
   [[nodiscard]] virtual absl::StatusOr<std::vector<StoredMission>> LoadAll() = 0;
   // One mission, as LoadAll gives it. NotFound for an unknown mission.
@@ -112,5 +148,20 @@ class MissionStore {
 // or may not have been stored: the writer must read the mission back before
 // it writes again.
 inline constexpr char kInDoubt[] = "oaipp.store/in-doubt";
+
+// The status payload (type URL) of a write refused because another server
+// has taken the mission over since the writer got it: the writer must drop
+// its copy of the mission.
+inline constexpr char kFenced[] = "oaipp.store/fenced";
+
+// The refusal of a write from epoch `writer` to a mission now at `stored`.
+[[nodiscard]] inline absl::Status FencedError(absl::string_view what, std::int64_t stored,
+                                              std::int64_t writer) {
+  absl::Status status = absl::AbortedError(
+      absl::StrCat("store: ", what, ": the mission was taken over by another server (epoch ",
+                   stored, ", this writer holds ", writer, ")"));
+  status.SetPayload(kFenced, absl::Cord("1"));
+  return status;
+}
 
 }  // namespace oaipp::server

@@ -30,7 +30,9 @@ namespace {
 
 // The schema version this code reads and writes (store_info 'schema_version').
 // 1: missions, records, snapshots, deletions, mission_numbers.
-constexpr std::int64_t kSchemaVersion = 1;
+// 2: + missions.epoch (ownership, for servers sharing the store), an index
+//    of missions by request_id.
+constexpr std::int64_t kSchemaVersion = 2;
 
 // Every stored string is bytea, ids and request_ids too: the store keeps
 // bytes, and text would refuse a NUL or a byte sequence that is not valid in
@@ -69,6 +71,8 @@ CREATE TABLE IF NOT EXISTS deletions(
   mission_id bytea NOT NULL,
   time_us bigint NOT NULL);
 CREATE INDEX IF NOT EXISTS deletions_by_time ON deletions(time_us);
+ALTER TABLE missions ADD COLUMN IF NOT EXISTS epoch bigint NOT NULL DEFAULT 1;
+CREATE INDEX IF NOT EXISTS missions_by_request ON missions(request_id);
 )sql";
 
 // Held while the schema is created: CREATE ... IF NOT EXISTS is not atomic
@@ -250,7 +254,11 @@ class PostgresStore final : public MissionStore {
                          ", synchronous_commit=", settings[1].as<std::string>(), ")"));
       }
       tx.exec_params("SELECT pg_advisory_xact_lock($1)", kSchemaLockKey);
-      tx.exec0(kSchema);
+      // The version is read before the schema is touched: a newer server's
+      // database is refused unchanged. Everything in kSchema is idempotent,
+      // so an older database is brought up to this version by running it.
+      tx.exec0(
+          "CREATE TABLE IF NOT EXISTS store_info(key text PRIMARY KEY, value bigint NOT NULL)");
       tx.exec_params0(
           "INSERT INTO store_info(key, value) VALUES('schema_version', $1) "
           "ON CONFLICT (key) DO NOTHING",
@@ -262,6 +270,9 @@ class PostgresStore final : public MissionStore {
                                                           " is newer than this server's (",
                                                           kSchemaVersion, ")"));
       }
+      tx.exec0(kSchema);
+      tx.exec_params0("UPDATE store_info SET value = $1 WHERE key = 'schema_version'",
+                      kSchemaVersion);
       Commit(tx, state);
       return absl::OkStatus();
     });
@@ -316,11 +327,16 @@ class PostgresStore final : public MissionStore {
       // update) from dropping records between this check and the insert,
       // and DeleteMission from removing the mission under it; appends to
       // the same mission share it.
+      // It also orders this append against a Claim (which updates the row):
+      // an append that waited for a claim sees the new epoch and is refused.
       const pqxx::result mission = tx.exec_params(
-          "SELECT s.sequence FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id "
+          "SELECT s.sequence, m.epoch FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id "
           "WHERE m.id = $1 FOR SHARE OF m",
           Blob(mission_id));
       if (mission.empty()) return NoMission(what);
+      if (const auto epoch = mission[0][1].as<std::int64_t>(); epoch != r.epoch) {
+        return FencedError(what, epoch, r.epoch);
+      }
       // A snapshot dropped the records it covers, so a retry of one of them
       // cannot be told from a reuse any more; the writer that sent it is
       // behind the snapshot either way.
@@ -367,10 +383,13 @@ class PostgresStore final : public MissionStore {
       // NO KEY UPDATE waits for appends in flight (FOR SHARE) but not for
       // the key-share locks of foreign-key checks.
       const pqxx::result mission = tx.exec_params(
-          "SELECT s.sequence FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id "
+          "SELECT s.sequence, m.epoch FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id "
           "WHERE m.id = $1 FOR NO KEY UPDATE OF m",
           Blob(mission_id));
       if (mission.empty()) return NoMission(what);
+      if (const auto epoch = mission[0][1].as<std::int64_t>(); epoch != snap.epoch) {
+        return FencedError(what, epoch, snap.epoch);
+      }
       if (!mission[0][0].is_null() && snap.sequence <= mission[0][0].as<std::int64_t>()) {
         return absl::OkStatus();  // not later than the stored one: ignored
       }
@@ -387,16 +406,20 @@ class PostgresStore final : public MissionStore {
     });
   }
 
-  absl::Status DeleteMission(const std::string& mission_id,
-                             const std::string& request_id) override {
+  absl::Status DeleteMission(const std::string& mission_id, const std::string& request_id,
+                             std::int64_t epoch) override {
     const std::string what = absl::StrCat("delete mission '", Printable(mission_id), "'");
     return Call(what, [&](pqxx::connection& conn, CallState& state) -> absl::Status {
       pqxx::work tx(conn);
+      const pqxx::result held = tx.exec_params(
+          "SELECT epoch FROM missions WHERE id = $1 FOR UPDATE", Blob(mission_id));
+      if (held.empty()) return NoMission(what);
+      if (const auto stored = held[0][0].as<std::int64_t>(); stored != epoch) {
+        return FencedError(what, stored, epoch);
+      }
       // Records and snapshot go with it (ON DELETE CASCADE), in this
       // transaction.
-      const pqxx::result deleted =
-          tx.exec_params("DELETE FROM missions WHERE id = $1", Blob(mission_id));
-      if (deleted.affected_rows() == 0) return NoMission(what);
+      tx.exec_params0("DELETE FROM missions WHERE id = $1", Blob(mission_id));
       if (!request_id.empty()) {
         // A request_id that already deleted a mission keeps its first answer.
         tx.exec_params0(
@@ -426,6 +449,53 @@ class PostgresStore final : public MissionStore {
       if (found.empty()) return NoMission(what);
       return std::move(found.front());
     });
+  }
+
+  absl::StatusOr<StoredMission> Claim(const std::string& mission_id) override {
+    const std::string what = absl::StrCat("claim mission '", Printable(mission_id), "'");
+    return Call(what, [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<StoredMission> {
+      // Read committed: the update waits for appends holding the row
+      // (FOR SHARE) and takes it; the reads after it see those appends, and
+      // appends that come later see the new epoch.
+      pqxx::work tx(conn);
+      const pqxx::result claimed = tx.exec_params(
+          "UPDATE missions SET epoch = epoch + 1 WHERE id = $1 RETURNING epoch", Blob(mission_id));
+      if (claimed.empty()) return NoMission(what);
+      OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found, LoadMissions(tx, &mission_id));
+      if (found.empty()) return NoMission(what);
+      Commit(tx, state);
+      return std::move(found.front());
+    });
+  }
+
+  absl::StatusOr<std::int64_t> Epoch(const std::string& mission_id) override {
+    const std::string what = absl::StrCat("epoch of '", Printable(mission_id), "'");
+    return Call(what, [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<std::int64_t> {
+      pqxx::nontransaction tx(conn);
+      const pqxx::result found =
+          tx.exec_params("SELECT epoch FROM missions WHERE id = $1", Blob(mission_id));
+      if (found.empty()) return NoMission(what);
+      return found[0][0].as<std::int64_t>();
+    });
+  }
+
+  absl::StatusOr<StoredMission> CreatedBy(const std::string& request_id) override {
+    return Call("created by",
+                [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<StoredMission> {
+                  pqxx::nontransaction tx(conn);
+                  const pqxx::result found = tx.exec_params(
+                      "SELECT id, request_id, fingerprint, create_time_us, epoch FROM missions "
+                      "WHERE request_id = $1 ORDER BY create_time_us, id LIMIT 1",
+                      Blob(request_id));
+                  if (found.empty()) {
+                    return absl::NotFoundError("store: no mission created by that request_id");
+                  }
+                  return StoredMission{.id = ReadBytes(found[0][0]),
+                                       .request_id = ReadBytes(found[0][1]),
+                                       .fingerprint = ReadBytes(found[0][2]),
+                                       .create_time_unix_us = found[0][3].as<std::int64_t>(),
+                                       .epoch = found[0][4].as<std::int64_t>()};
+                });
   }
 
   absl::StatusOr<std::string> DeletedBy(const std::string& request_id) override {
@@ -503,11 +573,12 @@ class PostgresStore final : public MissionStore {
 
   // Missions (all, or the one with id *only) with their snapshot and the
   // records after it, in the order LoadAll promises.
-  static absl::StatusOr<std::vector<StoredMission>> LoadMissions(ReadOnly& tx,
-                                                                 const std::string* only) {
+  // Tx: ReadOnly, or the claim's read-write transaction.
+  template <typename Tx>
+  static absl::StatusOr<std::vector<StoredMission>> LoadMissions(Tx& tx, const std::string* only) {
     constexpr absl::string_view kMissions =
         "SELECT m.id, m.spec, m.request_id, m.fingerprint, m.create_time_us, "
-        "s.sequence, s.state, s.write_time_us "
+        "s.sequence, s.state, s.write_time_us, m.epoch "
         "FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id ";
     constexpr absl::string_view kRecords =
         "SELECT r.mission_id, r.sequence, r.kind, r.payload, r.request_id, r.fingerprint, "
@@ -526,7 +597,8 @@ class PostgresStore final : public MissionStore {
                                          .spec = ReadBytes(row[1]),
                                          .request_id = ReadBytes(row[2]),
                                          .fingerprint = ReadBytes(row[3]),
-                                         .create_time_unix_us = row[4].as<std::int64_t>()});
+                                         .create_time_unix_us = row[4].as<std::int64_t>(),
+                                         .epoch = row[8].as<std::int64_t>()});
       if (!row[5].is_null()) {
         m.snapshot = StoredSnapshot{.sequence = row[5].as<std::int64_t>(),
                                     .state = ReadBytes(row[6]),

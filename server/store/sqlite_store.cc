@@ -15,7 +15,8 @@ namespace {
 
 // The schema version this code reads and writes (PRAGMA user_version).
 // 1: missions, records, deletions, counters. 2: + snapshots, write times.
-constexpr int kSchemaVersion = 2;
+// 3: + missions.epoch (ownership; always kFirstEpoch for a single server).
+constexpr int kSchemaVersion = 3;
 
 constexpr const char* kSchema = R"sql(
 CREATE TABLE IF NOT EXISTS counters(
@@ -26,7 +27,8 @@ CREATE TABLE IF NOT EXISTS missions(
   spec BLOB NOT NULL,
   request_id TEXT NOT NULL,
   fingerprint TEXT NOT NULL,
-  create_time_us INTEGER NOT NULL);
+  create_time_us INTEGER NOT NULL,
+  epoch INTEGER NOT NULL DEFAULT 1);
 CREATE TABLE IF NOT EXISTS records(
   mission_id TEXT NOT NULL REFERENCES missions(id) ON DELETE CASCADE,
   sequence INTEGER NOT NULL,
@@ -54,6 +56,11 @@ CREATE TABLE IF NOT EXISTS deletions(
 constexpr const char* kFromVersion1 = R"sql(
 ALTER TABLE records ADD COLUMN write_time_us INTEGER NOT NULL DEFAULT 0;
 ALTER TABLE deletions ADD COLUMN time_us INTEGER NOT NULL DEFAULT 0;
+)sql";
+
+// From version 2 (written before epochs).
+constexpr const char* kFromVersion2 = R"sql(
+ALTER TABLE missions ADD COLUMN epoch INTEGER NOT NULL DEFAULT 1;
 )sql";
 
 // The status for a failed SQLite call: a full disk is ResourceExhausted, a
@@ -140,16 +147,23 @@ class SqliteStore final : public MissionStore {
           absl::StrCat("store: the file has schema version ", version, "; this server reads up to ",
                        kSchemaVersion, " (a newer server wrote it)"));
     }
-    bool had_records = false;
+    bool had_missions = false;
     {
-      Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'records'");
+      Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'missions'");
       OAIPP_RETURN_IF_ERROR(s.prepared("schema"));
-      had_records = s.Step() == SQLITE_ROW;
+      had_missions = s.Step() == SQLITE_ROW;
     }
     if (version == kSchemaVersion) return Exec(kSchema, "schema");
     OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "schema"));
     absl::Status status = [&]() -> absl::Status {
-      if (had_records) OAIPP_RETURN_IF_ERROR(Exec(kFromVersion1, "schema upgrade"));
+      // A file of version 0 with tables is a version 1 file (it predates
+      // the version number).
+      if (had_missions && version <= 1) {
+        OAIPP_RETURN_IF_ERROR(Exec(kFromVersion1, "schema upgrade"));
+      }
+      if (had_missions && version <= 2) {
+        OAIPP_RETURN_IF_ERROR(Exec(kFromVersion2, "schema upgrade"));
+      }
       OAIPP_RETURN_IF_ERROR(Exec(kSchema, "schema"));
       return Exec(absl::StrCat("PRAGMA user_version = ", kSchemaVersion).c_str(), "schema");
     }();
@@ -220,7 +234,10 @@ class SqliteStore final : public MissionStore {
   absl::Status PutSnapshot(const std::string& mission_id, const StoredSnapshot& snap) override {
     absl::MutexLock lock(&mu_);
     return InTransaction("snapshot", [&]() -> absl::Status {
-      if (!Exists(mission_id)) return NoMission(mission_id);
+      OAIPP_ASSIGN_OR_RETURN(const std::int64_t epoch, EpochLocked(mission_id));
+      if (epoch != snap.epoch) {
+        return FencedError(absl::StrCat("snapshot of '", mission_id, "'"), epoch, snap.epoch);
+      }
       Statement s(db_,
                   "INSERT INTO snapshots(mission_id, sequence, state, write_time_us) "
                   "VALUES(?, ?, ?, ?) ON CONFLICT(mission_id) DO UPDATE SET "
@@ -242,10 +259,14 @@ class SqliteStore final : public MissionStore {
     });
   }
 
-  absl::Status DeleteMission(const std::string& mission_id,
-                             const std::string& request_id) override {
+  absl::Status DeleteMission(const std::string& mission_id, const std::string& request_id,
+                             std::int64_t epoch) override {
     absl::MutexLock lock(&mu_);
     return InTransaction("delete", [&]() -> absl::Status {
+      OAIPP_ASSIGN_OR_RETURN(const std::int64_t stored, EpochLocked(mission_id));
+      if (stored != epoch) {
+        return FencedError(absl::StrCat("delete mission '", mission_id, "'"), stored, epoch);
+      }
       Statement s(db_, "DELETE FROM missions WHERE id = ?");
       OAIPP_RETURN_IF_ERROR(s.prepared("delete"));
       s.Bind(1, mission_id);
@@ -281,6 +302,52 @@ class SqliteStore final : public MissionStore {
     if (!out.ok()) return out.status();
     if (out->empty()) return NoMission(mission_id);
     return std::move(out->front());
+  }
+
+  absl::StatusOr<StoredMission> Claim(const std::string& mission_id) override {
+    absl::MutexLock lock(&mu_);
+    OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "claim"));
+    absl::StatusOr<std::vector<StoredMission>> out = [&]() -> absl::StatusOr<std::vector<StoredMission>> {
+      Statement s(db_, "UPDATE missions SET epoch = epoch + 1 WHERE id = ?");
+      OAIPP_RETURN_IF_ERROR(s.prepared("claim"));
+      s.Bind(1, mission_id);
+      OAIPP_RETURN_IF_ERROR(Done(s, "claim"));
+      if (sqlite3_changes(db_) == 0) return NoMission(mission_id);
+      return LoadWhere(mission_id);
+    }();
+    if (!out.ok() || out->empty()) {
+      (void)Exec("ROLLBACK", "claim");
+      return out.ok() ? NoMission(mission_id) : out.status();
+    }
+    if (absl::Status committed = Exec("COMMIT", "claim"); !committed.ok()) {
+      (void)Exec("ROLLBACK", "claim");
+      return committed;
+    }
+    return std::move(out->front());
+  }
+
+  absl::StatusOr<std::int64_t> Epoch(const std::string& mission_id) override {
+    absl::MutexLock lock(&mu_);
+    return EpochLocked(mission_id);
+  }
+
+  absl::StatusOr<StoredMission> CreatedBy(const std::string& request_id) override {
+    absl::MutexLock lock(&mu_);
+    Statement s(db_,
+                "SELECT id, request_id, fingerprint, create_time_us, epoch FROM missions "
+                "WHERE request_id = ? ORDER BY create_time_us, id LIMIT 1");
+    OAIPP_RETURN_IF_ERROR(s.prepared("created by"));
+    s.Bind(1, request_id);
+    const int code = s.Step();
+    if (code == SQLITE_DONE) {
+      return absl::NotFoundError("store: no mission created by that request_id");
+    }
+    if (code != SQLITE_ROW) return SqliteError(db_, code, "created by");
+    return StoredMission{.id = s.Bytes(0),
+                         .request_id = s.Bytes(1),
+                         .fingerprint = s.Bytes(2),
+                         .create_time_unix_us = s.Int(3),
+                         .epoch = s.Int(4)};
   }
 
   absl::StatusOr<std::string> DeletedBy(const std::string& request_id) override {
@@ -348,6 +415,11 @@ class SqliteStore final : public MissionStore {
     if (r.sequence < 1) {
       return absl::InvalidArgumentError(absl::StrCat("store: ", what, ": sequences start at 1"));
     }
+    if (absl::StatusOr<std::int64_t> epoch = EpochLocked(mission_id); !epoch.ok()) {
+      return epoch.status();
+    } else if (*epoch != r.epoch) {
+      return FencedError(what, *epoch, r.epoch);
+    }
     {
       // A record a snapshot covers is gone from the table, so a second one
       // there would not collide with it: refuse it here.
@@ -398,10 +470,11 @@ class SqliteStore final : public MissionStore {
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     std::vector<StoredMission> out;
     {
-      Statement s(db_, only.empty() ? "SELECT id, spec, request_id, fingerprint, create_time_us "
-                                      "FROM missions ORDER BY create_time_us, id"
-                                    : "SELECT id, spec, request_id, fingerprint, create_time_us "
-                                      "FROM missions WHERE id = ?");
+      Statement s(db_, only.empty()
+                           ? "SELECT id, spec, request_id, fingerprint, create_time_us, epoch "
+                             "FROM missions ORDER BY create_time_us, id"
+                           : "SELECT id, spec, request_id, fingerprint, create_time_us, epoch "
+                             "FROM missions WHERE id = ?");
       OAIPP_RETURN_IF_ERROR(s.prepared("load missions"));
       if (!only.empty()) s.Bind(1, only);
       int code;
@@ -410,7 +483,8 @@ class SqliteStore final : public MissionStore {
                        .spec = s.Bytes(1),
                        .request_id = s.Bytes(2),
                        .fingerprint = s.Bytes(3),
-                       .create_time_unix_us = s.Int(4)});
+                       .create_time_unix_us = s.Int(4),
+                       .epoch = s.Int(5)});
       }
       if (code != SQLITE_DONE) return SqliteError(db_, code, "load missions");
     }
@@ -466,6 +540,16 @@ class SqliteStore final : public MissionStore {
   absl::Status Done(Statement& s, absl::string_view what) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     const int code = s.Step();
     return code == SQLITE_DONE ? absl::OkStatus() : SqliteError(db_, code, what);
+  }
+  absl::StatusOr<std::int64_t> EpochLocked(const std::string& mission_id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
+    Statement s(db_, "SELECT epoch FROM missions WHERE id = ?");
+    OAIPP_RETURN_IF_ERROR(s.prepared("epoch"));
+    s.Bind(1, mission_id);
+    const int code = s.Step();
+    if (code == SQLITE_ROW) return s.Int(0);
+    if (code == SQLITE_DONE) return NoMission(mission_id);
+    return SqliteError(db_, code, "epoch");
   }
   bool Exists(const std::string& mission_id) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     Statement s(db_, "SELECT 1 FROM missions WHERE id = ?");

@@ -291,8 +291,17 @@ class FailingStore final : public MissionStore {
   absl::Status ForgetDeletionsBefore(std::int64_t unix_us) override {
     return fail ? Down() : store_->ForgetDeletionsBefore(unix_us);
   }
-  absl::Status DeleteMission(const std::string& id, const std::string& request_id) override {
-    return fail ? Down() : store_->DeleteMission(id, request_id);
+  absl::Status DeleteMission(const std::string& id, const std::string& request_id,
+                             std::int64_t epoch) override {
+    return fail ? Down() : store_->DeleteMission(id, request_id, epoch);
+  }
+  absl::StatusOr<StoredMission> Claim(const std::string& id) override {
+    if (fail) return Down();
+    return store_->Claim(id);
+  }
+  absl::StatusOr<std::int64_t> Epoch(const std::string& id) override { return store_->Epoch(id); }
+  absl::StatusOr<StoredMission> CreatedBy(const std::string& r) override {
+    return store_->CreatedBy(r);
   }
   absl::StatusOr<std::vector<StoredMission>> LoadAll() override { return store_->LoadAll(); }
   absl::StatusOr<std::string> DeletedBy(const std::string& r) override {

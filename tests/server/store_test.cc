@@ -7,6 +7,8 @@
 // cascade, and many missions can append at once.
 #include <cstdlib>
 #include <filesystem>
+#include <mutex>
+#include <set>
 #include <string>
 #include <thread>
 
@@ -189,8 +191,8 @@ TEST_P(StoreTest, DeleteRemovesEverythingAndRemembersTheRequest) {
   ASSERT_TRUE(store->CreateMission({.id = "m2", .spec = "s", .create_time_unix_us = 2}).ok());
   ASSERT_TRUE(store->Append("m1", Record(1, "x")).ok());
   ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 1, .state = "s"}).ok());
-  ASSERT_TRUE(store->DeleteMission("m1", "del-1").ok());
-  EXPECT_EQ(store->DeleteMission("m1", "del-2").code(), absl::StatusCode::kNotFound);
+  ASSERT_TRUE(store->DeleteMission("m1", "del-1", kFirstEpoch).ok());
+  EXPECT_EQ(store->DeleteMission("m1", "del-2", kFirstEpoch).code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(*store->DeletedBy("del-1"), "m1");
   EXPECT_EQ(store->DeletedBy("del-2").status().code(), absl::StatusCode::kNotFound);
   // The id is free again and starts afresh: no records, no snapshot.
@@ -211,6 +213,126 @@ TEST_P(StoreTest, DeleteRemovesEverythingAndRemembersTheRequest) {
   ASSERT_TRUE(store->ForgetDeletionsBefore(std::numeric_limits<std::int64_t>::max()).ok());
   EXPECT_EQ(store->DeletedBy("del-1").status().code(), absl::StatusCode::kNotFound);
   EXPECT_TRUE(store->Health().ok());
+}
+
+// Ownership: a claim raises the epoch and returns everything written so
+// far; from then on, every kind of write from the old epoch is refused with
+// kFenced and changes nothing, and the new owner writes on.
+TEST_P(StoreTest, AClaimFencesEveryWriteOfTheOldOwner) {
+  std::unique_ptr<MissionStore> store = Open();
+  ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s", .request_id = "c1",
+                                    .fingerprint = "fc"}).ok());
+  EXPECT_EQ(*store->Epoch("m1"), kFirstEpoch);
+  ASSERT_TRUE(store->Append("m1", Record(1, "old owner")).ok());
+
+  absl::StatusOr<StoredMission> claimed = store->Claim("m1");
+  ASSERT_TRUE(claimed.ok()) << claimed.status();
+  EXPECT_EQ(claimed->epoch, kFirstEpoch + 1);
+  EXPECT_EQ(*store->Epoch("m1"), kFirstEpoch + 1);
+  ASSERT_EQ(claimed->log.size(), 1u);
+  EXPECT_EQ(claimed->log[0].payload, "old owner");
+  EXPECT_EQ(claimed->spec, "s");
+
+  // The old owner, still at epoch 1, writes the next record: refused.
+  const absl::Status stale = store->Append("m1", Record(2, "stale"));
+  EXPECT_EQ(stale.code(), absl::StatusCode::kAborted) << stale;
+  EXPECT_TRUE(stale.GetPayload(kFenced).has_value());
+  const absl::Status stale_snapshot = store->PutSnapshot("m1", {.sequence = 1, .state = "x"});
+  EXPECT_TRUE(stale_snapshot.GetPayload(kFenced).has_value()) << stale_snapshot;
+  const absl::Status stale_delete = store->DeleteMission("m1", "del", kFirstEpoch);
+  EXPECT_TRUE(stale_delete.GetPayload(kFenced).has_value()) << stale_delete;
+  EXPECT_EQ(store->DeletedBy("del").status().code(), absl::StatusCode::kNotFound);
+
+  // The new owner's writes go through at its epoch.
+  LogRecord next = Record(2, "new owner");
+  next.epoch = claimed->epoch;
+  ASSERT_TRUE(store->Append("m1", next).ok());
+  ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 2, .state = "st", .epoch = claimed->epoch}).ok());
+
+  // A second claim (a third server) sees both owners' records, via the
+  // snapshot, and fences the second owner in turn.
+  absl::StatusOr<StoredMission> again = store->Claim("m1");
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->epoch, kFirstEpoch + 2);
+  ASSERT_TRUE(again->snapshot.has_value());
+  EXPECT_EQ(again->snapshot->sequence, 2);
+  EXPECT_TRUE(again->log.empty());
+  LogRecord late = Record(3, "second owner, late");
+  late.epoch = claimed->epoch;
+  EXPECT_TRUE(store->Append("m1", late).GetPayload(kFenced).has_value());
+
+  // What a create's request_id made can be found from any server.
+  absl::StatusOr<StoredMission> created = store->CreatedBy("c1");
+  ASSERT_TRUE(created.ok()) << created.status();
+  EXPECT_EQ(created->id, "m1");
+  EXPECT_EQ(created->fingerprint, "fc");
+  EXPECT_EQ(created->epoch, kFirstEpoch + 2);
+  EXPECT_EQ(store->CreatedBy("c2").status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(store->Claim("nope").status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(store->Epoch("nope").status().code(), absl::StatusCode::kNotFound);
+
+  ASSERT_TRUE(store->DeleteMission("m1", "del", again->epoch).ok());
+  EXPECT_EQ(*store->DeletedBy("del"), "m1");
+}
+
+// Claims racing appends: whatever the interleaving, every append the store
+// acknowledged is in what some claim returned or read after it, and no
+// append is acknowledged at an epoch that was no longer current.
+TEST_P(StoreTest, ClaimsRacingAppendsLoseNoAcknowledgedRecord) {
+  std::unique_ptr<MissionStore> store = Open();
+  ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s"}).ok());
+  std::atomic<std::int64_t> epoch{kFirstEpoch};
+  std::atomic<bool> stop{false};
+  std::mutex acked_mu;
+  std::vector<std::int64_t> acked;
+  // The writer appends at the epoch it last learnt; when fenced, it learns
+  // the new one and reads the log's end from a fresh load.
+  std::thread writer([&] {
+    std::int64_t held = epoch.load();
+    std::int64_t next = 1;
+    for (int i = 0; i < 400 && !stop; ++i) {
+      LogRecord r = Record(next, absl::StrCat("p", next));
+      r.epoch = held;
+      const absl::Status s = store->Append("m1", r);
+      if (s.ok()) {
+        std::lock_guard<std::mutex> lock(acked_mu);
+        acked.push_back(next++);
+      } else if (s.GetPayload(kFenced).has_value()) {
+        absl::StatusOr<StoredMission> now = store->Load("m1");
+        ASSERT_TRUE(now.ok());
+        held = now->epoch;
+        next = now->log.empty() ? 1 : now->log.back().sequence + 1;
+      } else {
+        ADD_FAILURE() << s;
+        return;
+      }
+    }
+  });
+  for (int c = 0; c < 20; ++c) {
+    // Everything acknowledged before the claim began is in what it returns.
+    std::vector<std::int64_t> before;
+    {
+      std::lock_guard<std::mutex> lock(acked_mu);
+      before = acked;
+    }
+    absl::StatusOr<StoredMission> claimed = store->Claim("m1");
+    ASSERT_TRUE(claimed.ok()) << claimed.status();
+    epoch = claimed->epoch;
+    std::set<std::int64_t> in_claim;
+    for (const LogRecord& r : claimed->log) in_claim.insert(r.sequence);
+    for (std::int64_t seq : before) EXPECT_TRUE(in_claim.contains(seq)) << "record " << seq;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  stop = true;
+  writer.join();
+  absl::StatusOr<StoredMission> final_state = store->Load("m1");
+  ASSERT_TRUE(final_state.ok());
+  ASSERT_EQ(final_state->log.size(), acked.size());
+  for (std::size_t i = 0; i < acked.size(); ++i) {
+    EXPECT_EQ(final_state->log[i].sequence, static_cast<std::int64_t>(i + 1));
+    EXPECT_EQ(final_state->log[i].payload, absl::StrCat("p", i + 1));
+  }
+  EXPECT_EQ(final_state->epoch, kFirstEpoch + 20);
 }
 
 TEST_P(StoreTest, ManyMissionsAppendAtOnce) {
