@@ -5,8 +5,10 @@
 #include <sstream>
 #include <thread>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "api/metadata.h"
 #include "api/status.h"
 #include "core/common/status_macros.h"
 
@@ -48,9 +50,20 @@ absl::StatusOr<std::shared_ptr<grpc::Channel>> Client::OpenChannel(const std::st
   return grpc::CreateChannel(address, grpc::SslCredentials(ssl));
 }
 
-void Client::Prepare(grpc::ClientContext& context) const {
+void Client::Prepare(grpc::ClientContext& context, const std::string& route) const {
   if (!options_.token.empty()) context.AddMetadata("authorization", "Bearer " + options_.token);
+  if (!route.empty()) context.AddMetadata(api::kRouteHeader, route);
 }
+
+namespace {
+
+// The route of a call about mission `name` ("missions/{id}"): its id.
+std::string RouteOf(const std::string& name) {
+  constexpr absl::string_view kPrefix = "missions/";
+  return absl::StartsWith(name, kPrefix) ? name.substr(kPrefix.size()) : name;
+}
+
+}  // namespace
 
 Client::Client(std::shared_ptr<grpc::Channel> channel, ClientOptions options)
     : channel_(std::move(channel)),
@@ -64,21 +77,34 @@ std::string Client::NextRequestId() { return absl::StrCat(id_prefix_, "-", next_
 
 template <typename Request, typename Response, typename Method>
 absl::StatusOr<Response> Client::Call(const char* what, Method method, const Request& request,
-                                      absl::Duration timeout) {
+                                      absl::Duration timeout, const std::string& route) {
   absl::Duration backoff = options_.first_backoff;
   grpc::Status status;
   for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
+    if (attempt > 1) {
+      std::this_thread::sleep_for(absl::ToChronoMilliseconds(backoff));
+      backoff = std::min(2 * backoff, options_.max_backoff);
+    }
     grpc::ClientContext context;
-    Prepare(context);
+    Prepare(context, route);
     context.set_deadline(absl::ToChronoTime(absl::Now() + timeout));
     Response response;
     status = (stub_.get()->*method)(&context, request, &response);
+    const auto& answered = context.GetServerInitialMetadata();
+    if (auto it = answered.find(api::kReplicaHeader); it != answered.end()) {
+      absl::MutexLock lock(&replica_mu_);
+      last_replica_.assign(it->second.data(), it->second.size());
+    }
     if (status.ok()) return response;
     if (status.error_code() != grpc::StatusCode::UNAVAILABLE) break;
-    std::this_thread::sleep_for(absl::ToChronoMilliseconds(backoff));
-    backoff *= 2;
+    if (attempt < options_.max_attempts) ++retried_calls_;
   }
   return api::FromGrpcStatus(status, what);
+}
+
+std::string Client::last_replica() const {
+  absl::MutexLock lock(&replica_mu_);
+  return last_replica_;
 }
 
 absl::Status Client::WaitUntilServing(absl::Duration timeout) {
@@ -104,14 +130,16 @@ absl::StatusOr<v1::Mission> Client::CreateMission(const v1::MissionSpec& spec,
   *request.mutable_spec() = spec;
   request.set_request_id(NextRequestId());
   return Call<v1::CreateMissionRequest, v1::Mission>(
-      "CreateMission", &v1::MissionService::Stub::CreateMission, request, options_.call_timeout);
+      "CreateMission", &v1::MissionService::Stub::CreateMission, request, options_.call_timeout,
+      mission_id.empty() ? request.request_id() : mission_id);
 }
 
 absl::StatusOr<v1::Mission> Client::GetMission(const std::string& name) {
   v1::GetMissionRequest request;
   request.set_name(name);
   return Call<v1::GetMissionRequest, v1::Mission>(
-      "GetMission", &v1::MissionService::Stub::GetMission, request, options_.call_timeout);
+      "GetMission", &v1::MissionService::Stub::GetMission, request, options_.call_timeout,
+      RouteOf(name));
 }
 
 absl::Status Client::DeleteMission(const std::string& name) {
@@ -120,7 +148,7 @@ absl::Status Client::DeleteMission(const std::string& name) {
   request.set_request_id(NextRequestId());
   return Call<v1::DeleteMissionRequest, v1::DeleteMissionResponse>(
              "DeleteMission", &v1::MissionService::Stub::DeleteMission, request,
-             options_.call_timeout)
+             options_.call_timeout, RouteOf(name))
       .status();
 }
 
@@ -128,13 +156,15 @@ absl::StatusOr<v1::AddMeasurementResponse> Client::AddMeasurement(
     v1::AddMeasurementRequest request) {
   if (request.request_id().empty()) request.set_request_id(NextRequestId());
   return Call<v1::AddMeasurementRequest, v1::AddMeasurementResponse>(
-      "AddMeasurement", &v1::MissionService::Stub::AddMeasurement, request, options_.call_timeout);
+      "AddMeasurement", &v1::MissionService::Stub::AddMeasurement, request, options_.call_timeout,
+      RouteOf(request.name()));
 }
 
 absl::StatusOr<v1::PlanPathResponse> Client::PlanPath(v1::PlanPathRequest request) {
   if (request.request_id().empty()) request.set_request_id(NextRequestId());
   return Call<v1::PlanPathRequest, v1::PlanPathResponse>(
-      "PlanPath", &v1::MissionService::Stub::PlanPath, request, options_.plan_timeout);
+      "PlanPath", &v1::MissionService::Stub::PlanPath, request, options_.plan_timeout,
+      RouteOf(request.name()));
 }
 
 absl::StatusOr<v1::GetMapResponse> Client::GetMap(const std::string& name, bool cells, bool png) {
@@ -143,7 +173,7 @@ absl::StatusOr<v1::GetMapResponse> Client::GetMap(const std::string& name, bool 
   request.set_include_cells(cells);
   request.set_include_png(png);
   return Call<v1::GetMapRequest, v1::GetMapResponse>("GetMap", &v1::MissionService::Stub::GetMap,
-                                                     request, options_.call_timeout);
+                                                     request, options_.call_timeout, RouteOf(name));
 }
 
 }  // namespace oaipp::client

@@ -1,7 +1,9 @@
 // A client library over the generated MissionService stub: a deadline on
 // every call, retries of UNAVAILABLE with the same request_id (so a retried
 // mutation is never applied twice), and absl::Status errors that keep the
-// server's message.
+// server's message. Every call carries the routing header kRouteHeader
+// with the mission it is about, so that a proxy in front of several
+// servers sends one mission's calls to one of them (docs/cluster.md).
 //
 //   OAIPP_ASSIGN_OR_RETURN(Client client, Client::Connect("127.0.0.1:50051"));
 //   OAIPP_ASSIGN_OR_RETURN(v1::Mission m, client.CreateMission(spec));
@@ -12,6 +14,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "grpcpp/grpcpp.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
@@ -21,8 +24,13 @@ namespace oaipp::client {
 struct ClientOptions {
   absl::Duration call_timeout = absl::Seconds(30);  // every call but PlanPath
   absl::Duration plan_timeout = absl::Seconds(60);  // PlanPath (the planner is anytime)
-  int max_attempts = 4;                             // for UNAVAILABLE
+  // Attempts for UNAVAILABLE, waiting first_backoff, then twice as long
+  // each time up to max_backoff: the defaults keep trying for about 9 s,
+  // long enough for a proxy to notice a dead server and for another to
+  // take its missions over.
+  int max_attempts = 8;
   absl::Duration first_backoff = absl::Milliseconds(200);
+  absl::Duration max_backoff = absl::Seconds(2);
   // Who the client is, for a server with --token_file: sent as
   // "authorization: Bearer <token>" on every call. Empty: none.
   std::string token;
@@ -60,20 +68,30 @@ class Client {
   [[nodiscard]] absl::StatusOr<v1::GetMapResponse> GetMap(const std::string& name, bool cells,
                                                           bool png);
 
+  // The server that answered the last call (api::kReplicaHeader), or ""
+  // when it names none.
+  [[nodiscard]] std::string last_replica() const;
+  // Attempts that got UNAVAILABLE and were tried again, since creation.
+  [[nodiscard]] std::int64_t retried_calls() const { return retried_calls_.load(); }
+
  private:
   // A request id unique to this client process.
   std::string NextRequestId();
+  // route: the mission the call is about (api::kRouteHeader).
   template <typename Request, typename Response, typename Method>
   absl::StatusOr<Response> Call(const char* what, Method method, const Request& request,
-                                absl::Duration timeout);
+                                absl::Duration timeout, const std::string& route);
 
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::MissionService::Stub> stub_;
-  // Adds what every call carries (the token).
-  void Prepare(grpc::ClientContext& context) const;
+  // Adds what every call carries (the token, the route when not empty).
+  void Prepare(grpc::ClientContext& context, const std::string& route = "") const;
   ClientOptions options_;
   std::string id_prefix_;
   std::atomic<std::int64_t> next_id_{1};
+  std::atomic<std::int64_t> retried_calls_{0};
+  mutable absl::Mutex replica_mu_;
+  std::string last_replica_ ABSL_GUARDED_BY(replica_mu_);
 };
 
 }  // namespace oaipp::client

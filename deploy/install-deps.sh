@@ -22,6 +22,10 @@ packages=(
   libsqlite3-dev sqlite3 libpqxx-dev postgresql-15 postgresql-client-15
   # who gets in: token hashes (libssl's SHA-256), and openssl to make test certificates
   libssl-dev openssl
+  # a fleet past one machine: the gRPC-aware proxy in front of the replicas
+  # (deploy/cluster/, the cluster tests), and YAML for the offline check of
+  # the Kubernetes manifests (deploy/k8s/)
+  haproxy python3-yaml
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # fuzzing (fuzz/run.sh): clang, with libFuzzer and the sanitizer runtimes

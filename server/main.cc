@@ -14,6 +14,7 @@
 // --shutdown_grace_s), exit 0.
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
 #include <fstream>
 #include <memory>
@@ -24,6 +25,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/synchronization/notification.h"
 #include "api/limits.h"
@@ -165,6 +167,9 @@ ABSL_FLAG(absl::Duration, keep_finished, absl::Hours(7 * 24),
           "then deleted with its records ('inf': forever)");
 ABSL_FLAG(absl::Duration, keep_idle, absl::Hours(30 * 24),
           "how long any mission is kept after its last change ('inf': forever)");
+ABSL_FLAG(std::string, replica_id, "",
+          "a name for this server, sent back on every call as the x-oaipp-replica header "
+          "(which replica of a cluster answered); empty: not sent");
 ABSL_FLAG(bool, cluster, false,
           "this server is one of several replicas sharing a PostgreSQL --store behind a proxy "
           "that routes by the x-oaipp-mission header: it loads no mission at start, takes a "
@@ -245,6 +250,13 @@ int main(int argc, char** argv) {
     max_memory = static_cast<std::int64_t>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGE_SIZE) / 2;
   }
 
+  const std::string replica_id = absl::GetFlag(FLAGS_replica_id);
+  if (replica_id.size() > 64 || !std::all_of(replica_id.begin(), replica_id.end(), [](char c) {
+        return absl::ascii_isalnum(c) || c == '-' || c == '_' || c == '.' || c == ':';
+      })) {
+    spdlog::error("--replica_id: at most 64 letters, digits, '-', '_', '.' or ':'");
+    return 2;
+  }
   const bool cluster = absl::GetFlag(FLAGS_cluster);
   if (cluster && !absl::StartsWith(absl::GetFlag(FLAGS_store), "postgres")) {
     spdlog::error("--cluster needs a store the replicas share: --store=postgresql://...");
@@ -306,7 +318,8 @@ int main(int argc, char** argv) {
       {.max_streams = absl::GetFlag(FLAGS_max_streams),
        .max_streams_per_client = absl::GetFlag(FLAGS_max_streams_per_client),
        .max_plans_per_tenant = absl::GetFlag(FLAGS_max_plans_per_tenant),
-       .max_planning = absl::Seconds(absl::GetFlag(FLAGS_max_planning_s))});
+       .max_planning = absl::Seconds(absl::GetFlag(FLAGS_max_planning_s)),
+       .replica_id = absl::GetFlag(FLAGS_replica_id)});
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();

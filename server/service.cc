@@ -12,6 +12,7 @@
 #include "api/geometry.h"
 #include "api/map.h"
 #include "api/measurement.h"
+#include "api/metadata.h"
 #include "api/plan.h"
 #include "api/spec.h"
 #include "api/status.h"
@@ -195,8 +196,14 @@ absl::Status MissionServiceImpl::Run(const char* method, Body body, bool record_
 }
 
 template <typename Body>
-grpc::Status MissionServiceImpl::Call(const char* method, Body body) {
+grpc::Status MissionServiceImpl::Call(grpc::ServerContextBase* context, const char* method,
+                                      Body body) {
+  TagReplica(context);
   return ToGrpcStatus(Run(method, std::move(body)));
+}
+
+void MissionServiceImpl::TagReplica(grpc::ServerContextBase* context) const {
+  if (!limits_.replica_id.empty()) context->AddInitialMetadata(api::kReplicaHeader, limits_.replica_id);
 }
 
 absl::StatusOr<std::string> MissionServiceImpl::TenantOf(
@@ -264,7 +271,7 @@ int MissionServiceImpl::open_streams() const {
 grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext* context,
                                                const v1::CreateMissionRequest* request,
                                                v1::Mission* response) {
-  return Call("CreateMission", [&]() -> absl::Status {
+  return Call(context, "CreateMission", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(MissionConfig config, MissionSpecToConfig(request->spec()));
     OAIPP_ASSIGN_OR_RETURN(
@@ -284,7 +291,7 @@ grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext* context,
 grpc::Status MissionServiceImpl::GetMission(grpc::ServerContext* context,
                                             const v1::GetMissionRequest* request,
                                             v1::Mission* response) {
-  return Call("GetMission", [&]() -> absl::Status {
+  return Call(context, "GetMission", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
@@ -296,7 +303,7 @@ grpc::Status MissionServiceImpl::GetMission(grpc::ServerContext* context,
 grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext* context,
                                               const v1::ListMissionsRequest* request,
                                               v1::ListMissionsResponse* response) {
-  return Call("ListMissions", [&]() -> absl::Status {
+  return Call(context, "ListMissions", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     if (request->page_size() < 0 || request->page_size() > 1000) {
       return absl::InvalidArgumentError(
@@ -319,7 +326,7 @@ grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext* context,
 grpc::Status MissionServiceImpl::DeleteMission(grpc::ServerContext* context,
                                                const v1::DeleteMissionRequest* request,
                                                v1::DeleteMissionResponse*) {
-  return Call("DeleteMission", [&]() -> absl::Status {
+  return Call(context, "DeleteMission", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_RETURN_IF_ERROR(registry_->Delete(request->name(), request->request_id(), tenant));
     if (metrics_ != nullptr) {
@@ -334,7 +341,7 @@ grpc::Status MissionServiceImpl::DeleteMission(grpc::ServerContext* context,
 grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
                                                  const v1::UpdateObstaclesRequest* request,
                                                  v1::UpdateObstaclesResponse* response) {
-  return Call("UpdateObstacles", [&]() -> absl::Status {
+  return Call(context, "UpdateObstacles", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
@@ -356,7 +363,7 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
 grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
                                                 const v1::AddMeasurementRequest* request,
                                                 v1::AddMeasurementResponse* response) {
-  return Call("AddMeasurement", [&]() -> absl::Status {
+  return Call(context, "AddMeasurement", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
@@ -379,7 +386,7 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
 grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
                                         const v1::GetMapRequest* request,
                                         v1::GetMapResponse* response) {
-  return Call("GetMap", [&]() -> absl::Status {
+  return Call(context, "GetMap", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
@@ -426,6 +433,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   PlanReactor(MissionServiceImpl* service, grpc::CallbackServerContext* context,
               const v1::PlanPathRequest* request, v1::PlanPathResponse* response)
       : service_(service), context_(context), request_(request), response_(response) {
+    service_->TagReplica(context_);
     // A plan that was queued is counted (metrics, log) when it ends.
     const absl::Status status = service_->Run(
         "PlanPath", [&] { return Start(); }, /*record_ok=*/false);
@@ -555,6 +563,7 @@ class MissionServiceImpl::WatchReactor final : public grpc::ServerWriteReactor<v
   WatchReactor(MissionServiceImpl* service, grpc::CallbackServerContext* context,
                const v1::WatchMissionRequest* request)
       : service_(service) {
+    service_->TagReplica(context);
     const absl::Status opened = service_->Run("WatchMission", [&]() -> absl::Status {
       OAIPP_ASSIGN_OR_RETURN(const std::string tenant, service_->TenantOf(*context));
       OAIPP_ASSIGN_OR_RETURN(mission_, service_->registry_->Get(request->name(), tenant));

@@ -44,6 +44,10 @@ struct ServiceLimits {
   // planning_budget_s, or with a longer one, gets this budget (and returns
   // the best path found by then). Valid: > 0.
   absl::Duration max_planning = absl::Seconds(60);
+  // Sent back on every call as the initial-metadata header
+  // api::kReplicaHeader (which server answered: for operators and tests of
+  // a cluster); empty: not sent.
+  std::string replica_id = {};
 };
 
 using MissionServiceBase = v1::MissionService::WithCallbackMethod_PlanPath<
@@ -95,7 +99,9 @@ class MissionServiceImpl final : public MissionServiceBase {
   template <typename Body>
   absl::Status Run(const char* method, Body body, bool record_ok = true);
   template <typename Body>
-  grpc::Status Call(const char* method, Body body);
+  grpc::Status Call(grpc::ServerContextBase* context, const char* method, Body body);
+  // Adds api::kReplicaHeader to the call's answer (before anything is sent).
+  void TagReplica(grpc::ServerContextBase* context) const;
   [[nodiscard]] absl::StatusOr<std::string> TenantOf(const grpc::ServerContextBase& context) const;
 
   // Stream and plan quotas: Acquire* refuses with ResourceExhausted.

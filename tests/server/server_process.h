@@ -18,48 +18,55 @@
 
 namespace oaipp::server::testing {
 
-class ServerProcess {
+// Starts argv[0] with `args` as a child process and waits (up to ~20 s)
+// until `port` on 127.0.0.1 accepts connections. Returns the pid, or -1 when
+// it could not be started or died first.
+inline pid_t SpawnAndWaitForPort(const std::vector<std::string>& args, int port) {
+  const pid_t pid = fork();
+  if (pid < 0) return -1;
+  if (pid == 0) {
+    std::vector<std::string> copy = args;
+    std::vector<char*> argv;
+    for (std::string& a : copy) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv(argv[0], argv.data());
+    _exit(127);
+  }
+  for (int attempt = 0; attempt < 400; ++attempt) {
+    const int fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in sa{};
+    sa.sin_family = AF_INET;
+    sa.sin_port = htons(static_cast<uint16_t>(port));
+    sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    const bool up = connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)) == 0;
+    close(fd);
+    if (up) return pid;
+    int status = 0;
+    if (waitpid(pid, &status, WNOHANG) == pid) return -1;  // it died at start
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  kill(pid, SIGKILL);
+  waitpid(pid, nullptr, 0);
+  return -1;
+}
+
+// Any program as a child process that listens on a port of 127.0.0.1.
+class ChildProcess {
  public:
-  // flags: extra command-line flags (e.g. "--data_dir=/tmp/x").
-  ServerProcess(int port, std::vector<std::string> flags) : port_(port), flags_(std::move(flags)) {}
-  ~ServerProcess() { Stop(SIGKILL); }
-  ServerProcess(const ServerProcess&) = delete;
-  ServerProcess& operator=(const ServerProcess&) = delete;
+  ChildProcess(std::vector<std::string> args, int port) : args_(std::move(args)), port_(port) {}
+  ~ChildProcess() { Stop(SIGKILL); }
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
 
+  [[nodiscard]] int port() const { return port_; }
   [[nodiscard]] std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
+  [[nodiscard]] bool running() const { return pid_ > 0; }
 
-  // Starts the binary and waits (up to ~20 s) until the port accepts
-  // connections. False when it could not be started.
+  // False when it could not be started (or is running already).
   bool Start() {
-    pid_ = fork();
-    if (pid_ < 0) return false;
-    if (pid_ == 0) {
-      std::vector<std::string> args = {OAIPP_SERVER_BINARY, "--listen=" + address(),
-                                       "--metrics_listen=", "--log_level=warn"};
-      args.insert(args.end(), flags_.begin(), flags_.end());
-      std::vector<char*> argv;
-      for (std::string& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      execv(OAIPP_SERVER_BINARY, argv.data());
-      _exit(127);
-    }
-    for (int attempt = 0; attempt < 400; ++attempt) {
-      const int fd = socket(AF_INET, SOCK_STREAM, 0);
-      sockaddr_in sa{};
-      sa.sin_family = AF_INET;
-      sa.sin_port = htons(static_cast<uint16_t>(port_));
-      sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-      const bool up = connect(fd, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)) == 0;
-      close(fd);
-      if (up) return true;
-      int status = 0;
-      if (waitpid(pid_, &status, WNOHANG) == pid_) {  // it died at start
-        pid_ = -1;
-        return false;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    }
-    return false;
+    if (pid_ > 0) return false;
+    pid_ = SpawnAndWaitForPort(args_, port_);
+    return pid_ > 0;
   }
 
   // Sends `signal` and waits for the process; returns its wait status (-1
@@ -74,10 +81,45 @@ class ServerProcess {
   }
 
  private:
+  std::vector<std::string> args_;
   int port_;
-  std::vector<std::string> flags_;
   pid_t pid_ = -1;
 };
+
+// The real oaipp-server (OAIPP_SERVER_BINARY) on 127.0.0.1:port.
+class ServerProcess : public ChildProcess {
+ public:
+  // flags: extra command-line flags (e.g. "--data_dir=/tmp/x").
+  ServerProcess(int port, const std::vector<std::string>& flags)
+      : ChildProcess(Args(port, flags), port) {}
+
+ private:
+  static std::vector<std::string> Args(int port, const std::vector<std::string>& flags) {
+    std::vector<std::string> args = {OAIPP_SERVER_BINARY,
+                                     "--listen=127.0.0.1:" + std::to_string(port),
+                                     "--metrics_listen=", "--log_level=warn"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    return args;
+  }
+};
+
+// A port the kernel says is free on 127.0.0.1 now (0 when none could be
+// had).
+inline int FreePort() {
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) return 0;
+  sockaddr_in sa{};
+  sa.sin_family = AF_INET;
+  sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t length = sizeof(sa);
+  int port = 0;
+  if (bind(fd, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)) == 0 &&
+      getsockname(fd, reinterpret_cast<sockaddr*>(&sa), &length) == 0) {
+    port = ntohs(sa.sin_port);
+  }
+  close(fd);
+  return port;
+}
 
 // A channel that reconnects quickly after the server comes back.
 inline std::shared_ptr<grpc::Channel> QuickReconnectChannel(const std::string& address) {
