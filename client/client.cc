@@ -137,9 +137,9 @@ absl::StatusOr<v1::Mission> Client::CreateMission(const v1::MissionSpec& spec,
 absl::StatusOr<v1::Mission> Client::GetMission(const std::string& name) {
   v1::GetMissionRequest request;
   request.set_name(name);
-  return Call<v1::GetMissionRequest, v1::Mission>(
-      "GetMission", &v1::MissionService::Stub::GetMission, request, options_.call_timeout,
-      RouteOf(name));
+  return Call<v1::GetMissionRequest, v1::Mission>("GetMission",
+                                                  &v1::MissionService::Stub::GetMission, request,
+                                                  options_.call_timeout, RouteOf(name));
 }
 
 absl::Status Client::DeleteMission(const std::string& name) {

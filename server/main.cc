@@ -370,6 +370,9 @@ int main(int argc, char** argv) {
           }
         }
       }
+      // A cluster's replica lets go of missions another replica took over
+      // while it was not looking (every 5 s).
+      if (cluster && tick % 20 == 1) registry.DropMoved();
       if (service.Overloaded() != overloaded) {
         overloaded = !overloaded;
         spdlog::warn("load: {}", overloaded ? "overloaded (planners and queue full, or every "

@@ -96,10 +96,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   // request_ids, like mission ids, are the tenant's own.
   const std::string request_key = request_id.empty() ? "" : Key(tenant, request_id);
   const auto reused = [&](absl::string_view created_id) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("request_id: ", api::EchoInput(request_id),
-                     " was first used to create mission '", PublicId(created_id),
-                     "' with a different request; a new mission needs a new request_id"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "request_id: ", api::EchoInput(request_id), " was first used to create mission '",
+        PublicId(created_id), "' with a different request; a new mission needs a new request_id"));
   };
   // With a shared store, the first attempt of a retried create may have
   // reached another server: the store knows what the request_id created.
@@ -128,10 +127,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
       absl::StatusOr<std::shared_ptr<Mission>> held =
           Hold(created_id, Find(created_id), absl::StrCat(kPrefix, PublicId(created_id)));
       if (held.status().code() == absl::StatusCode::kNotFound) {
-        return absl::FailedPreconditionError(absl::StrCat("request_id: ",
-                                                          api::EchoInput(request_id),
-                                                          " created mission '",
-                                                          PublicId(created_id), "', which is gone"));
+        return absl::FailedPreconditionError(
+            absl::StrCat("request_id: ", api::EchoInput(request_id), " created mission '",
+                         PublicId(created_id), "', which is gone"));
       }
       return held;
     }
@@ -254,8 +252,8 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Hold(const std::string
       return epoch.status();
     }
     Drop(key, held,
-         absl::UnavailableError(absl::StrCat("name: mission '", name,
-                                             "' moved to another server; watch it again")));
+         absl::UnavailableError(
+             absl::StrCat("name: mission '", name, "' moved to another server; watch it again")));
     if (!epoch.ok()) return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
   }
   return TakeOver(key, name);
@@ -278,9 +276,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
     if (first && static_cast<int>(missions_.size()) >= limits_.max_missions &&
         !missions_.contains(key)) {
       takeovers_in_progress_.erase(key);
-      return absl::ResourceExhaustedError(absl::StrCat(
-          "this server holds its limit of ", limits_.max_missions,
-          " missions and cannot take over '", name, "'; retry later"));
+      return absl::ResourceExhaustedError(
+          absl::StrCat("this server holds its limit of ", limits_.max_missions,
+                       " missions and cannot take over '", name, "'; retry later"));
     }
   }
   if (!first) {
@@ -331,8 +329,9 @@ void MissionRegistry::Drop(const std::string& key, const std::shared_ptr<Mission
     order_.erase(number_of_[key]);
     number_of_.erase(key);
   }
-  spdlog::info("mission event=dropped name=missions/{} reason=\"taken over by another server\"",
-               std::string(PublicId(key)));
+  spdlog::info(
+      "mission event=dropped name=missions/{} reason=\"another server took it over or deleted it\"",
+      std::string(PublicId(key)));
   mission->MarkMoved(reason);
 }
 
@@ -354,6 +353,21 @@ absl::Status MissionRegistry::AfterFailedWrite(const std::shared_ptr<Mission>& m
     }
   }
   return status;
+}
+
+std::vector<std::string> MissionRegistry::DropMoved() {
+  std::vector<std::string> dropped;
+  if (!limits_.shared_store) return dropped;
+  for (const std::shared_ptr<Mission>& m : List(0, static_cast<std::size_t>(-1))) {
+    absl::StatusOr<std::int64_t> epoch = store_->Epoch(m->id());
+    if (epoch.ok() && *epoch == m->epoch()) continue;
+    if (!epoch.ok() && epoch.status().code() != absl::StatusCode::kNotFound) break;  // store down
+    Drop(m->id(), m,
+         absl::UnavailableError(absl::StrCat("name: mission 'missions/", PublicId(m->id()),
+                                             "' moved to another server; watch it again")));
+    dropped.push_back(m->id());
+  }
+  return dropped;
 }
 
 std::int64_t MissionRegistry::takeovers() const {

@@ -139,6 +139,11 @@ class MissionRegistry {
   [[nodiscard]] absl::Status AfterFailedWrite(const std::shared_ptr<Mission>& mission,
                                               absl::Status status);
 
+  // Shared store: drops the copies of missions that another server has
+  // taken over (or deleted) since this one read them, so that memory is not
+  // held by missions this server no longer serves. Returns their ids.
+  std::vector<std::string> DropMoved();
+
   // Missions taken over from another server (shared store) since start.
   [[nodiscard]] std::int64_t takeovers() const;
 
@@ -189,8 +194,7 @@ class MissionRegistry {
                                                 absl::string_view name);
   // Claims the mission, rebuilds it and holds it. Concurrent calls for one
   // key share one takeover.
-  absl::StatusOr<std::shared_ptr<Mission>> TakeOver(const std::string& key,
-                                                    absl::string_view name);
+  absl::StatusOr<std::shared_ptr<Mission>> TakeOver(const std::string& key, absl::string_view name);
   // Registers a mission in the listing order (mu_ held).
   void Register(const std::string& key, std::shared_ptr<Mission> mission)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);

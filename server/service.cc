@@ -203,7 +203,8 @@ grpc::Status MissionServiceImpl::Call(grpc::ServerContextBase* context, const ch
 }
 
 void MissionServiceImpl::TagReplica(grpc::ServerContextBase* context) const {
-  if (!limits_.replica_id.empty()) context->AddInitialMetadata(api::kReplicaHeader, limits_.replica_id);
+  if (!limits_.replica_id.empty())
+    context->AddInitialMetadata(api::kReplicaHeader, limits_.replica_id);
 }
 
 absl::StatusOr<std::string> MissionServiceImpl::TenantOf(
@@ -349,11 +350,11 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
     const std::string fingerprint = RequestFingerprint(*request);
     OAIPP_ASSIGN_OR_RETURN(
         ObstacleResult result,
-        AfterWrite(*registry_, mission,
-                   mission->UpdateObstacles(change, {request->request_id(), fingerprint},
-                                            Recorder(registry_->store(), *mission,
-                                                     RecordKind::kObstacles, *request,
-                                                     fingerprint))));
+        AfterWrite(
+            *registry_, mission,
+            mission->UpdateObstacles(change, {request->request_id(), fingerprint},
+                                     Recorder(registry_->store(), *mission, RecordKind::kObstacles,
+                                              *request, fingerprint))));
     response->set_obstacle_count(result.obstacle_count);
     response->set_esdf_voxels_recomputed(result.esdf_voxels_recomputed);
     return absl::OkStatus();
@@ -371,11 +372,11 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
     const std::string fingerprint = RequestFingerprint(*request);
     OAIPP_ASSIGN_OR_RETURN(
         MeasurementResult result,
-        AfterWrite(*registry_, mission,
-                   mission->AddMeasurement(input, {request->request_id(), fingerprint},
-                                           Recorder(registry_->store(), *mission,
-                                                    RecordKind::kMeasurement, *request,
-                                                    fingerprint))));
+        AfterWrite(
+            *registry_, mission,
+            mission->AddMeasurement(input, {request->request_id(), fingerprint},
+                                    Recorder(registry_->store(), *mission, RecordKind::kMeasurement,
+                                             *request, fingerprint))));
     response->set_cells_fused(result.cells_fused);
     response->set_trace(result.trace);
     response->set_measurements_fused(result.measurements_fused);
@@ -515,9 +516,9 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
       }
       OAIPP_ASSIGN_OR_RETURN(
           PlannedPath path,
-          AfterWrite(*service_->registry_, mission_,
-                     mission_->Plan(state_, next_shot_, {request_->request_id(), fingerprint_},
-                                    call_)));
+          AfterWrite(
+              *service_->registry_, mission_,
+              mission_->Plan(state_, next_shot_, {request_->request_id(), fingerprint_}, call_)));
       if (service_->metrics_ != nullptr) {
         service_->metrics_->RecordPlan(path.stats.wall_time_s,
                                        static_cast<double>(path.stats.evaluations));

@@ -411,8 +411,8 @@ class PostgresStore final : public MissionStore {
     const std::string what = absl::StrCat("delete mission '", Printable(mission_id), "'");
     return Call(what, [&](pqxx::connection& conn, CallState& state) -> absl::Status {
       pqxx::work tx(conn);
-      const pqxx::result held = tx.exec_params(
-          "SELECT epoch FROM missions WHERE id = $1 FOR UPDATE", Blob(mission_id));
+      const pqxx::result held =
+          tx.exec_params("SELECT epoch FROM missions WHERE id = $1 FOR UPDATE", Blob(mission_id));
       if (held.empty()) return NoMission(what);
       if (const auto stored = held[0][0].as<std::int64_t>(); stored != epoch) {
         return FencedError(what, stored, epoch);
@@ -453,19 +453,21 @@ class PostgresStore final : public MissionStore {
 
   absl::StatusOr<StoredMission> Claim(const std::string& mission_id) override {
     const std::string what = absl::StrCat("claim mission '", Printable(mission_id), "'");
-    return Call(what, [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<StoredMission> {
-      // Read committed: the update waits for appends holding the row
-      // (FOR SHARE) and takes it; the reads after it see those appends, and
-      // appends that come later see the new epoch.
-      pqxx::work tx(conn);
-      const pqxx::result claimed = tx.exec_params(
-          "UPDATE missions SET epoch = epoch + 1 WHERE id = $1 RETURNING epoch", Blob(mission_id));
-      if (claimed.empty()) return NoMission(what);
-      OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found, LoadMissions(tx, &mission_id));
-      if (found.empty()) return NoMission(what);
-      Commit(tx, state);
-      return std::move(found.front());
-    });
+    return Call(
+        what, [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<StoredMission> {
+          // Read committed: the update waits for appends holding the row
+          // (FOR SHARE) and takes it; the reads after it see those appends, and
+          // appends that come later see the new epoch.
+          pqxx::work tx(conn);
+          const pqxx::result claimed =
+              tx.exec_params("UPDATE missions SET epoch = epoch + 1 WHERE id = $1 RETURNING epoch",
+                             Blob(mission_id));
+          if (claimed.empty()) return NoMission(what);
+          OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found, LoadMissions(tx, &mission_id));
+          if (found.empty()) return NoMission(what);
+          Commit(tx, state);
+          return std::move(found.front());
+        });
   }
 
   absl::StatusOr<std::int64_t> Epoch(const std::string& mission_id) override {

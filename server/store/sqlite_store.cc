@@ -307,7 +307,8 @@ class SqliteStore final : public MissionStore {
   absl::StatusOr<StoredMission> Claim(const std::string& mission_id) override {
     absl::MutexLock lock(&mu_);
     OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "claim"));
-    absl::StatusOr<std::vector<StoredMission>> out = [&]() -> absl::StatusOr<std::vector<StoredMission>> {
+    absl::StatusOr<std::vector<StoredMission>> out =
+        [&]() -> absl::StatusOr<std::vector<StoredMission>> {
       Statement s(db_, "UPDATE missions SET epoch = epoch + 1 WHERE id = ?");
       OAIPP_RETURN_IF_ERROR(s.prepared("claim"));
       s.Bind(1, mission_id);

@@ -56,8 +56,7 @@ inline absl::Status FlyE1(client::Client& client, const std::string& id, std::ui
     if (!path.ok()) return path.status();
     acked();
     ++flight.plans;
-    const double fly =
-        std::min(path->trajectory().duration_s(), budget_s - state.mission_time_s());
+    const double fly = std::min(path->trajectory().duration_s(), budget_s - state.mission_time_s());
     for (const auto& pose : path->measurement_poses()) {
       if (pose.t_s() > fly) break;
       v1::AddMeasurementRequest shot =

@@ -55,9 +55,7 @@ class LocalCluster {
   LocalCluster& operator=(const LocalCluster&) = delete;
 
   // Whether PostgreSQL 15 and HAProxy are installed and usable here.
-  static bool Available() {
-    return PostgresInstance::Available() && access(kHaproxy, X_OK) == 0;
-  }
+  static bool Available() { return PostgresInstance::Available() && access(kHaproxy, X_OK) == 0; }
 
   // Starts PostgreSQL, the replicas and the proxy; false (with what failed
   // on stderr) when any did not start.
@@ -73,13 +71,14 @@ class LocalCluster {
     std::string servers;
     for (int i = 0; i < options.replicas; ++i) {
       const int port = FreePort();
-      std::vector<std::string> args = {
-          OAIPP_SERVER_BINARY,           "--cluster",
-          "--store=" + postgres_->uri("oaipp"),
-          "--replica_id=" + ReplicaName(i),
-          absl::StrCat("--listen=127.0.0.1:", port),
-          "--metrics_listen=",           "--log_level=warn",
-          "--shutdown_grace_s=5"};
+      std::vector<std::string> args = {OAIPP_SERVER_BINARY,
+                                       "--cluster",
+                                       "--store=" + postgres_->uri("oaipp"),
+                                       "--replica_id=" + ReplicaName(i),
+                                       absl::StrCat("--listen=127.0.0.1:", port),
+                                       "--metrics_listen=",
+                                       "--log_level=warn",
+                                       "--shutdown_grace_s=5"};
       args.insert(args.end(), options.replica_flags.begin(), options.replica_flags.end());
       replicas_.push_back(std::make_unique<ChildProcess>(std::move(args), port));
       absl::StrAppend(&servers, "    server ", ReplicaName(i), " 127.0.0.1:", port, "\n");

@@ -220,8 +220,9 @@ TEST_P(StoreTest, DeleteRemovesEverythingAndRemembersTheRequest) {
 // kFenced and changes nothing, and the new owner writes on.
 TEST_P(StoreTest, AClaimFencesEveryWriteOfTheOldOwner) {
   std::unique_ptr<MissionStore> store = Open();
-  ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s", .request_id = "c1",
-                                    .fingerprint = "fc"}).ok());
+  ASSERT_TRUE(
+      store->CreateMission({.id = "m1", .spec = "s", .request_id = "c1", .fingerprint = "fc"})
+          .ok());
   EXPECT_EQ(*store->Epoch("m1"), kFirstEpoch);
   ASSERT_TRUE(store->Append("m1", Record(1, "old owner")).ok());
 
@@ -247,7 +248,8 @@ TEST_P(StoreTest, AClaimFencesEveryWriteOfTheOldOwner) {
   LogRecord next = Record(2, "new owner");
   next.epoch = claimed->epoch;
   ASSERT_TRUE(store->Append("m1", next).ok());
-  ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 2, .state = "st", .epoch = claimed->epoch}).ok());
+  ASSERT_TRUE(
+      store->PutSnapshot("m1", {.sequence = 2, .state = "st", .epoch = claimed->epoch}).ok());
 
   // A second claim (a third server) sees both owners' records, via the
   // snapshot, and fences the second owner in turn.

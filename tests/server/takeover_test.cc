@@ -1,0 +1,178 @@
+// Two servers sharing one store (RegistryLimits::shared_store), in one
+// process: a real SQLite store and two real services. A mission moves to
+// the server that gets a call for it; the server it left has its next write
+// refused (UNAVAILABLE, nothing applied) and lets go of its copy; a retry
+// with the same request_id on the new owner is answered once; whatever
+// either server acknowledged is in the map the other reads.
+#include <filesystem>
+
+#include "absl/strings/str_cat.h"
+#include "gtest/gtest.h"
+#include "server/store/sqlite_store.h"
+#include "tests/server/service_fixture.h"
+
+namespace oaipp::server {
+namespace {
+
+class TakeoverTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / absl::StrCat("oaipp-takeover-", getpid());
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+    absl::StatusOr<std::unique_ptr<MissionStore>> store =
+        OpenSqliteStore((dir_ / "missions.db").string());
+    ASSERT_TRUE(store.ok()) << store.status();
+    store_ = *std::move(store);
+    const RegistryLimits shared{
+        .max_missions = 8, .max_cells_per_mission = 1600, .shared_store = true};
+    a_ = std::make_unique<testing::InProcessService>(shared, 1, 8, store_.get());
+    b_ = std::make_unique<testing::InProcessService>(shared, 1, 8, store_.get());
+  }
+  void TearDown() override {
+    a_.reset();
+    b_.reset();
+    store_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  static grpc::Status Measure(testing::InProcessService& s, const std::string& request_id, double x,
+                              v1::AddMeasurementResponse* out) {
+    grpc::ClientContext c;
+    v1::AddMeasurementRequest r = testing::LabelMeasurement("missions/m", x, 2.0, 8.0, x + 10,
+                                                            /*target=*/x > 0);
+    r.set_request_id(request_id);
+    return s.stub().AddMeasurement(&c, r, out);
+  }
+  static v1::Mission Get(testing::InProcessService& s) {
+    grpc::ClientContext c;
+    v1::GetMissionRequest r;
+    r.set_name("missions/m");
+    v1::Mission out;
+    EXPECT_TRUE(s.stub().GetMission(&c, r, &out).ok());
+    return out;
+  }
+
+  std::filesystem::path dir_;
+  std::unique_ptr<MissionStore> store_;
+  std::unique_ptr<testing::InProcessService> a_, b_;
+};
+
+TEST_F(TakeoverTest, AMissionMovesToTheServerThatGetsItsCallsAndTheOldCopyIsFenced) {
+  testing::CreateSmall(a_->stub(), "m");
+  v1::AddMeasurementResponse out;
+  ASSERT_TRUE(Measure(*a_, "r1", -3, &out).ok());
+  ASSERT_TRUE(Measure(*a_, "r2", -1, &out).ok());
+  EXPECT_EQ(a_->registry().size(), 1u);
+  EXPECT_EQ(b_->registry().size(), 0u);  // a shared-store server loads nothing up front
+
+  // B gets a call for the mission: it takes it over and sees A's writes.
+  const v1::Mission on_b = Get(*b_);
+  EXPECT_EQ(on_b.measurements_fused(), 2);
+  EXPECT_EQ(b_->registry().takeovers(), 1);
+  ASSERT_TRUE(Measure(*b_, "r3", 1, &out).ok());
+  EXPECT_EQ(out.measurements_fused(), 3);
+
+  // A still holds its old copy, without knowing. Its next write is refused
+  // before anything is applied; A lets go of the copy.
+  grpc::Status stale = Measure(*a_, "r4", 3, &out);
+  // A checks the epoch before the write, so it takes the mission back
+  // instead of writing from its old copy; the write then lands once.
+  ASSERT_TRUE(stale.ok()) << stale.error_message();
+  EXPECT_EQ(out.measurements_fused(), 4);
+  EXPECT_EQ(a_->registry().takeovers(), 1);
+
+  // B's copy is stale now: a retry of r3 there is answered once (it is in
+  // the log B reads back), and B's own new write lands after A's.
+  ASSERT_TRUE(Measure(*b_, "r3", 1, &out).ok());
+  EXPECT_EQ(out.measurements_fused(), 3);  // the first answer to r3
+  ASSERT_TRUE(Measure(*b_, "r5", 5, &out).ok());
+  EXPECT_EQ(out.measurements_fused(), 5);
+
+  // A's copy is stale; the sweep lets it go; B keeps its own.
+  EXPECT_EQ(a_->registry().DropMoved(), std::vector<std::string>{"m"});
+  EXPECT_EQ(a_->registry().size(), 0u);
+  EXPECT_TRUE(b_->registry().DropMoved().empty());
+  EXPECT_EQ(Get(*b_).measurements_fused(), 5);
+
+  // The store's epoch: created at 1, claimed by B, A, B.
+  EXPECT_EQ(*store_->Epoch("m"), kFirstEpoch + 3);
+}
+
+TEST_F(TakeoverTest, AWriteRacingATakeoverIsRefusedAndLeavesNothingBehind) {
+  testing::CreateSmall(a_->stub(), "m");
+  v1::AddMeasurementResponse out;
+  ASSERT_TRUE(Measure(*a_, "r1", -3, &out).ok());
+  absl::StatusOr<std::shared_ptr<Mission>> held = a_->registry().Get("missions/m");
+  ASSERT_TRUE(held.ok());
+  // B takes the mission between A's ownership check and A's write: A's
+  // append is fenced by the store.
+  ASSERT_EQ(Get(*b_).measurements_fused(), 1);
+  const absl::Status refused =
+      a_->registry().AfterFailedWrite(*held, store_->Append("m", {.sequence = 2,
+                                                                  .kind = RecordKind::kMeasurement,
+                                                                  .payload = "x",
+                                                                  .epoch = (*held)->epoch()}));
+  EXPECT_EQ(refused.code(), absl::StatusCode::kUnavailable) << refused;
+  EXPECT_NE(refused.message().find("another server"), absl::string_view::npos) << refused;
+  EXPECT_EQ(a_->registry().size(), 0u);  // A let go of its copy
+  absl::StatusOr<StoredMission> stored = store_->Load("m");
+  ASSERT_TRUE(stored.ok());
+  EXPECT_EQ(stored->log.size(), 1u);  // nothing of the refused write
+  EXPECT_EQ(Get(*b_).measurements_fused(), 1);
+}
+
+TEST_F(TakeoverTest, ARetriedCreateThatReachesAnotherServerGetsTheFirstMission) {
+  v1::CreateMissionRequest r;
+  r.set_mission_id("m");
+  r.set_request_id("create-1");
+  *r.mutable_spec() = testing::SmallSpec();
+  v1::Mission first, again;
+  {
+    grpc::ClientContext c;
+    ASSERT_TRUE(a_->stub().CreateMission(&c, r, &first).ok());
+  }
+  {
+    grpc::ClientContext c;
+    ASSERT_TRUE(b_->stub().CreateMission(&c, r, &again).ok());  // the same request, on B
+  }
+  EXPECT_EQ(again.name(), "missions/m");
+  EXPECT_EQ(b_->registry().takeovers(), 1);
+  // A different request with that request_id is refused, naming it.
+  r.mutable_spec()->set_budget_s(99);
+  grpc::ClientContext c;
+  const grpc::Status reused = b_->stub().CreateMission(&c, r, &again);
+  EXPECT_EQ(reused.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(reused.error_message().find("request_id"), std::string::npos);
+  // And a server-chosen id is never handed out twice across the servers.
+  v1::CreateMissionRequest unnamed;
+  *unnamed.mutable_spec() = testing::SmallSpec();
+  v1::Mission x, y;
+  grpc::ClientContext cx, cy;
+  ASSERT_TRUE(a_->stub().CreateMission(&cx, unnamed, &x).ok());
+  ASSERT_TRUE(b_->stub().CreateMission(&cy, unnamed, &y).ok());
+  EXPECT_NE(x.name(), y.name());
+}
+
+TEST_F(TakeoverTest, DeletedOnOneServerIsGoneOnTheOther) {
+  testing::CreateSmall(a_->stub(), "m");
+  ASSERT_EQ(Get(*b_).name(), "missions/m");  // B took it over
+  grpc::ClientContext c;
+  v1::DeleteMissionRequest d;
+  d.set_name("missions/m");
+  d.set_request_id("del-1");
+  v1::DeleteMissionResponse out;
+  ASSERT_TRUE(a_->stub().DeleteMission(&c, d, &out).ok());  // A takes it back and deletes it
+  grpc::ClientContext g;
+  v1::GetMissionRequest r;
+  r.set_name("missions/m");
+  v1::Mission m;
+  EXPECT_EQ(b_->stub().GetMission(&g, r, &m).error_code(), grpc::StatusCode::NOT_FOUND);
+  EXPECT_EQ(b_->registry().size(), 0u);
+  // The retry of the delete, on B: answered OK.
+  grpc::ClientContext c2;
+  EXPECT_TRUE(b_->stub().DeleteMission(&c2, d, &out).ok());
+}
+
+}  // namespace
+}  // namespace oaipp::server
