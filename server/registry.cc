@@ -285,6 +285,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
     takeover->done.WaitForNotification();
     return takeover->result;
   }
+  const absl::Time started = absl::Now();
   takeover->result = [&]() -> absl::StatusOr<std::shared_ptr<Mission>> {
     absl::StatusOr<StoredMission> claimed = store_->Claim(key);
     if (claimed.status().code() == absl::StatusCode::kNotFound) {
@@ -308,7 +309,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
       replaced->MarkMoved(absl::UnavailableError(
           absl::StrCat("name: mission '", name, "' was read back; watch it again")));
     }
-    spdlog::info("mission event=taken_over name={} epoch={}", std::string(name), claimed->epoch);
+    spdlog::info("mission event=taken_over name={} epoch={} records={} ms={:.1f}",
+                 std::string(name), claimed->epoch, claimed->log.size(),
+                 absl::ToDoubleMilliseconds(absl::Now() - started));
     return mission;
   }();
   {

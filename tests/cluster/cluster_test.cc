@@ -53,15 +53,8 @@ class ClusterTest : public ::testing::Test {
         {.replicas = 3, .replica_flags = {"--snapshot_every=4", "--planning_queue=64"}}));
   }
 
-  // Patient enough for a replica to die, the proxy to notice and another
-  // replica to take the mission over.
   static client::ClientOptions Patient() {
-    client::ClientOptions options;
-    options.plan_timeout = absl::Seconds(120);
-    options.max_attempts = 40;
-    options.first_backoff = absl::Milliseconds(100);
-    options.max_backoff = absl::Seconds(1);
-    return options;
+    return PatientClient(40, absl::Milliseconds(100), absl::Seconds(1));
   }
 
   // Flies kMissions E1 missions at once; `on_ack` runs after every

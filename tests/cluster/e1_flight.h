@@ -5,6 +5,8 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
+#include <functional>
 #include <set>
 #include <string>
 #include <vector>
@@ -25,7 +27,37 @@ struct E1Flight {
   std::set<std::string> replicas = {};
   // Called after every acknowledged call (for a test's kill schedule).
   std::function<void()> on_ack = nullptr;
+  // Called after every call with its method, wall time (retries included)
+  // and outcome (for benchmarks).
+  std::function<void(const char* method, double ms, bool ok)> on_call = nullptr;
 };
+
+// `call()` timed for flight.on_call.
+template <typename Call>
+auto Timed(E1Flight& flight, const char* method, Call call) {
+  const auto start = std::chrono::steady_clock::now();
+  auto result = call();
+  if (flight.on_call) {
+    flight.on_call(
+        method,
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(),
+        result.ok());
+  }
+  return result;
+}
+
+// Client options patient enough for a replica to die, the proxy to notice
+// and another replica to take the mission over: UNAVAILABLE is retried for
+// about attempts x max_backoff.
+inline client::ClientOptions PatientClient(int attempts, absl::Duration first_backoff,
+                                           absl::Duration max_backoff) {
+  client::ClientOptions options;
+  options.plan_timeout = absl::Seconds(300);
+  options.max_attempts = attempts;
+  options.first_backoff = first_backoff;
+  options.max_backoff = max_backoff;
+  return options;
+}
 
 // The E1 spec as this mission flies it: seed and budget set.
 inline v1::MissionSpec E1FlightSpec(std::uint32_t seed, double budget_s) {
@@ -44,7 +76,9 @@ inline absl::Status FlyE1(client::Client& client, const std::string& id, std::ui
     if (const std::string r = client.last_replica(); !r.empty()) flight.replicas.insert(r);
     if (flight.on_ack) flight.on_ack();
   };
-  absl::StatusOr<v1::Mission> created = client.CreateMission(E1FlightSpec(seed, budget_s), id);
+  absl::StatusOr<v1::Mission> created = Timed(flight, "CreateMission", [&] {
+    return client.CreateMission(E1FlightSpec(seed, budget_s), id);
+  });
   if (!created.ok()) return created.status();
   acked();
   v1::UavState state = created->spec().start();
@@ -52,7 +86,8 @@ inline absl::Status FlyE1(client::Client& client, const std::string& id, std::ui
     v1::PlanPathRequest plan;
     plan.set_name(flight.name);
     *plan.mutable_state() = state;
-    absl::StatusOr<v1::PlanPathResponse> path = client.PlanPath(plan);
+    absl::StatusOr<v1::PlanPathResponse> path =
+        Timed(flight, "PlanPath", [&] { return client.PlanPath(plan); });
     if (!path.ok()) return path.status();
     acked();
     ++flight.plans;
@@ -62,7 +97,8 @@ inline absl::Status FlyE1(client::Client& client, const std::string& id, std::ui
       v1::AddMeasurementRequest shot =
           bench::E1Measurement(flight.name, pose.position_m(), pose.mission_time_s());
       shot.set_request_id(absl::StrCat(id, "-shot-", flight.acknowledged.size()));
-      absl::StatusOr<v1::AddMeasurementResponse> fused = client.AddMeasurement(shot);
+      absl::StatusOr<v1::AddMeasurementResponse> fused =
+          Timed(flight, "AddMeasurement", [&] { return client.AddMeasurement(shot); });
       if (!fused.ok()) return fused.status();
       flight.acknowledged.push_back(shot);
       acked();
