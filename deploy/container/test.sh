@@ -1,0 +1,218 @@
+#!/usr/bin/env bash
+# End-to-end test of the service image: builds it (with its debootstrap
+# base), starts it with a named volume and the gRPC and metrics ports
+# published on 127.0.0.1 only, checks health from the host and from the
+# image's own HEALTHCHECK, flies the E1 scenario with the host's client,
+# restarts the container and checks that the mission came back from the
+# SQLite store on the volume. The container and the volume are removed
+# whatever happens.
+#
+#   sudo deploy/container/test.sh
+#
+# Environment:
+#   OAIPP_CLIENT   host client binary, relative to the repository root or
+#                  absolute (default build/client/oaipp-client)
+#   OAIPP_IMAGE    tag to build (default localhost/oaipp:latest)
+#   JOBS           compile jobs in the image build (default 2)
+#   OAIPP_CLIENT_WAIT_S  how long to wait for the host client to appear when
+#                  a build of it is still running (default 1800)
+set -euo pipefail
+
+SECONDS=0
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)
+cd "$repo"
+# shellcheck source-path=SCRIPTDIR source=podman-env.sh
+. deploy/container/podman-env.sh
+
+IMAGE=${OAIPP_IMAGE:-localhost/oaipp:latest}
+JOBS=${JOBS:-2}
+client=${OAIPP_CLIENT:-build/client/oaipp-client}
+case "$client" in /*) ;; *) client="$repo/$client" ;; esac
+
+if [ "$(id -u)" -ne 0 ]; then
+  echo "test.sh: run as root (rootful podman; rootless needs subuids this host lacks)" >&2
+  exit 1
+fi
+
+results=()
+failed=0
+pass() { results+=("PASS $*"); echo "PASS $*"; }
+fail() { results+=("FAIL $*"); echo "FAIL $*"; failed=1; }
+
+name=oaipp-test-$$
+volume=oaipp-test-data-$$
+tmp=$(mktemp -d /tmp/oaipp-container-test.XXXXXX)
+started=0
+
+finish() {
+  local rc=$?
+  if [ "$started" = 1 ]; then
+    if [ "$failed" = 1 ] || [ "$rc" != 0 ]; then
+      echo "--- container log (last 40 lines)"
+      pm logs --tail 40 "$name" 2>&1 || true
+    fi
+    pm rm -f -t 5 "$name" >/dev/null 2>&1 || true
+  fi
+  pm volume rm -f "$volume" >/dev/null 2>&1 || true
+  rm -rf "$tmp"
+  oaipp_podman_env_cleanup
+  oaipp_print_summary "$rc"
+}
+trap finish EXIT
+
+# Polls the server with the host client until it answers SERVING; fails if
+# the container exits or the time runs out.
+wait_serving() {
+  local what=$1 limit=$2 t0=$SECONDS
+  while [ $((SECONDS - t0)) -lt "$limit" ]; do
+    if [ "$(pm inspect --format '{{.State.Running}}' "$name" 2>/dev/null)" != true ]; then
+      fail "$what: container is not running"
+      return 1
+    fi
+    if timeout 10 "$client" health --server="127.0.0.1:$port" >"$tmp/health.out" 2>&1; then
+      pass "$what: SERVING after $((SECONDS - t0)) s ($(cat "$tmp/health.out"))"
+      return 0
+    fi
+    sleep 1
+  done
+  fail "$what: not SERVING within $limit s: $(tail -n 1 "$tmp/health.out")"
+  return 1
+}
+
+# Runs the image's HEALTHCHECK now and reports its exit and what the check
+# printed (the last entry of the container's health log).
+healthcheck() {
+  local what=$1 rc=0 out
+  pm healthcheck run "$name" >"$tmp/hc.out" 2>&1 || rc=$?
+  out=$(pm inspect --format '{{with .State.Health}}{{range .Log}}{{println .Output}}{{end}}{{end}}' "$name" 2>/dev/null |
+    grep -v '^$' | tail -n 1 || true)
+  if [ "$rc" = 0 ]; then
+    pass "$what: $(tr '\n' ' ' <"$tmp/hc.out")exit 0, check printed: $out"
+  else
+    fail "$what: exit $rc: $(tr '\n' ' ' <"$tmp/hc.out") $out"
+  fi
+}
+
+echo "=== packages and podman"
+oaipp_need_packages podman runc debootstrap
+oaipp_podman_env
+echo "podman $(pm version --format '{{.Client.Version}}'), runtime runc $(runc --version | awk 'NR==1{print $3}')"
+
+echo "=== base image"
+timeout 1800 deploy/container/make-base-image.sh
+
+echo "=== image build ($IMAGE, JOBS=$JOBS; log in $tmp/build.log while it runs)"
+t0=$SECONDS
+# nice: the image build must not starve other work on a small machine.
+if ! timeout 3600 nice -n 19 podman --runtime /usr/sbin/runc build --format docker \
+  -f deploy/container/Containerfile --build-arg JOBS="$JOBS" -t "$IMAGE" . >"$tmp/build.log" 2>&1; then
+  tail -n 40 "$tmp/build.log"
+  fail "image build (see the log above)"
+  exit 1
+fi
+cached=$(grep -c -- '--> Using cache' "$tmp/build.log" || true)
+steps=$(grep -c '^\[[0-9]/[0-9]\] STEP' "$tmp/build.log" || true)
+pass "image build in $((SECONDS - t0)) s ($steps steps, $cached from cache)"
+size=$(pm image inspect --format '{{.Size}}' "$IMAGE")
+echo "image size: $size bytes ($((size / 1000000)) MB)"
+pm images --filter reference="$IMAGE" --filter reference=localhost/oaipp-base --format '{{.Repository}}:{{.Tag}} {{.ID}} {{.Size}}'
+health_cfg=$(pm image inspect --format '{{json .HealthCheck}}' "$IMAGE")
+if [ "$health_cfg" = null ] || [ -z "$health_cfg" ]; then
+  fail "image has a HEALTHCHECK"
+else
+  pass "image has a HEALTHCHECK: $health_cfg"
+fi
+user=$(pm image inspect --format '{{.Config.User}}' "$IMAGE")
+if [ "$user" = oaipp:oaipp ]; then pass "image runs as $user"; else fail "image user is '$user', not oaipp:oaipp"; fi
+
+echo "=== host client"
+t0=$SECONDS
+limit=${OAIPP_CLIENT_WAIT_S:-1800}
+# A client still being linked exists before it runs; wait until it prints
+# its usage (exit 2) like a finished one.
+until [ -x "$client" ] && { "$client" >/dev/null 2>&1; [ $? -eq 2 ]; }; do
+  if [ $((SECONDS - t0)) -ge "$limit" ]; then
+    fail "host client $client not there within $limit s (build it, or set OAIPP_CLIENT)"
+    exit 1
+  fi
+  if [ $((SECONDS - t0)) -eq 0 ]; then echo "waiting for $client ..."; fi
+  sleep 10
+done
+echo "host client: $client"
+
+echo "=== start"
+port=$(oaipp_free_port)
+metrics_port=$(oaipp_free_port)
+pm volume create "$volume" >/dev/null
+started=1
+pm run -d --name "$name" -v "$volume:/var/lib/oaipp" \
+  -p "127.0.0.1:$port:50051" -p "127.0.0.1:$metrics_port:9464" "$IMAGE" >/dev/null 2> >(oaipp_quiet_systemd)
+echo "container $name: gRPC on 127.0.0.1:$port, metrics on 127.0.0.1:$metrics_port, volume $volume"
+wait_serving "start" 90 || exit 1
+
+healthcheck "HEALTHCHECK in the container"
+state=$(pm inspect --format '{{.State.Health.Status}}' "$name" 2>/dev/null || true)
+if [ "$state" = healthy ]; then pass "container health state: $state"; else fail "container health state: '$state'"; fi
+
+if timeout 10 curl -fsS "http://127.0.0.1:$metrics_port/metrics" >"$tmp/metrics.txt" &&
+  grep -q '^oaipp_' "$tmp/metrics.txt"; then
+  pass "metrics on 127.0.0.1:$metrics_port ($(grep -c '^oaipp_' "$tmp/metrics.txt") oaipp_ samples)"
+else
+  fail "metrics on 127.0.0.1:$metrics_port"
+fi
+pm logs "$name" >"$tmp/server.log" 2>&1
+if grep -q 'store: sqlite file /var/lib/oaipp/' "$tmp/server.log"; then
+  pass "$(grep -o 'store: sqlite.*' "$tmp/server.log" | head -n 1)"
+else
+  fail "server did not open the sqlite store on the volume: $(grep 'store:' "$tmp/server.log" | head -n 1)"
+fi
+
+echo "=== E1 mission"
+t0=$SECONDS
+if timeout 1200 "$client" run client/scenarios/e1.json --server="127.0.0.1:$port" --keep \
+  --out="$tmp/e1" >"$tmp/run.out" 2>&1; then
+  sed 's/^/  /' "$tmp/run.out"
+  pass "E1 flown in $((SECONDS - t0)) s: $(grep '^done:' "$tmp/run.out" | cut -c1-100)"
+else
+  rc=$?
+  sed 's/^/  /' "$tmp/run.out"
+  fail "E1 run exited $rc"
+  exit 1
+fi
+# The name of the kept mission: from the client if it prints it, else from
+# the server's log line for the creation.
+mission=$(grep -o 'missions/[a-z0-9-]*' "$tmp/run.out" | head -n 1 || true)
+if [ -z "$mission" ]; then
+  mission=$(pm logs "$name" 2>&1 | grep -o 'event=created name=missions/[a-z0-9-]*' | tail -n 1 |
+    sed 's/.*name=//' || true)
+fi
+if [ -z "$mission" ]; then
+  fail "mission name of the run not found"
+  exit 1
+fi
+if "$client" map "$mission" --server="127.0.0.1:$port" --png="$tmp/before.png" >"$tmp/map1.out" 2>&1; then
+  pass "$mission readable before restart: $(cat "$tmp/map1.out")"
+else
+  fail "$mission before restart: $(cat "$tmp/map1.out")"
+fi
+
+echo "=== restart"
+t0=$SECONDS
+pm restart -t 20 "$name" >/dev/null 2> >(oaipp_quiet_systemd)
+echo "restarted in $((SECONDS - t0)) s"
+wait_serving "after restart" 120 || exit 1
+recovered=$(pm logs "$name" 2>&1 | grep -o 'store: recovered [0-9]* missions.*' | tail -n 1 || true)
+echo "server log: $recovered"
+if "$client" map "$mission" --server="127.0.0.1:$port" --png="$tmp/after.png" >"$tmp/map2.out" 2>&1 &&
+  [ -s "$tmp/after.png" ]; then
+  trace_before=$(grep -o 'Tr(P) = [0-9.]*' "$tmp/map1.out" || true)
+  trace_after=$(grep -o 'Tr(P) = [0-9.]*' "$tmp/map2.out" || true)
+  if [ -n "$trace_after" ] && [ "$trace_before" = "$trace_after" ]; then
+    pass "$mission survived the restart with its map ($trace_after, as before)"
+  else
+    fail "$mission after restart: '$trace_after', before: '$trace_before'"
+  fi
+else
+  fail "$mission after restart: $(cat "$tmp/map2.out")"
+fi
+healthcheck "HEALTHCHECK after restart"
