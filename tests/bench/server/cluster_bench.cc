@@ -57,7 +57,8 @@ client::ClientOptions Patient() {
 
 bool StartCluster(LocalCluster& cluster, int replicas) {
   return cluster.Start(
-      {.replicas = replicas, .replica_flags = {"--planning_queue=256", "--max_missions=256"}});
+      {.replicas = replicas,
+       .replica_flags = {"--planning_queue=256", "--max_missions=256", "--worker_threads=64"}});
 }
 
 void Load(int replicas) {
@@ -75,10 +76,13 @@ void Load(int replicas) {
       flight.on_call = [&](const char* method, double ms, bool ok) {
         latencies.Add(method, ms, ok);
       };
-      if (FlyE1(client, absl::StrCat("load-", m), static_cast<std::uint32_t>(m + 1),
-                absl::GetFlag(FLAGS_budget_s), flight)
-              .ok()) {
+      const absl::Status flown =
+          FlyE1(client, absl::StrCat("load-", m), static_cast<std::uint32_t>(m + 1),
+                absl::GetFlag(FLAGS_budget_s), flight);
+      if (flown.ok()) {
         ++finished;
+      } else {
+        std::fprintf(stderr, "mission %d: %s\n", m, flown.ToString().c_str());
       }
     });
   }
