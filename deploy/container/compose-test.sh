@@ -31,10 +31,6 @@ if [ ! -x "$client" ]; then
   exit 1
 fi
 
-results=()
-failed=0
-pass() { results+=("PASS $*"); echo "PASS $*"; }
-fail() { results+=("FAIL $*"); echo "FAIL $*"; failed=1; }
 
 project=oaipp-compose-test-$$
 compose_file=deploy/container/compose.yaml

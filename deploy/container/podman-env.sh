@@ -68,6 +68,13 @@ oaipp_free_port() {
 # for stderr that drops only those lines.
 oaipp_quiet_systemd() { grep -v 'unable to get systemd connection' >&2 || true; }
 
+# A test script's checks: each PASS / FAIL line is printed and kept for the
+# summary; one FAIL makes the script fail at its end.
+results=()
+failed=0
+pass() { results+=("PASS $*"); echo "PASS $*"; }
+fail() { results+=("FAIL $*"); echo "FAIL $*"; failed=1; }
+
 # The end of a test script: the PASS / FAIL lines it gathered in `results`
 # (global), the time, and exit 1 when a check failed (`failed`, global)
 # although the script itself ran to its end (rc 0).

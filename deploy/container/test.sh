@@ -34,10 +34,6 @@ if [ "$(id -u)" -ne 0 ]; then
   exit 1
 fi
 
-results=()
-failed=0
-pass() { results+=("PASS $*"); echo "PASS $*"; }
-fail() { results+=("FAIL $*"); echo "FAIL $*"; failed=1; }
 
 name=oaipp-test-$$
 volume=oaipp-test-data-$$
