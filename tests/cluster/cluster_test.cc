@@ -13,7 +13,9 @@
 
 #include <atomic>
 #include <cstdlib>
+#include <mutex>
 #include <random>
+#include <set>
 #include <thread>
 
 #include "absl/strings/match.h"
@@ -65,12 +67,19 @@ class ClusterTest : public ::testing::Test {
   // acknowledged call with the count so far.
   std::vector<E1Flight> FlyAll(const std::function<void(int)>& on_ack) {
     std::vector<E1Flight> flights(kMissions);
+    holders_.assign(kMissions, "");
     std::atomic<int> acked{0};
     std::vector<std::thread> threads;
     for (int m = 0; m < kMissions; ++m) {
       threads.emplace_back([&, m] {
         client::Client client = client::Client::Connect(cluster_.proxy_address(), Patient());
-        flights[m].on_ack = [&] { on_ack(++acked); };
+        flights[m].on_ack = [&, m] {
+          {
+            std::lock_guard<std::mutex> lock(holders_mu_);
+            holders_[m] = client.last_replica();
+          }
+          on_ack(++acked);
+        };
         const absl::Status flown = FlyE1(client, absl::StrCat("e1-", m),
                                          static_cast<std::uint32_t>(m + 1), kBudgetS, flights[m]);
         EXPECT_TRUE(flown.ok()) << "mission " << m << ": " << flown;
@@ -116,8 +125,22 @@ class ClusterTest : public ::testing::Test {
     }
   }
 
+  // The replicas that answered each mission's last call, in order of name.
+  std::vector<int> HoldingReplicas() {
+    std::set<int> holding;
+    std::lock_guard<std::mutex> lock(holders_mu_);
+    for (int i = 0; i < cluster_.replicas(); ++i) {
+      for (const std::string& h : holders_) {
+        if (h == LocalCluster::ReplicaName(i)) holding.insert(i);
+      }
+    }
+    return {holding.begin(), holding.end()};
+  }
+
   LocalCluster cluster_;
   std::atomic<std::int64_t> retried_{0};
+  std::mutex holders_mu_;
+  std::vector<std::string> holders_;
 };
 
 TEST_F(ClusterTest, TheProxyRoutesEachMissionToOneReplica) {
@@ -155,7 +178,10 @@ TEST_F(ClusterTest, AKilledReplicasMissionsAreTakenOverAndNothingIsLost) {
   const int kill_after = std::uniform_int_distribution<int>(total / 5, total / 2)(rng);
   const int restart_after =
       kill_after + std::uniform_int_distribution<int>(total / 20, total / 6)(rng);
-  const int victim = std::uniform_int_distribution<int>(0, cluster_.replicas() - 1)(rng);
+  // The victim: a seeded choice among the replicas holding missions at the
+  // kill (with few missions, a replica may hold none).
+  const std::uint32_t pick = rng();
+  int victim = -1;
   std::atomic<int> stage{0};  // 0 before the kill, 1 killed, 2 restarted
   std::atomic<bool> restart_failed{false};
   std::mutex mu;
@@ -164,6 +190,9 @@ TEST_F(ClusterTest, AKilledReplicasMissionsAreTakenOverAndNothingIsLost) {
     std::unique_lock<std::mutex> lock(mu, std::try_to_lock);
     if (!lock.owns_lock()) return;
     if (stage == 0 && acked >= kill_after) {
+      const std::vector<int> holding = HoldingReplicas();
+      if (holding.empty()) return;
+      victim = holding[pick % holding.size()];
       cluster_.replica(victim).Stop(SIGKILL);
       stage = 1;
     } else if (stage == 1 && acked >= restart_after) {
