@@ -23,6 +23,14 @@
 
 namespace oaipp::api {
 
+// A point on the WGS84 ellipsoid (api/geodetic.h converts it).
+struct GeoPoint {
+  double latitude_deg = 0.0;
+  double longitude_deg = 0.0;
+  double altitude_m = 0.0;  // above mean sea level
+  friend bool operator==(const GeoPoint&, const GeoPoint&) = default;
+};
+
 struct MissionConfig {
   // Altitude of the default start (over the field's centre, at rest), m.
   static constexpr double kDefaultStartAltitude_m = 10.0;
@@ -48,6 +56,8 @@ struct MissionConfig {
   std::vector<Obstacle> obstacles;
   UavState start;
   double budget_s = 150.0;
+  // Where W is on Earth (W is East-North-Up there); unset: local metres only.
+  std::optional<GeoPoint> geo_origin;
 
   [[nodiscard]] Aabb FlightVolume() const {
     return {{field_min_W.x(), field_min_W.y(), min_altitude_m},

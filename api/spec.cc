@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "api/geodetic.h"
 #include "api/geometry.h"
 #include "api/internal/checks.h"
 #include "core/common/status_macros.h"
@@ -263,6 +264,12 @@ absl::StatusOr<PlannerKind> PlannerKindFromProto(v1::PlannerKind kind) {
 }
 
 absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
+  if (HasGeoFields(spec)) {
+    // Geodetic points become local metres first; the rest sees those only.
+    v1::MissionSpec local = spec;
+    OAIPP_RETURN_IF_ERROR(ResolveGeoFields(&local, "spec"));
+    return MissionSpecToConfig(local);
+  }
   if (!spec.preset().empty() && spec.preset() != "paper") {
     return absl::InvalidArgumentError(absl::StrCat("spec.preset: unknown preset '", spec.preset(),
                                                    "' (expected \"\" or \"paper\")"));
@@ -278,6 +285,9 @@ absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
   OAIPP_RETURN_IF_ERROR(FillStart(spec, c));
   c.budget_s = OrDefault(spec.has_budget_s(), spec.budget_s(), kDefaults.budget_s);
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.budget_s", c.budget_s));
+  if (spec.has_geo_origin()) {
+    OAIPP_ASSIGN_OR_RETURN(c.geo_origin, GeoPointFromProto(spec.geo_origin(), "spec.geo_origin"));
+  }
   return c;
 }
 
@@ -331,6 +341,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   for (const Obstacle& o : c.obstacles) *spec.add_obstacles() = ObstacleToProto(o);
   *spec.mutable_start() = UavStateToProto(c.start);
   spec.set_budget_s(c.budget_s);
+  if (c.geo_origin.has_value()) *spec.mutable_geo_origin() = GeoPointToProto(*c.geo_origin);
   return spec;
 }
 

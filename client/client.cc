@@ -167,6 +167,12 @@ absl::StatusOr<v1::PlanPathResponse> Client::PlanPath(v1::PlanPathRequest reques
       RouteOf(request.name()));
 }
 
+absl::StatusOr<v1::ExportPathResponse> Client::ExportPath(const v1::ExportPathRequest& request) {
+  return Call<v1::ExportPathRequest, v1::ExportPathResponse>(
+      "ExportPath", &v1::MissionService::Stub::ExportPath, request, options_.call_timeout,
+      RouteOf(request.name()));
+}
+
 absl::StatusOr<v1::GetMapResponse> Client::GetMap(const std::string& name, bool cells, bool png) {
   v1::GetMapRequest request;
   request.set_name(name);

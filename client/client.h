@@ -67,6 +67,8 @@ class Client {
   [[nodiscard]] absl::StatusOr<v1::PlanPathResponse> PlanPath(v1::PlanPathRequest request);
   [[nodiscard]] absl::StatusOr<v1::GetMapResponse> GetMap(const std::string& name, bool cells,
                                                           bool png);
+  [[nodiscard]] absl::StatusOr<v1::ExportPathResponse> ExportPath(
+      const v1::ExportPathRequest& request);
 
   // The server that answered the last call (api::kReplicaHeader), or ""
   // when it names none.

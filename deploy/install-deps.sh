@@ -26,6 +26,12 @@ packages=(
   # (deploy/cluster/, the cluster tests), and YAML for the offline check of
   # the Kubernetes manifests (deploy/k8s/)
   haproxy python3-yaml
+  # ground stations: WGS84 <-> local ENU conversions; the Python example
+  # client (its stubs come from the system protoc + grpc_python_plugin); a
+  # headless browser for the live mission view's test
+  libgeographiclib-dev python3-grpcio python3-protobuf chromium python3-websocket
+  # the live mission view's small HTTP server
+  libcpp-httplib-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # fuzzing (fuzz/run.sh): clang, with libFuzzer and the sanitizer runtimes

@@ -39,6 +39,8 @@
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
+#include "api/export.h"
+#include "api/geodetic.h"
 #include "api/geometry.h"
 #include "api/measurement.h"
 #include "api/mission_config.h"
@@ -169,6 +171,7 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(planner.lawnmower.detour_margin_m);
   OAIPP_FUZZ_SAME(planner.random.max_attempts);
   OAIPP_FUZZ_SAME(budget_s);
+  if (a.geo_origin != b.geo_origin) return "geo_origin";
 #undef OAIPP_FUZZ_SAME
   if (std::string d = ObstaclesDifference(a.obstacles, b.obstacles); !d.empty()) {
     return absl::StrCat("obstacles", d);
@@ -498,6 +501,32 @@ void PlanPathResponse(const v1::PlanPathResponse& response) {
                    absl::StrCat("written, read and written again differs: ", report));
 }
 
+// ExportPath: the options, then the export of the path on FixedMission with
+// a geo_origin (so that all three forms are built). Work grows with the
+// path's length and max_items; both are capped here to keep inputs fast.
+void ExportPath(const v1::ExportPathRequest& request) {
+  CheckEchoed(request.name());
+  absl::StatusOr<api::ExportOptions> options = api::ExportOptionsFromProto(request);
+  CheckError(options.status(), {StatusCode::kInvalidArgument}, "ExportOptionsFromProto");
+  if (!options.ok()) return;
+  if (!(TotalDuration(request.path().trajectory()) <= 30.0) || options->max_items > 64 ||
+      options->setpoint_rate_hz > 100.0) {
+    return;
+  }
+  MissionConfig config = Fixed().config;
+  config.geo_origin = api::GeoPoint{47.397742, 8.545594, 488.0};
+  absl::StatusOr<v1::ExportPathResponse> out =
+      api::ExportPath(config, config.obstacles, request.path(), *options);
+  CheckError(out.status(), {StatusCode::kInvalidArgument, StatusCode::kFailedPrecondition},
+             "ExportPath");
+  if (!out.ok()) return;
+  OAIPP_FUZZ_CHECK(out->mission_items_size() <= options->max_items,
+                   absl::StrCat(out->mission_items_size(), " items, more than max_items"));
+  OAIPP_FUZZ_CHECK(out->mission_items_size() >= 2, "fewer than two mission items");
+  OAIPP_FUZZ_CHECK(out->setpoints_size() >= 2, "fewer than two setpoints");
+  OAIPP_FUZZ_CHECK(!out->qgc_plan_json().empty(), "no .plan with a geo_origin");
+}
+
 void Run(MessageKind kind, const std::uint8_t* data, std::size_t size) {
   const int n = static_cast<int>(size);
   switch (kind) {
@@ -549,6 +578,11 @@ void Run(MessageKind kind, const std::uint8_t* data, std::size_t size) {
     case MessageKind::kPlanPathResponse: {
       v1::PlanPathResponse m;
       if (m.ParseFromArray(data, n)) PlanPathResponse(m);
+      return;
+    }
+    case MessageKind::kExportPath: {
+      v1::ExportPathRequest m;
+      if (m.ParseFromArray(data, n)) ExportPath(m);
       return;
     }
   }

@@ -25,8 +25,9 @@ enum class MessageKind : std::uint8_t {
   // Not a request: the server reads its stored first answers back with
   // api::PlannedPathFromProto (server/registry.cc, store/state_codec.cc).
   kPlanPathResponse = 9,
+  kExportPath = 10,
 };
-inline constexpr int kNumKinds = 10;
+inline constexpr int kNumKinds = 11;
 
 [[nodiscard]] v1::Vector3 V(double x, double y, double z);
 

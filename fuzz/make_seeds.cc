@@ -37,7 +37,7 @@ namespace fs = std::filesystem;
 using Kind = MessageKind;
 
 // The scenario files that seed both targets.
-constexpr const char* kScenarios[] = {"e1", "e4", "e5"};
+constexpr const char* kScenarios[] = {"e1", "e4", "e5", "zurich"};
 
 void WriteFile(const fs::path& path, const std::string& bytes) {
   std::ofstream out(path, std::ios::binary);
@@ -227,6 +227,14 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
   v1::PlanPathResponse response;
   api::PlannedPathToProto(path, &response);
   WriteSeed(dir, "plan_path_response", Kind::kPlanPathResponse, response);
+
+  v1::ExportPathRequest export_path;
+  export_path.set_name("missions/m1");
+  *export_path.mutable_path() = response;
+  export_path.set_setpoint_rate_hz(20.0);
+  export_path.set_waypoint_tolerance_m(0.2);
+  export_path.set_max_items(32);
+  WriteSeed(dir, "export_path", Kind::kExportPath, export_path);
 }
 
 void WriteScenarioSeeds(const fs::path& root, const fs::path& dir) {

@@ -1,6 +1,8 @@
 #include "server/mission.h"
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -8,6 +10,7 @@
 #include "api/status.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/camera.h"
+#include "core/trajectory/polynomial_trajectory.h"
 
 namespace oaipp::server {
 
@@ -351,10 +354,10 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
                                                           const RequestKey& request,
                                                           const PersistFn& persist) {
   MeasurementResult result;
+  std::vector<CellObservation> observations;
   {
     absl::MutexLock order(&mutation_mu_);
     if (auto done = Recall<MeasurementResult>(request)) return *std::move(done);
-    std::vector<CellObservation> observations;
     {
       absl::ReaderMutexLock lock(&mu_);
       OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
@@ -375,7 +378,15 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     Publish(/*obstacles_changed=*/false);
     Remember(request, result);
   }
-  Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused, result.trace});
+  std::vector<int> detected;
+  for (const CellObservation& o : observations) {
+    if (o.value >= kDetectedLabel) detected.push_back(o.cell);
+  }
+  std::sort(detected.begin(), detected.end());
+  detected.erase(std::unique(detected.begin(), detected.end()), detected.end());
+  AddToTrack(input.pose.p_WC, detected, nullptr);
+  Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused, result.trace,
+                                          input.pose.p_WC, std::move(detected)});
   MaybeWantSnapshot();
   return result;
 }
@@ -438,8 +449,16 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     mission_time_s_ = std::max(mission_time_s_, state.mission_time_s);
     Publish(/*obstacles_changed=*/false);
   }
+  std::vector<Vec3> planned;
+  if (absl::StatusOr<std::vector<TimedPosition>> samples =
+          SampleTrajectory(path->trajectory, 10.0);
+      samples.ok()) {
+    for (const TimedPosition& s : *samples) planned.push_back(s.position_W);
+  }
+  AddToTrack(state.position_W, {}, &planned);
   Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
-                                     path->objective, path->control_waypoints_W});
+                                     path->objective, path->control_waypoints_W,
+                                     state.position_W});
   MaybeWantSnapshot();
   return path;
 }
@@ -615,6 +634,34 @@ void Mission::MarkMoved(const absl::Status& reason) {
   absl::MutexLock lock(&events_mu_);
   for (const auto& w : watchers_) w->Close(reason);
   watchers_.clear();
+}
+
+void Mission::AddToTrack(const Vec3& p_W, const std::vector<int>& detected,
+                         const std::vector<Vec3>* planned_W) {
+  absl::MutexLock lock(&track_mu_);
+  MissionTrack& t = track_;
+  if (t.flown_W.size() >= MissionTrack::kMaxFlown) {
+    t.flown_W.erase(t.flown_W.begin(), t.flown_W.begin() + MissionTrack::kMaxFlown / 4);
+  }
+  t.flown_W.push_back(p_W);
+  if (planned_W != nullptr) t.planned_W = *planned_W;
+  if (!detected.empty() && t.detected_cells.size() < MissionTrack::kMaxDetected) {
+    std::vector<int> merged;
+    std::set_union(t.detected_cells.begin(), t.detected_cells.end(), detected.begin(),
+                   detected.end(), std::back_inserter(merged));
+    if (merged.size() > MissionTrack::kMaxDetected) merged.resize(MissionTrack::kMaxDetected);
+    t.detected_cells = std::move(merged);
+  }
+}
+
+MissionTrack Mission::Track() const {
+  absl::MutexLock lock(&track_mu_);
+  return track_;
+}
+
+std::int64_t Mission::last_event_sequence() const {
+  absl::MutexLock lock(&events_mu_);
+  return sequence_;
 }
 
 void Mission::Emit(decltype(MissionEventData::event) event) {

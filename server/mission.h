@@ -65,6 +65,8 @@ struct MissionEventData {
     double mission_time_s;
     int cells_fused;
     double trace;
+    Vec3 camera_position_W;
+    std::vector<int> detected_cells;  // labelled >= kDetectedLabel
   };
   struct ObstaclesChanged {
     int obstacle_count;
@@ -74,6 +76,7 @@ struct MissionEventData {
     double duration_s;
     double objective;
     std::vector<Vec3> control_waypoints_W;
+    Vec3 start_W;
   };
   struct Deleted {};
   std::variant<MeasurementFused, ObstaclesChanged, PathPlanned, Deleted> event;
@@ -111,6 +114,23 @@ class EventQueue {
   std::int64_t dropped_ ABSL_GUARDED_BY(mu_) = 0;
   std::function<void()> listener_ ABSL_GUARDED_BY(mu_);
   std::size_t capacity_;
+};
+
+// A cell counts as seen by a measurement when its label is at least this.
+inline constexpr double kDetectedLabel = 0.5;
+
+// What the live view draws besides the map (server/web_view.h): kept in
+// memory only, bounded, and rebuilt from what a restart replays.
+struct MissionTrack {
+  static constexpr std::size_t kMaxFlown = 4096;
+  static constexpr std::size_t kMaxDetected = 4096;
+  // Where the UAV reported being (camera positions and plan starts), in
+  // arrival order; the oldest are dropped past kMaxFlown.
+  std::vector<Vec3> flown_W;
+  // The last planned trajectory, sampled at 10 Hz.
+  std::vector<Vec3> planned_W;
+  // Cells some measurement saw (label >= kDetectedLabel), sorted.
+  std::vector<int> detected_cells;
 };
 
 struct MissionSnapshot {
@@ -268,6 +288,11 @@ class Mission {
   [[nodiscard]] const std::string& id() const { return id_; }
   [[nodiscard]] const MissionConfig& config() const { return config_; }
 
+  // The live view's track (a copy).
+  [[nodiscard]] MissionTrack Track() const;
+  // The number of the last event (0 before the first).
+  [[nodiscard]] std::int64_t last_event_sequence() const;
+
   // Watchers get every event after they subscribe.
   [[nodiscard]] std::shared_ptr<EventQueue> Subscribe();
   void Unsubscribe(const std::shared_ptr<EventQueue>& queue);
@@ -373,8 +398,15 @@ class Mission {
   std::atomic<std::int64_t> last_change_unix_us_{0};
   std::atomic<std::int64_t> epoch_{1};
 
-  absl::Mutex events_mu_;
+  mutable absl::Mutex events_mu_;
   std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;
+  // A leaf lock of its own: the live view reads the track without waiting
+  // for a change in progress.
+  mutable absl::Mutex track_mu_;
+  MissionTrack track_ ABSL_GUARDED_BY(track_mu_);
+  // Adds to the track; `detected` sorted.
+  void AddToTrack(const Vec3& p_W, const std::vector<int>& detected,
+                  const std::vector<Vec3>* planned_W);
   std::vector<std::shared_ptr<EventQueue>> watchers_ ABSL_GUARDED_BY(events_mu_);
 };
 

@@ -9,6 +9,8 @@
 #include "absl/strings/str_replace.h"
 #include "absl/strings/str_split.h"
 #include "absl/time/clock.h"
+#include "api/export.h"
+#include "api/geodetic.h"
 #include "api/geometry.h"
 #include "api/map.h"
 #include "api/measurement.h"
@@ -145,6 +147,8 @@ void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
     f->set_mission_time_s(m->mission_time_s);
     f->set_cells_fused(m->cells_fused);
     f->set_trace(m->trace);
+    *f->mutable_camera_position_m() = ToProto(m->camera_position_W);
+    f->mutable_detected_cells()->Add(m->detected_cells.begin(), m->detected_cells.end());
   } else if (const auto* o = std::get_if<MissionEventData::ObstaclesChanged>(&e.event)) {
     out->mutable_obstacles_changed()->set_obstacle_count(o->obstacle_count);
   } else if (const auto* p = std::get_if<MissionEventData::PathPlanned>(&e.event)) {
@@ -153,6 +157,7 @@ void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
     f->set_duration_s(p->duration_s);
     f->set_objective(p->objective);
     for (const Vec3& w : p->control_waypoints_W) *f->add_control_waypoints_m() = ToProto(w);
+    *f->mutable_start_m() = ToProto(p->start_W);
   } else {
     out->mutable_mission_deleted();
   }
@@ -346,15 +351,23 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
-    OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(*request));
-    const std::string fingerprint = RequestFingerprint(*request);
+    // Geodetic centres become local metres before anything else sees them
+    // (and before the request is stored, so that a replay needs no origin).
+    v1::UpdateObstaclesRequest resolved;
+    if (api::HasGeoFields(*request)) {
+      resolved = *request;
+      OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission->config().geo_origin, &resolved));
+    }
+    const v1::UpdateObstaclesRequest& local = api::HasGeoFields(*request) ? resolved : *request;
+    OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(local));
+    const std::string fingerprint = RequestFingerprint(local);
     OAIPP_ASSIGN_OR_RETURN(
         ObstacleResult result,
         AfterWrite(
             *registry_, mission,
-            mission->UpdateObstacles(change, {request->request_id(), fingerprint},
+            mission->UpdateObstacles(change, {local.request_id(), fingerprint},
                                      Recorder(registry_->store(), *mission, RecordKind::kObstacles,
-                                              *request, fingerprint))));
+                                              local, fingerprint))));
     response->set_obstacle_count(result.obstacle_count);
     response->set_esdf_voxels_recomputed(result.esdf_voxels_recomputed);
     return absl::OkStatus();
@@ -368,18 +381,42 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
-    OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(*request));
-    const std::string fingerprint = RequestFingerprint(*request);
+    v1::AddMeasurementRequest resolved;
+    if (api::HasGeoFields(*request)) {
+      resolved = *request;
+      OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission->config().geo_origin, &resolved));
+    }
+    const v1::AddMeasurementRequest& local = api::HasGeoFields(*request) ? resolved : *request;
+    OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(local));
+    const std::string fingerprint = RequestFingerprint(local);
     OAIPP_ASSIGN_OR_RETURN(
         MeasurementResult result,
         AfterWrite(
             *registry_, mission,
-            mission->AddMeasurement(input, {request->request_id(), fingerprint},
+            mission->AddMeasurement(input, {local.request_id(), fingerprint},
                                     Recorder(registry_->store(), *mission, RecordKind::kMeasurement,
-                                             *request, fingerprint))));
+                                             local, fingerprint))));
     response->set_cells_fused(result.cells_fused);
     response->set_trace(result.trace);
     response->set_measurements_fused(result.measurements_fused);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MissionServiceImpl::ExportPath(grpc::ServerContext* context,
+                                            const v1::ExportPathRequest* request,
+                                            v1::ExportPathResponse* response) {
+  return Call(context, "ExportPath", [&]() -> absl::Status {
+    OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
+                           registry_->Get(request->name(), tenant));
+    if (!request->has_path()) {
+      return absl::InvalidArgumentError("path: required (a PlanPath answer of this mission)");
+    }
+    OAIPP_ASSIGN_OR_RETURN(const api::ExportOptions options, api::ExportOptionsFromProto(*request));
+    const MissionSnapshot snapshot = mission->Snapshot();
+    OAIPP_ASSIGN_OR_RETURN(*response, api::ExportPath(snapshot.config, snapshot.obstacles,
+                                                      request->path(), options));
     return absl::OkStatus();
   });
 }
@@ -464,7 +501,9 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     OAIPP_ASSIGN_OR_RETURN(tenant_, service_->TenantOf(*context_));
     OAIPP_ASSIGN_OR_RETURN(mission_, service_->registry_->Get(request_->name(), tenant_));
     if (!request_->has_state()) return absl::InvalidArgumentError("state: required");
-    OAIPP_ASSIGN_OR_RETURN(state_, UavStateFromProto(request_->state(), "state"));
+    v1::UavState state = request_->state();
+    OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission_->config().geo_origin, &state, "state"));
+    OAIPP_ASSIGN_OR_RETURN(state_, UavStateFromProto(state, "state"));
     if (request_->has_next_shot_mission_s()) next_shot_ = request_->next_shot_mission_s();
     call_.deadline = PlanningDeadline(context_);
     call_.cancelled = [this] { return cancelled_.load() || context_->IsCancelled(); };

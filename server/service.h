@@ -82,6 +82,8 @@ class MissionServiceImpl final : public MissionServiceBase {
                                      v1::PlanPathResponse* response) override;
   grpc::ServerWriteReactor<v1::MissionEvent>* WatchMission(
       grpc::CallbackServerContext* context, const v1::WatchMissionRequest* request) override;
+  grpc::Status ExportPath(grpc::ServerContext* context, const v1::ExportPathRequest* request,
+                          v1::ExportPathResponse* response) override;
 
   // True while new plans or streams would be refused: every planner busy
   // and the queue full, or the stream limit reached (health reports it).

@@ -15,7 +15,9 @@
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "client/cli/evaluation.h"
 #include "client/cli/map_image.h"
 #include "client/cli/mission_runner.h"
@@ -43,6 +45,11 @@ ABSL_FLAG(
     std::string, scenario, "",
     "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
 ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
+ABSL_FLAG(std::string, geo_origin, "",
+          "export: LAT,LON,ALT (degrees, degrees, metres above mean sea level) of the local "
+          "frame's origin, for a scenario without mission.geo_origin; best the launch point");
+ABSL_FLAG(double, setpoint_rate_hz, 20.0, "export: offboard setpoints per second, [10, 1000]");
+ABSL_FLAG(std::string, autopilot, "px4", "export: the .plan's firmware, px4 or ardupilot");
 ABSL_FLAG(std::string, frames, "",
           "run: folder for an image sequence of the mission (a map PNG per measurement)");
 
@@ -60,6 +67,14 @@ Commands:
   health              check that the server answers
   map MISSION --png=FILE
                       write a mission's map image (mean | std deviation)
+  export SCENARIO.json
+                      create the scenario's mission (it needs a geo_origin, or
+                      --geo_origin=LAT,LON,ALT), plan once from its start and
+                      write what autopilots load to --out (default
+                      out/export/<scenario name>): mission.plan
+                      (QGroundControl), mission_items.csv (MAVLink mission
+                      items, MAVSDK MissionRaw fields) and setpoints.csv
+                      (NED offboard setpoints at --setpoint_rate_hz)
   eval E1|E2|E3|E4|E5 many trials as concurrent missions (with a progress bar
                       and an ETA); trial k uses seed k:
                       E1 = OA-IPP, lawnmower and random on the E1 world;
@@ -74,7 +89,8 @@ Commands:
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --parallel (2), --plan_budget_s
-       (0: none), --scenario, --e3_budget_s.)";
+       (0: none), --scenario, --e3_budget_s, --geo_origin, --setpoint_rate_hz
+       (20), --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -182,6 +198,102 @@ int Run(const std::string& path) {
       result->plans, result->planning_time_s, result->steps.front().rse, last.rse,
       last.targets_found, sim->num_targets(), last.collisions, out.c_str(), out.c_str());
   return last.collisions == 0 ? 0 : 3;
+}
+
+// "LAT,LON,ALT" -> GeoPoint (range checks are the server's).
+absl::StatusOr<oaipp::v1::GeoPoint> ParseGeoOrigin(const std::string& text) {
+  const std::vector<std::string> parts = absl::StrSplit(text, ',');
+  double v[3];
+  if (parts.size() != 3 || !absl::SimpleAtod(parts[0], &v[0]) ||
+      !absl::SimpleAtod(parts[1], &v[1]) || !absl::SimpleAtod(parts[2], &v[2])) {
+    return absl::InvalidArgumentError(
+        "--geo_origin: expected LAT,LON,ALT in degrees, degrees and metres, e.g. "
+        "47.397742,8.545594,488");
+  }
+  oaipp::v1::GeoPoint g;
+  g.set_latitude_deg(v[0]);
+  g.set_longitude_deg(v[1]);
+  g.set_altitude_m(v[2]);
+  return g;
+}
+
+int Export(const std::string& path) {
+  absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
+  if (!scenario.ok()) return Fail(scenario.status());
+  oaipp::v1::MissionSpec spec = scenario->mission();
+  if (const std::string origin = absl::GetFlag(FLAGS_geo_origin); !origin.empty()) {
+    absl::StatusOr<oaipp::v1::GeoPoint> g = ParseGeoOrigin(origin);
+    if (!g.ok()) return Fail(g.status());
+    *spec.mutable_geo_origin() = *g;
+  }
+  if (!spec.has_geo_origin()) {
+    return Fail(absl::InvalidArgumentError(absl::StrCat(
+        path, ": mission.geo_origin is not set; give --geo_origin=LAT,LON,ALT (the launch "
+              "point, altitude above mean sea level)")));
+  }
+  oaipp::v1::ExportPathRequest request;
+  request.set_setpoint_rate_hz(absl::GetFlag(FLAGS_setpoint_rate_hz));
+  if (const std::string a = absl::GetFlag(FLAGS_autopilot); a == "ardupilot") {
+    request.set_autopilot(oaipp::v1::AUTOPILOT_ARDUPILOT);
+  } else if (a == "px4") {
+    request.set_autopilot(oaipp::v1::AUTOPILOT_PX4);
+  } else {
+    return Fail(absl::InvalidArgumentError("--autopilot: px4 or ardupilot"));
+  }
+  absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
+  if (!channel.ok()) return Fail(channel.status());
+  Client client(*channel, Options());
+  if (absl::Status up = client.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
+  absl::StatusOr<oaipp::v1::Mission> mission = client.CreateMission(spec);
+  if (!mission.ok()) return Fail(mission.status());
+  oaipp::v1::PlanPathRequest plan;
+  plan.set_name(mission->name());
+  *plan.mutable_state() = mission->spec().start();
+  if (scenario->has_planning_budget_s()) plan.set_planning_budget_s(scenario->planning_budget_s());
+  absl::StatusOr<oaipp::v1::PlanPathResponse> planned = client.PlanPath(plan);
+  if (!planned.ok()) return Fail(planned.status());
+  request.set_name(mission->name());
+  *request.mutable_path() = *planned;
+  absl::StatusOr<oaipp::v1::ExportPathResponse> exported = client.ExportPath(request);
+  if (!absl::GetFlag(FLAGS_keep)) (void)client.DeleteMission(mission->name());
+  if (!exported.ok()) return Fail(exported.status());
+
+  std::string out = absl::GetFlag(FLAGS_out);
+  if (out.empty()) out = "out/export/" + scenario->name();
+  std::filesystem::create_directories(out);
+  std::ofstream(out + "/mission.plan") << exported->qgc_plan_json() << "\n";
+  std::ofstream items(out + "/mission_items.csv");
+  items << "seq,frame,command,current,autocontinue,param1,param2,param3,param4,x,y,z,"
+           "mission_type\n";
+  for (const oaipp::v1::MissionItem& m : exported->mission_items()) {
+    items << absl::StrCat(m.seq(), ",", m.frame(), ",", m.command(), ",", m.current(), ",",
+                          m.autocontinue(), ",", m.param1(), ",", m.param2(), ",", m.param3(),
+                          ",", m.param4(), ",", m.x(), ",", m.y(), ",", m.z(), ",",
+                          m.mission_type(), "\n");
+  }
+  std::ofstream setpoints(out + "/setpoints.csv");
+  setpoints << "t_s,north_m,east_m,down_m,vn_m_s,ve_m_s,vd_m_s,an_m_s2,ae_m_s2,ad_m_s2,yaw_deg\n";
+  for (const oaipp::v1::Setpoint& p : exported->setpoints()) {
+    const auto& x = p.position_ned_m();
+    const auto& v = p.velocity_ned_m_s();
+    const auto& a = p.acceleration_ned_m_s2();
+    setpoints << absl::StrFormat("%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.1f\n",
+                                 p.t_s(), x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), a.x(), a.y(),
+                                 a.z(), p.yaw_deg());
+  }
+  int waypoints = 0;
+  for (const oaipp::v1::MissionItem& m : exported->mission_items()) waypoints += m.command() == 16;
+  std::printf(
+      "planned %.1f s (%d camera shots); %d mission items (%d waypoints, within %.2f m of the "
+      "trajectory), %d setpoints at %.0f Hz%s%s\nwrote %s/mission.plan, %s/mission_items.csv "
+      "and %s/setpoints.csv\n",
+      planned->trajectory().duration_s(), planned->measurement_poses_size(),
+      exported->mission_items_size(), waypoints, exported->waypoint_deviation_m(),
+      exported->setpoints_size(), request.setpoint_rate_hz(),
+      exported->overflown_obstacles().empty() ? "" : "; overflown, so not fenced: ",
+      absl::StrJoin(exported->overflown_obstacles(), ", ").c_str(), out.c_str(), out.c_str(),
+      out.c_str());
+  return 0;
 }
 
 // The variants of an experiment and the paper's values at the end.
@@ -320,6 +432,7 @@ int main(int argc, char** argv) {
   const std::string command = args[1];
   if (command == "run" && args.size() == 3) return Run(args[2]);
   if (command == "eval" && args.size() == 3) return Eval(args[2]);
+  if (command == "export" && args.size() == 3) return Export(args[2]);
   if (command == "health" && args.size() == 2) {
     absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
     if (!channel.ok()) return Fail(channel.status());

@@ -24,6 +24,30 @@ TEST(ScenarioTest, TheE1FileParsesIntoThePapersWorld) {
   EXPECT_NEAR(sim->Rse(std::vector<double>(1600, 0.1)), 7.375636, 1e-6);
 }
 
+// zurich.json places the E1-like world on Earth: people and buildings given
+// by latitude/longitude land where a local degree length puts them
+// (WGS84 radii of curvature: 111178.6 m per degree of latitude and 75489.7 m
+// per degree of longitude at 47.4 degrees north; to 0.05 m over 15 m).
+TEST(ScenarioTest, GeodeticTargetsAndObstaclesBecomeLocalMetres) {
+  auto scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/zurich.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  const v1::Target& p1 = scenario->targets(0);
+  EXPECT_FALSE(p1.has_centre_geo());
+  EXPECT_NEAR(0.5 * (p1.x_min_m() + p1.x_max_m()), (8.545700 - 8.545594) * 75489.7, 0.05);
+  EXPECT_NEAR(0.5 * (p1.y_min_m() + p1.y_max_m()), (47.397644 - 47.397742) * 111178.6, 0.05);
+  EXPECT_NEAR(p1.x_max_m() - p1.x_min_m(), 0.75, 1e-9);
+  EXPECT_NEAR(p1.y_max_m() - p1.y_min_m(), 2.0, 1e-9);
+  auto sim = Simulation::Create(*scenario);
+  ASSERT_TRUE(sim.ok()) << sim.status();
+  EXPECT_EQ(sim->num_targets(), 5);
+  const Obstacle& building = sim->config().obstacles[0];
+  ASSERT_EQ(building.id, "building");
+  const Vec3 c = std::get<Box>(building.shape).centre_W;
+  EXPECT_NEAR(c.x(), 0.0, 0.05);
+  EXPECT_NEAR(c.y(), (47.397733 - 47.397742) * 111178.6, 0.05);
+  EXPECT_NEAR(c.z(), 13.0, 0.01);
+}
+
 // Every committed scenario (client/scenarios and its folders) parses and
 // builds a world, its name matches its file, and the E5 settings differ
 // from e5.json only in what their name says.
@@ -40,7 +64,7 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 10);
+  EXPECT_EQ(files, 11);
   auto base = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
   auto low = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/ceiling12-n4.json");
   ASSERT_TRUE(base.ok() && low.ok());
