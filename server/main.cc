@@ -39,6 +39,7 @@
 #include "server/auth.h"
 #include "server/service.h"
 #include "server/store/open_store.h"
+#include "server/web_view.h"
 #include "spdlog/spdlog.h"
 
 ABSL_FLAG(std::string, listen, "127.0.0.1:50051", "gRPC listen address (host:port)");
@@ -175,6 +176,13 @@ ABSL_FLAG(bool, cluster, false,
           "that routes by the x-oaipp-mission header: it loads no mission at start, takes a "
           "mission over from the store when a call for it arrives, and drops a mission another "
           "replica has taken (docs/cluster.md)");
+
+ABSL_FLAG(int, web_port, 0,
+          "port of the live mission view, a read-only web page (docs/ground-stations.md); "
+          "0: off");
+ABSL_FLAG(std::string, web_address, "127.0.0.1",
+          "address the live view binds; beyond loopback only with --token_file (each request "
+          "then names a token and sees its tenant's missions)");
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("OA-IPP planning service (oaipp.v1.MissionService)");
@@ -341,6 +349,18 @@ int main(int argc, char** argv) {
     spdlog::error("cannot listen on {}", absl::GetFlag(FLAGS_listen));
     return 1;
   }
+  oaipp::server::WebView web_view(&registry, &auth);
+  if (const int web_port = absl::GetFlag(FLAGS_web_port); web_port != 0) {
+    if (web_port < 0 || web_port > 65535) {
+      spdlog::error("web_port: must be in [0, 65535], got {}", web_port);
+      return 1;
+    }
+    if (absl::Status started = web_view.Start(absl::GetFlag(FLAGS_web_address), web_port);
+        !started.ok()) {
+      spdlog::error("{}", std::string(started.message()));
+      return 1;
+    }
+  }
   server->GetHealthCheckService()->SetServingStatus("oaipp.v1.MissionService", true);
   server->GetHealthCheckService()->SetServingStatus(true);
   spdlog::info(
@@ -411,6 +431,7 @@ int main(int argc, char** argv) {
     server->Shutdown(std::chrono::system_clock::now() + grace);
   });
   server->Wait();
+  web_view.Stop();
   // Snapshots already asked for are written, so that the next start replays
   // short tails.
   registry.FlushSnapshots();
