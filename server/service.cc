@@ -139,6 +139,19 @@ void FillMission(const Mission& mission, v1::Mission* out) {
   *out->mutable_create_time() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(s.create_time));
 }
 
+// `request` with its geodetic points (*_geo) in the mission's local metres:
+// itself when it has none, else a converted copy in `scratch`. Done before
+// anything else sees the request, and before it is stored, so that a replay
+// needs no origin.
+template <typename Request>
+absl::StatusOr<const Request*> InLocalMetres(const Mission& mission, const Request& request,
+                                             Request& scratch) {
+  if (!api::HasGeoFields(request)) return &request;
+  scratch = request;
+  OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission.config().geo_origin, &scratch));
+  return &scratch;
+}
+
 void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
   out->set_sequence(e.sequence);
   *out->mutable_time() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(e.time));
@@ -351,14 +364,10 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
-    // Geodetic centres become local metres before anything else sees them
-    // (and before the request is stored, so that a replay needs no origin).
     v1::UpdateObstaclesRequest resolved;
-    if (api::HasGeoFields(*request)) {
-      resolved = *request;
-      OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission->config().geo_origin, &resolved));
-    }
-    const v1::UpdateObstaclesRequest& local = api::HasGeoFields(*request) ? resolved : *request;
+    OAIPP_ASSIGN_OR_RETURN(const v1::UpdateObstaclesRequest* in_metres,
+                           InLocalMetres(*mission, *request, resolved));
+    const v1::UpdateObstaclesRequest& local = *in_metres;
     OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, ObstacleChangeFromProto(local));
     const std::string fingerprint = RequestFingerprint(local);
     OAIPP_ASSIGN_OR_RETURN(
@@ -382,11 +391,9 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
     v1::AddMeasurementRequest resolved;
-    if (api::HasGeoFields(*request)) {
-      resolved = *request;
-      OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission->config().geo_origin, &resolved));
-    }
-    const v1::AddMeasurementRequest& local = api::HasGeoFields(*request) ? resolved : *request;
+    OAIPP_ASSIGN_OR_RETURN(const v1::AddMeasurementRequest* in_metres,
+                           InLocalMetres(*mission, *request, resolved));
+    const v1::AddMeasurementRequest& local = *in_metres;
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(local));
     const std::string fingerprint = RequestFingerprint(local);
     OAIPP_ASSIGN_OR_RETURN(

@@ -15,18 +15,12 @@ import argparse
 import json
 import os
 import re
-import shutil
-import socket
 import subprocess
 import sys
 import tempfile
-import time
 
-
-def free_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from oaipp_server import OaippServer  # noqa: E402
 
 
 def inside(polygon, lat, lon):
@@ -53,26 +47,18 @@ def main():
     from oaipp.v1 import mission_service_pb2 as pb
     from oaipp.v1 import mission_service_pb2_grpc as rpc
 
-    work = tempfile.mkdtemp(prefix="oaipp-python-example-")
-    port = free_port()
-    log = open(os.path.join(work, "server.log"), "w")
-    server = subprocess.Popen(
-        [args.server_binary, f"--listen=127.0.0.1:{port}", "--store=memory",
-         "--metrics_listen=", "--log_level=warn"],
-        stdout=log, stderr=subprocess.STDOUT)
-    try:
-        channel = grpc.insecure_channel(f"127.0.0.1:{port}")
-        grpc.channel_ready_future(channel).result(timeout=20)
+    with tempfile.TemporaryDirectory(prefix="oaipp-python-example-") as work, \
+            OaippServer(args.server_binary) as server:
         plan_path = os.path.join(work, "mission.plan")
         run = subprocess.run(
-            ["/usr/bin/python3", args.example, "--server", f"127.0.0.1:{port}",
+            ["/usr/bin/python3", args.example, "--server", server.address,
              "--stubs", args.stubs, "--out", plan_path, "--mission-id", "gs-test",
              "--steps", "3"],
             capture_output=True, text=True, timeout=240)
         print(run.stdout)
         if run.returncode != 0:
             print(run.stderr)
-            print(f"FAIL: the example exited {run.returncode}")
+            print(f"FAIL: the example exited {run.returncode}\n{server.log_tail()}")
             return 1
         match = re.search(r"^RESULT mission=(\S+) measurements=(\d+) trace=(\S+) items=(\d+)",
                           run.stdout, re.M)
@@ -82,7 +68,7 @@ def main():
         mission_id, measurements, items = match.group(1), int(match.group(2)), int(match.group(4))
 
         # The server's own view of the mission.
-        stub = rpc.MissionServiceStub(channel)
+        stub = rpc.MissionServiceStub(grpc.insecure_channel(server.address))
         mission = stub.GetMission(pb.GetMissionRequest(name=f"missions/{mission_id}"), timeout=10)
         checks = [
             ("the mission has a geo_origin", mission.spec.HasField("geo_origin")),
@@ -92,7 +78,8 @@ def main():
             ("it replanned", mission.paths_planned >= 2),
             ("obstacles given by latitude/longitude arrived", len(mission.obstacles) >= 2),
         ]
-        plan = json.load(open(plan_path))
+        with open(plan_path) as f:
+            plan = json.load(f)
         fence = [p for p in plan["geoFence"]["polygons"] if p["inclusion"]]
         waypoints = [i for i in plan["mission"]["items"] if i["command"] == 16]
         checks += [
@@ -107,18 +94,9 @@ def main():
              and all(inside(fence[0]["polygon"], w["params"][4], w["params"][5])
                      for w in waypoints)),
         ]
-        failed = [name for name, ok in checks if not ok]
         for name, ok in checks:
             print(("PASS " if ok else "FAIL ") + name)
-        return 1 if failed else 0
-    finally:
-        server.terminate()
-        try:
-            server.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            server.kill()
-        log.close()
-        shutil.rmtree(work, ignore_errors=True)
+        return 0 if all(ok for _, ok in checks) else 1
 
 
 if __name__ == "__main__":

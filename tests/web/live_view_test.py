@@ -21,20 +21,16 @@ import json
 import os
 import re
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from oaipp_server import OaippServer, free_port, stop  # noqa: E402
+
 SKIP = 77
 TIMEOUT_S = 20.0
-
-
-def free_port():
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class DevTools:
@@ -107,18 +103,13 @@ def main():
     from oaipp.v1 import mission_service_pb2_grpc as rpc
 
     work = tempfile.mkdtemp(prefix="oaipp-live-view-")
-    grpc_port, web_port = free_port(), free_port()
-    server_log = open(os.path.join(work, "server.log"), "w+")
-    server = subprocess.Popen(
-        [args.server_binary, f"--listen=127.0.0.1:{grpc_port}", "--store=memory",
-         "--metrics_listen=", f"--web_port={web_port}", "--log_level=warn"],
-        stdout=server_log, stderr=subprocess.STDOUT)
+    web_port = free_port()
+    server = OaippServer(args.server_binary, [f"--web_port={web_port}"])
     browser = None
     page = None
     try:
-        channel = grpc.insecure_channel(f"127.0.0.1:{grpc_port}")
-        grpc.channel_ready_future(channel).result(timeout=TIMEOUT_S)
-        stub = rpc.MissionServiceStub(channel)
+        server.__enter__()
+        stub = rpc.MissionServiceStub(grpc.insecure_channel(server.address))
         stub.CreateMission(pb.CreateMissionRequest(
             mission_id="view-test",
             spec=pb.MissionSpec(obstacles=[pb.Obstacle(
@@ -207,21 +198,13 @@ def main():
         return 0
     except Exception as e:  # report, with the server's last words
         print(f"FAIL: {e}")
-        server_log.seek(0)
-        print("server log (tail):\n" + server_log.read()[-3000:])
+        print("server log (tail):\n" + server.log_tail())
         return 1
     finally:
         if page is not None:
             page.close()
-        for process in (browser, server):
-            if process is None:
-                continue
-            process.terminate()
-            try:
-                process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                process.kill()
-        server_log.close()
+        stop(browser)
+        server.__exit__(None, None, None)
         shutil.rmtree(work, ignore_errors=True)
 
 

@@ -19,6 +19,7 @@ import websocket
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from live_view_test import TIMEOUT_S, DevTools, wait_for  # noqa: E402
+from oaipp_server import stop  # noqa: E402 (live_view_test put it on the path)
 
 
 def main():
@@ -55,8 +56,7 @@ def main():
         page.close()
         print(f"wrote {out}")
     finally:
-        browser.terminate()
-        browser.wait(timeout=10)
+        stop(browser)
         shutil.rmtree(work, ignore_errors=True)
 
 

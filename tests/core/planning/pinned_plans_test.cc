@@ -8,12 +8,23 @@
 // A fingerprint is FNV-1a over the bit patterns of everything a client
 // receives: segment durations and coefficients, control waypoints,
 // measurement poses, objective, information and the next shot time.
+//
+// Bits depend on the machine as well as on the code: on an AMD EPYC host
+// two of the plans (the moving OA-IPP start and the non-adaptive one) came
+// out differently from the machines they were recorded on, with the same
+// code and packages, starting from last-bit differences (the non-adaptive
+// objective differs in its last hex digits; glibc's libm picks code paths by
+// CPU features, and turning those off changes the plans again). Each plan
+// therefore lists the fingerprint of every machine kind it has been seen on;
+// a refactoring that changes a plan gives a value in none of them.
 #include <bit>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "absl/strings/str_format.h"
 #include "core/planning/planners.h"
+#include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/core/planning/scenes.h"
 
@@ -68,7 +79,7 @@ struct PinnedPlan {
   int generations;  // OA-IPP's CMA-ES generations (the default is 45)
   Vec3 velocity_W_m_s;
   double mission_time_s;
-  std::uint64_t fingerprint;
+  std::vector<std::uint64_t> fingerprints;  // one per machine kind seen
 };
 
 void PrintTo(const PinnedPlan& pin, std::ostream* os) { *os << pin.name; }
@@ -90,22 +101,22 @@ TEST_P(PinnedPlansTest, PlanIsBitIdenticalToTheRecordedOne) {
   context.remaining_budget_s = 150.0 - pin.mission_time_s;
   auto path = (*planner)->Plan(context, state, absl::InfiniteFuture());
   ASSERT_TRUE(path.ok()) << path.status();
-  EXPECT_EQ(Fingerprint(*path), pin.fingerprint) << absl::StrFormat(
+  EXPECT_THAT(pin.fingerprints, ::testing::Contains(Fingerprint(*path))) << absl::StrFormat(
       "actual fingerprint 0x%016xULL, objective %a", Fingerprint(*path), path->objective);
 }
 
 INSTANTIATE_TEST_SUITE_P(
     E1, PinnedPlansTest,
     ::testing::Values(PinnedPlan{"oaipp_default", PlannerKind::kOaIpp, 45, Vec3::Zero(), 0.0,
-                                 0x54f6687b1d6da586ULL},
+                                 {0x54f6687b1d6da586ULL}},
                       PinnedPlan{"oaipp_moving", PlannerKind::kOaIpp, 10, Vec3(1.5, -1.0, 0.5),
-                                 12.0, 0xfd7bf6e82df1f7abULL},
+                                 12.0, {0xfd7bf6e82df1f7abULL, 0xa68e3363a25a1fb3ULL}},
                       PinnedPlan{"oaipp_nonadaptive", PlannerKind::kOaIppNonAdaptive, 2,
-                                 Vec3::Zero(), 0.0, 0x7cc19fe1973f51fbULL},
+                                 Vec3::Zero(), 0.0, {0x7cc19fe1973f51fbULL, 0xac128e11507e6b24ULL}},
                       PinnedPlan{"lawnmower", PlannerKind::kLawnmower, 45, Vec3::Zero(), 0.0,
-                                 0xbcdd1cf89fc73ee2ULL},
+                                 {0xbcdd1cf89fc73ee2ULL}},
                       PinnedPlan{"random", PlannerKind::kRandom, 45, Vec3(0.0, 2.0, 0.0), 30.0,
-                                 0xcdd408b963b5df85ULL}),
+                                 {0xcdd408b963b5df85ULL}}),
     [](const ::testing::TestParamInfo<PinnedPlan>& param) { return param.param.name; });
 
 }  // namespace
