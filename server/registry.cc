@@ -686,6 +686,14 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view 
   return held;
 }
 
+absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::GetHeld(absl::string_view name,
+                                                                  const std::string& tenant) const {
+  OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
+  std::shared_ptr<Mission> held = Find(Key(tenant, id));
+  if (held == nullptr) return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+  return held;
+}
+
 std::vector<std::shared_ptr<Mission>> MissionRegistry::List(std::size_t offset,
                                                             std::size_t limit) const {
   absl::MutexLock lock(&mu_);

@@ -109,6 +109,11 @@ class MissionRegistry {
   // (also for another tenant's mission, in the same words).
   [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Get(absl::string_view name,
                                                              const std::string& tenant = "") const;
+  // As Get, but only a mission this server holds now: never takes one over
+  // from a shared store (for read-only views, which must not move missions
+  // between the replicas of a cluster).
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> GetHeld(absl::string_view name,
+                                                                 const std::string& tenant = "") const;
   // Missions in creation order from `offset`, at most `limit`.
   [[nodiscard]] std::vector<std::shared_ptr<Mission>> List(std::size_t offset,
                                                            std::size_t limit) const;

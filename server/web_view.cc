@@ -102,7 +102,7 @@ std::string WebView::MissionsJson(const std::string& tenant) const {
 absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
                                                  const std::string& tenant) const {
   absl::StatusOr<std::shared_ptr<Mission>> found =
-      registry_->Get(absl::StrCat("missions/", id), tenant);
+      registry_->GetHeld(absl::StrCat("missions/", id), tenant);
   if (!found.ok()) return found.status();
   const Mission& mission = **found;
   // The event number first: a change after it shows up as a newer event,
@@ -228,7 +228,7 @@ void WebView::Routes() {
     const std::optional<std::string> tenant = tenant_of(req, res);
     if (!tenant.has_value()) return;
     absl::StatusOr<std::shared_ptr<Mission>> mission =
-        registry_->Get(absl::StrCat("missions/", req.matches[1].str()), *tenant);
+        registry_->GetHeld(absl::StrCat("missions/", req.matches[1].str()), *tenant);
     if (!mission.ok()) {
       Error(res, 404, std::string(mission.status().message()));
       return;
