@@ -7,7 +7,8 @@ the page itself, without reloading it:
   1. the mission created over gRPC appears in the list and is drawn;
   2. after AddMeasurement the page shows one measurement and the picture
      (a hash of the canvas pixels) changes;
-  3. after PlanPath the event number goes up and the picture changes again.
+  3. after PlanPath the event number goes up and the picture changes again;
+  4. no script on the page threw.
 With --screenshot, the page is saved as a PNG at the end.
 
 Usage: live_view_test.py --server-binary PATH --python-stubs DIR
@@ -34,12 +35,19 @@ TIMEOUT_S = 20.0
 
 
 class DevTools:
-    """A minimal Chrome DevTools Protocol client on one page target."""
+    """A minimal Chrome DevTools Protocol client on one target.
+
+    Calls are answered in order on one connection; events that arrive while
+    waiting for an answer are dropped, except uncaught exceptions (after
+    Runtime.enable), which are kept in `exceptions`.
+    """
 
     def __init__(self, websocket_module, url):
+        # Chromium refuses DevTools connections that carry an Origin header.
         self._ws = websocket_module.create_connection(url, timeout=TIMEOUT_S,
                                                       suppress_origin=True)
         self._ids = itertools.count(1)
+        self.exceptions = []
 
     def send(self, method, **params):
         call_id = next(self._ids)
@@ -47,6 +55,10 @@ class DevTools:
         deadline = time.time() + TIMEOUT_S
         while time.time() < deadline:
             message = json.loads(self._ws.recv())
+            if message.get("method") == "Runtime.exceptionThrown":
+                details = message["params"]["exceptionDetails"]
+                self.exceptions.append(
+                    details.get("exception", {}).get("description") or details.get("text"))
             if message.get("id") == call_id:
                 if "error" in message:
                     raise RuntimeError(f"{method}: {message['error']}")
@@ -79,7 +91,8 @@ def page_state(page):
         " sequence: document.body.dataset.sequence || '',"
         " measurements: document.body.dataset.measurements || '',"
         " hash: document.body.dataset.canvasHash || '',"
-        " status: document.getElementById('status').textContent})")
+        " title: (document.getElementById('title') || {}).textContent || '',"
+        " status: (document.getElementById('status') || {}).textContent || ''})")
 
 
 def main():
@@ -106,6 +119,7 @@ def main():
     web_port = free_port()
     server = OaippServer(args.server_binary, [f"--web_port={web_port}"])
     browser = None
+    browser_log = None
     page = None
     try:
         server.__enter__()
@@ -122,7 +136,7 @@ def main():
             [args.chromium, "--headless=new", "--no-sandbox", "--disable-gpu",
              "--no-first-run", "--disable-extensions", "--remote-debugging-port=0",
              "--remote-debugging-address=127.0.0.1", f"--user-data-dir={work}/profile",
-             "--window-size=1200,720", "about:blank"],
+             "--window-size=1400,800", "about:blank"],
             stdout=subprocess.DEVNULL, stderr=browser_log)
         deadline = time.time() + TIMEOUT_S
         endpoint = None
@@ -146,6 +160,8 @@ def main():
         browser_ws.close()
         page = DevTools(websocket,
                         f"ws://127.0.0.1:{devtools_port}/devtools/page/{target}")
+        # Also reports exceptions thrown before this call.
+        page.send("Runtime.enable")
 
         # 1. The mission is listed and drawn.
         wait_for(page, "document.querySelector('li[data-mission=\"view-test\"]') !== null",
@@ -153,7 +169,8 @@ def main():
         wait_for(page, "document.body.dataset.mission === 'view-test' && "
                        "!!document.body.dataset.canvasHash", "the mission drawn")
         first = json.loads(page_state(page))
-        assert first["measurements"] == "0", first
+        assert first["measurements"] == "0", f"expected 0 measurements on the page: {first}"
+        assert "view-test" in first["title"], f"the title does not name the mission: {first}"
         print(f"PASS the page lists and draws view-test (canvas {first['hash']})")
 
         # 2. A measurement: a person seen below (-5, -5), 10 m up.
@@ -172,7 +189,7 @@ def main():
                  "the measurement on the page")
         second = json.loads(page_state(page))
         assert second["status"].strip(), "the status line is empty"
-        assert "1 measurements" in second["status"], second["status"]
+        assert "1 measurement," in second["title"], f"the title misses the measurement: {second}"
         print(f"PASS after AddMeasurement the page shows 1 measurement and a new picture "
               f"(canvas {second['hash']}), without a reload")
 
@@ -188,7 +205,14 @@ def main():
         print(f"PASS after PlanPath the event number went from {second['sequence']} to "
               f"{third['sequence']} and the picture changed (canvas {third['hash']})")
         # Same page, never reloaded: the draw counter only grew.
-        assert int(page.evaluate("document.body.dataset.draws")) >= 3
+        draws = int(page.evaluate("document.body.dataset.draws"))
+        assert draws >= 3, f"expected at least 3 redraws of the same page, got {draws}"
+        print(f"PASS title: {third['title']!r}; status: {third['status']!r}")
+
+        # 4. Uncaught exceptions would leave a stale picture behind.
+        page.evaluate("0")
+        assert not page.exceptions, f"the page threw: {page.exceptions}"
+        print("PASS no uncaught exception on the page")
 
         if args.screenshot:
             shot = page.send("Page.captureScreenshot", format="png")
@@ -204,6 +228,8 @@ def main():
         if page is not None:
             page.close()
         stop(browser)
+        if browser_log is not None:
+            browser_log.close()
         server.__exit__(None, None, None)
         shutil.rmtree(work, ignore_errors=True)
 

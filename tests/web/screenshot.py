@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Saves a picture of the live view, for the README.
 
-    python3 tests/web/screenshot.py "http://127.0.0.1:8080/?mission=m-000001" docs/images/live-view.png
+    /usr/bin/python3 tests/web/screenshot.py "http://127.0.0.1:8080/?mission=m-000001" docs/images/live-view.png
 
 Opens the page in headless Chromium (the DevTools client of
 live_view_test.py), waits until the mission is drawn and writes a PNG.
@@ -31,7 +31,7 @@ def main():
     browser = subprocess.Popen(
         ["chromium", "--headless=new", "--no-sandbox", "--disable-gpu", "--hide-scrollbars",
          "--remote-debugging-port=0", "--remote-debugging-address=127.0.0.1",
-         f"--user-data-dir={work}/profile", "--window-size=1340,640", "about:blank"],
+         f"--user-data-dir={work}/profile", "--window-size=1400,760", "about:blank"],
         stdout=subprocess.DEVNULL, stderr=log)
     try:
         endpoint = None
