@@ -10,6 +10,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "api/geodetic.h"
+#include "api/geometry.h"
 #include "api/plan.h"
 #include "core/common/status_macros.h"
 #include "core/trajectory/polynomial_trajectory.h"
@@ -31,14 +32,6 @@ constexpr double kMinLegSpeed_m_s = 0.1;
 constexpr double kHeadingDeg = 90.0;
 
 Vec3 EnuToNed(const Vec3& v) { return {v.y(), v.x(), -v.z()}; }
-
-v1::Vector3 Proto(const Vec3& v) {
-  v1::Vector3 out;
-  out.set_x(v.x());
-  out.set_y(v.y());
-  out.set_z(v.z());
-  return out;
-}
 
 double PointSegmentDistance(const Vec3& p, const Vec3& a, const Vec3& b) {
   const Vec3 ab = b - a;
@@ -272,9 +265,9 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
   auto add_setpoint = [&](double t) {
     v1::Setpoint* s = out.add_setpoints();
     s->set_t_s(t);
-    *s->mutable_position_ned_m() = Proto(EnuToNed(traj.Position(t)));
-    *s->mutable_velocity_ned_m_s() = Proto(EnuToNed(traj.Velocity(t)));
-    *s->mutable_acceleration_ned_m_s2() = Proto(EnuToNed(traj.Acceleration(t)));
+    *s->mutable_position_ned_m() = ToProto(EnuToNed(traj.Position(t)));
+    *s->mutable_velocity_ned_m_s() = ToProto(EnuToNed(traj.Velocity(t)));
+    *s->mutable_acceleration_ned_m_s2() = ToProto(EnuToNed(traj.Acceleration(t)));
     s->set_yaw_deg(kHeadingDeg);
   };
   for (int k = 0; k * dt < duration; ++k) add_setpoint(k * dt);
