@@ -63,6 +63,7 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
   stats.set_wall_time_s(path.stats.wall_time_s);
   stats.set_stop_reason(path.stats.stop_reason);
   stats.set_initial_objective(path.stats.initial_objective);
+  stats.set_stop_first_s(path.stats.stop_first_s);
 }
 
 absl::StatusOr<PolynomialTrajectory> TrajectoryFromProto(const v1::Trajectory& trajectory) {
@@ -120,7 +121,8 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
                 .generations = response.stats().generations(),
                 .wall_time_s = response.stats().wall_time_s(),
                 .stop_reason = response.stats().stop_reason(),
-                .initial_objective = response.stats().initial_objective()};
+                .initial_objective = response.stats().initial_objective(),
+                .stop_first_s = response.stats().stop_first_s()};
   return path;
 }
 

@@ -434,6 +434,14 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   absl::StatusOr<PlannedPath> path = planner_->Plan(context, state, deadline);
   env.reset();
   map.reset();
+  if (absl::IsDeadlineExceeded(path.status()) && deadline < call.deadline) {
+    // The budget ended planning, not the call's deadline: DeadlineExceeded
+    // is kept for the latter (proto: PlanPathRequest.planning_budget_s).
+    return absl::FailedPreconditionError(absl::StrCat(
+        "planning_budget_s: no collision-free path was found within the planning budget of ",
+        absl::ToDoubleSeconds(call.budget), " s (", path.status().message(),
+        "); a larger budget may find one"));
+  }
   if (!path.ok()) return path.status();
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.

@@ -147,14 +147,14 @@ ScoredPath PathScorer::Score(const std::vector<Vec3>& waypoints_W) const {
   return out;
 }
 
-absl::Status PathScorer::CheckExact(const PolynomialTrajectory& trajectory) const {
-  const Environment& env = *mission_.environment;
+absl::Status CheckTrajectoryExact(const Environment& env, const PolynomialTrajectory& trajectory,
+                                  const PlannerLimits& limits) {
   const double speed = std::max(trajectory.MaxSpeed(), 1e-3);
-  const double dt = limits_.exact_check_spacing_m / speed;
+  const double dt = limits.exact_check_spacing_m / speed;
   // A curve with |acceleration| <= a leaves its chord over dt by at most
   // a dt^2 / 8.
   const double bulge = trajectory.MaxAcceleration() * dt * dt / 8.0;
-  const double clearance = 0.5 * limits_.uav_radius_m + bulge;
+  const double clearance = 0.5 * limits.uav_radius_m + bulge;
   const int steps = static_cast<int>(std::ceil(trajectory.Duration() / dt));
   Vec3 previous = trajectory.Position(0.0);
   for (int i = 1; i <= steps; ++i) {
@@ -171,6 +171,10 @@ absl::Status PathScorer::CheckExact(const PolynomialTrajectory& trajectory) cons
     previous = p;
   }
   return absl::OkStatus();
+}
+
+absl::Status PathScorer::CheckExact(const PolynomialTrajectory& trajectory) const {
+  return CheckTrajectoryExact(*mission_.environment, trajectory, limits_);
 }
 
 PlannedPath PathScorer::Finish(ScoredPath scored, const std::vector<Vec3>& waypoints_W,

@@ -49,6 +49,15 @@ struct PlannerCommon {
   [[nodiscard]] absl::Status Validate() const;
 };
 
+// The exact collision check of a trajectory (docs/method.md §7.4): chords
+// every exact_check_spacing_m of travel keep uav_radius_m / 2 plus the
+// chord's largest possible bulge from every obstacle, and every sample lies
+// in the flight volume shrunk by that bulge. FailedPrecondition naming
+// the time otherwise.
+[[nodiscard]] absl::Status CheckTrajectoryExact(const Environment& environment,
+                                                const PolynomialTrajectory& trajectory,
+                                                const PlannerLimits& limits);
+
 class PathScorer {
  public:
   // Validates everything a plan depends on. InvalidArgument naming the field

@@ -86,6 +86,9 @@ struct PlannerStats {
   double wall_time_s = 0.0;
   std::string stop_reason = {};    // e.g. "evaluation_budget", "deadline", "pattern"
   double initial_objective = 0.0;  // the greedy start's score (OA-IPP)
+  // Seconds spent braking to rest before the planned part (0: planned from
+  // the UAV's state directly; core/planning/stop_first.h).
+  double stop_first_s = 0.0;
 };
 
 struct PlannedPath {

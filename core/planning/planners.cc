@@ -2,6 +2,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
+#include "core/planning/stop_first.h"
 
 namespace oaipp {
 
@@ -37,19 +38,25 @@ absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config
   PlannerCommon common = config.common;
   common.information.kind = ObjectiveFor(config.kind);
   OAIPP_RETURN_IF_ERROR(common.Validate());
+  std::unique_ptr<Planner> planner;
   switch (config.kind) {
     case PlannerKind::kOaIpp:
     case PlannerKind::kOaIppNonAdaptive:
       OAIPP_RETURN_IF_ERROR(config.oaipp.Validate());
-      return std::make_unique<OaIppPlanner>(common, config.oaipp);
+      planner = std::make_unique<OaIppPlanner>(common, config.oaipp);
+      break;
     case PlannerKind::kLawnmower:
       OAIPP_RETURN_IF_ERROR(config.lawnmower.Validate());
-      return std::make_unique<LawnmowerPlanner>(common, config.lawnmower);
+      planner = std::make_unique<LawnmowerPlanner>(common, config.lawnmower);
+      break;
     case PlannerKind::kRandom:
       OAIPP_RETURN_IF_ERROR(config.random.Validate());
-      return std::make_unique<RandomPlanner>(common, config.random);
+      planner = std::make_unique<RandomPlanner>(common, config.random);
+      break;
   }
-  return absl::InvalidArgumentError("planner.kind: unknown");
+  if (planner == nullptr) return absl::InvalidArgumentError("planner.kind: unknown");
+  // Every kind may stop first from a moving start it cannot plan from.
+  return std::make_unique<StopFirstPlanner>(std::move(planner), common.limits);
 }
 
 }  // namespace oaipp

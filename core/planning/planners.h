@@ -34,8 +34,10 @@ struct PlannerConfig {
   RandomConfig random = {};
 };
 
-// A fresh planner (its own state) for one mission. The objective follows
-// `kind` (ObjectiveFor). InvalidArgument for a bad configuration.
+// A fresh planner (its own state) for one mission, wrapped in a
+// StopFirstPlanner (core/planning/stop_first.h) so that it also answers from
+// moving starts it cannot plan from directly. The objective follows `kind`
+// (ObjectiveFor). InvalidArgument for a bad configuration.
 [[nodiscard]] absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config);
 
 }  // namespace oaipp

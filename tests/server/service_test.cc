@@ -3,6 +3,7 @@
 #include <cmath>
 #include <thread>
 
+#include "api/geometry.h"
 #include "api/spec.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -240,6 +241,64 @@ TEST(ServiceTest, PlanPathReturnsASafeTrajectoryAndObstaclesMatter) {
   const grpc::Status blocked = s.stub().PlanPath(&context, request, &path);
   EXPECT_EQ(blocked.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(blocked.error_message(), HasSubstr("inside an obstacle"));
+}
+
+// From a moving start PlanPath answers where the UAV can stop, and where it
+// cannot, names the face or the obstacle in the API's words.
+TEST(ServiceTest, PlanPathFromAMovingStartNamesWhyItCannotStop) {
+  InProcessService s;
+  CreateSmall(s.stub(), "moving");
+  auto plan = [&](Vec3 p, Vec3 v, v1::PlanPathResponse* path) {
+    v1::PlanPathRequest request;
+    request.set_name("missions/moving");
+    *request.mutable_state()->mutable_position_m() = api::ToProto(p);
+    *request.mutable_state()->mutable_velocity_m_s() = api::ToProto(v);
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    return s.stub().PlanPath(&context, request, path);
+  };
+  v1::PlanPathResponse path;
+  // 3.5 m/s east, 1 m from the east face at 7.5 m: stopping takes 2.04 m.
+  grpc::Status status = plan({6.5, 4, 8}, {3.5, 0, 0}, &path);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_THAT(status.error_message(), HasSubstr("state.velocity_m_s: stopping from 3.50 m/s"));
+  EXPECT_THAT(status.error_message(), HasSubstr("spec.flight.max_accel_m_s2 = 3 takes 2.04 m"));
+  EXPECT_THAT(status.error_message(), HasSubstr("x max face at 7.5 m"));
+  // 4 m/s at the building b1 (its west face at x = -1), 2 m away.
+  status = plan({-3, -2, 8}, {4, 0, 0}, &path);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
+  EXPECT_THAT(status.error_message(), HasSubstr("obstacle 'b1'"));
+  // 3 m/s east with 3.5 m of room: a safe path that starts at that velocity.
+  status = plan({4, 4, 8}, {3, 0, 0}, &path);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  EXPECT_TRUE(path.collision_free());
+  ASSERT_GT(path.trajectory().samples_size(), 1);
+  EXPECT_NEAR(path.trajectory().samples(0).velocity_m_s().x(), 3, 1e-6);
+  EXPECT_GE(path.stats().stop_first_s(), 0.0);
+}
+
+// A planning budget that ends before any safe path is found is not the
+// call's deadline: FAILED_PRECONDITION naming planning_budget_s. (The random
+// planner gives up at once when its deadline has passed.)
+TEST(ServiceTest, APlanningBudgetThatEndsWithoutAPathIsNotADeadline) {
+  InProcessService s;
+  grpc::ClientContext create_context;
+  v1::CreateMissionRequest create;
+  create.set_mission_id("random");
+  *create.mutable_spec() = SmallSpec();
+  create.mutable_spec()->mutable_planner()->set_kind(v1::PLANNER_KIND_RANDOM);
+  v1::Mission mission;
+  ASSERT_TRUE(s.stub().CreateMission(&create_context, create, &mission).ok());
+  v1::PlanPathRequest request;
+  request.set_name("missions/random");
+  *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
+  request.set_planning_budget_s(1e-9);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+  v1::PlanPathResponse path;
+  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << status.error_message();
+  EXPECT_THAT(status.error_message(), HasSubstr("planning_budget_s: no collision-free path"));
 }
 
 // The planner is anytime: with far more generations than fit before the
