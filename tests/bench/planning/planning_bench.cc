@@ -11,6 +11,10 @@
 //   from eight start states; median and worst replan time.
 // - BM_ReplanScaling: the same replan for N = 3, 5, 8 waypoints and square
 //   fields of 20 to 60 m at 0.75 m cells.
+// - BM_MovingAgainstRest: E1 replans through MakePlanner (so with the stop
+//   first of docs/method.md §7.7) from the eight starts at rest and from the
+//   same places moving (seeded: 1 to 5 m/s, up to 3 m/s^2, any direction),
+//   alternating; `moving_over_rest` is the ratio of the medians.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -149,6 +153,49 @@ void BM_ReplanE1(benchmark::State& state) {
   state.counters["evaluations_per_plan"] = static_cast<double>(evaluations) / seconds.size();
 }
 BENCHMARK(BM_ReplanE1)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+void BM_MovingAgainstRest(benchmark::State& state) {
+  const World& w = E1();
+  const std::vector<Vec3> places = {{10, 0, 7},    {-10, 8, 10}, {5, 10, 12},  {-12, -12, 8},
+                                    {12, -10, 15}, {0, 6, 5},    {-6, -5, 18}, {8, 8, 20}};
+  std::mt19937_64 rng(15);
+  std::normal_distribution<double> g;
+  std::uniform_real_distribution<double> u(0, 1);
+  std::vector<double> rest_s, moving_s;
+  int stopped_first = 0, refused = 0;
+  auto time_plan = [&](const UavState& start, std::vector<double>* out) {
+    auto planner = MakePlanner(PlannerConfig{});
+    const auto t0 = std::chrono::steady_clock::now();
+    auto path = (*planner)->Plan(w.View(), start, absl::InfiniteFuture());
+    out->push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    if (!path.ok()) {
+      ++refused;
+    } else if (path->stats.stop_first_s > 0) {
+      ++stopped_first;
+    }
+  };
+  for (auto _ : state) {
+    for (const Vec3& p : places) {
+      UavState rest;
+      rest.position_W = p;
+      time_plan(rest, &rest_s);
+      UavState moving = rest;
+      moving.velocity_W_m_s = Vec3(g(rng), g(rng), g(rng)).normalized() * (1 + 4 * u(rng));
+      moving.accel_W_m_s2 = Vec3(g(rng), g(rng), g(rng)).normalized() * (3 * u(rng));
+      time_plan(moving, &moving_s);
+    }
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["rest_median_ms"] = 1e3 * median(rest_s);
+  state.counters["moving_median_ms"] = 1e3 * median(moving_s);
+  state.counters["moving_over_rest"] = median(moving_s) / median(rest_s);
+  state.counters["stopped_first"] = stopped_first;
+  state.counters["refused"] = refused;
+}
+BENCHMARK(BM_MovingAgainstRest)->Unit(benchmark::kMillisecond)->Iterations(3);
 
 void BM_ReplanScaling(benchmark::State& state) {
   static std::map<int, World>* worlds = new std::map<int, World>();
