@@ -217,9 +217,19 @@ PlannerConfig SmallConfig(PlannerKind kind) {
   return config;
 }
 
+// The sanitizer build runs about 17 times slower: it checks the same code
+// paths on 100 states, and the answer rate is asserted on the full 1000 in
+// the Release build.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr int kWorlds = 2;
+constexpr bool kAssertRate = false;
+#else
+constexpr int kWorlds = 20;
+constexpr bool kAssertRate = true;
+#endif
+constexpr int kStatesPerWorld = 50;
+
 TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
-  constexpr int kWorlds = 20;
-  constexpr int kStatesPerWorld = 50;
   std::mt19937_64 rng(20261125);
   const Aabb volume = testing::FlightVolume();
   auto grid = FieldGrid::FromBounds({-15, -15}, {15, 15}, 1.5);
@@ -273,7 +283,9 @@ TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
               states, admissible, answered, stopped_first, answered_beyond);
   EXPECT_EQ(states, kWorlds * kStatesPerWorld);
   EXPECT_GE(admissible, states / 2) << "the draw should mostly give states that can stop";
-  EXPECT_GE(answered, 0.995 * admissible);
+  if (kAssertRate) {
+    EXPECT_GE(answered, 0.995 * admissible);
+  }
   EXPECT_GT(stopped_first, 0) << "no state needed the stop first: the draw is too gentle";
 }
 
