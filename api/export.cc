@@ -73,8 +73,8 @@ DenseSamples Sample(const PolynomialTrajectory& traj, std::vector<double> shot_t
 // keeps at `tolerance` between them. *deviation: the largest distance of a
 // sample from its leg. Empty when more than `limit` would be needed (the
 // search stops there).
-std::vector<std::size_t> ChooseWaypoints(const DenseSamples& d, double tolerance,
-                                         std::size_t limit, double* deviation) {
+std::vector<std::size_t> ChooseWaypoints(const DenseSamples& d, double tolerance, std::size_t limit,
+                                         double* deviation) {
   std::vector<std::size_t> fixed;
   for (std::size_t i = 0; i < d.t_s.size(); ++i) {
     if (i == 0 || i + 1 == d.t_s.size() || d.shot[i]) fixed.push_back(i);
@@ -238,9 +238,9 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
   const PolynomialTrajectory& traj = *parsed;
   const double duration = traj.Duration();
   if (!(duration <= config.budget_s + 1e-6)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("path.trajectory: lasts ", duration, " s, longer than the mission's budget_s (",
-                     config.budget_s, " s)"));
+    return absl::InvalidArgumentError(absl::StrCat("path.trajectory: lasts ", duration,
+                                                   " s, longer than the mission's budget_s (",
+                                                   config.budget_s, " s)"));
   }
   std::vector<double> shots;
   for (int i = 0; i < path.measurement_poses_size(); ++i) {
@@ -279,17 +279,16 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
   double deviation = 0.0;
   std::vector<Item> items;
   for (;;) {
-    const std::vector<std::size_t> waypoints = ChooseWaypoints(
-        dense, tolerance, static_cast<std::size_t>(options.max_items), &deviation);
+    const std::vector<std::size_t> waypoints =
+        ChooseWaypoints(dense, tolerance, static_cast<std::size_t>(options.max_items), &deviation);
     if (!waypoints.empty()) {
       items = BuildItems(dense, waypoints, std::clamp(tolerance, 0.5, 5.0));
       if (static_cast<int>(items.size()) <= options.max_items) break;
     }
     if (tolerance >= kMaxTolerance_m) {
-      return absl::FailedPreconditionError(
-          absl::StrCat("max_items: ", options.max_items, " items are too few for this path even at a ",
-                       kMaxTolerance_m, " m tolerance (", shots.size(),
-                       " camera shots); raise max_items"));
+      return absl::FailedPreconditionError(absl::StrCat(
+          "max_items: ", options.max_items, " items are too few for this path even at a ",
+          kMaxTolerance_m, " m tolerance (", shots.size(), " camera shots); raise max_items"));
     }
     tolerance = std::min(2.0 * tolerance, kMaxTolerance_m);
   }
@@ -336,7 +335,7 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
       m->set_y(static_cast<std::int32_t>(std::lround(g.longitude_deg * 1e7)));
       m->set_z(static_cast<float>(relative_alt));
       j["frame"] = kMavFrameGlobalRelativeAlt;
-      j["params"] = {item.params[0], item.params[1], item.params[2],        item.params[3],
+      j["params"] = {item.params[0], item.params[1],  item.params[2], item.params[3],
                      g.latitude_deg, g.longitude_deg, relative_alt};
       j["Altitude"] = relative_alt;
       j["AltitudeMode"] = 1;  // relative to home
@@ -364,8 +363,8 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
   const Vec2 lo = config.field_min_W - Vec2(margin, margin);
   const Vec2 hi = config.field_max_W + Vec2(margin, margin);
   nlohmann::json inclusion = nlohmann::json::array();
-  for (const Vec2& c : {Vec2(lo.x(), lo.y()), Vec2(hi.x(), lo.y()), Vec2(hi.x(), hi.y()),
-                        Vec2(lo.x(), hi.y())}) {
+  for (const Vec2& c :
+       {Vec2(lo.x(), lo.y()), Vec2(hi.x(), lo.y()), Vec2(hi.x(), hi.y()), Vec2(lo.x(), hi.y())}) {
     inclusion.push_back(LatLon(frame, c));
   }
   nlohmann::json polygons = nlohmann::json::array(
@@ -382,11 +381,11 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
       polygons.push_back({{"inclusion", false}, {"version", 1}, {"polygon", std::move(polygon)}});
     } else {
       const auto& cyl = std::get<Cylinder>(obstacles[o].shape);
-      circles.push_back({{"inclusion", false},
-                         {"version", 1},
-                         {"circle",
-                          {{"center", LatLon(frame, cyl.centre_W.head<2>())},
-                           {"radius", cyl.radius_m}}}});
+      circles.push_back(
+          {{"inclusion", false},
+           {"version", 1},
+           {"circle",
+            {{"center", LatLon(frame, cyl.centre_W.head<2>())}, {"radius", cyl.radius_m}}}});
     }
   }
   // One rally point: where the path starts, a point known to be clear.

@@ -458,15 +458,13 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     Publish(/*obstacles_changed=*/false);
   }
   std::vector<Vec3> planned;
-  if (absl::StatusOr<std::vector<TimedPosition>> samples =
-          SampleTrajectory(path->trajectory, 10.0);
+  if (absl::StatusOr<std::vector<TimedPosition>> samples = SampleTrajectory(path->trajectory, 10.0);
       samples.ok()) {
     for (const TimedPosition& s : *samples) planned.push_back(s.position_W);
   }
   AddToTrack(state.position_W, {}, &planned);
   Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
-                                     path->objective, path->control_waypoints_W,
-                                     state.position_W});
+                                     path->objective, path->control_waypoints_W, state.position_W});
   MaybeWantSnapshot();
   return path;
 }

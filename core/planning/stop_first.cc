@@ -27,7 +27,9 @@ bool Moving(const UavState& state) {
          state.accel_W_m_s2.norm() > kRestAccel_m_s2;
 }
 
-std::string Point(const Vec3& p) { return absl::StrFormat("(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z()); }
+std::string Point(const Vec3& p) {
+  return absl::StrFormat("(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());
+}
 
 // One segment whose acceleration blends from a_from to a_to by the quintic
 // smoothstep h(x) = 10 x^3 - 15 x^4 + 6 x^5, x = tau / T: jerk and snap are
@@ -79,7 +81,8 @@ absl::StatusOr<PolynomialTrajectory> BrakeWithRamps(const UavState& state, doubl
     blend(-part / (ramp_s + hold_s));
     if (hold_s > 0.0) {
       durations.push_back(hold_s);
-      PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
+      PolynomialTrajectory::SegmentCoefficients c =
+          PolynomialTrajectory::SegmentCoefficients::Zero();
       c.row(0) = p.transpose();
       c.row(1) = v.transpose();
       c.row(2) = 0.5 * a.transpose();
@@ -113,9 +116,10 @@ StraightStop StraightStopOf(const UavState& state, const TrajectoryLimits& limit
   stop.from_W = state.position_W;
   stop.speed_m_s = state.velocity_W_m_s.norm();
   stop.distance_m = stop.speed_m_s * stop.speed_m_s / (2.0 * limits.max_accel_m_s2);
-  stop.stop_W = stop.speed_m_s > 0.0
-                    ? Vec3(state.position_W + state.velocity_W_m_s / stop.speed_m_s * stop.distance_m)
-                    : state.position_W;
+  stop.stop_W =
+      stop.speed_m_s > 0.0
+          ? Vec3(state.position_W + state.velocity_W_m_s / stop.speed_m_s * stop.distance_m)
+          : state.position_W;
   return stop;
 }
 
@@ -123,20 +127,20 @@ absl::Status CheckStraightStop(const Environment& environment, const UavState& s
                                const PlannerLimits& limits) {
   const StraightStop stop = StraightStopOf(state, limits.dynamics);
   const std::string how =
-      absl::StrFormat("stopping from %.2f m/s at limits.max_accel_m_s2 = %g takes %.2f m", stop.speed_m_s,
-                      limits.dynamics.max_accel_m_s2, stop.distance_m);
+      absl::StrFormat("stopping from %.2f m/s at limits.max_accel_m_s2 = %g takes %.2f m",
+                      stop.speed_m_s, limits.dynamics.max_accel_m_s2, stop.distance_m);
   const Aabb& volume = environment.flight_volume();
   static constexpr const char* kAxis[] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a) {
     if (stop.stop_W[a] > volume.max_W[a]) {
       return absl::FailedPreconditionError(absl::StrCat(
-          "state.velocity_W_m_s: ", how, " and would leave the flight volume through its ", kAxis[a],
-          " max face at ", volume.max_W[a], " m"));
+          "state.velocity_W_m_s: ", how, " and would leave the flight volume through its ",
+          kAxis[a], " max face at ", volume.max_W[a], " m"));
     }
     if (stop.stop_W[a] < volume.min_W[a]) {
       return absl::FailedPreconditionError(absl::StrCat(
-          "state.velocity_W_m_s: ", how, " and would leave the flight volume through its ", kAxis[a],
-          " min face at ", volume.min_W[a], " m"));
+          "state.velocity_W_m_s: ", how, " and would leave the flight volume through its ",
+          kAxis[a], " min face at ", volume.min_W[a], " m"));
     }
   }
   const double clearance = 0.5 * limits.uav_radius_m;
@@ -186,9 +190,10 @@ absl::StatusOr<PolynomialTrajectory> PlanBrake(const Environment& environment,
   // No brake keeps clear: say why the straight stop would not either, or,
   // where it would, that the smooth one does not.
   OAIPP_RETURN_IF_ERROR(CheckStraightStop(environment, state, limits));
-  return absl::FailedPreconditionError(absl::StrCat(
-      "state: no smooth stop from ", Point(state.position_W), " at ",
-      absl::StrFormat("%.2f", state.velocity_W_m_s.norm()), " m/s keeps clear (", last.message(), ")"));
+  return absl::FailedPreconditionError(
+      absl::StrCat("state: no smooth stop from ", Point(state.position_W), " at ",
+                   absl::StrFormat("%.2f", state.velocity_W_m_s.norm()), " m/s keeps clear (",
+                   last.message(), ")"));
 }
 
 absl::StatusOr<PolynomialTrajectory> Concatenate(const PolynomialTrajectory& first,
@@ -208,12 +213,12 @@ absl::StatusOr<PlannedPath> StopFirstPlanner::Plan(const PlanningContext& missio
   if (!Moving(state)) return inner_->Plan(mission, state, deadline);
   const absl::Time started = absl::Now();
   // The direct attempt gets half the time, so that stopping first has some.
-  const absl::Time direct_deadline =
-      deadline == absl::InfiniteFuture() || deadline <= started ? deadline
-                                                                 : started + (deadline - started) / 2;
+  const absl::Time direct_deadline = deadline == absl::InfiniteFuture() || deadline <= started
+                                         ? deadline
+                                         : started + (deadline - started) / 2;
   absl::StatusOr<PlannedPath> direct = inner_->Plan(mission, state, direct_deadline);
-  if (direct.ok() || !(absl::IsFailedPrecondition(direct.status()) ||
-                       absl::IsDeadlineExceeded(direct.status()))) {
+  if (direct.ok() ||
+      !(absl::IsFailedPrecondition(direct.status()) || absl::IsDeadlineExceeded(direct.status()))) {
     return direct;
   }
   if (mission.environment == nullptr) return direct;
@@ -229,11 +234,11 @@ absl::StatusOr<PlannedPath> StopFirstPlanner::Plan(const PlanningContext& missio
   }
   OAIPP_ASSIGN_OR_RETURN(
       MeasurementSchedule shots,
-      ScheduleMeasurements({.trajectory_start_mission_s = state.mission_time_s,
-                            .duration_s = t_brake,
-                            .rate_hz = mission.camera.rate_hz,
-                            .next_shot_mission_s =
-                                std::max(mission.next_shot_mission_s, state.mission_time_s)}));
+      ScheduleMeasurements(
+          {.trajectory_start_mission_s = state.mission_time_s,
+           .duration_s = t_brake,
+           .rate_hz = mission.camera.rate_hz,
+           .next_shot_mission_s = std::max(mission.next_shot_mission_s, state.mission_time_s)}));
   UavState rest;
   rest.position_W = brake.Position(t_brake);
   rest.mission_time_s = state.mission_time_s + t_brake;
@@ -243,9 +248,9 @@ absl::StatusOr<PlannedPath> StopFirstPlanner::Plan(const PlanningContext& missio
   absl::StatusOr<PlannedPath> planned = inner_->Plan(after_stop, rest, deadline);
   if (!planned.ok()) {
     return absl::Status(planned.status().code(),
-                        absl::StrCat("no safe path from the UAV's state (", direct.status().message(),
-                                     "), nor after braking to rest at ", Point(rest.position_W),
-                                     ": ", planned.status().message()));
+                        absl::StrCat("no safe path from the UAV's state (",
+                                     direct.status().message(), "), nor after braking to rest at ",
+                                     Point(rest.position_W), ": ", planned.status().message()));
   }
 
   PlannedPath out = *std::move(planned);
@@ -265,8 +270,8 @@ absl::StatusOr<PlannedPath> StopFirstPlanner::Plan(const PlanningContext& missio
   // again, as one trajectory, before it is returned.
   if (absl::Status exact = CheckTrajectoryExact(*mission.environment, out.trajectory, limits_);
       !exact.ok()) {
-    return absl::InternalError(absl::StrCat("stop-first path failed its exact check: ",
-                                            exact.message()));
+    return absl::InternalError(
+        absl::StrCat("stop-first path failed its exact check: ", exact.message()));
   }
   out.stats.stop_first_s = t_brake;
   out.stats.wall_time_s = absl::ToDoubleSeconds(absl::Now() - started);

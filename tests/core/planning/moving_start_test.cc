@@ -52,8 +52,9 @@ double CylinderDistance(const Cylinder& cyl, const Vec3& p) {
 double Distance(const std::vector<Obstacle>& obstacles, const Vec3& p) {
   double best = 1e9;
   for (const Obstacle& o : obstacles) {
-    const double d = std::holds_alternative<Box>(o.shape) ? BoxDistance(std::get<Box>(o.shape), p)
-                                                          : CylinderDistance(std::get<Cylinder>(o.shape), p);
+    const double d = std::holds_alternative<Box>(o.shape)
+                         ? BoxDistance(std::get<Box>(o.shape), p)
+                         : CylinderDistance(std::get<Cylinder>(o.shape), p);
     best = std::min(best, d);
   }
   return best;
@@ -92,7 +93,8 @@ bool StraightStopIsSafe(const Aabb& volume, const std::vector<Obstacle>& obstacl
   for (double t = 0; t <= traj.Duration() + 0.5 * dt; t += dt) {
     const double tc = std::min(t, traj.Duration());
     const Vec3 p = traj.Position(tc);
-    if (!InVolume(volume, p)) return ::testing::AssertionFailure() << "outside the volume at t = " << tc;
+    if (!InVolume(volume, p))
+      return ::testing::AssertionFailure() << "outside the volume at t = " << tc;
     if (const double d = Distance(obstacles, p); d < 0.5 * kUavRadius_m - 1e-6) {
       return ::testing::AssertionFailure() << d << " m from an obstacle at t = " << tc;
     }
@@ -162,10 +164,11 @@ std::optional<UavState> RandomState(std::mt19937_64& rng, int kind, const Aabb& 
       break;
     }
     case 1: {  // 1.5 to 3 m from an obstacle's surface, flying at it at 1-4 m/s
-      const Obstacle& o = obstacles[static_cast<std::size_t>(unit(rng) * obstacles.size()) %
-                                    obstacles.size()];
-      const Vec3 centre = std::holds_alternative<Box>(o.shape) ? std::get<Box>(o.shape).centre_W
-                                                               : std::get<Cylinder>(o.shape).centre_W;
+      const Obstacle& o =
+          obstacles[static_cast<std::size_t>(unit(rng) * obstacles.size()) % obstacles.size()];
+      const Vec3 centre = std::holds_alternative<Box>(o.shape)
+                              ? std::get<Box>(o.shape).centre_W
+                              : std::get<Cylinder>(o.shape).centre_W;
       Vec3 target = centre;
       target.z() = 2 + unit(rng) * std::min(20.0, 2 * centre.z() - 2);
       const Vec3 dir = RandomUnit(rng);
@@ -188,7 +191,8 @@ std::optional<UavState> RandomState(std::mt19937_64& rng, int kind, const Aabb& 
       break;
   }
   s.accel_W_m_s2 = a;
-  if (!InVolume(volume, s.position_W) || Distance(obstacles, s.position_W) < 0.5 * kUavRadius_m + 0.01) {
+  if (!InVolume(volume, s.position_W) ||
+      Distance(obstacles, s.position_W) < 0.5 * kUavRadius_m + 0.01) {
     return std::nullopt;
   }
   return s;
@@ -236,9 +240,14 @@ TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
   ASSERT_TRUE(grid.ok());
   auto map = GpMap::Create(*grid, GpParams::PaperPreset(1.5));
   ASSERT_TRUE(map.ok());
-  const PlannerKind kinds[] = {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom,
-                               PlannerKind::kOaIpp, PlannerKind::kOaIppNonAdaptive,
-                               PlannerKind::kLawnmower, PlannerKind::kRandom, PlannerKind::kOaIpp};
+  const PlannerKind kinds[] = {PlannerKind::kOaIpp,
+                               PlannerKind::kLawnmower,
+                               PlannerKind::kRandom,
+                               PlannerKind::kOaIpp,
+                               PlannerKind::kOaIppNonAdaptive,
+                               PlannerKind::kLawnmower,
+                               PlannerKind::kRandom,
+                               PlannerKind::kOaIpp};
 
   int states = 0, admissible = 0, answered = 0, stopped_first = 0, answered_beyond = 0;
   std::map<std::string, int> refusals;
@@ -278,9 +287,10 @@ TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
   for (const auto& [message, count] : refusals) {
     std::printf("refused %d admissible state(s): %s\n", count, message.c_str());
   }
-  std::printf("%d states, %d admit a straight stop, %d of those answered (%d stopped first); "
-              "%d answered without one\n",
-              states, admissible, answered, stopped_first, answered_beyond);
+  std::printf(
+      "%d states, %d admit a straight stop, %d of those answered (%d stopped first); "
+      "%d answered without one\n",
+      states, admissible, answered, stopped_first, answered_beyond);
   EXPECT_EQ(states, kWorlds * kStatesPerWorld);
   EXPECT_GE(admissible, states / 2) << "the draw should mostly give states that can stop";
   if (kAssertRate) {
@@ -321,7 +331,8 @@ TEST(MovingStartTest, ARefusalNamesTheFaceOrObstacle) {
   for (PlannerKind kind : {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom}) {
     auto planner = MakePlanner(SmallConfig(kind));
     ASSERT_TRUE(planner.ok());
-    absl::StatusOr<PlannedPath> path = (*planner)->Plan(Context(*env, *map, 0.0), face, absl::InfiniteFuture());
+    absl::StatusOr<PlannedPath> path =
+        (*planner)->Plan(Context(*env, *map, 0.0), face, absl::InfiniteFuture());
     ASSERT_FALSE(path.ok()) << PlannerKindName(kind);
     EXPECT_TRUE(absl::StrContains(path.status().message(), "x max face")) << path.status();
   }
@@ -353,7 +364,8 @@ TEST(MovingStartTest, StopFirstJoinsBrakeAndPathSmoothly) {
   ASSERT_TRUE(map.ok());
   auto planner = MakePlanner(SmallConfig(PlannerKind::kLawnmower));
   ASSERT_TRUE(planner.ok());
-  absl::StatusOr<PlannedPath> path = (*planner)->Plan(Context(*env, *map, 20.5), s, absl::InfiniteFuture());
+  absl::StatusOr<PlannedPath> path =
+      (*planner)->Plan(Context(*env, *map, 20.5), s, absl::InfiniteFuture());
   ASSERT_TRUE(path.ok()) << path.status();
   EXPECT_TRUE(IndependentlySafe(*path, testing::FlightVolume(), {}, s));
   // The brake's last segment ends as the planned part's first begins, in
