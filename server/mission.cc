@@ -16,6 +16,12 @@ namespace oaipp::server {
 
 namespace {
 
+// `env` ready to share between readers, its ESDF pooled with equal ones.
+std::shared_ptr<const Environment> Shared(Environment env, EsdfPool* esdfs) {
+  if (esdfs != nullptr) env.ShareEsdf(*esdfs);
+  return std::make_shared<const Environment>(std::move(env));
+}
+
 // Bytes one log entry holds: the entry and what its vectors and strings own.
 std::int64_t LogEntryBytes(const LogEntry& entry) {
   std::int64_t bytes = sizeof(LogEntry);
@@ -129,19 +135,19 @@ void Mission::Remember(const RequestKey& request, Result result) {
 }
 
 Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap map,
-                 std::unique_ptr<Planner> planner)
+                 std::unique_ptr<Planner> planner, EsdfPool* esdfs)
     : id_(std::move(id)),
       config_(std::move(config)),
       create_time_(absl::FromUnixMicros(absl::ToUnixMicros(absl::Now()))),  // as stored
-      memory_bytes_(8 * static_cast<std::int64_t>(map.num_cells()) *
-                        (static_cast<std::int64_t>(map.num_cells()) + 1) +
-                    static_cast<std::int64_t>(env.esdf().MemoryBytes())),
-      env_(std::make_shared<const Environment>(std::move(env))),
+      map_bytes_(8 * static_cast<std::int64_t>(map.num_cells()) *
+                 (static_cast<std::int64_t>(map.num_cells()) + 1)),
+      esdfs_(esdfs),
+      env_(Shared(std::move(env), esdfs)),
       map_(std::make_shared<GpMap>(std::move(map))),
       planner_(std::move(planner)) {}
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
-                                                         PriorCache* priors) {
+                                                         PriorCache* priors, EsdfPool* esdfs) {
   OAIPP_ASSIGN_OR_RETURN(Environment env, config.MakeEnvironment());
   // The UAV must start where it may fly: clear of every obstacle by half
   // its radius, as PlanPath asks of every state (exact distance).
@@ -162,7 +168,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
                                                       : GpMap::Create(grid, config.gp));
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::move(map), std::move(planner)));
+                                               std::move(map), std::move(planner), esdfs));
   absl::MutexLock lock(&mission->mu_);
   OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
   mission->mission_time_s_ = mission->config_.start.mission_time_s;
@@ -171,7 +177,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
 }
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, MissionConfig config,
-                                                          MissionState state) {
+                                                          MissionState state, EsdfPool* esdfs) {
   OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
   OAIPP_RETURN_IF_ERROR(env.Apply({.add = state.obstacles}));
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
@@ -192,7 +198,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::move(map), std::move(planner)));
+                                               std::move(map), std::move(planner), esdfs));
   {
     absl::MutexLock lock(&mission->mu_);
     mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
@@ -243,6 +249,18 @@ absl::Status Mission::FuseCoveredCells() {
   return absl::OkStatus();
 }
 
+std::int64_t Mission::MemoryBytes() const {
+  std::shared_ptr<const Environment> env;
+  {
+    absl::MutexLock lock(&summary_mu_);
+    env = summary_.env;
+  }
+  if (env == nullptr) return map_bytes_;
+  const Esdf& esdf = env->esdf();
+  return map_bytes_ +
+         static_cast<std::int64_t>(esdf.MemoryBytes()) / std::max<std::int64_t>(1, esdf.SharedBy());
+}
+
 GpMap& Mission::MutableMap() {
   // Only holders of mu_ copy map_, and this one holds it for writing: a
   // count of 1 cannot grow under us. A plan that lets go meanwhile costs
@@ -261,6 +279,7 @@ void Mission::Publish(bool obstacles_changed) {
     absl::MutexLock lock(&summary_mu_);
     next.obstacles = summary_.obstacles;  // shared, not copied
   }
+  next.env = env_;
   next.trace = map_->Trace();
   next.measurements_fused = measurements_fused_;
   next.mission_time_s = mission_time_s_;
@@ -296,7 +315,7 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
     OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
     OAIPP_RETURN_IF_ERROR(Persist(persist));
     absl::MutexLock lock(&mu_);
-    env_ = std::make_shared<const Environment>(std::move(next));
+    env_ = Shared(std::move(next), esdfs_);
     // Ground newly under a building holds no targets. (Ground uncovered by a
     // removal keeps what was fused: the map cannot forget a measurement.)
     OAIPP_RETURN_IF_ERROR(FuseCoveredCells());
@@ -580,7 +599,7 @@ MissionSnapshot Mission::Snapshot() const {
     s.measurements_fused = summary_.measurements_fused;
     s.mission_time_s = summary_.mission_time_s;
   }
-  s.memory_bytes = memory_bytes_;
+  s.memory_bytes = MemoryBytes();
   s.paths_planned = paths_planned_.load();
   return s;
 }

@@ -197,16 +197,22 @@ class Mission {
   // near-certain zeros) and the planner. Errors: InvalidArgument for a
   // config the core refuses, ResourceExhausted for grids too large.
   // priors: where to take the prior covariance from (shared by missions of
-  // the same grid shape and GP parameters); nullptr computes it.
-  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(
-      std::string id, MissionConfig config, PriorCache* priors = nullptr);
+  // the same grid shape and GP parameters); nullptr computes it. esdfs:
+  // where missions over equal worlds share one ESDF (also after obstacle
+  // changes that make two worlds equal); nullptr keeps the mission's own.
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(std::string id,
+                                                                       MissionConfig config,
+                                                                       PriorCache* priors = nullptr,
+                                                                       EsdfPool* esdfs = nullptr);
   // The mission as it was in `state` (a snapshot read back): the same
   // obstacles, map, counters, planner state and request_id answers; its log
   // goes on at state.sequence + 1. InvalidArgument when the state does not
   // fit the config (another grid, a planner state the planner refuses).
+  // esdfs: as for Create.
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(std::string id,
                                                                         MissionConfig config,
-                                                                        MissionState state);
+                                                                        MissionState state,
+                                                                        EsdfPool* esdfs = nullptr);
   // A fresh mission with `log` applied in order (what persistence would do).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Replay(
       std::string id, MissionConfig config, const std::vector<LogEntry>& log);
@@ -272,9 +278,10 @@ class Mission {
   // The summary as of the last finished change: waits for no mutation and
   // no plan.
   [[nodiscard]] MissionSnapshot Snapshot() const;
-  // Memory held by the map and the ESDF: fixed at creation, so reading it
-  // takes no lock (the server reports it after every call).
-  [[nodiscard]] std::int64_t MemoryBytes() const { return memory_bytes_; }
+  // Memory held by the map and this mission's share of its ESDF (an ESDF
+  // shared by k missions over the same obstacles counts 1/k in each). Waits
+  // for no mutation and no plan (the server reports it after every call).
+  [[nodiscard]] std::int64_t MemoryBytes() const;
   // Bytes held by the log of applied changes (Log()), which grows with
   // every measurement and obstacle change; read without a lock.
   [[nodiscard]] std::int64_t LogBytes() const { return log_bytes_.load(); }
@@ -314,7 +321,7 @@ class Mission {
 
  private:
   Mission(std::string id, MissionConfig config, Environment env, GpMap map,
-          std::unique_ptr<Planner> planner);
+          std::unique_ptr<Planner> planner, EsdfPool* esdfs);
   // Fuses, once, the cells under obstacles that were not fused before.
   absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The map, to change: copied first when a plan still reads it.
@@ -341,7 +348,9 @@ class Mission {
   const std::string id_;
   const MissionConfig config_;
   absl::Time create_time_;  // set by the constructor, or by recovery before the mission is shared
-  const std::int64_t memory_bytes_;
+  const std::int64_t map_bytes_;  // mean and covariance
+  // Where equal ESDFs are shared (nullptr: not shared).
+  EsdfPool* const esdfs_;
 
   // OK when `bytes` more fit the log (log_limit_); else RESOURCE_EXHAUSTED.
   [[nodiscard]] absl::Status CheckLogRoom(std::int64_t bytes) const;
@@ -371,6 +380,8 @@ class Mission {
   // What Snapshot() reports, published at the end of every change.
   struct Summary {
     std::shared_ptr<const std::vector<Obstacle>> obstacles;
+    // The world as of this summary, for its ESDF's share of the memory.
+    std::shared_ptr<const Environment> env;
     double trace = 0.0;
     std::int64_t measurements_fused = 0;
     double mission_time_s = 0.0;

@@ -112,8 +112,8 @@ class MissionRegistry {
   // As Get, but only a mission this server holds now: never takes one over
   // from a shared store (for read-only views, which must not move missions
   // between the replicas of a cluster).
-  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> GetHeld(absl::string_view name,
-                                                                 const std::string& tenant = "") const;
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> GetHeld(
+      absl::string_view name, const std::string& tenant = "") const;
   // Missions in creation order from `offset`, at most `limit`.
   [[nodiscard]] std::vector<std::shared_ptr<Mission>> List(std::size_t offset,
                                                            std::size_t limit) const;
@@ -228,6 +228,9 @@ class MissionRegistry {
   // Prior covariances shared by missions over the same kind of field: a
   // fleet computes each once (0.3 s for 1600 cells) and copies it.
   const std::unique_ptr<PriorCache> priors_;
+  // ESDFs shared by missions over equal worlds (a fleet over one site holds
+  // one 16 MB grid, not one per mission).
+  EsdfPool esdfs_;
   MissionStore* const store_;
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).

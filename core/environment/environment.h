@@ -55,6 +55,9 @@ class Environment final : public LineOfSight {
   [[nodiscard]] const Aabb& flight_volume() const { return volume_; }
   [[nodiscard]] const std::map<std::string, Obstacle>& obstacles() const { return obstacles_; }
   [[nodiscard]] const Esdf& esdf() const { return esdf_; }
+  // Shares the ESDF's values with an equal grid in `pool` (EsdfPool::Share);
+  // true when it now shares another's.
+  bool ShareEsdf(EsdfPool& pool) { return pool.Share(esdf_); }
 
   // Exact signed distance to the nearest obstacle, metres; +infinity when
   // the world is empty. Inside, the most negative of the obstacles' own

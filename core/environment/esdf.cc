@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "absl/strings/str_cat.h"
@@ -111,7 +112,8 @@ absl::StatusOr<Esdf> Esdf::Create(const Aabb& volume, const EsdfConfig& config) 
         absl::StrCat("esdf: ", count, " voxels exceed the limit of ", config.max_voxels,
                      "; use larger esdf.voxel_size_m"));
   }
-  esdf.values_.assign(static_cast<std::size_t>(count), static_cast<float>(config.truncation_m));
+  esdf.values_ = std::make_shared<std::vector<float>>(static_cast<std::size_t>(count),
+                                                      static_cast<float>(config.truncation_m));
   return esdf;
 }
 
@@ -124,6 +126,14 @@ Esdf Esdf::Clone() const {
   copy.values_ = values_;
   copy.last_recomputed_ = last_recomputed_;
   return copy;
+}
+
+std::vector<float>& Esdf::Writable() {
+  // use_count() == 1 means no other Esdf holds the values, so no other
+  // thread can be reading them through one; a stale count above 1 only
+  // costs a copy.
+  if (values_.use_count() > 1) values_ = std::make_shared<std::vector<float>>(*values_);
+  return *values_;
 }
 
 VoxelBox Esdf::BoxAround(const Aabb& region_W, double margin_m) const {
@@ -152,7 +162,7 @@ void Esdf::Update(std::span<const Shape* const> shapes, const Aabb& changed_W) {
   // truncation distance.
   const double half_diag = 0.5 * std::sqrt(3.0) * voxel_m_;
   const VoxelBox out = BoxAround(changed_W, half_diag + truncation_m_ + voxel_m_);
-  std::int64_t total = static_cast<std::int64_t>(values_.size());
+  std::int64_t total = static_cast<std::int64_t>(values_->size());
   if (out.Count() * 2 > total) {
     Rebuild(shapes);
     return;
@@ -227,6 +237,7 @@ void Esdf::Recompute(std::span<const Shape* const> shapes, const VoxelBox& out) 
   //    elsewhere (within half a diagonal of the truth), signed by the exact
   //    inside test, clamped.
   const float trunc = static_cast<float>(truncation_m_);
+  std::vector<float>& values = Writable();
   for (int k = out.lo[2]; k < out.hi[2]; ++k) {
     for (int j = out.lo[1]; j < out.hi[1]; ++j) {
       for (int i = out.lo[0]; i < out.hi[0]; ++i) {
@@ -244,7 +255,7 @@ void Esdf::Recompute(std::span<const Shape* const> shapes, const VoxelBox& out) 
           // It also covers surfaces beyond the grid's edge.
           value = e < 0.0f ? -std::min(std::max(dist, -e), trunc) : std::min({dist, e, trunc});
         }
-        values_[Index(i, j, k)] = std::clamp(value, -trunc, trunc);
+        values[Index(i, j, k)] = std::clamp(value, -trunc, trunc);
       }
     }
   }
@@ -260,10 +271,11 @@ double Esdf::DistanceAndGradient(const Vec3& p_W, Vec3* gradient_W) const {
     i0[a] = std::min(static_cast<int>(std::floor(c)), std::max(0, dims_[a] - 2));
     t[a] = dims_[a] > 1 ? c - i0[a] : 0.0;
   }
+  const std::vector<float>& values = *values_;
   auto at = [&](int di, int dj, int dk) {
     return static_cast<double>(
-        values_[Index(std::min(i0[0] + di, dims_[0] - 1), std::min(i0[1] + dj, dims_[1] - 1),
-                      std::min(i0[2] + dk, dims_[2] - 1))]);
+        values[Index(std::min(i0[0] + di, dims_[0] - 1), std::min(i0[1] + dj, dims_[1] - 1),
+                     std::min(i0[2] + dk, dims_[2] - 1))]);
   };
   const double c000 = at(0, 0, 0), c100 = at(1, 0, 0), c010 = at(0, 1, 0), c110 = at(1, 1, 0);
   const double c001 = at(0, 0, 1), c101 = at(1, 0, 1), c011 = at(0, 1, 1), c111 = at(1, 1, 1);
@@ -282,5 +294,54 @@ double Esdf::DistanceAndGradient(const Vec3& p_W, Vec3* gradient_W) const {
 }
 
 double Esdf::Distance(const Vec3& p_W) const { return DistanceAndGradient(p_W, nullptr); }
+
+namespace {
+
+// FNV-1a over the value bits: a key for the pool's table, never trusted
+// alone (equal keys are compared in full).
+std::uint64_t HashValues(std::span<const float> values) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (const float v : values) {
+    std::uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    h = (h ^ bits) * 1099511628211ull;
+  }
+  return h;
+}
+
+}  // namespace
+
+bool EsdfPool::Share(Esdf& esdf) {
+  const std::uint64_t key = HashValues(*esdf.values_);
+  absl::MutexLock lock(&mu_);
+  // Expired entries are dropped as they are met.
+  auto [first, last] = grids_.equal_range(key);
+  for (auto it = first; it != last;) {
+    std::shared_ptr<std::vector<float>> held = it->second.values.lock();
+    if (held == nullptr) {
+      it = grids_.erase(it);
+      continue;
+    }
+    const Entry& e = it->second;
+    if (held == esdf.values_) return false;  // already the pooled grid
+    if (e.dims == esdf.dims_ && e.origin_W == esdf.origin_W_ && e.voxel_m == esdf.voxel_m_ &&
+        e.truncation_m == esdf.truncation_m_ && held->size() == esdf.values_->size() &&
+        std::memcmp(held->data(), esdf.values_->data(), held->size() * sizeof(float)) == 0) {
+      esdf.values_ = std::move(held);
+      return true;
+    }
+    ++it;
+  }
+  grids_.emplace(
+      key, Entry{esdf.dims_, esdf.origin_W_, esdf.voxel_m_, esdf.truncation_m_, esdf.values_});
+  return false;
+}
+
+int EsdfPool::size() const {
+  absl::MutexLock lock(&mu_);
+  int alive = 0;
+  for (const auto& [key, e] : grids_) alive += e.values.expired() ? 0 : 1;
+  return alive;
+}
 
 }  // namespace oaipp

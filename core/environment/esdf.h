@@ -25,10 +25,14 @@
 
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 #include "core/common/geometry.h"
 #include "core/environment/obstacle.h"
 
@@ -69,7 +73,8 @@ class Esdf {
 
   Esdf(Esdf&&) = default;
   Esdf& operator=(Esdf&&) = default;
-  // The grid holds megabytes: copies are explicit.
+  // The grid holds megabytes: copies are explicit, and a clone shares the
+  // values until either is changed (copy on write).
   Esdf(const Esdf&) = delete;
   Esdf& operator=(const Esdf&) = delete;
   [[nodiscard]] Esdf Clone() const;
@@ -97,12 +102,16 @@ class Esdf {
   [[nodiscard]] Vec3 VoxelCentre(int i, int j, int k) const {
     return origin_W_ + voxel_m_ * Vec3(i + 0.5, j + 0.5, k + 0.5);
   }
-  [[nodiscard]] float Value(int i, int j, int k) const { return values_[Index(i, j, k)]; }
-  [[nodiscard]] std::span<const float> values() const { return values_; }
+  [[nodiscard]] float Value(int i, int j, int k) const { return (*values_)[Index(i, j, k)]; }
+  [[nodiscard]] std::span<const float> values() const { return *values_; }
   // Voxels recomputed by the last Rebuild or Update (for statistics).
   [[nodiscard]] std::int64_t last_recomputed_voxels() const { return last_recomputed_; }
-  // Bytes held by the grid.
-  [[nodiscard]] std::size_t MemoryBytes() const { return values_.capacity() * sizeof(float); }
+  // Bytes held by the grid (shared or not).
+  [[nodiscard]] std::size_t MemoryBytes() const { return values_->capacity() * sizeof(float); }
+  // How many Esdf objects hold this grid's values (1: not shared). Clones
+  // share their values until one of them changes (copy on write), and
+  // EsdfPool makes equal grids share.
+  [[nodiscard]] long SharedBy() const { return values_.use_count(); }
 
  private:
   Esdf() = default;
@@ -117,8 +126,48 @@ class Esdf {
   Vec3 origin_W_ = Vec3::Zero();
   double voxel_m_ = 0.2;
   double truncation_m_ = 2.0;
-  std::vector<float> values_;
+  // The values to write: copied first when another Esdf shares them.
+  [[nodiscard]] std::vector<float>& Writable();
+
+  friend class EsdfPool;
+  // Never written while shared (Writable copies first).
+  std::shared_ptr<std::vector<float>> values_;
   std::int64_t last_recomputed_ = 0;
+};
+
+// Equal grids held once: a server's missions over the same obstacles (a
+// fleet flying one site) each build their ESDF, then Share makes it point at
+// an equal grid already held by another mission, so the values (16 MB for
+// the paper's volume at 0.2 m) exist once however many missions use them.
+// Grids are compared in full (dims, origin, voxel size, truncation and every
+// value, bit for bit), never by hash alone. The pool holds no grid itself: a
+// grid is freed when its last Esdf is, and its entry then expires. A grid
+// that is changed later (an obstacle added) is copied first (Esdf's copy on
+// write), so sharing never changes what a mission sees.
+//
+// Thread-safe.
+//
+//   EsdfPool pool;
+//   pool.Share(env_a_esdf);  // first of its kind: remembered
+//   pool.Share(env_b_esdf);  // equal to a's: now holds a's values
+class EsdfPool {
+ public:
+  // Makes `esdf` share the values of an equal grid in the pool, or adds its
+  // grid to the pool. Returns true when it now shares another's values.
+  bool Share(Esdf& esdf);
+  // Distinct grids alive in the pool.
+  [[nodiscard]] int size() const;
+
+ private:
+  struct Entry {
+    std::array<int, 3> dims;
+    Vec3 origin_W;
+    double voxel_m;
+    double truncation_m;
+    std::weak_ptr<std::vector<float>> values;
+  };
+  mutable absl::Mutex mu_;
+  std::unordered_multimap<std::uint64_t, Entry> grids_ ABSL_GUARDED_BY(mu_);
 };
 
 }  // namespace oaipp

@@ -67,6 +67,43 @@ TEST(ServiceTest, CreateGetListDelete) {
   EXPECT_EQ(s.stub().GetMission(&again, gone, &got).error_code(), grpc::StatusCode::NOT_FOUND);
 }
 
+// Missions over the same obstacles share one ESDF: each counts half of it
+// while two hold it, and a mission whose obstacles change gets its own again
+// without changing the other's.
+TEST(ServiceTest, MissionsOverTheSameObstaclesShareOneEsdf) {
+  InProcessService s;
+  const std::int64_t map = 8 * 400 * 401;  // mean and covariance of 20 x 20 cells
+  const std::int64_t alone = CreateSmall(s.stub(), "alpha").map_bytes();
+  const std::int64_t esdf = alone - map;
+  ASSERT_GT(esdf, 1'000'000);
+  EXPECT_EQ(CreateSmall(s.stub(), "beta").map_bytes(), map + esdf / 2);
+  const auto bytes = [&](const std::string& id) {
+    grpc::ClientContext context;
+    v1::GetMissionRequest get;
+    get.set_name("missions/" + id);
+    v1::Mission got;
+    EXPECT_TRUE(s.stub().GetMission(&context, get, &got).ok());
+    return got.map_bytes();
+  };
+  EXPECT_EQ(bytes("alpha"), map + esdf / 2);
+
+  v1::UpdateObstaclesRequest update;
+  update.set_name("missions/beta");
+  v1::Obstacle* added = update.add_add();
+  added->set_id("b2");
+  added->mutable_box()->mutable_centre_m()->set_x(4);
+  added->mutable_box()->mutable_centre_m()->set_y(-4);
+  added->mutable_box()->mutable_centre_m()->set_z(5);
+  *added->mutable_box()->mutable_size_m() = api::ToProto(Vec3(1, 1, 10));
+  {
+    grpc::ClientContext context;
+    v1::UpdateObstaclesResponse updated;
+    ASSERT_TRUE(s.stub().UpdateObstacles(&context, update, &updated).ok());
+  }
+  EXPECT_EQ(bytes("alpha"), alone);
+  EXPECT_EQ(bytes("beta"), alone);
+}
+
 // Page tokens are opaque and stable: deleting missions between pages
 // neither hides nor repeats one, and a token made up by the client (the old
 // raw offsets) is refused naming page_token.

@@ -179,5 +179,57 @@ TEST(EsdfTest, BadConfigurationsAreRefused) {
             absl::StatusCode::kResourceExhausted);
 }
 
+// Each grid's values, copied out: what a reader of the grid sees.
+std::vector<float> Values(const Environment& env) {
+  return {env.esdf().values().begin(), env.esdf().values().end()};
+}
+
+TEST(EsdfPoolTest, EqualWorldsShareOneGridAndChangesCopyIt) {
+  EsdfPool pool;
+  Environment a = MakeWorld(7, 5, 0.5);
+  Environment b = MakeWorld(7, 5, 0.5);
+  Environment other = MakeWorld(8, 5, 0.5);
+  const std::vector<float> before = Values(a);
+  EXPECT_FALSE(a.ShareEsdf(pool));  // the first of its kind
+  EXPECT_TRUE(b.ShareEsdf(pool));
+  EXPECT_FALSE(other.ShareEsdf(pool));
+  EXPECT_FALSE(a.ShareEsdf(pool));  // already the pooled grid
+  EXPECT_EQ(a.esdf().values().data(), b.esdf().values().data());
+  EXPECT_NE(a.esdf().values().data(), other.esdf().values().data());
+  EXPECT_EQ(a.esdf().SharedBy(), 2);
+  EXPECT_EQ(pool.size(), 2);
+
+  // A change to b copies its grid first: a still reads what it built.
+  ASSERT_TRUE(b.Apply({.add = {{.id = "new", .shape = Box{{3, 3, 5}, {2, 2, 10}, 0.0}}}}).ok());
+  EXPECT_NE(a.esdf().values().data(), b.esdf().values().data());
+  EXPECT_EQ(Values(a), before);
+  EXPECT_EQ(a.esdf().SharedBy(), 1);
+  EXPECT_LT(b.esdf().Distance({3, 3, 5}), 0.0);
+  EXPECT_GT(a.esdf().Distance({3, 3, 5}), 0.0);
+
+  // A clone shares until it changes, too.
+  Environment c = a.Clone();
+  EXPECT_EQ(a.esdf().values().data(), c.esdf().values().data());
+  ASSERT_TRUE(c.Apply({.remove = {a.obstacles().begin()->first}}).ok());
+  EXPECT_EQ(Values(a), before);
+
+  // Grids nobody holds leave the pool.
+  { Environment gone = std::move(other); }
+  EXPECT_EQ(pool.size(), 1);
+}
+
+TEST(EsdfPoolTest, GridsOfEqualValuesButAnotherPlaceAreNotShared) {
+  EsdfPool pool;
+  // Two empty worlds hold the same values (truncation everywhere) over
+  // different volumes of one size.
+  auto a = Environment::Create({{0, 0, 2}, {10, 10, 12}}, {.voxel_size_m = 0.5});
+  auto b = Environment::Create({{5, 0, 2}, {15, 10, 12}}, {.voxel_size_m = 0.5});
+  ASSERT_TRUE(a.ok() && b.ok());
+  ASSERT_EQ(a->esdf().values().size(), b->esdf().values().size());
+  EXPECT_FALSE(a->ShareEsdf(pool));
+  EXPECT_FALSE(b->ShareEsdf(pool));
+  EXPECT_EQ(pool.size(), 2);
+}
+
 }  // namespace
 }  // namespace oaipp
