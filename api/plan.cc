@@ -64,6 +64,7 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
   stats.set_stop_reason(path.stats.stop_reason);
   stats.set_initial_objective(path.stats.initial_objective);
   stats.set_stop_first_s(path.stats.stop_first_s);
+  stats.set_search_fraction(path.stats.search_fraction);
 }
 
 absl::StatusOr<PolynomialTrajectory> TrajectoryFromProto(const v1::Trajectory& trajectory) {
@@ -122,7 +123,11 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
                 .wall_time_s = response.stats().wall_time_s(),
                 .stop_reason = response.stats().stop_reason(),
                 .initial_objective = response.stats().initial_objective(),
-                .stop_first_s = response.stats().stop_first_s()};
+                .stop_first_s = response.stats().stop_first_s(),
+                // Plans stored before the field existed ran their whole search.
+                .search_fraction = response.stats().search_fraction() > 0.0
+                                       ? response.stats().search_fraction()
+                                       : 1.0};
   return path;
 }
 

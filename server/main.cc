@@ -70,6 +70,11 @@ ABSL_FLAG(int, max_plans_per_tenant, 0, "plans one tenant may have queued or run
 ABSL_FLAG(double, max_planning_s, 60.0,
           "longest one plan may run; a plan asking for more (or no planning_budget_s) returns "
           "the best path found by then");
+ABSL_FLAG(double, shed_above, 2.0,
+          "overload: when more than this many plans per planning thread wait, a starting plan "
+          "runs only (shed_above x planning_threads / waiting) of its search, at least "
+          "--min_search_fraction (stats.search_fraction says so); 0: never shed");
+ABSL_FLAG(double, min_search_fraction, 0.1, "the least share of its search a shed plan runs");
 ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, 0,
           "memory all missions together may need (admission control, estimated from each spec "
@@ -219,13 +224,16 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_max_plans_per_tenant) < 0 ||
       !(absl::GetFlag(FLAGS_max_planning_s) > 0 && absl::GetFlag(FLAGS_max_planning_s) < 1e6) ||
       absl::GetFlag(FLAGS_max_missions_per_tenant) < 0 || absl::GetFlag(FLAGS_max_memory_mb) < 0 ||
-      absl::GetFlag(FLAGS_max_mission_memory_mb) < 0) {
+      absl::GetFlag(FLAGS_max_mission_memory_mb) < 0 ||
+      !(absl::GetFlag(FLAGS_shed_above) >= 0 && absl::GetFlag(FLAGS_shed_above) < 1e6) ||
+      !(absl::GetFlag(FLAGS_min_search_fraction) > 0 &&
+        absl::GetFlag(FLAGS_min_search_fraction) <= 1)) {
     spdlog::error(
         "bad flags: need worker_threads >= 2, planning_threads >= 1, "
         "planning_queue >= 0, max_missions >= 1, max_cells >= 1, prior_cache >= 0, "
         "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0, "
         "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas "
-        "and memory limits >= 0");
+        "and memory limits >= 0, 0 <= shed_above < 1e6, 0 < min_search_fraction <= 1");
     return 2;
   }
   absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials();
@@ -327,6 +335,8 @@ int main(int argc, char** argv) {
        .max_streams_per_client = absl::GetFlag(FLAGS_max_streams_per_client),
        .max_plans_per_tenant = absl::GetFlag(FLAGS_max_plans_per_tenant),
        .max_planning = absl::Seconds(absl::GetFlag(FLAGS_max_planning_s)),
+       .shed_above = absl::GetFlag(FLAGS_shed_above),
+       .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
        .replica_id = absl::GetFlag(FLAGS_replica_id)});
 
   grpc::EnableDefaultHealthCheckService(true);

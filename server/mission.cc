@@ -449,7 +449,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .noise = config_.noise,
                                 .next_shot_mission_s = next_shot,
                                 .remaining_budget_s = config_.budget_s - elapsed,
-                                .cancelled = call.cancelled};
+                                .cancelled = call.cancelled,
+                                .search_fraction = call.search_fraction};
   absl::StatusOr<PlannedPath> path = planner_->Plan(context, state, deadline);
   env.reset();
   map.reset();

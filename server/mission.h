@@ -240,6 +240,8 @@ class Mission {
     absl::Duration budget = absl::InfiniteDuration();
     std::function<bool()> cancelled = nullptr;
     PersistPlanFn persist = nullptr;
+    // PlanningContext::search_fraction: below 1 when the server sheds load.
+    double search_fraction = 1.0;
   };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,

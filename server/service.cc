@@ -282,6 +282,14 @@ bool MissionServiceImpl::Overloaded() const {
   return streams_ >= limits_.max_streams;
 }
 
+double MissionServiceImpl::SearchFraction() const {
+  if (!(limits_.shed_above > 0.0)) return 1.0;
+  const double waiting = planners_->waiting();
+  const double allowed = limits_.shed_above * planners_->threads();
+  if (waiting <= allowed) return 1.0;
+  return std::clamp(allowed / waiting, limits_.min_search_fraction, 1.0);
+}
+
 int MissionServiceImpl::open_streams() const {
   absl::MutexLock lock(&quota_mu_);
   return streams_;
@@ -372,11 +380,10 @@ grpc::Status MissionServiceImpl::UpdateObstacles(grpc::ServerContext* context,
     const std::string fingerprint = RequestFingerprint(local);
     OAIPP_ASSIGN_OR_RETURN(
         ObstacleResult result,
-        AfterWrite(
-            *registry_, mission,
-            mission->UpdateObstacles(change, {local.request_id(), fingerprint},
-                                     Recorder(registry_->store(), *mission, RecordKind::kObstacles,
-                                              local, fingerprint))));
+        AfterWrite(*registry_, mission,
+                   mission->UpdateObstacles(change, {local.request_id(), fingerprint},
+                                            Recorder(registry_->store(), *mission,
+                                                     RecordKind::kObstacles, local, fingerprint))));
     response->set_obstacle_count(result.obstacle_count);
     response->set_esdf_voxels_recomputed(result.esdf_voxels_recomputed);
     return absl::OkStatus();
@@ -396,13 +403,12 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
     const v1::AddMeasurementRequest& local = *in_metres;
     OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(local));
     const std::string fingerprint = RequestFingerprint(local);
-    OAIPP_ASSIGN_OR_RETURN(
-        MeasurementResult result,
-        AfterWrite(
-            *registry_, mission,
-            mission->AddMeasurement(input, {local.request_id(), fingerprint},
-                                    Recorder(registry_->store(), *mission, RecordKind::kMeasurement,
-                                             local, fingerprint))));
+    OAIPP_ASSIGN_OR_RETURN(MeasurementResult result,
+                           AfterWrite(*registry_, mission,
+                                      mission->AddMeasurement(
+                                          input, {local.request_id(), fingerprint},
+                                          Recorder(registry_->store(), *mission,
+                                                   RecordKind::kMeasurement, local, fingerprint))));
     response->set_cells_fused(result.cells_fused);
     response->set_trace(result.trace);
     response->set_measurements_fused(result.measurements_fused);
@@ -422,8 +428,8 @@ grpc::Status MissionServiceImpl::ExportPath(grpc::ServerContext* context,
     }
     OAIPP_ASSIGN_OR_RETURN(const api::ExportOptions options, api::ExportOptionsFromProto(*request));
     const MissionSnapshot snapshot = mission->Snapshot();
-    OAIPP_ASSIGN_OR_RETURN(*response, api::ExportPath(snapshot.config, snapshot.obstacles,
-                                                      request->path(), options));
+    OAIPP_ASSIGN_OR_RETURN(
+        *response, api::ExportPath(snapshot.config, snapshot.obstacles, request->path(), options));
     return absl::OkStatus();
   });
 }
@@ -557,6 +563,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   void Plan() {
     const absl::Status status = service_->Run("PlanPath", [&]() -> absl::Status {
       if (call_.cancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
+      call_.search_fraction = service_->SearchFraction();
       if (absl::Now() >= call_.deadline) {
         return absl::DeadlineExceededError("PlanPath: the deadline passed waiting for a planner");
       }

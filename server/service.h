@@ -44,6 +44,14 @@ struct ServiceLimits {
   // planning_budget_s, or with a longer one, gets this budget (and returns
   // the best path found by then). Valid: > 0.
   absl::Duration max_planning = absl::Seconds(60);
+  // Overload: when more than shed_above x (planning threads) plans wait, a
+  // plan that starts runs only that share of its search
+  // (PlanningContext::search_fraction = shed_above x threads / waiting, at
+  // least min_search_fraction), so the queue drains faster and waiting
+  // callers get a path sooner; the response's stats.search_fraction says so.
+  // 0: never shed (every plan runs its whole search).
+  double shed_above = 0.0;
+  double min_search_fraction = 0.1;
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of
   // a cluster); empty: not sent.
@@ -88,6 +96,8 @@ class MissionServiceImpl final : public MissionServiceBase {
   // True while new plans or streams would be refused: every planner busy
   // and the queue full, or the stream limit reached (health reports it).
   [[nodiscard]] bool Overloaded() const;
+  // The share of its search a plan starting now runs (ServiceLimits::shed_above).
+  [[nodiscard]] double SearchFraction() const;
   [[nodiscard]] int open_streams() const;
 
  private:

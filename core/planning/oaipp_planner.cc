@@ -147,7 +147,13 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
   if (greedy_scored.ok() && greedy_scored.collision_samples == 0) remember(greedy_scored, x0);
 
   stats.stop_reason = "greedy_only";
-  if (config_.refine && config_.generations > 0) {
+  const double fraction = std::clamp(mission.search_fraction, 1e-6, 1.0);
+  const int generations =
+      config_.generations > 0
+          ? std::max(1, static_cast<int>(std::ceil(fraction * config_.generations - 1e-9)))
+          : 0;
+  stats.search_fraction = fraction;
+  if (config_.refine && generations > 0) {
     const auto n = x0.size();
     Eigen::VectorXd lower(n), upper(n), steps(n);
     for (Eigen::Index i = 0; i < n; i += 3) {
@@ -162,7 +168,7 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
     };
     const CmaesOptions options{
         .population = config_.population,
-        .max_evaluations = static_cast<std::int64_t>(config_.population) * config_.generations + 1,
+        .max_evaluations = static_cast<std::int64_t>(config_.population) * generations + 1,
         .seed = static_cast<std::uint32_t>(seed >> 32),
         .cancelled = mission.cancelled};
     OAIPP_ASSIGN_OR_RETURN(CmaesResult result,

@@ -48,6 +48,11 @@ struct PlanningContext {
   // Asked now and then while planning; true abandons the plan with
   // Cancelled (e.g. the caller went away). May be empty.
   std::function<bool()> cancelled = nullptr;
+  // The share of its configured search the planner runs, in (0, 1]: OA-IPP
+  // runs ceil(fraction x generations) CMA-ES generations (at least one).
+  // Below 1 only when a loaded server sheds work (docs/service.md); the
+  // other planners ignore it.
+  double search_fraction = 1.0;
 };
 
 // The UAV when planning starts: its kinematic state on the mission clock.
@@ -89,6 +94,8 @@ struct PlannerStats {
   // Seconds spent braking to rest before the planned part (0: planned from
   // the UAV's state directly; core/planning/stop_first.h).
   double stop_first_s = 0.0;
+  // PlanningContext::search_fraction as this plan ran it.
+  double search_fraction = 1.0;
 };
 
 struct PlannedPath {

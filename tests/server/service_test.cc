@@ -1,8 +1,11 @@
 // Every RPC through an in-process channel: success and each error code.
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <thread>
 
+#include "absl/strings/str_cat.h"
+#include "absl/synchronization/notification.h"
 #include "api/geometry.h"
 #include "api/spec.h"
 #include "gmock/gmock.h"
@@ -336,6 +339,56 @@ TEST(ServiceTest, APlanningBudgetThatEndsWithoutAPathIsNotADeadline) {
   const grpc::Status status = s.stub().PlanPath(&context, request, &path);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << status.error_message();
   EXPECT_THAT(status.error_message(), HasSubstr("planning_budget_s: no collision-free path"));
+}
+
+// Overload: with shed_above = 1 and one planning thread, a plan that starts
+// while k > 1 others wait runs 1/k of its CMA-ES generations and says so.
+TEST(ServiceTest, PlansThatStartBehindAQueueRunAShareOfTheirSearch) {
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
+                     /*planning_queue=*/8, nullptr, nullptr, {.shed_above = 1.0});
+  constexpr int kPlans = 4;
+  constexpr int kGenerations = 20;
+  for (int i = 0; i < kPlans; ++i) {
+    grpc::ClientContext context;
+    v1::CreateMissionRequest create;
+    create.set_mission_id(absl::StrCat("m", i));
+    *create.mutable_spec() = SmallSpec();
+    create.mutable_spec()->mutable_planner()->set_generations(kGenerations);
+    v1::Mission mission;
+    ASSERT_TRUE(s.stub().CreateMission(&context, create, &mission).ok());
+  }
+  // Hold the only planner until all four plans wait.
+  absl::Notification release;
+  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
+  std::vector<v1::PlanPathResponse> paths(kPlans);
+  std::vector<grpc::Status> statuses(kPlans);
+  std::vector<std::thread> callers;
+  for (int i = 0; i < kPlans; ++i) {
+    callers.emplace_back([&, i] {
+      v1::PlanPathRequest request;
+      request.set_name(absl::StrCat("missions/m", i));
+      *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
+      grpc::ClientContext context;
+      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+      statuses[i] = s.stub().PlanPath(&context, request, &paths[i]);
+    });
+  }
+  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == kPlans; }));
+  release.Notify();
+  for (auto& t : callers) t.join();
+  // They start with 3, 2, 1 and 0 others waiting: shares 1/3, 1/2, 1, 1.
+  std::vector<double> fractions;
+  for (int i = 0; i < kPlans; ++i) {
+    ASSERT_TRUE(statuses[i].ok()) << statuses[i].error_message();
+    const v1::PlannerStats& stats = paths[i].stats();
+    fractions.push_back(stats.search_fraction());
+    EXPECT_EQ(stats.generations(),
+              static_cast<int>(std::ceil(kGenerations * stats.search_fraction() - 1e-9)));
+  }
+  std::sort(fractions.begin(), fractions.end());
+  EXPECT_THAT(fractions,
+              ::testing::ElementsAre(::testing::DoubleEq(1.0 / 3), ::testing::DoubleEq(0.5),
+                                     ::testing::DoubleEq(1.0), ::testing::DoubleEq(1.0)));
 }
 
 // The planner is anytime: with far more generations than fit before the
