@@ -13,10 +13,35 @@ namespace oaipp::bench {
 
 class Latencies {
  public:
-  void Add(const std::string& method, double ms, bool ok) {
+  // One call: when it started (seconds since the run began; for the
+  // timeline), its method, how long it took and whether it succeeded.
+  struct Call {
+    double start_s = 0.0;
+    std::string method;
+    double ms = 0.0;
+    bool ok = true;
+  };
+
+  void Add(const std::string& method, double ms, bool ok, double start_s = 0.0) {
     std::lock_guard<std::mutex> lock(mu_);
     samples_[method].push_back(ms);
     if (!ok) ++errors_[method];
+    calls_.push_back({start_s, method, ms, ok});
+  }
+
+  // Every call, in the order they ended.
+  std::vector<Call> Calls() {
+    std::lock_guard<std::mutex> lock(mu_);
+    return calls_;
+  }
+
+  [[nodiscard]] std::size_t Count(const std::string& method) {
+    std::lock_guard<std::mutex> lock(mu_);
+    return samples_[method].size();
+  }
+  [[nodiscard]] int Errors(const std::string& method) {
+    std::lock_guard<std::mutex> lock(mu_);
+    return errors_[method];
   }
 
   // The q-quantile (0..1) of `method`'s latencies, ms; 0 when it has none.
@@ -59,6 +84,7 @@ class Latencies {
   std::mutex mu_;
   std::map<std::string, std::vector<double>> samples_;
   std::map<std::string, int> errors_;
+  std::vector<Call> calls_;
 };
 
 }  // namespace oaipp::bench

@@ -1,18 +1,34 @@
 // Many missions at once on one server: each flies the E1 mission for its
-// budget (plan, fly the path in simulated time, measure at the sensor's
-// shots, replan), all concurrently over loopback TCP. Prints throughput,
-// per-method latency percentiles and memory per mission. With several
-// --stores the same load runs once on each, one after the other, and the
-// wall times are compared with the first.
+// budget (plan, fly the path, measure at the sensor's shots, replan), all
+// concurrently over loopback TCP.
 //
-//   build/tests/bench/server/server_load --missions=50 --budget_s=150
-//   build/tests/bench/server/server_load --missions=50 --stores=memory,sqlite
+// --pace=real_time (the default) flies each path in wall-clock time, as a
+// UAV would: a shot's measurement is sent when the UAV reaches it, and the
+// next plan is asked for when the path ends. A mission then lasts its
+// budget plus the time it waited for plans, so the wall time says whether
+// the server keeps that many UAVs flying in real time. --pace=as_fast asks
+// for the next plan as soon as the last one is answered: a throughput test.
+//
+// Prints throughput, per-method latency percentiles, the plans' search
+// share (overload shedding), memory per mission, peak RSS and the mean E1
+// RSE; --json writes the same figures and every call (for
+// tests/bench/server/plot_load.py). --compare_alone flies the same missions
+// again one at a time (as fast as the server answers) and compares their
+// RSE. With several --stores the load runs once on each.
+//
+//   build/tests/bench/server/server_load --missions=100 --budget_s=150 --json=load.json
+//   /usr/bin/python3 tests/bench/server/plot_load.py load.json load.png
+#include <sys/resource.h>
 #include <unistd.h>
+
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -20,7 +36,9 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/strings/str_cat.h"
+#include "core/mapping/dense_backend.h"
 #include "grpcpp/grpcpp.h"
+#include "nlohmann/json.hpp"
 #include "server/service.h"
 #include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
@@ -30,8 +48,16 @@
 
 ABSL_FLAG(int, missions, 50, "missions flown at once");
 ABSL_FLAG(double, budget_s, 150.0, "flight budget per mission, seconds");
+ABSL_FLAG(std::string, pace, "real_time",
+          "real_time: each path is flown in wall-clock time; as_fast: the next plan is asked for "
+          "as soon as the last one is answered");
 ABSL_FLAG(int, generations, 45, "CMA-ES generations per plan");
 ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
+ABSL_FLAG(int, planning_queue, -1, "server planning queue (-1: 4 x missions)");
+ABSL_FLAG(double, shed_above, 2.0,
+          "server overload shedding (oaipp-server --shed_above); 0: every plan runs its whole "
+          "search");
+ABSL_FLAG(double, min_search_fraction, 0.1, "oaipp-server --min_search_fraction");
 ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
@@ -39,27 +65,180 @@ ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "start one) or a postgresql:// URI");
 ABSL_FLAG(std::string, data_dir, "/tmp/oaipp-server-load", "where sqlite runs keep their file");
 ABSL_FLAG(int, snapshot_every, 16, "server snapshot interval (measurements)");
+ABSL_FLAG(bool, compare_alone, false,
+          "afterwards fly the same missions one at a time (as fast as the server answers, "
+          "nothing shed) and compare the mean RSE");
+ABSL_FLAG(std::string, dense_backend, "openblas",
+          "the Kalman update's backend, as oaipp-server --dense_backend: openblas or eigen");
+ABSL_FLAG(std::string, json, "", "write the figures and every call to this file");
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
 using oaipp::bench::Latencies;
+namespace v1 = oaipp::v1;
 
-}  // namespace
+double Seconds(Clock::duration d) { return std::chrono::duration<double>(d).count(); }
 
-// Flies the load against a fresh server on `store` (nullptr: memory);
-// returns the wall time in seconds.
-double RunLoad(oaipp::server::MissionStore* store) {
-  const int missions = absl::GetFlag(FLAGS_missions);
+struct MissionResult {
+  bool finished = false;
+  double rse = 0.0;
+  int found = 0;
+  int plans = 0;
+  double wall_s = 0.0;
+  // Each plan: when it was asked for (s since the load started), the
+  // planner's wall time (s), evaluations, generations, search share.
+  std::vector<std::array<double, 5>> plan_stats;
+};
+
+// What one run of the load measured.
+struct LoadResult {
+  std::string label;
+  double wall_s = 0.0;
+  Latencies latencies;
+  std::vector<MissionResult> missions;
+  std::vector<double> search_fractions;  // one per plan
+  double bytes_per_mission = 0.0;        // as the server reports it (map_bytes)
+  long peak_rss_kb = 0;
+};
+
+double Mean(const std::vector<double>& v) {
+  double sum = 0.0;
+  for (double x : v) sum += x;
+  return v.empty() ? 0.0 : sum / static_cast<double>(v.size());
+}
+
+// Standard error of the mean.
+double StdErr(const std::vector<double>& v) {
+  if (v.size() < 2) return 0.0;
+  const double m = Mean(v);
+  double ss = 0.0;
+  for (double x : v) ss += (x - m) * (x - m);
+  return std::sqrt(ss / static_cast<double>(v.size() - 1) / static_cast<double>(v.size()));
+}
+
+std::vector<double> Rses(const LoadResult& r) {
+  std::vector<double> out;
+  for (const MissionResult& m : r.missions) {
+    if (m.finished) out.push_back(m.rse);
+  }
+  return out;
+}
+
+long PeakRssKb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss;
+}
+
+// Flies mission `m` against `stub`: returns what it ended with. `paced`
+// flies each path in wall-clock time.
+MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Clock::time_point t0,
+                         LoadResult& out, std::mutex& out_mu) {
   const double budget = absl::GetFlag(FLAGS_budget_s);
+  Latencies& latencies = out.latencies;
+  auto timed = [&](const char* method, auto call) {
+    const auto start = Clock::now();
+    const grpc::Status status = call();
+    latencies.Add(method, std::chrono::duration<double, std::milli>(Clock::now() - start).count(),
+                  status.ok(), Seconds(start - t0));
+    return status;
+  };
+  MissionResult result;
+  const auto mission_start = Clock::now();
+  const std::string id = absl::StrCat("load-", m);
+  const std::string name = "missions/" + id;
+  v1::Mission created;
+  const grpc::Status made = timed("CreateMission", [&] {
+    grpc::ClientContext c;
+    v1::CreateMissionRequest r;
+    r.set_mission_id(id);
+    *r.mutable_spec() = oaipp::bench::E1Spec(absl::GetFlag(FLAGS_generations));
+    r.mutable_spec()->mutable_planner()->set_seed(static_cast<std::uint32_t>(m + 1));
+    r.mutable_spec()->set_budget_s(budget);
+    return stub.CreateMission(&c, r, &created);
+  });
+  if (!made.ok()) return result;
+  v1::UavState state = created.spec().start();
+  int shots = 0;
+  std::vector<double> fractions;
+  while (state.mission_time_s() < budget) {
+    v1::PlanPathResponse path;
+    const double asked_s = Seconds(Clock::now() - t0);
+    const grpc::Status planned = timed("PlanPath", [&] {
+      grpc::ClientContext c;
+      c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+      v1::PlanPathRequest r;
+      r.set_name(name);
+      *r.mutable_state() = state;
+      r.set_request_id(absl::StrCat("plan-", state.mission_time_s()));
+      return stub.PlanPath(&c, r, &path);
+    });
+    if (!planned.ok()) return result;
+    ++result.plans;
+    fractions.push_back(path.stats().search_fraction());
+    result.plan_stats.push_back(
+        {asked_s, path.stats().wall_time_s(), static_cast<double>(path.stats().evaluations()),
+         static_cast<double>(path.stats().generations()), path.stats().search_fraction()});
+    const auto flight_start = Clock::now();
+    const double fly = std::min(path.trajectory().duration_s(), budget - state.mission_time_s());
+    for (const auto& pose : path.measurement_poses()) {
+      if (pose.t_s() > fly) break;
+      if (paced)
+        std::this_thread::sleep_until(flight_start + std::chrono::duration<double>(pose.t_s()));
+      timed("AddMeasurement", [&] {
+        grpc::ClientContext c;
+        v1::AddMeasurementRequest r =
+            oaipp::bench::E1Measurement(name, pose.position_m(), pose.mission_time_s());
+        r.set_request_id(absl::StrCat("shot-", shots++));
+        v1::AddMeasurementResponse reply;
+        return stub.AddMeasurement(&c, r, &reply);
+      });
+    }
+    if (paced) std::this_thread::sleep_until(flight_start + std::chrono::duration<double>(fly));
+    const auto& last = path.trajectory().samples(path.trajectory().samples_size() - 1);
+    *state.mutable_position_m() = last.position_m();
+    state.set_mission_time_s(state.mission_time_s() + path.trajectory().duration_s());
+  }
+  v1::GetMapResponse map;
+  const grpc::Status got = timed("GetMap", [&] {
+    grpc::ClientContext c;
+    v1::GetMapRequest r;
+    r.set_name(name);
+    r.set_include_cells(true);
+    return stub.GetMap(&c, r, &map);
+  });
+  if (!got.ok()) return result;
+  const std::vector<double> mean(map.mean().begin(), map.mean().end());
+  result.rse = oaipp::bench::E1().simulation.Rse(mean);
+  result.found = oaipp::bench::E1().simulation.TargetsFound(mean);
+  result.wall_s = Seconds(Clock::now() - mission_start);
+  result.finished = true;
+  {
+    std::lock_guard<std::mutex> lock(out_mu);
+    out.search_fractions.insert(out.search_fractions.end(), fractions.begin(), fractions.end());
+    out.bytes_per_mission += static_cast<double>(created.map_bytes());
+  }
+  return result;
+}
+
+// Flies the load against a fresh server on `store` (nullptr: memory):
+// all missions at once, or (alone) one after another with nothing shed.
+void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
   using namespace oaipp;
+  const int missions = absl::GetFlag(FLAGS_missions);
+  const bool paced = !alone && absl::GetFlag(FLAGS_pace) == "real_time";
   server::MissionRegistry registry({.max_missions = missions + 1,
                                     .prior_cache = absl::GetFlag(FLAGS_prior_cache),
                                     .snapshot_every = absl::GetFlag(FLAGS_snapshot_every)},
                                    store);
-  server::PlanningPool planners(absl::GetFlag(FLAGS_planning_threads), 4 * missions);
-  server::MissionServiceImpl service(&registry, &planners, nullptr);
+  const int queue =
+      absl::GetFlag(FLAGS_planning_queue) >= 0 ? absl::GetFlag(FLAGS_planning_queue) : 4 * missions;
+  server::PlanningPool planners(absl::GetFlag(FLAGS_planning_threads), queue);
+  server::MissionServiceImpl service(
+      &registry, &planners, nullptr, nullptr,
+      {.shed_above = alone ? 0.0 : absl::GetFlag(FLAGS_shed_above),
+       .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction)});
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
@@ -69,91 +248,140 @@ double RunLoad(oaipp::server::MissionStore* store) {
       grpc::CreateChannel(absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials());
   auto stub = v1::MissionService::NewStub(channel);
 
-  Latencies latencies;
+  out.missions.assign(missions, {});
+  std::mutex out_mu;
   std::atomic<int> done{0};
-  std::atomic<std::int64_t> map_bytes{0};
-  auto timed = [&](const char* method, auto call) {
-    const auto t0 = Clock::now();
-    const grpc::Status status = call();
-    latencies.Add(method, std::chrono::duration<double, std::milli>(Clock::now() - t0).count(),
-                  status.ok());
-    return status;
-  };
   const auto start = Clock::now();
-  std::vector<std::thread> threads;
-  for (int m = 0; m < missions; ++m) {
-    threads.emplace_back([&, m] {
-      const std::string id = absl::StrCat("load-", m);
-      const std::string name = "missions/" + id;
-      v1::Mission created;
-      timed("CreateMission", [&] {
-        grpc::ClientContext c;
-        v1::CreateMissionRequest r;
-        r.set_mission_id(id);
-        *r.mutable_spec() = bench::E1Spec(absl::GetFlag(FLAGS_generations));
-        r.mutable_spec()->mutable_planner()->set_seed(static_cast<std::uint32_t>(m + 1));
-        r.mutable_spec()->set_budget_s(budget);
-        return stub->CreateMission(&c, r, &created);
-      });
-      map_bytes += created.map_bytes();
-      v1::UavState state = created.spec().start();
-      int shots = 0;
-      while (state.mission_time_s() < budget) {
-        v1::PlanPathResponse path;
-        const grpc::Status planned = timed("PlanPath", [&] {
-          grpc::ClientContext c;
-          c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
-          v1::PlanPathRequest r;
-          r.set_name(name);
-          *r.mutable_state() = state;
-          r.set_request_id(absl::StrCat("plan-", state.mission_time_s()));
-          return stub->PlanPath(&c, r, &path);
-        });
-        if (!planned.ok()) break;
-        const double fly =
-            std::min(path.trajectory().duration_s(), budget - state.mission_time_s());
-        for (const auto& pose : path.measurement_poses()) {
-          if (pose.t_s() > fly) break;
-          timed("AddMeasurement", [&] {
-            grpc::ClientContext c;
-            v1::AddMeasurementRequest r =
-                bench::E1Measurement(name, pose.position_m(), pose.mission_time_s());
-            r.set_request_id(absl::StrCat("shot-", shots++));
-            v1::AddMeasurementResponse out;
-            return stub->AddMeasurement(&c, r, &out);
-          });
-        }
-        const auto& last = path.trajectory().samples(path.trajectory().samples_size() - 1);
-        *state.mutable_position_m() = last.position_m();
-        state.set_mission_time_s(state.mission_time_s() + path.trajectory().duration_s());
+  // Progress on stderr every 10 s.
+  std::atomic<bool> running{true};
+  std::thread progress([&] {
+    auto next = start + std::chrono::seconds(10);
+    while (running.load()) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      if (Clock::now() >= next) {
+        std::fprintf(stderr, "  %.0f s: %d of %d missions done, %zu plans\n",
+                     Seconds(Clock::now() - start), done.load(), missions,
+                     out.latencies.Count("PlanPath"));
+        next += std::chrono::seconds(10);
       }
-      timed("GetMap", [&] {
-        grpc::ClientContext c;
-        v1::GetMapRequest r;
-        r.set_name(name);
-        v1::GetMapResponse out;
-        return stub->GetMap(&c, r, &out);
-      });
+    }
+  });
+  if (alone) {
+    for (int m = 0; m < missions; ++m) {
+      out.missions[m] = FlyMission(*stub, m, false, start, out, out_mu);
       ++done;
-    });
+    }
+  } else {
+    std::vector<std::thread> threads;
+    for (int m = 0; m < missions; ++m) {
+      threads.emplace_back([&, m] {
+        out.missions[m] = FlyMission(*stub, m, paced, start, out, out_mu);
+        ++done;
+      });
+    }
+    for (auto& t : threads) t.join();
   }
-  for (auto& t : threads) t.join();
-  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
-  std::printf("%d missions of %.0f s flight each, %d finished, wall %.1f s, %d planning threads\n",
-              missions, budget, done.load(), wall, absl::GetFlag(FLAGS_planning_threads));
-  std::printf("memory per mission (map + ESDF): %.1f MB\n",
-              static_cast<double>(map_bytes.load()) / missions / 1e6);
-  latencies.Print(wall);
+  out.wall_s = Seconds(Clock::now() - start);
+  running = false;
+  progress.join();
+  out.bytes_per_mission /= std::max(1, done.load());
+  out.peak_rss_kb = PeakRssKb();
   server->Shutdown();
   registry.FlushSnapshots();
-  std::printf("snapshots written: %lld\n", static_cast<long long>(registry.snapshots_written()));
-  return wall;
 }
 
+void Print(LoadResult& r, int missions, double budget, const std::string& pace) {
+  int finished = 0;
+  for (const MissionResult& m : r.missions) finished += m.finished ? 1 : 0;
+  std::printf(
+      "%d missions of %.0f s flight each (%s), %d finished, wall %.1f s, %d planning "
+      "threads\n",
+      missions, budget, pace.c_str(), finished, r.wall_s, absl::GetFlag(FLAGS_planning_threads));
+  r.latencies.Print(r.wall_s);
+  int shed = 0;
+  for (double f : r.search_fractions) shed += f < 1.0 ? 1 : 0;
+  std::printf("plans shed: %d of %zu (mean search share %.3f)\n", shed, r.search_fractions.size(),
+              Mean(r.search_fractions));
+  std::printf("memory per mission (map + its share of the ESDF, as reported): %.1f MB\n",
+              r.bytes_per_mission / 1e6);
+  std::printf("peak RSS of the process (server and clients): %.0f MB, %.1f MB per mission\n",
+              r.peak_rss_kb / 1e3, r.peak_rss_kb / 1e3 / missions);
+  const std::vector<double> rses = Rses(r);
+  std::vector<double> found;
+  for (const MissionResult& m : r.missions) {
+    if (m.finished) found.push_back(m.found);
+  }
+  std::printf("E1 RSE at %.0f s: mean %.3f, standard error %.3f; people found: mean %.2f of 7\n",
+              budget, Mean(rses), StdErr(rses), Mean(found));
+}
+
+nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
+  nlohmann::json j;
+  j["label"] = r.label;
+  j["pace"] = pace;
+  j["wall_s"] = r.wall_s;
+  j["peak_rss_mb"] = r.peak_rss_kb / 1e3;
+  j["bytes_per_mission"] = r.bytes_per_mission;
+  nlohmann::json methods = nlohmann::json::object();
+  for (const std::string& method : r.latencies.Methods()) {
+    methods[method] = {{"calls", r.latencies.Count(method)},
+                       {"errors", r.latencies.Errors(method)},
+                       {"p50_ms", r.latencies.Percentile(method, 0.5)},
+                       {"p99_ms", r.latencies.Percentile(method, 0.99)},
+                       {"max_ms", r.latencies.Percentile(method, 1.0)}};
+  }
+  j["methods"] = methods;
+  nlohmann::json missions = nlohmann::json::array();
+  for (const MissionResult& m : r.missions) {
+    missions.push_back({{"finished", m.finished},
+                        {"rse", m.rse},
+                        {"found", m.found},
+                        {"plans", m.plans},
+                        // [asked_s, wall_s, evaluations, generations, share]
+                        {"plan_stats", m.plan_stats},
+                        {"wall_s", m.wall_s}});
+  }
+  j["missions"] = missions;
+  const std::vector<double> rses = Rses(r);
+  j["rse_mean"] = Mean(rses);
+  j["rse_stderr"] = StdErr(rses);
+  j["search_fractions"] = r.search_fractions;
+  nlohmann::json calls = nlohmann::json::array();
+  for (const Latencies::Call& c : r.latencies.Calls()) {
+    calls.push_back({c.start_s, c.method, c.ms, c.ok});
+  }
+  j["calls"] = calls;  // [start_s, method, ms, ok]
+  return j;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  oaipp::RestartWithOpenBlasKernels(argv);
   absl::ParseCommandLine(argc, argv);
   spdlog::set_level(spdlog::level::warn);
-  std::vector<std::pair<std::string, double>> walls;
+  const std::string pace = absl::GetFlag(FLAGS_pace);
+  if (pace != "real_time" && pace != "as_fast") {
+    std::fprintf(stderr, "--pace: real_time or as_fast, got %s\n", pace.c_str());
+    return 2;
+  }
+  if (absl::GetFlag(FLAGS_dense_backend) == "openblas") {
+    if (absl::Status loaded = oaipp::UseOpenBlas(); !loaded.ok()) {
+      std::fprintf(stderr, "%s\n", std::string(loaded.message()).c_str());
+      return 1;
+    }
+  } else if (absl::GetFlag(FLAGS_dense_backend) != "eigen") {
+    std::fprintf(stderr, "--dense_backend: openblas or eigen\n");
+    return 2;
+  }
+  std::printf("Kalman update on %s\n", oaipp::DenseBackendName().c_str());
+  const int missions = absl::GetFlag(FLAGS_missions);
+  const double budget = absl::GetFlag(FLAGS_budget_s);
+  if (missions < 1 || !(budget > 0)) {
+    std::fprintf(stderr, "--missions must be >= 1 and --budget_s > 0\n");
+    return 2;
+  }
+  std::vector<std::unique_ptr<LoadResult>> runs;
   std::unique_ptr<oaipp::server::testing::PostgresInstance> postgres;
   for (std::string kind : absl::GetFlag(FLAGS_stores)) {
     const std::string label = kind;
@@ -165,12 +393,12 @@ int main(int argc, char** argv) {
           return 1;
         }
       }
-      const std::string database = absl::StrCat("load", walls.size());
+      const std::string database = absl::StrCat("load", runs.size());
       if (!postgres->CreateDatabase(database)) return 1;
       kind = postgres->uri(database);
     }
     const std::string dir =
-        absl::StrCat(absl::GetFlag(FLAGS_data_dir), "/run-", walls.size(), "-", getpid());
+        absl::StrCat(absl::GetFlag(FLAGS_data_dir), "/run-", runs.size(), "-", getpid());
     std::filesystem::remove_all(dir);
     absl::StatusOr<std::unique_ptr<oaipp::server::MissionStore>> store =
         oaipp::server::OpenStore(kind, dir);
@@ -180,15 +408,55 @@ int main(int argc, char** argv) {
     }
     std::printf("== store: %s\n", oaipp::server::DescribeStore(kind, dir).c_str());
     std::fflush(stdout);
-    walls.emplace_back(label, RunLoad(store->get()));
+    runs.push_back(std::make_unique<LoadResult>());
+    runs.back()->label = label;
+    RunLoad(store->get(), /*alone=*/false, *runs.back());
+    Print(*runs.back(), missions, budget, pace);
     store->reset();
     std::filesystem::remove_all(dir);
   }
-  if (walls.size() > 1) {
-    std::printf("\nwall time against %s:\n", walls.front().first.c_str());
-    for (const auto& [kind, wall] : walls) {
-      std::printf("  %-12.12s %8.1f s  %.3f\n", kind.c_str(), wall, wall / walls.front().second);
+  if (runs.size() > 1) {
+    std::printf("\nwall time against %s:\n", runs.front()->label.c_str());
+    for (const auto& run : runs) {
+      std::printf("  %-12.12s %8.1f s  %.3f\n", run->label.c_str(), run->wall_s,
+                  run->wall_s / runs.front()->wall_s);
     }
+  }
+  std::unique_ptr<LoadResult> alone;
+  if (absl::GetFlag(FLAGS_compare_alone)) {
+    std::printf("\n== the same missions one at a time (memory store, nothing shed)\n");
+    std::fflush(stdout);
+    alone = std::make_unique<LoadResult>();
+    alone->label = "alone";
+    RunLoad(nullptr, /*alone=*/true, *alone);
+    Print(*alone, missions, budget, "one at a time");
+    const std::vector<double> together = Rses(*runs.front());
+    const std::vector<double> apart = Rses(*alone);
+    std::printf(
+        "mean RSE together %.3f against alone %.3f: difference %.3f, %.2f standard errors "
+        "(of the missions alone)\n",
+        Mean(together), Mean(apart), Mean(together) - Mean(apart),
+        StdErr(apart) > 0 ? (Mean(together) - Mean(apart)) / StdErr(apart) : 0.0);
+  }
+  if (const std::string path = absl::GetFlag(FLAGS_json); !path.empty()) {
+    nlohmann::json j;
+    j["missions"] = missions;
+    j["budget_s"] = budget;
+    j["planning_threads"] = absl::GetFlag(FLAGS_planning_threads);
+    j["shed_above"] = absl::GetFlag(FLAGS_shed_above);
+    j["generations"] = absl::GetFlag(FLAGS_generations);
+    j["dense_backend"] = oaipp::DenseBackendName();
+    nlohmann::json list = nlohmann::json::array();
+    for (auto& run : runs) list.push_back(ToJson(*run, pace));
+    j["runs"] = list;
+    if (alone != nullptr) j["alone"] = ToJson(*alone, "one at a time");
+    std::ofstream file(path);
+    file << j.dump(1) << "\n";
+    if (!file) {
+      std::fprintf(stderr, "cannot write %s\n", path.c_str());
+      return 1;
+    }
+    std::printf("figures and every call written to %s\n", path.c_str());
   }
   return 0;
 }
