@@ -32,6 +32,9 @@ packages=(
   libgeographiclib-dev python3-grpcio python3-protobuf chromium python3-websocket
   # the live mission view's small HTTP server
   libcpp-httplib-dev
+  # the Kalman update's rank-m product on the CPU's own vector units (loaded
+  # at run time by the server; core/mapping/dense_backend.h)
+  libopenblas0-serial
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # fuzzing (fuzz/run.sh): clang, with libFuzzer and the sanitizer runtimes

@@ -29,6 +29,7 @@
 #include "absl/strings/match.h"
 #include "absl/synchronization/notification.h"
 #include "api/limits.h"
+#include "core/mapping/dense_backend.h"
 #include "google/protobuf/stubs/logging.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/grpcpp.h"
@@ -74,6 +75,9 @@ ABSL_FLAG(double, shed_above, 2.0,
           "overload: when more than this many plans per planning thread wait, a starting plan "
           "runs only (shed_above x planning_threads / waiting) of its search, at least "
           "--min_search_fraction (stats.search_fraction says so); 0: never shed");
+ABSL_FLAG(std::string, dense_backend, "openblas",
+          "where the Kalman update's rank-m product runs: openblas (Debian's libopenblas0-serial, "
+          "loaded at start; Eigen when it is missing) or eigen");
 ABSL_FLAG(double, min_search_fraction, 0.1, "the least share of its search a shed plan runs");
 ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, 0,
@@ -190,6 +194,8 @@ ABSL_FLAG(std::string, web_address, "127.0.0.1",
           "then names a token and sees its tenant's missions)");
 
 int main(int argc, char** argv) {
+  // OpenBLAS picks its kernels when it is loaded, with the program.
+  oaipp::RestartWithOpenBlasKernels(argv);
   absl::SetProgramUsageMessage("OA-IPP planning service (oaipp.v1.MissionService)");
   absl::ParseCommandLine(argc, argv);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
@@ -201,6 +207,17 @@ int main(int argc, char** argv) {
       [](google::protobuf::LogLevel, const char*, int, const std::string& message) {
         spdlog::debug("protobuf: {}", message.substr(0, 200));
       });
+
+  // Before any thread starts: loading OpenBLAS may set its environment.
+  if (const std::string backend = absl::GetFlag(FLAGS_dense_backend); backend == "openblas") {
+    if (absl::Status loaded = oaipp::UseOpenBlas(); !loaded.ok()) {
+      spdlog::warn("{}", std::string(loaded.message()));
+    }
+  } else if (backend != "eigen") {
+    spdlog::error("bad flags: dense_backend must be openblas or eigen");
+    return 2;
+  }
+  spdlog::info("Kalman update on {}", oaipp::DenseBackendName());
 
   // Signals are taken by a thread of ours, not by whichever thread runs:
   // blocked before any thread starts (gRPC starts its own as soon as it is

@@ -8,6 +8,7 @@
 #include "Eigen/Cholesky"
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
+#include "core/mapping/dense_backend.h"
 
 namespace oaipp {
 namespace {
@@ -61,7 +62,7 @@ bool Factor(const MatrixXd& p, std::span<const CellObservation> obs, UpdateFacto
   f.llt.compute(s);
   if (f.llt.info() != Eigen::Success) return false;
   // Bt = P_:J L^-T: a right-side triangular solve with U = L^T.
-  f.llt.matrixU().template solveInPlace<Eigen::OnTheRight>(f.bt);
+  SolveRightLowerTransposed(f.llt.matrixLLT(), f.bt);
   return true;
 }
 
@@ -214,7 +215,7 @@ absl::Status UpdateCovariance(std::span<const CellObservation> observations, Mat
   if (!Factor(covariance, merged, f)) return NotPositiveDefinite();
   // P -= Bt Bt^T as a symmetric rank-m update of the lower triangle (half the
   // flops of a general product), then mirrored so P stays exactly symmetric.
-  covariance.selfadjointView<Eigen::Lower>().rankUpdate(f.bt, -1.0);
+  SymmetricRankUpdate(-1.0, f.bt, covariance);
   MirrorLowerToUpper(covariance);
   return absl::OkStatus();
 }
@@ -283,7 +284,7 @@ absl::Status GpMap::Update(std::span<const CellObservation> observations) {
   }
   f.llt.matrixL().solveInPlace(innovation);
   mean_.noalias() += f.bt * innovation;
-  covariance_.selfadjointView<Eigen::Lower>().rankUpdate(f.bt, -1.0);
+  SymmetricRankUpdate(-1.0, f.bt, covariance_);
   MirrorLowerToUpper(covariance_);
   return absl::OkStatus();
 }

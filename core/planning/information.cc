@@ -6,6 +6,7 @@
 #include "Eigen/Cholesky"
 #include "absl/strings/str_cat.h"
 #include "core/common/geometry.h"
+#include "core/mapping/dense_backend.h"
 
 namespace oaipp {
 namespace {
@@ -51,7 +52,7 @@ Eigen::MatrixXd WhitenedRows(const MergedCells& fused, const Eigen::MatrixXd& ba
   const std::vector<int>& k = fused.cells();
   Eigen::MatrixXd rows(static_cast<Eigen::Index>(k.size()), base.cols());
   for (Eigen::Index a = 0; a < rows.rows(); ++a) rows.row(a) = base.col(k[a]).transpose();
-  factor.matrixL().solveInPlace(rows);
+  SolveLeftLower(factor.matrixLLT(), rows);
   return rows;
 }
 
@@ -87,7 +88,7 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
   if (fused.empty()) return absl::OkStatus();
   const Eigen::MatrixXd w = WhitenedRows(fused, cov_, fused.Factor(cov_));
   conditioned_ = cov_;
-  conditioned_.selfadjointView<Eigen::Lower>().rankUpdate(w.transpose(), -1.0);
+  SymmetricRankUpdate(-1.0, w.transpose(), conditioned_);
   conditioned_.triangularView<Eigen::StrictlyUpper>() = conditioned_.transpose();
   prefix_ = std::move(prefix);
   return absl::OkStatus();
@@ -153,7 +154,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
         for (Eigen::Index j = 0; j < m; ++j) {
           for (Eigen::Index a = 0; a < mk; ++a) cross(a, j) = base(k[a], pose.cells[j]);
         }
-        fused.Factor(base).matrixL().solveInPlace(cross);
+        SolveLeftLower(fused.Factor(base).matrixLLT(), cross);
         var -= cross.colwise().squaredNorm().transpose();
       }
       double av = 0.0;

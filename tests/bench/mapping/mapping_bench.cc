@@ -6,6 +6,8 @@
 //   Each iteration also times a plain Eigen product W * W^T (W: n x m) on the
 //   same data sizes, interleaved so that both see the same machine state;
 //   the counter `ratio` = update time / product time (target <= 1.5).
+// BM_KalmanUpdateOpenBlas/h: the same update on Eigen and on OpenBLAS
+//   (core/mapping/dense_backend.h) in one run; counter `speedup`.
 // BM_EigenWWt/h: that product alone, for reference.
 // BM_TraceAfterUpdate/h: the planner's cheap O(n m^2) trace prediction.
 // BM_PriorCovariance: building P0 for 1600 cells.
@@ -17,6 +19,7 @@
 
 #include "benchmark/benchmark.h"
 #include "core/mapping/camera.h"
+#include "core/mapping/dense_backend.h"
 #include "core/mapping/gp_map.h"
 
 namespace oaipp {
@@ -88,6 +91,53 @@ BENCHMARK(BM_KalmanUpdate)
     ->Arg(26)
     ->UseManualTime()
     ->MinTime(1.0)  // at least two updates at 26 m
+    ->Unit(benchmark::kMillisecond);
+
+// One GpMap::Update on Eigen and on OpenBLAS (dense_backend.h), in turn in
+// each iteration so both see the same machine state; the counter
+// `speedup` = Eigen time / OpenBLAS time.
+void BM_KalmanUpdateOpenBlas(benchmark::State& state) {
+  const std::vector<CellObservation> obs = FootprintObservations(state.range(0));
+  GpMap map = PriorMap().Clone();
+  double eigen_s = 0.0;
+  double blas_s = 0.0;
+  using Clock = std::chrono::steady_clock;
+  if (!UseOpenBlas().ok()) {
+    state.SkipWithError("OpenBLAS (libopenblas0-serial) is not installed");
+    return;
+  }
+  const std::string kernel = DenseBackendName();
+  for (auto _ : state) {
+    map = PriorMap().Clone();
+    UseEigen();
+    const auto t0 = Clock::now();
+    absl::Status status = map.Update(obs);
+    const auto t1 = Clock::now();
+    map = PriorMap().Clone();
+    (void)UseOpenBlas();
+    const auto t2 = Clock::now();
+    status.Update(map.Update(obs));
+    const auto t3 = Clock::now();
+    if (!status.ok()) state.SkipWithError(std::string(status.message()).c_str());
+    const double b = std::chrono::duration<double>(t3 - t2).count();
+    state.SetIterationTime(b);
+    blas_s += b;
+    eigen_s += std::chrono::duration<double>(t1 - t0).count();
+  }
+  UseEigen();
+  const double iterations = static_cast<double>(state.iterations());
+  state.counters["m"] = static_cast<double>(obs.size());
+  state.counters["eigen_ms"] = 1e3 * eigen_s / iterations;
+  state.counters["openblas_ms"] = 1e3 * blas_s / iterations;
+  state.counters["speedup"] = eigen_s / blas_s;
+  state.SetLabel(kernel);
+}
+BENCHMARK(BM_KalmanUpdateOpenBlas)
+    ->Arg(5)
+    ->Arg(10)
+    ->Arg(26)
+    ->UseManualTime()
+    ->MinTime(1.0)
     ->Unit(benchmark::kMillisecond);
 
 void BM_EigenWWt(benchmark::State& state) {

@@ -1,0 +1,143 @@
+#include "core/mapping/dense_backend.h"
+
+#include <dlfcn.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdlib>
+
+#include "absl/strings/str_cat.h"
+
+namespace oaipp {
+namespace {
+
+// CBLAS's enums, as OpenBLAS's cblas.h numbers them (part of its ABI).
+constexpr int kColMajor = 102;
+constexpr int kLower = 122;
+constexpr int kNoTrans = 111;
+constexpr int kTrans = 112;
+constexpr int kLeft = 141;
+constexpr int kRight = 142;
+constexpr int kNonUnit = 131;
+
+using Dsyrk = void (*)(int order, int uplo, int trans, int n, int k, double alpha, const double* a,
+                       int lda, double beta, double* c, int ldc);
+using Dtrsm = void (*)(int order, int side, int uplo, int trans, int diag, int m, int n,
+                       double alpha, const double* a, int lda, double* b, int ldb);
+using SetThreads = void (*)(int);
+using CoreName = char* (*)();
+
+struct OpenBlas {
+  Dsyrk dsyrk = nullptr;
+  Dtrsm dtrsm = nullptr;
+  std::string kernel;
+};
+
+// Set once by UseOpenBlas (before other threads start), read by every
+// update; nullptr: Eigen.
+std::atomic<const OpenBlas*> g_open_blas{nullptr};
+
+// The kernel family for this CPU, for OpenBLAS releases that do not know it.
+const char* CoreTypeForThisCpu() {
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")) {
+    return "SkylakeX";
+  }
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "Haswell";
+  return nullptr;
+}
+
+}  // namespace
+
+void RestartWithOpenBlasKernels(char** argv) {
+  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
+  const char* core = CoreTypeForThisCpu();
+  if (core == nullptr) return;
+  setenv("OPENBLAS_CORETYPE", core, 0);
+  execv("/proc/self/exe", argv);
+  // Still here: the restart failed; go on with what OpenBLAS picked.
+}
+
+absl::Status UseOpenBlas() {
+  static const OpenBlas* loaded = []() -> const OpenBlas* {
+    if (std::getenv("OPENBLAS_CORETYPE") == nullptr) {
+      if (const char* core = CoreTypeForThisCpu(); core != nullptr) {
+        setenv("OPENBLAS_CORETYPE", core, 0);
+      }
+    }
+    // Debian's single-threaded build first: the server has its own threads.
+    void* library = nullptr;
+    for (const char* path :
+         {"/usr/lib/x86_64-linux-gnu/openblas-serial/libopenblas.so.0", "libopenblas.so.0"}) {
+      library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+      if (library != nullptr) break;
+    }
+    if (library == nullptr) return nullptr;
+    auto* blas = new OpenBlas;
+    blas->dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
+    blas->dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
+    if (auto set_threads = reinterpret_cast<SetThreads>(dlsym(library, "openblas_set_num_threads"));
+        set_threads != nullptr) {
+      set_threads(1);
+    }
+    auto core_name = reinterpret_cast<CoreName>(dlsym(library, "openblas_get_corename"));
+    blas->kernel = core_name != nullptr ? core_name() : "unknown";
+    if (blas->dsyrk == nullptr || blas->dtrsm == nullptr) return nullptr;
+    return blas;
+  }();
+  if (loaded == nullptr) {
+    return absl::FailedPreconditionError(
+        "OpenBLAS (libopenblas0-serial) could not be loaded; the Kalman update runs on Eigen");
+  }
+  g_open_blas.store(loaded);
+  return absl::OkStatus();
+}
+
+void UseEigen() { g_open_blas.store(nullptr); }
+
+std::string DenseBackendName() {
+  const OpenBlas* blas = g_open_blas.load();
+  return blas == nullptr ? "eigen" : absl::StrCat("openblas (", blas->kernel, ")");
+}
+
+void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd& p) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  const Eigen::Index n = p.rows();
+  const Eigen::Index m = b.cols();
+  // CBLAS takes int sizes: a larger product stays on Eigen.
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (blas == nullptr || n > kMaxInt || m > kMaxInt || m == 0) {
+    p.selfadjointView<Eigen::Lower>().rankUpdate(b, alpha);
+    return;
+  }
+  blas->dsyrk(kColMajor, kLower, kNoTrans, static_cast<int>(n), static_cast<int>(m), alpha,
+              b.data(), static_cast<int>(b.outerStride()), 1.0, p.data(),
+              static_cast<int>(p.outerStride()));
+}
+
+void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt || b.size() == 0) {
+    lower.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(b);
+    return;
+  }
+  blas->dtrsm(kColMajor, kRight, kLower, kTrans, kNonUnit, static_cast<int>(b.rows()),
+              static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
+              b.data(), static_cast<int>(b.outerStride()));
+}
+
+void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt || b.size() == 0) {
+    lower.triangularView<Eigen::Lower>().solveInPlace(b);
+    return;
+  }
+  blas->dtrsm(kColMajor, kLeft, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
+              static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
+              b.data(), static_cast<int>(b.outerStride()));
+}
+
+}  // namespace oaipp

@@ -1,0 +1,65 @@
+// Where the Kalman update's big product runs: Eigen (the default), or
+// OpenBLAS loaded at run time.
+//
+// Fusing a measurement ends in P -= Bt Bt^T, a symmetric rank-m update of the
+// n x n covariance (n^2 m flops: most of AddMeasurement's time). This build
+// compiles Eigen for generic x86-64 (see CMakeLists.txt), so its kernels use
+// 128-bit vectors; OpenBLAS picks kernels for the CPU it runs on, 3-6x faster
+// for this product (docs/capacity.md). OpenBLAS is not linked: UseOpenBlas()
+// opens Debian's libopenblas0-serial with dlopen, so the server runs (on
+// Eigen) where it is missing, and the core library's results stay bit for bit
+// those of Eigen unless a program asks for OpenBLAS.
+//
+// OpenBLAS 0.3.21 (Debian 12) does not recognise CPUs newer than it and then
+// falls back to its oldest kernels. It reads OPENBLAS_CORETYPE once, when it
+// is loaded, and where it is the system's BLAS it is loaded with the program
+// (OpenCV and pagmo2 link LAPACK). So a program calls
+// RestartWithOpenBlasKernels(argv) first thing in main(): unless the variable
+// is set already, it sets it from the CPU's features (AVX-512: SkylakeX,
+// AVX2 + FMA: Haswell) and executes the program again with it.
+//
+// Results differ from Eigen's in the last bits (another summation order),
+// and between kernels; for one machine and backend they are deterministic.
+//
+//   // in main(), before other threads start (it may set an environment
+//   // variable):
+//   if (absl::Status s = UseOpenBlas(); !s.ok()) LOG(WARNING) << s;
+#pragma once
+
+#include <string>
+
+#include "Eigen/Core"
+#include "absl/status/status.h"
+
+namespace oaipp {
+
+// Sets OPENBLAS_CORETYPE for this CPU and runs the program again (execv of
+// /proc/self/exe with the same arguments) when the variable is not set and
+// this CPU has AVX2 or AVX-512; returns when nothing needs to change, or
+// when the restart failed (then OpenBLAS keeps the kernels it picks).
+void RestartWithOpenBlasKernels(char** argv);
+
+// Loads OpenBLAS and makes SymmetricRankUpdate use it. Call once, from one
+// thread, before other threads start. FailedPrecondition (naming what is
+// missing) leaves Eigen in use.
+[[nodiscard]] absl::Status UseOpenBlas();
+
+// Goes back to Eigen (tests compare the two).
+void UseEigen();
+
+// "eigen", or "openblas (<kernel>)".
+[[nodiscard]] std::string DenseBackendName();
+
+// The lower triangle of p += alpha * b * b^T (p n x n, b n x m); the upper
+// triangle is not touched.
+void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd& p);
+
+// b := b L^-T for the lower-triangular L held in the lower triangle of
+// `lower` (m x m; what lies above the diagonal is ignored), b n x m: the
+// Kalman gain's whitened columns P_:J L^-T.
+void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
+
+// b := L^-1 b for L as above (m x m), b m x k: whitened rows L^-1 P_J:.
+void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
+
+}  // namespace oaipp

@@ -1,0 +1,108 @@
+// OpenBLAS against Eigen for the Kalman update's rank-m product, and a map
+// fused through each: the same numbers to round-off.
+#include "core/mapping/dense_backend.h"
+
+#include <random>
+
+#include "Eigen/Cholesky"
+
+#include "core/mapping/camera.h"
+#include "core/mapping/gp_map.h"
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+
+namespace oaipp {
+namespace {
+
+class DenseBackendTest : public ::testing::Test {
+ protected:
+  void TearDown() override { UseEigen(); }
+};
+
+TEST_F(DenseBackendTest, OpenBlasRankUpdateEqualsEigensOnTheLowerTriangle) {
+  // deploy/install-deps.sh installs libopenblas0-serial.
+  ASSERT_TRUE(UseOpenBlas().ok());
+  EXPECT_THAT(DenseBackendName(), ::testing::StartsWith("openblas ("));
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal;
+  for (const auto& [n, m] : {std::pair{7, 1}, std::pair{300, 41}, std::pair{1000, 260}}) {
+    Eigen::MatrixXd b(n, m);
+    for (double& v : b.reshaped()) v = normal(rng);
+    Eigen::MatrixXd start(n, n);
+    for (double& v : start.reshaped()) v = normal(rng);
+    // The plain product, written out, as the reference for both.
+    const Eigen::MatrixXd expected = start - 0.5 * b * b.transpose();
+    Eigen::MatrixXd blas = start;
+    SymmetricRankUpdate(-0.5, b, blas);
+    UseEigen();
+    Eigen::MatrixXd eigen = start;
+    SymmetricRankUpdate(-0.5, b, eigen);
+    ASSERT_TRUE(UseOpenBlas().ok());
+    const double scale = 1.0 + m;
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        if (i >= j) {
+          ASSERT_NEAR(blas(i, j), expected(i, j), 1e-12 * scale) << i << ", " << j;
+          ASSERT_NEAR(eigen(i, j), expected(i, j), 1e-12 * scale) << i << ", " << j;
+        } else {
+          ASSERT_EQ(blas(i, j), start(i, j));  // the upper triangle is left alone
+        }
+      }
+    }
+  }
+}
+
+TEST_F(DenseBackendTest, OpenBlasTriangularSolveEqualsEigens) {
+  ASSERT_TRUE(UseOpenBlas().ok());
+  std::mt19937 rng(4);
+  std::normal_distribution<double> normal;
+  for (const auto& [n, m] : {std::pair{5, 1}, std::pair{400, 90}}) {
+    Eigen::MatrixXd a(m, m);
+    for (double& v : a.reshaped()) v = normal(rng);
+    Eigen::MatrixXd s = a * a.transpose() + m * Eigen::MatrixXd::Identity(m, m);
+    // Garbage above the diagonal must be ignored.
+    Eigen::MatrixXd lower = Eigen::LLT<Eigen::MatrixXd>(s).matrixLLT();
+    lower.triangularView<Eigen::StrictlyUpper>().setConstant(1e300);
+    Eigen::MatrixXd b(n, m);
+    for (double& v : b.reshaped()) v = normal(rng);
+    Eigen::MatrixXd blas = b;
+    SolveRightLowerTransposed(lower, blas);
+    UseEigen();
+    Eigen::MatrixXd eigen = b;
+    SolveRightLowerTransposed(lower, eigen);
+    ASSERT_TRUE(UseOpenBlas().ok());
+    // Both solve X L^T = B: check against B itself.
+    const Eigen::MatrixXd l = lower.triangularView<Eigen::Lower>();
+    EXPECT_LT((blas * l.transpose() - b).cwiseAbs().maxCoeff(), 1e-10);
+    EXPECT_LT((eigen * l.transpose() - b).cwiseAbs().maxCoeff(), 1e-10);
+    EXPECT_LT((blas - eigen).cwiseAbs().maxCoeff(), 1e-10);
+  }
+}
+
+TEST_F(DenseBackendTest, AMapFusedThroughOpenBlasMatchesEigenToRoundOff) {
+  const FieldGrid grid = *FieldGrid::FromBounds(Vec2(-15, -15), Vec2(15, 15), 0.75);
+  GpMap on_eigen = *GpMap::Create(grid, GpParams::PaperPreset(0.75));
+  GpMap on_blas = on_eigen.Clone();
+  ASSERT_TRUE(UseOpenBlas().ok());
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> where(-12, 12), height(3, 20);
+  for (int shot = 0; shot < 12; ++shot) {
+    const Vec3 camera(where(rng), where(rng), height(rng));
+    const std::vector<int> cells = DownwardCamera{}.VisibleFootprintCells(grid, camera, nullptr);
+    std::vector<CellObservation> obs;
+    for (int c : cells)
+      obs.push_back({.cell = c, .value = (c % 7 == 0) ? 1.0 : 0.0, .variance = 0.3});
+    ASSERT_TRUE(on_blas.Update(obs).ok());
+    UseEigen();
+    ASSERT_TRUE(on_eigen.Update(obs).ok());
+    ASSERT_TRUE(UseOpenBlas().ok());
+  }
+  EXPECT_NEAR(on_blas.Trace(), on_eigen.Trace(), 1e-10 * on_eigen.Trace());
+  EXPECT_LT((on_blas.Mean() - on_eigen.Mean()).cwiseAbs().maxCoeff(), 1e-10);
+  EXPECT_LT((on_blas.Covariance() - on_eigen.Covariance()).cwiseAbs().maxCoeff(), 1e-10);
+  // Still exactly symmetric (the lower triangle is mirrored).
+  EXPECT_EQ(on_blas.Covariance(), on_blas.Covariance().transpose());
+}
+
+}  // namespace
+}  // namespace oaipp
