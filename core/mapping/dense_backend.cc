@@ -4,8 +4,10 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cstddef>
 #include <cstdlib>
 
+#include "Eigen/Cholesky"
 #include "absl/strings/str_cat.h"
 
 namespace oaipp {
@@ -24,12 +26,17 @@ using Dsyrk = void (*)(int order, int uplo, int trans, int n, int k, double alph
                        int lda, double beta, double* c, int ldc);
 using Dtrsm = void (*)(int order, int side, int uplo, int trans, int diag, int m, int n,
                        double alpha, const double* a, int lda, double* b, int ldb);
+// LAPACK's Fortran entry point; the trailing length of `uplo` is what
+// gfortran passes for a character argument.
+using Dpotrf = void (*)(const char* uplo, const int* n, double* a, const int* lda, int* info,
+                        std::size_t uplo_length);
 using SetThreads = void (*)(int);
 using CoreName = char* (*)();
 
 struct OpenBlas {
   Dsyrk dsyrk = nullptr;
   Dtrsm dtrsm = nullptr;
+  Dpotrf dpotrf = nullptr;
   std::string kernel;
 };
 
@@ -77,13 +84,16 @@ absl::Status UseOpenBlas() {
     auto* blas = new OpenBlas;
     blas->dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
     blas->dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
+    blas->dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
     if (auto set_threads = reinterpret_cast<SetThreads>(dlsym(library, "openblas_set_num_threads"));
         set_threads != nullptr) {
       set_threads(1);
     }
     auto core_name = reinterpret_cast<CoreName>(dlsym(library, "openblas_get_corename"));
     blas->kernel = core_name != nullptr ? core_name() : "unknown";
-    if (blas->dsyrk == nullptr || blas->dtrsm == nullptr) return nullptr;
+    if (blas->dsyrk == nullptr || blas->dtrsm == nullptr || blas->dpotrf == nullptr) {
+      return nullptr;
+    }
     return blas;
   }();
   if (loaded == nullptr) {
@@ -138,6 +148,23 @@ void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
   blas->dtrsm(kColMajor, kLeft, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
               static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
               b.data(), static_cast<int>(b.outerStride()));
+}
+
+bool CholeskyLowerInPlace(Eigen::MatrixXd& s) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (blas == nullptr || s.rows() > kMaxInt || s.rows() == 0) {
+    // As Eigen::LLT<MatrixXd>(s) computes it, bit for bit.
+    const Eigen::LLT<Eigen::MatrixXd> llt(s);
+    if (llt.info() != Eigen::Success) return false;
+    s = llt.matrixLLT();
+    return true;
+  }
+  const int n = static_cast<int>(s.rows());
+  const int lda = static_cast<int>(s.outerStride());
+  int info = 0;
+  blas->dpotrf("L", &n, s.data(), &lda, &info, 1);
+  return info == 0;
 }
 
 }  // namespace oaipp

@@ -62,4 +62,9 @@ void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b)
 // b := L^-1 b for L as above (m x m), b m x k: whitened rows L^-1 P_J:.
 void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
 
+// The Cholesky factor L of the symmetric positive definite s (m x m, its
+// lower triangle read), written over s's lower triangle; what lies above the
+// diagonal is unspecified afterwards. False when s is not positive definite.
+[[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXd& s);
+
 }  // namespace oaipp

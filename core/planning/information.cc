@@ -38,6 +38,21 @@ class MergedCells {
     return Eigen::LLT<Eigen::MatrixXd>(s);  // reads the lower triangle only
   }
 
+  // The same factor as a matrix (L in its lower triangle), computed by the
+  // dense backend (core/mapping/dense_backend.h; Eigen's bits by default).
+  [[nodiscard]] Eigen::MatrixXd FactorLower(const Eigen::MatrixXd& cov) const {
+    const auto m = static_cast<Eigen::Index>(cells_.size());
+    Eigen::MatrixXd s(m, m);
+    for (Eigen::Index b = 0; b < m; ++b) {
+      for (Eigen::Index a = b; a < m; ++a) s(a, b) = cov(cells_[a], cells_[b]);
+      s(b, b) += 1.0 / precision_[b];
+    }
+    // Positive definite by construction (a covariance plus positive noise);
+    // like Factor's, a failure is not reported.
+    (void)CholeskyLowerInPlace(s);
+    return s;
+  }
+
  private:
   std::vector<int> cells_;
   std::vector<double> precision_;
@@ -48,11 +63,11 @@ class MergedCells {
 // column norms are the variance reductions and whose Frobenius norm is the
 // trace reduction.
 Eigen::MatrixXd WhitenedRows(const MergedCells& fused, const Eigen::MatrixXd& base,
-                             const Eigen::LLT<Eigen::MatrixXd>& factor) {
+                             const Eigen::MatrixXd& lower) {
   const std::vector<int>& k = fused.cells();
   Eigen::MatrixXd rows(static_cast<Eigen::Index>(k.size()), base.cols());
   for (Eigen::Index a = 0; a < rows.rows(); ++a) rows.row(a) = base.col(k[a]).transpose();
-  SolveLeftLower(factor.matrixLLT(), rows);
+  SolveLeftLower(lower, rows);
   return rows;
 }
 
@@ -86,7 +101,7 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
   MergedCells fused;
   for (const PoseObservation& pose : prefix) fused.Add(pose);
   if (fused.empty()) return absl::OkStatus();
-  const Eigen::MatrixXd w = WhitenedRows(fused, cov_, fused.Factor(cov_));
+  const Eigen::MatrixXd w = WhitenedRows(fused, cov_, fused.FactorLower(cov_));
   conditioned_ = cov_;
   SymmetricRankUpdate(-1.0, w.transpose(), conditioned_);
   conditioned_.triangularView<Eigen::StrictlyUpper>() = conditioned_.transpose();
@@ -121,7 +136,7 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
   if (fused.empty()) return var;
-  var -= WhitenedRows(fused, base, fused.Factor(base)).colwise().squaredNorm().transpose();
+  var -= WhitenedRows(fused, base, fused.FactorLower(base)).colwise().squaredNorm().transpose();
   return var;
 }
 
@@ -154,7 +169,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
         for (Eigen::Index j = 0; j < m; ++j) {
           for (Eigen::Index a = 0; a < mk; ++a) cross(a, j) = base(k[a], pose.cells[j]);
         }
-        SolveLeftLower(fused.Factor(base).matrixLLT(), cross);
+        SolveLeftLower(fused.FactorLower(base), cross);
         var -= cross.colwise().squaredNorm().transpose();
       }
       double av = 0.0;
@@ -192,7 +207,7 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
       return sum;
     }
     // |L^-1 B_K,:|_F^2: m^2 n, cheaper when K is most of the field.
-    return WhitenedRows(fused, base, factor).squaredNorm();
+    return WhitenedRows(fused, base, factor.matrixLLT()).squaredNorm();
   };
   return reduction(all) - reduction(baseline);
 }

@@ -79,6 +79,32 @@ TEST_F(DenseBackendTest, OpenBlasTriangularSolveEqualsEigens) {
   }
 }
 
+TEST_F(DenseBackendTest, OpenBlasCholeskyEqualsEigensAndRefusesWhatIsNotPositiveDefinite) {
+  ASSERT_TRUE(UseOpenBlas().ok());
+  std::mt19937 rng(6);
+  std::normal_distribution<double> normal;
+  for (const int m : {1, 30, 300}) {
+    Eigen::MatrixXd a(m, m);
+    for (double& v : a.reshaped()) v = normal(rng);
+    const Eigen::MatrixXd s = a * a.transpose() + Eigen::MatrixXd::Identity(m, m);
+    Eigen::MatrixXd blas = s;
+    ASSERT_TRUE(CholeskyLowerInPlace(blas));
+    UseEigen();
+    Eigen::MatrixXd eigen = s;
+    ASSERT_TRUE(CholeskyLowerInPlace(eigen));
+    ASSERT_TRUE(UseOpenBlas().ok());
+    const Eigen::MatrixXd l_blas = blas.triangularView<Eigen::Lower>();
+    const Eigen::MatrixXd l_eigen = eigen.triangularView<Eigen::Lower>();
+    EXPECT_LT((l_blas * l_blas.transpose() - s).cwiseAbs().maxCoeff(), 1e-10 * m);
+    EXPECT_LT((l_blas - l_eigen).cwiseAbs().maxCoeff(), 1e-10);
+  }
+  Eigen::MatrixXd indefinite{{1.0, 2.0}, {2.0, 1.0}};  // eigenvalues 3 and -1
+  Eigen::MatrixXd copy = indefinite;
+  EXPECT_FALSE(CholeskyLowerInPlace(copy));
+  UseEigen();
+  EXPECT_FALSE(CholeskyLowerInPlace(indefinite));
+}
+
 TEST_F(DenseBackendTest, AMapFusedThroughOpenBlasMatchesEigenToRoundOff) {
   const FieldGrid grid = *FieldGrid::FromBounds(Vec2(-15, -15), Vec2(15, 15), 0.75);
   GpMap on_eigen = *GpMap::Create(grid, GpParams::PaperPreset(0.75));
