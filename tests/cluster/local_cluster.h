@@ -71,14 +71,13 @@ class LocalCluster {
     std::string servers;
     for (int i = 0; i < options.replicas; ++i) {
       const int port = FreePort();
-      std::vector<std::string> args = {OAIPP_SERVER_BINARY,
-                                       "--cluster",
-                                       "--store=" + postgres_->uri("oaipp"),
-                                       "--replica_id=" + ReplicaName(i),
-                                       absl::StrCat("--listen=127.0.0.1:", port),
-                                       "--metrics_listen=",
-                                       "--log_level=warn",
-                                       "--shutdown_grace_s=5"};
+      std::vector<std::string> args = {
+          OAIPP_SERVER_BINARY, "--cluster", "--store=" + postgres_->uri("oaipp"),
+          "--replica_id=" + ReplicaName(i), absl::StrCat("--listen=127.0.0.1:", port),
+          "--metrics_listen=", "--log_level=warn", "--shutdown_grace_s=5",
+          // as the tests' in-process twins, which
+          // they match to 1e-12 relative
+          "--dense_backend=eigen"};
       args.insert(args.end(), options.replica_flags.begin(), options.replica_flags.end());
       replicas_.push_back(std::make_unique<ChildProcess>(std::move(args), port));
       absl::StrAppend(&servers, "    server ", ReplicaName(i), " 127.0.0.1:", port, "\n");
