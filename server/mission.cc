@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "api/limits.h"
+#include "api/spec.h"
 #include "api/status.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/camera.h"
@@ -15,6 +16,19 @@
 namespace oaipp::server {
 
 namespace {
+
+// Everything a mission's world is built from (MakeEnvironment): the field,
+// the flight settings (altitudes, ESDF voxel and truncation), the ESDF's
+// voxel limit and the obstacles, as bytes.
+std::string WorldKey(const MissionConfig& config) {
+  const v1::MissionSpec spec = api::ConfigToMissionSpec(config);
+  v1::MissionSpec world;
+  *world.mutable_field() = spec.field();
+  *world.mutable_flight() = spec.flight();
+  *world.mutable_obstacles() = spec.obstacles();
+  return absl::StrCat(world.SerializeAsString(), "|", config.esdf.max_voxels, "|",
+                      config.esdf.voxel_size_m, "|", config.esdf.truncation_m);
+}
 
 // `env` ready to share between readers, its ESDF pooled with equal ones.
 std::shared_ptr<const Environment> Shared(Environment env, EsdfPool* esdfs) {
@@ -135,20 +149,25 @@ void Mission::Remember(const RequestKey& request, Result result) {
 }
 
 Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap map,
-                 std::unique_ptr<Planner> planner, EsdfPool* esdfs)
+                 std::unique_ptr<Planner> planner, EsdfPool* esdfs, WorldCache* worlds)
     : id_(std::move(id)),
       config_(std::move(config)),
       create_time_(absl::FromUnixMicros(absl::ToUnixMicros(absl::Now()))),  // as stored
       map_bytes_(8 * static_cast<std::int64_t>(map.num_cells()) *
                  (static_cast<std::int64_t>(map.num_cells()) + 1)),
       esdfs_(esdfs),
+      worlds_(worlds),
       env_(Shared(std::move(env), esdfs)),
       map_(std::make_shared<GpMap>(std::move(map))),
       planner_(std::move(planner)) {}
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
-                                                         PriorCache* priors, EsdfPool* esdfs) {
-  OAIPP_ASSIGN_OR_RETURN(Environment env, config.MakeEnvironment());
+                                                         PriorCache* priors, EsdfPool* esdfs,
+                                                         WorldCache* worlds) {
+  OAIPP_ASSIGN_OR_RETURN(
+      Environment env, worlds != nullptr
+                           ? worlds->Get(WorldKey(config), [&] { return config.MakeEnvironment(); })
+                           : config.MakeEnvironment());
   // The UAV must start where it may fly: clear of every obstacle by half
   // its radius, as PlanPath asks of every state (exact distance).
   const Vec3& start = config.start.position_W;
@@ -168,7 +187,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
                                                       : GpMap::Create(grid, config.gp));
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::move(map), std::move(planner), esdfs));
+                                               std::move(map), std::move(planner), esdfs, worlds));
   absl::MutexLock lock(&mission->mu_);
   OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
   mission->mission_time_s_ = mission->config_.start.mission_time_s;
@@ -177,7 +196,8 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
 }
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, MissionConfig config,
-                                                          MissionState state, EsdfPool* esdfs) {
+                                                          MissionState state, EsdfPool* esdfs,
+                                                          WorldCache* worlds) {
   OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
   OAIPP_RETURN_IF_ERROR(env.Apply({.add = state.obstacles}));
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
@@ -198,7 +218,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::move(map), std::move(planner), esdfs));
+                                               std::move(map), std::move(planner), esdfs, worlds));
   {
     absl::MutexLock lock(&mission->mu_);
     mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
@@ -257,8 +277,10 @@ std::int64_t Mission::MemoryBytes() const {
   }
   if (env == nullptr) return map_bytes_;
   const Esdf& esdf = env->esdf();
+  std::int64_t users = esdf.SharedBy();
+  if (worlds_ != nullptr && worlds_->HoldsGrid(esdf.values().data())) --users;
   return map_bytes_ +
-         static_cast<std::int64_t>(esdf.MemoryBytes()) / std::max<std::int64_t>(1, esdf.SharedBy());
+         static_cast<std::int64_t>(esdf.MemoryBytes()) / std::max<std::int64_t>(1, users);
 }
 
 GpMap& Mission::MutableMap() {

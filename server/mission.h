@@ -36,6 +36,7 @@
 #include "absl/time/time.h"
 #include "api/mission_config.h"
 #include "core/environment/environment.h"
+#include "core/environment/world_cache.h"
 #include "core/mapping/gp_map.h"
 #include "core/mapping/prior_cache.h"
 #include "core/planning/planners.h"
@@ -200,19 +201,20 @@ class Mission {
   // the same grid shape and GP parameters); nullptr computes it. esdfs:
   // where missions over equal worlds share one ESDF (also after obstacle
   // changes that make two worlds equal); nullptr keeps the mission's own.
-  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(std::string id,
-                                                                       MissionConfig config,
-                                                                       PriorCache* priors = nullptr,
-                                                                       EsdfPool* esdfs = nullptr);
+  // worlds: where a world already built for the same field, flight settings
+  // and obstacles is cloned from instead of built again; nullptr builds it.
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(
+      std::string id, MissionConfig config, PriorCache* priors = nullptr, EsdfPool* esdfs = nullptr,
+      WorldCache* worlds = nullptr);
   // The mission as it was in `state` (a snapshot read back): the same
   // obstacles, map, counters, planner state and request_id answers; its log
   // goes on at state.sequence + 1. InvalidArgument when the state does not
   // fit the config (another grid, a planner state the planner refuses).
-  // esdfs: as for Create.
-  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(std::string id,
-                                                                        MissionConfig config,
-                                                                        MissionState state,
-                                                                        EsdfPool* esdfs = nullptr);
+  // esdfs, worlds: as for Create (the world is built from the state's
+  // obstacles, not cloned).
+  [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(
+      std::string id, MissionConfig config, MissionState state, EsdfPool* esdfs = nullptr,
+      WorldCache* worlds = nullptr);
   // A fresh mission with `log` applied in order (what persistence would do).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Replay(
       std::string id, MissionConfig config, const std::vector<LogEntry>& log);
@@ -323,7 +325,7 @@ class Mission {
 
  private:
   Mission(std::string id, MissionConfig config, Environment env, GpMap map,
-          std::unique_ptr<Planner> planner, EsdfPool* esdfs);
+          std::unique_ptr<Planner> planner, EsdfPool* esdfs, WorldCache* worlds);
   // Fuses, once, the cells under obstacles that were not fused before.
   absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The map, to change: copied first when a plan still reads it.
@@ -351,8 +353,10 @@ class Mission {
   const MissionConfig config_;
   absl::Time create_time_;  // set by the constructor, or by recovery before the mission is shared
   const std::int64_t map_bytes_;  // mean and covariance
-  // Where equal ESDFs are shared (nullptr: not shared).
+  // Where equal ESDFs are shared (nullptr: not shared), and the worlds a
+  // new mission clones (their hold on a grid is not a mission's share).
   EsdfPool* const esdfs_;
+  WorldCache* const worlds_;
 
   // OK when `bytes` more fit the log (log_limit_); else RESOURCE_EXHAUSTED.
   [[nodiscard]] absl::Status CheckLogRoom(std::int64_t bytes) const;

@@ -201,7 +201,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   const std::string spec =
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
   absl::StatusOr<std::shared_ptr<Mission>> mission =
-      Mission::Create(key, std::move(config), priors_.get(), &esdfs_);
+      Mission::Create(key, std::move(config), priors_.get(), &esdfs_, &worlds_);
   if (mission.ok()) {
     (*mission)->set_log_limit(LogLimit(estimate));
     WatchForSnapshots(**mission);
@@ -470,13 +470,13 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMi
       return absl::DataLossError(absl::StrCat("snapshot: covers record ", state->sequence,
                                               ", stored as covering ", m.snapshot->sequence));
     }
-    mission = Mission::Restore(m.id, *std::move(config), *std::move(state), &esdfs_);
+    mission = Mission::Restore(m.id, *std::move(config), *std::move(state), &esdfs_, &worlds_);
     if (!mission.ok()) {
       return absl::DataLossError(absl::StrCat("snapshot: ", mission.status().message()));
     }
     last_write_us = std::max(last_write_us, m.snapshot->write_time_unix_us);
   } else {
-    mission = Mission::Create(m.id, *std::move(config), priors_.get(), &esdfs_);
+    mission = Mission::Create(m.id, *std::move(config), priors_.get(), &esdfs_, &worlds_);
     if (!mission.ok()) {
       return absl::Status(mission.status().code(),
                           absl::StrCat("creating: ", mission.status().message()));

@@ -231,6 +231,9 @@ class MissionRegistry {
   // ESDFs shared by missions over equal worlds (a fleet over one site holds
   // one 16 MB grid, not one per mission).
   EsdfPool esdfs_;
+  // Worlds by what they are built from: a mission over a known world clones
+  // it (sharing its ESDF) instead of building the grid again.
+  WorldCache worlds_;
   MissionStore* const store_;
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).
