@@ -50,7 +50,7 @@ struct PlanningContext {
   std::function<bool()> cancelled = nullptr;
   // The share of its configured search the planner runs, in (0, 1]: OA-IPP
   // runs ceil(fraction x generations) CMA-ES generations (at least one).
-  // Below 1 only when a loaded server sheds work (docs/service.md); the
+  // Below 1 only when a loaded server sheds work (docs/capacity.md); the
   // other planners ignore it.
   double search_fraction = 1.0;
 };
