@@ -15,14 +15,10 @@
 
 #include <cstdint>
 #include <functional>
-#include <future>
-#include <memory>
 #include <string>
-#include <vector>
 
-#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/mutex.h"
+#include "core/common/single_flight_cache.h"
 #include "core/environment/environment.h"
 
 namespace oaipp {
@@ -43,18 +39,7 @@ class WorldCache {
   [[nodiscard]] bool HoldsGrid(const float* values) const;
 
  private:
-  using Result = absl::StatusOr<std::shared_ptr<const Environment>>;
-  struct Entry {
-    std::string key;
-    std::shared_future<Result> world;
-    std::uint64_t last_used = 0;
-    std::uint64_t inserted = 0;
-  };
-  const int capacity_;
-  mutable absl::Mutex mu_;
-  std::vector<Entry> entries_ ABSL_GUARDED_BY(mu_);
-  std::uint64_t clock_ ABSL_GUARDED_BY(mu_) = 0;
-  std::int64_t builds_ ABSL_GUARDED_BY(mu_) = 0;
+  SingleFlightCache<std::string, Environment> worlds_;
 };
 
 }  // namespace oaipp

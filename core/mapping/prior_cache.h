@@ -10,14 +10,12 @@
 #pragma once
 
 #include <cstdint>
-#include <future>
 #include <memory>
 #include <vector>
 
 #include "Eigen/Core"
-#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
-#include "absl/synchronization/mutex.h"
+#include "core/common/single_flight_cache.h"
 #include "core/mapping/field_grid.h"
 #include "core/mapping/gp_map.h"
 #include "core/mapping/gp_params.h"
@@ -50,7 +48,6 @@ class PriorCache {
   [[nodiscard]] int size() const;
 
  private:
-  using Result = absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>>;
   struct Key {
     int nx = 0;
     int ny = 0;
@@ -60,18 +57,7 @@ class PriorCache {
     double noise_var = 0.0;
     bool operator==(const Key&) const = default;
   };
-  struct Entry {
-    Key key;
-    std::shared_future<Result> prior;
-    std::uint64_t inserted = 0;  // clock at insertion: tells entries of one key apart
-    std::uint64_t last_used = 0;
-  };
-
-  const int capacity_;
-  mutable absl::Mutex mu_;
-  std::vector<Entry> entries_ ABSL_GUARDED_BY(mu_);
-  std::uint64_t clock_ ABSL_GUARDED_BY(mu_) = 0;
-  std::int64_t computations_ ABSL_GUARDED_BY(mu_) = 0;
+  SingleFlightCache<Key, Eigen::MatrixXd> priors_;
 };
 
 }  // namespace oaipp
