@@ -312,6 +312,14 @@ std::uint64_t HashValues(std::span<const float> values) {
 }  // namespace
 
 bool EsdfPool::Share(Esdf& esdf) {
+  {
+    // A clone of a pooled grid (a mission copied from the server's world
+    // cache) is pooled already: no need to hash its megabytes again.
+    absl::MutexLock lock(&mu_);
+    for (const auto& [key, e] : grids_) {
+      if (e.values.lock() == esdf.values_) return false;
+    }
+  }
   const std::uint64_t key = HashValues(*esdf.values_);
   absl::MutexLock lock(&mu_);
   // Expired entries are dropped as they are met.
