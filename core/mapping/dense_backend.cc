@@ -55,24 +55,25 @@ const char* CoreTypeForThisCpu() {
   return nullptr;
 }
 
+// Sets OPENBLAS_CORETYPE for this CPU unless it is set (an operator's choice
+// wins); true when it set it.
+bool SetCoreTypeIfUnset() {
+  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return false;
+  const char* core = CoreTypeForThisCpu();
+  return core != nullptr && setenv("OPENBLAS_CORETYPE", core, 0) == 0;
+}
+
 }  // namespace
 
 void RestartWithOpenBlasKernels(char** argv) {
-  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
-  const char* core = CoreTypeForThisCpu();
-  if (core == nullptr) return;
-  setenv("OPENBLAS_CORETYPE", core, 0);
+  if (!SetCoreTypeIfUnset()) return;
   execv("/proc/self/exe", argv);
   // Still here: the restart failed; go on with what OpenBLAS picked.
 }
 
 absl::Status UseOpenBlas() {
   static const OpenBlas* loaded = []() -> const OpenBlas* {
-    if (std::getenv("OPENBLAS_CORETYPE") == nullptr) {
-      if (const char* core = CoreTypeForThisCpu(); core != nullptr) {
-        setenv("OPENBLAS_CORETYPE", core, 0);
-      }
-    }
+    SetCoreTypeIfUnset();
     // Debian's single-threaded build first: the server has its own threads.
     void* library = nullptr;
     for (const char* path :

@@ -97,8 +97,7 @@ struct LoadResult {
   double wall_s = 0.0;
   Latencies latencies;
   std::vector<MissionResult> missions;
-  std::vector<double> search_fractions;  // one per plan
-  double bytes_per_mission = 0.0;        // as the server reports it (map_bytes)
+  double bytes_per_mission = 0.0;  // as the server reports it (map_bytes)
   long peak_rss_kb = 0;
 };
 
@@ -121,6 +120,16 @@ std::vector<double> Rses(const LoadResult& r) {
   std::vector<double> out;
   for (const MissionResult& m : r.missions) {
     if (m.finished) out.push_back(m.rse);
+  }
+  return out;
+}
+
+// Each plan's search share (stats.search_fraction), over finished missions.
+std::vector<double> SearchShares(const LoadResult& r) {
+  std::vector<double> out;
+  for (const MissionResult& m : r.missions) {
+    if (!m.finished) continue;
+    for (const auto& plan : m.plan_stats) out.push_back(plan[4]);
   }
   return out;
 }
@@ -161,7 +170,6 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
   if (!made.ok()) return result;
   v1::UavState state = created.spec().start();
   int shots = 0;
-  std::vector<double> fractions;
   while (state.mission_time_s() < budget) {
     v1::PlanPathResponse path;
     const double asked_s = Seconds(Clock::now() - t0);
@@ -176,7 +184,6 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
     });
     if (!planned.ok()) return result;
     ++result.plans;
-    fractions.push_back(path.stats().search_fraction());
     result.plan_stats.push_back(
         {asked_s, path.stats().wall_time_s(), static_cast<double>(path.stats().evaluations()),
          static_cast<double>(path.stats().generations()), path.stats().search_fraction()});
@@ -216,7 +223,6 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
   result.finished = true;
   {
     std::lock_guard<std::mutex> lock(out_mu);
-    out.search_fractions.insert(out.search_fractions.end(), fractions.begin(), fractions.end());
     out.bytes_per_mission += static_cast<double>(created.map_bytes());
   }
   return result;
@@ -299,9 +305,10 @@ void Print(LoadResult& r, int missions, double budget, const std::string& pace) 
       missions, budget, pace.c_str(), finished, r.wall_s, absl::GetFlag(FLAGS_planning_threads));
   r.latencies.Print(r.wall_s);
   int shed = 0;
-  for (double f : r.search_fractions) shed += f < 1.0 ? 1 : 0;
-  std::printf("plans shed: %d of %zu (mean search share %.3f)\n", shed, r.search_fractions.size(),
-              Mean(r.search_fractions));
+  const std::vector<double> shares = SearchShares(r);
+  for (double f : shares) shed += f < 1.0 ? 1 : 0;
+  std::printf("plans shed: %d of %zu (mean search share %.3f)\n", shed, shares.size(),
+              Mean(shares));
   std::printf("memory per mission (map + its share of the ESDF, as reported): %.1f MB\n",
               r.bytes_per_mission / 1e6);
   std::printf("peak RSS of the process (server and clients): %.0f MB, %.1f MB per mission\n",
@@ -345,7 +352,6 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
   const std::vector<double> rses = Rses(r);
   j["rse_mean"] = Mean(rses);
   j["rse_stderr"] = StdErr(rses);
-  j["search_fractions"] = r.search_fractions;
   nlohmann::json calls = nlohmann::json::array();
   for (const Latencies::Call& c : r.latencies.Calls()) {
     calls.push_back({c.start_s, c.method, c.ms, c.ok});
