@@ -47,12 +47,17 @@ ABSL_FLAG(std::string, listen, "127.0.0.1:50051", "gRPC listen address (host:por
 ABSL_FLAG(int, worker_threads, 16, "most threads serving RPCs at once");
 ABSL_FLAG(int, planning_threads, 2, "plans that may run at once");
 ABSL_FLAG(int, planning_queue, 16, "plans that may wait; more are refused (RESOURCE_EXHAUSTED)");
+ABSL_FLAG(int, planning_nice, 10,
+          "scheduling priority of the planning threads below the rest of the server (as nice(1), "
+          "0..19): when the cores are full, measurements and new missions are answered before "
+          "plans; 0 gives plans the same priority");
 ABSL_FLAG(int, max_missions, 64, "missions held at once");
 ABSL_FLAG(int64_t, max_cells, 4096,
           "cells per mission map (its covariance takes 8 n^2 bytes: 4096 cells = 134 MB)");
 ABSL_FLAG(int, prior_cache, 4,
-          "prior covariances kept for missions over the same kind of field (8 n^2 bytes each; "
-          "0: every mission computes its own)");
+          "prior covariances kept for missions over the same kind of field, and as many starting "
+          "maps (ground under buildings fused) for missions over the same site (8 n^2 bytes "
+          "each; 0: every mission computes its own)");
 ABSL_FLAG(std::string, log_level, "info", "trace, debug, info, warn, error or off");
 ABSL_FLAG(std::string, metrics_listen, "127.0.0.1:9464",
           "Prometheus metrics address (host:port); empty disables");
@@ -231,9 +236,11 @@ int main(int argc, char** argv) {
   const int threads = absl::GetFlag(FLAGS_worker_threads);
   const int planning_threads = absl::GetFlag(FLAGS_planning_threads);
   const int planning_queue = absl::GetFlag(FLAGS_planning_queue);
-  if (threads < 2 || planning_threads < 1 || planning_queue < 0 ||
-      absl::GetFlag(FLAGS_max_missions) < 1 || absl::GetFlag(FLAGS_max_cells) < 1 ||
-      absl::GetFlag(FLAGS_snapshot_every) < 0 || absl::GetFlag(FLAGS_recovery_threads) < 1 ||
+  const int planning_nice = absl::GetFlag(FLAGS_planning_nice);
+  if (threads < 2 || planning_threads < 1 || planning_queue < 0 || planning_nice < 0 ||
+      planning_nice > 19 || absl::GetFlag(FLAGS_max_missions) < 1 ||
+      absl::GetFlag(FLAGS_max_cells) < 1 || absl::GetFlag(FLAGS_snapshot_every) < 0 ||
+      absl::GetFlag(FLAGS_recovery_threads) < 1 ||
       absl::GetFlag(FLAGS_keep_finished) <= absl::ZeroDuration() ||
       absl::GetFlag(FLAGS_keep_idle) <= absl::ZeroDuration() ||
       absl::GetFlag(FLAGS_prior_cache) < 0 || absl::GetFlag(FLAGS_max_streams) < 1 ||
@@ -247,7 +254,8 @@ int main(int argc, char** argv) {
         absl::GetFlag(FLAGS_min_search_fraction) <= 1)) {
     spdlog::error(
         "bad flags: need worker_threads >= 2, planning_threads >= 1, "
-        "planning_queue >= 0, max_missions >= 1, max_cells >= 1, prior_cache >= 0, "
+        "planning_queue >= 0, 0 <= planning_nice <= 19, max_missions >= 1, max_cells >= 1, "
+        "prior_cache >= 0, "
         "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0, "
         "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas "
         "and memory limits >= 0, 0 <= shed_above < 1e6, 0 < min_search_fraction <= 1");
@@ -334,7 +342,7 @@ int main(int argc, char** argv) {
                    absl::ToDoubleSeconds(absl::Now() - started));
     }
   }
-  oaipp::server::PlanningPool planners(planning_threads, planning_queue);
+  oaipp::server::PlanningPool planners(planning_threads, planning_queue, planning_nice);
   oaipp::server::Metrics metrics;
   std::unique_ptr<prometheus::Exposer> exposer;
   if (const std::string address = absl::GetFlag(FLAGS_metrics_listen); !address.empty()) {

@@ -30,6 +30,18 @@ std::string WorldKey(const MissionConfig& config) {
                       config.esdf.voxel_size_m, "|", config.esdf.truncation_m);
 }
 
+// The key of a site's StartMap: its world's key and the GP parameters,
+// exactly (hexadecimal floats).
+std::string StartMapKey(const std::string& world_key, const GpParams& gp) {
+  return absl::StrFormat("%s|%a|%a|%a|%a", world_key, gp.length_scale_m, gp.signal_var,
+                         gp.noise_var, gp.prior_mean);
+}
+
+// The field's cells whose ground is inside an obstacle, in the grid's order.
+std::vector<int> CellsUnder(const FieldGrid& grid, const Environment& env) {
+  return grid.CellsUnderObstacles([&](const Vec3& p_W) { return env.IsInsideObstacle(p_W); });
+}
+
 // `env` ready to share between readers, its ESDF pooled with equal ones.
 std::shared_ptr<const Environment> Shared(Environment env, EsdfPool* esdfs) {
   if (esdfs != nullptr) env.ShareEsdf(*esdfs);
@@ -148,25 +160,26 @@ void Mission::Remember(const RequestKey& request, Result result) {
   done_.Remember(request.request_id, {request.fingerprint, std::move(result)});
 }
 
-Mission::Mission(std::string id, MissionConfig config, Environment env, GpMap map,
-                 std::unique_ptr<Planner> planner, EsdfPool* esdfs, WorldCache* worlds)
+Mission::Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
+                 std::unique_ptr<Planner> planner, const SiteCaches& caches)
     : id_(std::move(id)),
       config_(std::move(config)),
       create_time_(absl::FromUnixMicros(absl::ToUnixMicros(absl::Now()))),  // as stored
-      map_bytes_(8 * static_cast<std::int64_t>(map.num_cells()) *
-                 (static_cast<std::int64_t>(map.num_cells()) + 1)),
-      esdfs_(esdfs),
-      worlds_(worlds),
-      env_(Shared(std::move(env), esdfs)),
-      map_(std::make_shared<GpMap>(std::move(map))),
+      map_bytes_(8 * static_cast<std::int64_t>(map->num_cells()) *
+                 (static_cast<std::int64_t>(map->num_cells()) + 1)),
+      esdfs_(caches.esdfs),
+      worlds_(caches.worlds),
+      env_(Shared(std::move(env), caches.esdfs)),
+      map_(std::move(map)),
       planner_(std::move(planner)) {}
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
-                                                         PriorCache* priors, EsdfPool* esdfs,
-                                                         WorldCache* worlds) {
+                                                         const SiteCaches& caches) {
+  std::string world_key;
+  if (caches.worlds != nullptr || caches.start_maps != nullptr) world_key = WorldKey(config);
   OAIPP_ASSIGN_OR_RETURN(
-      Environment env, worlds != nullptr
-                           ? worlds->Get(WorldKey(config), [&] { return config.MakeEnvironment(); })
+      Environment env, caches.worlds != nullptr
+                           ? caches.worlds->Get(world_key, [&] { return config.MakeEnvironment(); })
                            : config.MakeEnvironment());
   // The UAV must start where it may fly: clear of every obstacle by half
   // its radius, as PlanPath asks of every state (exact distance).
@@ -183,12 +196,36 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
         needed));
   }
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
-  OAIPP_ASSIGN_OR_RETURN(GpMap map, priors != nullptr ? priors->NewMap(grid, config.gp)
-                                                      : GpMap::Create(grid, config.gp));
+  auto prior = [&]() -> absl::StatusOr<GpMap> {
+    return caches.priors != nullptr ? caches.priors->NewMap(grid, config.gp)
+                                    : GpMap::Create(grid, config.gp);
+  };
+  std::shared_ptr<GpMap> map;
+  std::vector<int> covered;
+  if (caches.start_maps != nullptr) {
+    // The same prior and the same fusion, in the same cell order, as
+    // FuseCoveredCells below would do: the shared map is equal bit for bit
+    // to the mission's own. MutableMap copies it before the first change.
+    OAIPP_ASSIGN_OR_RETURN(
+        std::shared_ptr<const StartMap> shared,
+        caches.start_maps->Get(
+            StartMapKey(world_key, config.gp), [&]() -> absl::StatusOr<StartMap> {
+              OAIPP_ASSIGN_OR_RETURN(GpMap fused, prior());
+              std::vector<int> cells = CellsUnder(fused.grid(), env);
+              OAIPP_RETURN_IF_ERROR(fused.FuseNearCertainZeros(cells));
+              return StartMap{std::make_shared<GpMap>(std::move(fused)), std::move(cells)};
+            }));
+    map = shared->map;
+    covered = shared->covered_cells;
+  } else {
+    OAIPP_ASSIGN_OR_RETURN(GpMap fresh, prior());
+    map = std::make_shared<GpMap>(std::move(fresh));
+  }
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::move(map), std::move(planner), esdfs, worlds));
+                                               std::move(map), std::move(planner), caches));
   absl::MutexLock lock(&mission->mu_);
+  mission->covered_cells_.insert(covered.begin(), covered.end());
   OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
   mission->mission_time_s_ = mission->config_.start.mission_time_s;
   mission->Publish();
@@ -196,8 +233,8 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
 }
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, MissionConfig config,
-                                                          MissionState state, EsdfPool* esdfs,
-                                                          WorldCache* worlds) {
+                                                          MissionState state,
+                                                          const SiteCaches& caches) {
   OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
   OAIPP_RETURN_IF_ERROR(env.Apply({.add = state.obstacles}));
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
@@ -218,7 +255,8 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::move(map), std::move(planner), esdfs, worlds));
+                                               std::make_shared<GpMap>(std::move(map)),
+                                               std::move(planner), caches));
   {
     absl::MutexLock lock(&mission->mu_);
     mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
@@ -259,8 +297,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Replay(std::string id, Mission
 
 absl::Status Mission::FuseCoveredCells() {
   std::vector<int> fresh;
-  for (int c : map_->grid().CellsUnderObstacles(
-           [&](const Vec3& p_W) { return env_->IsInsideObstacle(p_W); })) {
+  for (int c : CellsUnder(map_->grid(), *env_)) {
     if (!covered_cells_.contains(c)) fresh.push_back(c);
   }
   if (fresh.empty()) return absl::OkStatus();

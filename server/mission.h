@@ -35,6 +35,7 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "api/mission_config.h"
+#include "core/common/single_flight_cache.h"
 #include "core/environment/environment.h"
 #include "core/environment/world_cache.h"
 #include "core/mapping/gp_map.h"
@@ -146,6 +147,35 @@ struct MissionSnapshot {
   absl::Time create_time;
 };
 
+// A map at the prior with the ground under a site's obstacles already fused
+// (what Mission::Create starts from), by everything it is computed from: the
+// field, the obstacles and the GP parameters. The fusion is a rank-m Kalman
+// update over every cell under a building (m in the hundreds for a town),
+// so a fleet over one site does it once. The missions hold the map itself
+// until their first measurement copies it (copy on write, as a plan holds
+// the map it started from), so creating one costs no copy of it either.
+struct StartMap {
+  std::shared_ptr<GpMap> map;      // never changed while shared
+  std::vector<int> covered_cells;  // the cells fused, in the order fused
+};
+using StartMapCache = SingleFlightCache<std::string, StartMap>;
+
+// What missions over the same site share instead of computing again; a null
+// pointer makes each mission compute its own. Sharing never changes a
+// mission's numbers: every cache hands out what the mission would compute.
+struct SiteCaches {
+  // The prior covariance, per grid shape and GP parameters.
+  PriorCache* priors = nullptr;
+  // One ESDF for missions over equal worlds (also after obstacle changes
+  // that make two worlds equal).
+  EsdfPool* esdfs = nullptr;
+  // Worlds already built for the same field, flight settings and
+  // obstacles, cloned instead of built again.
+  WorldCache* worlds = nullptr;
+  // Starting maps (StartMap), copied instead of fused again.
+  StartMapCache* start_maps = nullptr;
+};
+
 // The first answer to a request_id.
 using RequestResult = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
 
@@ -197,24 +227,18 @@ class Mission {
   // Builds the world, the prior map (ground under obstacles fused as
   // near-certain zeros) and the planner. Errors: InvalidArgument for a
   // config the core refuses, ResourceExhausted for grids too large.
-  // priors: where to take the prior covariance from (shared by missions of
-  // the same grid shape and GP parameters); nullptr computes it. esdfs:
-  // where missions over equal worlds share one ESDF (also after obstacle
-  // changes that make two worlds equal); nullptr keeps the mission's own.
-  // worlds: where a world already built for the same field, flight settings
-  // and obstacles is cloned from instead of built again; nullptr builds it.
+  // caches: what missions over the same site share instead of computing it
+  // again (SiteCaches); the default computes everything.
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Create(
-      std::string id, MissionConfig config, PriorCache* priors = nullptr, EsdfPool* esdfs = nullptr,
-      WorldCache* worlds = nullptr);
+      std::string id, MissionConfig config, const SiteCaches& caches = {});
   // The mission as it was in `state` (a snapshot read back): the same
   // obstacles, map, counters, planner state and request_id answers; its log
   // goes on at state.sequence + 1. InvalidArgument when the state does not
   // fit the config (another grid, a planner state the planner refuses).
-  // esdfs, worlds: as for Create (the world is built from the state's
-  // obstacles, not cloned).
+  // Of the caches only esdfs and worlds are used (the world is built from
+  // the state's obstacles, not cloned; the map is the state's).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(
-      std::string id, MissionConfig config, MissionState state, EsdfPool* esdfs = nullptr,
-      WorldCache* worlds = nullptr);
+      std::string id, MissionConfig config, MissionState state, const SiteCaches& caches = {});
   // A fresh mission with `log` applied in order (what persistence would do).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Replay(
       std::string id, MissionConfig config, const std::vector<LogEntry>& log);
@@ -324,8 +348,8 @@ class Mission {
   void set_epoch(std::int64_t epoch) { epoch_.store(epoch); }
 
  private:
-  Mission(std::string id, MissionConfig config, Environment env, GpMap map,
-          std::unique_ptr<Planner> planner, EsdfPool* esdfs, WorldCache* worlds);
+  Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
+          std::unique_ptr<Planner> planner, const SiteCaches& caches);
   // Fuses, once, the cells under obstacles that were not fused before.
   absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The map, to change: copied first when a plan still reads it.

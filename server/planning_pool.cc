@@ -1,14 +1,30 @@
 #include "server/planning_pool.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
 
 namespace oaipp::server {
 
-PlanningPool::PlanningPool(int threads, int queue) : queue_(queue) {
+PlanningPool::PlanningPool(int threads, int queue, int nice)
+    : queue_(queue), nice_(std::clamp(nice, 0, 19)) {
   threads_.reserve(static_cast<std::size_t>(threads));
-  for (int i = 0; i < threads; ++i) threads_.emplace_back([this] { Work(); });
+  for (int i = 0; i < threads; ++i) {
+    threads_.emplace_back([this] {
+      // On Linux the nice value is per thread (PRIO_PROCESS with a thread
+      // id); raising it is always allowed, so this cannot fail but for a
+      // seccomp policy, and then the plans simply keep the process's
+      // priority.
+      if (nice_ > 0) {
+        (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()),
+                          getpriority(PRIO_PROCESS, 0) + nice_);
+      }
+      Work();
+    });
+  }
 }
 
 PlanningPool::~PlanningPool() {

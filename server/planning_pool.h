@@ -8,7 +8,15 @@
 // order, so a mission queues behind its own previous plan, never in front of
 // other missions' plans.
 //
-//   PlanningPool pool(/*threads=*/2, /*queue=*/16);
+// The threads may run at a lower scheduling priority than the rest of the
+// process (`nice`, as nice(1): 0 to 19). A plan is long and may be
+// shortened (overload shedding); a measurement or a new mission is short and
+// the UAV waits for its answer. With plans at nice 10, Linux gives a busy
+// gRPC thread about nine times a busy planner's share of a core, so the
+// short calls are answered first when the cores are full, and plans get
+// everything else.
+//
+//   PlanningPool pool(/*threads=*/2, /*queue=*/16, /*nice=*/10);
 //   OAIPP_ASSIGN_OR_RETURN(PlanningPool::Handle job, pool.Submit("m1", [] { ... }));
 //   ...
 //   if (job.Cancel()) { /* taken out of the queue: it will never run */ }
@@ -48,7 +56,9 @@ class PlanningPool {
     std::shared_ptr<Job> job_;
   };
 
-  PlanningPool(int threads, int queue);
+  // nice: 0 (the process's priority) to 19 (lowest); values outside are
+  // clamped. Lowering a thread's priority needs no privilege.
+  PlanningPool(int threads, int queue, int nice = 0);
   // Runs the jobs already started to the end; queued jobs are run too.
   ~PlanningPool();
   PlanningPool(const PlanningPool&) = delete;
@@ -62,6 +72,7 @@ class PlanningPool {
   [[nodiscard]] int waiting() const;
   [[nodiscard]] int threads() const { return static_cast<int>(threads_.size()); }
   [[nodiscard]] int queue_capacity() const { return queue_; }
+  [[nodiscard]] int nice() const { return nice_; }
 
  private:
   struct Job {
@@ -79,6 +90,7 @@ class PlanningPool {
   int running_ ABSL_GUARDED_BY(mu_) = 0;
   bool stopping_ ABSL_GUARDED_BY(mu_) = false;
   const int queue_;
+  const int nice_;
   std::vector<std::thread> threads_;
 };
 

@@ -37,6 +37,12 @@ bool ValidId(absl::string_view id) {
 MissionRegistry::MissionRegistry(RegistryLimits limits, MissionStore* store)
     : limits_(limits),
       priors_(limits.prior_cache > 0 ? std::make_unique<PriorCache>(limits.prior_cache) : nullptr),
+      start_maps_(limits.prior_cache > 0 ? std::make_unique<StartMapCache>(limits.prior_cache)
+                                         : nullptr),
+      caches_{.priors = priors_.get(),
+              .esdfs = &esdfs_,
+              .worlds = &worlds_,
+              .start_maps = start_maps_.get()},
       store_(store) {
   if (store_ != nullptr && limits_.snapshot_every > 0) {
     snapshot_thread_ = std::thread([this] { SnapshotLoop(); });
@@ -201,7 +207,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   const std::string spec =
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
   absl::StatusOr<std::shared_ptr<Mission>> mission =
-      Mission::Create(key, std::move(config), priors_.get(), &esdfs_, &worlds_);
+      Mission::Create(key, std::move(config), caches_);
   if (mission.ok()) {
     (*mission)->set_log_limit(LogLimit(estimate));
     WatchForSnapshots(**mission);
@@ -470,13 +476,13 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMi
       return absl::DataLossError(absl::StrCat("snapshot: covers record ", state->sequence,
                                               ", stored as covering ", m.snapshot->sequence));
     }
-    mission = Mission::Restore(m.id, *std::move(config), *std::move(state), &esdfs_, &worlds_);
+    mission = Mission::Restore(m.id, *std::move(config), *std::move(state), caches_);
     if (!mission.ok()) {
       return absl::DataLossError(absl::StrCat("snapshot: ", mission.status().message()));
     }
     last_write_us = std::max(last_write_us, m.snapshot->write_time_unix_us);
   } else {
-    mission = Mission::Create(m.id, *std::move(config), priors_.get(), &esdfs_, &worlds_);
+    mission = Mission::Create(m.id, *std::move(config), caches_);
     if (!mission.ok()) {
       return absl::Status(mission.status().code(),
                           absl::StrCat("creating: ", mission.status().message()));

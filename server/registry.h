@@ -30,8 +30,10 @@ struct RegistryLimits {
   // Cells of one mission's map: its covariance costs 8 n^2 bytes (1600 cells:
   // 20 MB; 4096 cells: 134 MB). Valid: >= 1.
   std::int64_t max_cells_per_mission = 4096;
-  // Prior covariances kept for missions over the same kind of field (8 n^2
-  // bytes each); 0: every mission computes its own. Valid: >= 0.
+  // Prior covariances kept for missions over the same kind of field, and
+  // starting maps (the prior with the ground under a site's obstacles
+  // fused) for missions over the same site, each as many (8 n^2 bytes
+  // each); 0: every mission computes its own. Valid: >= 0.
   int prior_cache = 4;
   // With a store: a snapshot of a mission after this many measurements (or
   // 4 x as many records of any kind) since its last one, so that recovery
@@ -173,6 +175,11 @@ class MissionRegistry {
   [[nodiscard]] std::int64_t PriorComputations() const {
     return priors_ != nullptr ? priors_->computations() : 0;
   }
+  // Starting maps computed so far (missions over one site, with the same
+  // GP parameters, share one). 0 without a cache.
+  [[nodiscard]] std::int64_t StartMapComputations() const {
+    return start_maps_ != nullptr ? start_maps_->computations() : 0;
+  }
 
   // A mission's key in the registry and the store: its id, prefixed by
   // "tenant/" for a named tenant (so the anonymous tenant's keys are the
@@ -234,6 +241,12 @@ class MissionRegistry {
   // Worlds by what they are built from: a mission over a known world clones
   // it (sharing its ESDF) instead of building the grid again.
   WorldCache worlds_;
+  // Starting maps by site: a mission over a known site copies the map with
+  // the ground under its buildings fused instead of fusing it again (a
+  // rank-m update over every covered cell).
+  const std::unique_ptr<StartMapCache> start_maps_;
+  // The four above, as Mission::Create takes them.
+  SiteCaches caches_;
   MissionStore* const store_;
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).

@@ -1,6 +1,10 @@
 // The planning pool: bounded admission, jobs of one mission in order, and a
-// queued job taken back out without ever running.
+// queued job taken back out without ever running, and plans at a lower
+// scheduling priority than the thread that submits them.
 #include "server/planning_pool.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -107,6 +111,32 @@ TEST(PlanningPoolTest, OneMissionsJobsRunInOrderAndLetOthersPass) {
   // a2 could start only after a1 ended, which waited for b1.
   EXPECT_LT(std::find(order.begin(), order.end(), "b1") - order.begin(),
             std::find(order.begin(), order.end(), "a2") - order.begin());
+}
+
+// The nice value is read by the kernel for the thread that runs the job
+// (getpriority with its thread id), not taken from the pool.
+TEST(PlanningPoolTest, JobsRunAtTheGivenNiceAboveTheSubmittingThread) {
+  const int own = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid()));
+  for (const int nice : {0, 7}) {
+    PlanningPool pool(/*threads=*/2, /*queue=*/4, nice);
+    std::atomic<int> seen[2] = {-100, -100};
+    for (int i = 0; i < 2; ++i) {
+      ASSERT_TRUE(pool.Submit(std::to_string(i),
+                              [&seen, i] {
+                                seen[i] = getpriority(PRIO_PROCESS, static_cast<id_t>(gettid()));
+                              })
+                      .ok());
+    }
+    while (pool.running() + pool.waiting() > 0 || seen[0] == -100 || seen[1] == -100) {
+      absl::SleepFor(absl::Milliseconds(1));
+    }
+    EXPECT_EQ(seen[0].load(), std::min(own + nice, 19)) << "nice " << nice;
+    EXPECT_EQ(seen[1].load(), std::min(own + nice, 19)) << "nice " << nice;
+  }
+  // The submitting thread keeps its own priority.
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(gettid())), own);
+  EXPECT_EQ(PlanningPool(1, 1, 40).nice(), 19);
+  EXPECT_EQ(PlanningPool(1, 1, -3).nice(), 0);
 }
 
 }  // namespace

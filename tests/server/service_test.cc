@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
 #include "api/geometry.h"
+#include "api/measurement.h"
 #include "api/spec.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -172,6 +173,58 @@ TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
   InProcessService uncached({.max_missions = 4, .max_cells_per_mission = 1600, .prior_cache = 0});
   EXPECT_EQ(CreateSmall(uncached.stub(), "c").trace(), a.trace());
   EXPECT_EQ(uncached.registry().PriorComputations(), 0);
+}
+
+// Missions over one site copy one starting map (the prior with the ground
+// under its building fused) instead of fusing it again, and the copy is the
+// map a mission fusing on its own gets, bit for bit. Another site, or other
+// GP parameters, is another starting map.
+TEST(ServiceTest, MissionsOverOneSiteShareTheirStartingMap) {
+  auto config = api::MissionSpecToConfig(SmallSpec());
+  ASSERT_TRUE(config.ok()) << config.status();
+  StartMapCache start_maps(/*capacity=*/4);
+  const SiteCaches caches{.start_maps = &start_maps};
+  auto a = Mission::Create("a", *config, caches);
+  auto b = Mission::Create("b", *config, caches);
+  auto alone = Mission::Create("alone", *config);
+  ASSERT_TRUE(a.ok() && b.ok() && alone.ok());
+  EXPECT_EQ(start_maps.computations(), 1);
+  const MissionState own = (*alone)->CaptureState();
+  // The building's footprint (2 x 4 m over 0.75 m cells) was fused.
+  ASSERT_GE(own.covered_cells.size(), 8u);
+  for (const auto* m : {&*a, &*b}) {
+    const MissionState copied = (*m)->CaptureState();
+    EXPECT_TRUE(copied.mean == own.mean);
+    EXPECT_TRUE(copied.covariance == own.covariance);
+    EXPECT_EQ(copied.covered_cells, own.covered_cells);
+  }
+  // A fused cell is near certain: its variance is below kNearCertainVariance
+  // while a free cell keeps a prior variance of about 0.2 or more.
+  const int covered = own.covered_cells.front();
+  EXPECT_LT(own.covariance(covered, covered), GpMap::kNearCertainVariance);
+  // A measurement changes only the mission it is for: the map it shared is
+  // copied first.
+  auto measurement = api::MeasurementFromProto(LabelMeasurement("missions/a", 3, 3, 10, 1.0, 1.0));
+  ASSERT_TRUE(measurement.ok()) << measurement.status();
+  ASSERT_TRUE((*a)->AddMeasurement(*measurement, "").ok());
+  EXPECT_LT((*a)->CaptureState().covariance.trace(), own.covariance.trace() - 1.0);
+  EXPECT_TRUE((*b)->CaptureState().covariance == own.covariance);
+  auto later = Mission::Create("c", *config, caches);
+  ASSERT_TRUE(later.ok());
+  EXPECT_TRUE((*later)->CaptureState().covariance == own.covariance);
+  const MissionConfig other_gp = [&] {
+    MissionConfig c = *config;
+    c.gp.prior_mean = 0.2;
+    return c;
+  }();
+  const MissionConfig other_site = [&] {
+    MissionConfig c = *config;
+    std::get<Box>(c.obstacles.front().shape).centre_W.x() += 3.0;
+    return c;
+  }();
+  ASSERT_TRUE(Mission::Create("e", other_gp, caches).ok());
+  ASSERT_TRUE(Mission::Create("f", other_site, caches).ok());
+  EXPECT_EQ(start_maps.computations(), 3);
 }
 
 TEST(ServiceTest, MeasurementsShrinkTheMapAndRequestIdsFuseOnce) {

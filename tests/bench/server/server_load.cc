@@ -54,6 +54,7 @@ ABSL_FLAG(std::string, pace, "real_time",
 ABSL_FLAG(int, generations, 45, "CMA-ES generations per plan");
 ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
 ABSL_FLAG(int, planning_queue, -1, "server planning queue (-1: 4 x missions)");
+ABSL_FLAG(int, planning_nice, 10, "oaipp-server --planning_nice");
 ABSL_FLAG(double, shed_above, 2.0,
           "server overload shedding (oaipp-server --shed_above); 0: every plan runs its whole "
           "search");
@@ -240,7 +241,8 @@ void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
                                    store);
   const int queue =
       absl::GetFlag(FLAGS_planning_queue) >= 0 ? absl::GetFlag(FLAGS_planning_queue) : 4 * missions;
-  server::PlanningPool planners(absl::GetFlag(FLAGS_planning_threads), queue);
+  server::PlanningPool planners(absl::GetFlag(FLAGS_planning_threads), queue,
+                                absl::GetFlag(FLAGS_planning_nice));
   server::MissionServiceImpl service(
       &registry, &planners, nullptr, nullptr,
       {.shed_above = alone ? 0.0 : absl::GetFlag(FLAGS_shed_above),
