@@ -44,7 +44,7 @@ void MirrorLowerToUpper(MatrixXd& m) {
 //   P_:J S^-1 P_J: = Bt Bt^T   and   W (z - mu_J) = Bt L^-1 (z - mu_J).
 // Returns false when S is not positive definite.
 struct UpdateFactors {
-  Eigen::LLT<MatrixXd> llt;
+  MatrixXd lower;  // L in the lower triangle (above it: unspecified)
   MatrixXd bt;
 };
 
@@ -54,15 +54,16 @@ bool Factor(const MatrixXd& p, std::span<const CellObservation> obs, UpdateFacto
   // P_:J is m contiguous columns of the column-major P.
   f.bt.resize(n, m);
   for (Index k = 0; k < m; ++k) f.bt.col(k) = p.col(obs[k].cell);
-  MatrixXd s(m, m);
+  f.lower.resize(m, m);
   for (Index b = 0; b < m; ++b) {
-    for (Index a = 0; a < m; ++a) s(a, b) = f.bt(obs[a].cell, b);
-    s(b, b) += obs[b].variance;
+    for (Index a = 0; a < m; ++a) f.lower(a, b) = f.bt(obs[a].cell, b);
+    f.lower(b, b) += obs[b].variance;
   }
-  f.llt.compute(s);
-  if (f.llt.info() != Eigen::Success) return false;
+  // On the dense backend: for a shot from 26 m (m = 1120) the factor is
+  // m^3 / 3 flops, a third of the update's time on Eigen's generic kernels.
+  if (!CholeskyLowerInPlace(f.lower)) return false;
   // Bt = P_:J L^-T: a right-side triangular solve with U = L^T.
-  SolveRightLowerTransposed(f.llt.matrixLLT(), f.bt);
+  SolveRightLowerTransposed(f.lower, f.bt);
   return true;
 }
 
@@ -282,7 +283,7 @@ absl::Status GpMap::Update(std::span<const CellObservation> observations) {
   for (std::size_t k = 0; k < merged.size(); ++k) {
     innovation[static_cast<Index>(k)] = merged[k].value - mean_[merged[k].cell];
   }
-  f.llt.matrixL().solveInPlace(innovation);
+  f.lower.triangularView<Eigen::Lower>().solveInPlace(innovation);
   mean_.noalias() += f.bt * innovation;
   SymmetricRankUpdate(-1.0, f.bt, covariance_);
   MirrorLowerToUpper(covariance_);
