@@ -30,6 +30,7 @@ using Dtrsm = void (*)(int order, int side, int uplo, int trans, int diag, int m
 // gfortran passes for a character argument.
 using Dpotrf = void (*)(const char* uplo, const int* n, double* a, const int* lda, int* info,
                         std::size_t uplo_length);
+using Dpotri = Dpotrf;  // the same arguments
 using SetThreads = void (*)(int);
 using CoreName = char* (*)();
 
@@ -37,6 +38,7 @@ struct OpenBlas {
   Dsyrk dsyrk = nullptr;
   Dtrsm dtrsm = nullptr;
   Dpotrf dpotrf = nullptr;
+  Dpotri dpotri = nullptr;
   std::string kernel;
 };
 
@@ -86,13 +88,15 @@ absl::Status UseOpenBlas() {
     blas->dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
     blas->dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
     blas->dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
+    blas->dpotri = reinterpret_cast<Dpotri>(dlsym(library, "dpotri_"));
     if (auto set_threads = reinterpret_cast<SetThreads>(dlsym(library, "openblas_set_num_threads"));
         set_threads != nullptr) {
       set_threads(1);
     }
     auto core_name = reinterpret_cast<CoreName>(dlsym(library, "openblas_get_corename"));
     blas->kernel = core_name != nullptr ? core_name() : "unknown";
-    if (blas->dsyrk == nullptr || blas->dtrsm == nullptr || blas->dpotrf == nullptr) {
+    if (blas->dsyrk == nullptr || blas->dtrsm == nullptr || blas->dpotrf == nullptr ||
+        blas->dpotri == nullptr) {
       return nullptr;
     }
     return blas;
@@ -107,6 +111,8 @@ absl::Status UseOpenBlas() {
 
 void UseEigen() { g_open_blas.store(nullptr); }
 
+bool DenseBackendIsOpenBlas() { return g_open_blas.load() != nullptr; }
+
 std::string DenseBackendName() {
   const OpenBlas* blas = g_open_blas.load();
   return blas == nullptr ? "eigen" : absl::StrCat("openblas (", blas->kernel, ")");
@@ -118,7 +124,8 @@ void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd
   const Eigen::Index m = b.cols();
   // CBLAS takes int sizes: a larger product stays on Eigen.
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || n > kMaxInt || m > kMaxInt || m == 0) {
+  if (n == 0 || m == 0) return;
+  if (blas == nullptr || n > kMaxInt || m > kMaxInt) {
     p.selfadjointView<Eigen::Lower>().rankUpdate(b, alpha);
     return;
   }
@@ -135,6 +142,18 @@ void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b)
     return;
   }
   blas->dtrsm(kColMajor, kRight, kLower, kTrans, kNonUnit, static_cast<int>(b.rows()),
+              static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
+              b.data(), static_cast<int>(b.outerStride()));
+}
+
+void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt || b.size() == 0) {
+    lower.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(b);
+    return;
+  }
+  blas->dtrsm(kColMajor, kRight, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
               static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
               b.data(), static_cast<int>(b.outerStride()));
 }
@@ -166,6 +185,26 @@ bool CholeskyLowerInPlace(Eigen::MatrixXd& s) {
   int info = 0;
   blas->dpotrf("L", &n, s.data(), &lda, &info, 1);
   return info == 0;
+}
+
+void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  const Eigen::Index m = lower.rows();
+  if (m == 0) return;
+  if (blas == nullptr || m > kMaxInt) {
+    // L^-1, then its lower triangle of L^-T L^-1.
+    Eigen::MatrixXd inv = Eigen::MatrixXd::Identity(m, m);
+    lower.triangularView<Eigen::Lower>().solveInPlace(inv);
+    Eigen::MatrixXd s = Eigen::MatrixXd::Zero(m, m);
+    s.selfadjointView<Eigen::Lower>().rankUpdate(inv.transpose());
+    lower.triangularView<Eigen::Lower>() = s;
+    return;
+  }
+  const int n = static_cast<int>(m);
+  const int lda = static_cast<int>(lower.outerStride());
+  int info = 0;
+  blas->dpotri("L", &n, lower.data(), &lda, &info, 1);
 }
 
 }  // namespace oaipp

@@ -47,6 +47,9 @@ void RestartWithOpenBlasKernels(char** argv);
 // Goes back to Eigen (tests compare the two).
 void UseEigen();
 
+// True while OpenBLAS is in use.
+[[nodiscard]] bool DenseBackendIsOpenBlas();
+
 // "eigen", or "openblas (<kernel>)".
 [[nodiscard]] std::string DenseBackendName();
 
@@ -59,6 +62,9 @@ void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd
 // Kalman gain's whitened columns P_:J L^-T.
 void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
 
+// b := b L^-1 for L as above (m x m), b n x m.
+void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
+
 // b := L^-1 b for L as above (m x m), b m x k: whitened rows L^-1 P_J:.
 void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
 
@@ -66,5 +72,11 @@ void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
 // lower triangle read), written over s's lower triangle; what lies above the
 // diagonal is unspecified afterwards. False when s is not positive definite.
 [[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXd& s);
+
+// The lower triangle of (L L^T)^-1 from the Cholesky factor L in the lower
+// triangle of `lower` (m x m, as CholeskyLowerInPlace leaves it), written
+// over it (LAPACK's potri); what lies above the diagonal is unspecified.
+// Precondition: L's diagonal is positive.
+void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower);
 
 }  // namespace oaipp

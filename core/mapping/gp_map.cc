@@ -81,6 +81,86 @@ absl::Status CheckSquare(const MatrixXd& covariance) {
   return absl::OkStatus();
 }
 
+// The Kalman update of a shot that sees most of the field (m >= n / 2
+// cells, e.g. from 26 m), block by block over the observed cells J and the
+// rest C (c = n - m cells), with S = P_JJ + R = L L^T:
+//   P_CC -= X X^T          with X = P_CJ L^-T        c^2 m / 2 + c m^2 / 2
+//   P_CJ := P_CJ S^-1 R = X L^-1 R                     c m^2 / 2
+//   P_JJ := P_JJ S^-1 R = R - R S^-1 R                 m^3 / 3 (potri)
+// (P_JJ S^-1 = (S - R) S^-1 = I - R S^-1). The whole-matrix form,
+// P -= Bt Bt^T with Bt = P_:J L^-T, costs n^2 m / 2 + n m^2 / 2: for m = 1120
+// of 1600 cells 2.4 G multiply-adds against 1.5 G here. R - R S^-1 R also
+// avoids the cancellation of P_JJ - P_JJ S^-1 P_JJ when R is small against
+// P_JJ. Writes the whole of p (both triangles), column by column.
+absl::Status UpdateMostCells(std::span<const CellObservation> obs, VectorXd& mean, MatrixXd& p) {
+  const Index n = p.rows();
+  const Index m = static_cast<Index>(obs.size());
+  std::vector<bool> observed(static_cast<std::size_t>(n), false);
+  for (const CellObservation& o : obs) observed[static_cast<std::size_t>(o.cell)] = true;
+  std::vector<int> rest;  // C
+  rest.reserve(static_cast<std::size_t>(n - m));
+  for (Index i = 0; i < n; ++i) {
+    if (!observed[static_cast<std::size_t>(i)]) rest.push_back(static_cast<int>(i));
+  }
+  const Index c = static_cast<Index>(rest.size());
+  MatrixXd lower(m, m);
+  MatrixXd x(c, m);
+  for (Index k = 0; k < m; ++k) {
+    const auto column = p.col(obs[k].cell);
+    for (Index a = 0; a < m; ++a) lower(a, k) = column[obs[a].cell];
+    lower(k, k) += obs[k].variance;
+    for (Index a = 0; a < c; ++a) x(a, k) = column[rest[a]];
+  }
+  if (!CholeskyLowerInPlace(lower)) return NotPositiveDefinite();
+  // Nothing fails from here on: the map changes only now.
+  SolveRightLowerTransposed(lower, x);  // X = P_CJ L^-T
+  // mu_C += P_CJ S^-1 (z - mu_J) = X L^-1 (z - mu_J);
+  // mu_J += P_JJ S^-1 (z - mu_J) = (z - mu_J) - R S^-1 (z - mu_J).
+  VectorXd innovation(m);
+  for (Index k = 0; k < m; ++k) innovation[k] = obs[k].value - mean[obs[k].cell];
+  VectorXd whitened = innovation;
+  lower.triangularView<Eigen::Lower>().solveInPlace(whitened);
+  VectorXd solved = whitened;
+  lower.triangularView<Eigen::Lower>().transpose().solveInPlace(solved);
+  const VectorXd mean_rest = x * whitened;
+  for (Index a = 0; a < c; ++a) mean[rest[a]] += mean_rest[a];
+  for (Index k = 0; k < m; ++k) {
+    mean[obs[k].cell] += innovation[k] - obs[k].variance * solved[k];
+  }
+  // P_CC - X X^T (lower triangle, then mirrored: c x c is small).
+  MatrixXd rest_block(c, c);
+  for (Index b = 0; b < c; ++b) {
+    const auto column = p.col(rest[b]);
+    for (Index a = b; a < c; ++a) rest_block(a, b) = column[rest[a]];
+  }
+  SymmetricRankUpdate(-1.0, x, rest_block);
+  rest_block.triangularView<Eigen::StrictlyUpper>() = rest_block.transpose();
+  // X L^-1 R, also transposed (m x c), so that both the columns of J and
+  // those of C read it in order.
+  SolveRightLower(lower, x);
+  for (Index k = 0; k < m; ++k) x.col(k) *= obs[k].variance;
+  const MatrixXd cross = x.transpose();
+  // R - R S^-1 R.
+  InverseFromCholeskyInPlace(lower);
+  MatrixXd seen(m, m);
+  for (Index b = 0; b < m; ++b) {
+    for (Index a = b; a < m; ++a) {
+      seen(a, b) = -obs[a].variance * lower(a, b) * obs[b].variance;
+      seen(b, a) = seen(a, b);
+    }
+    seen(b, b) += obs[b].variance;
+  }
+  // Each column of p from its two sources, by the rows of J and of C.
+  auto scatter = [&](Index j, const auto& from_j, const auto& from_c) {
+    double* column = p.col(j).data();
+    for (Index a = 0; a < m; ++a) column[obs[a].cell] = from_j[a];
+    for (Index a = 0; a < c; ++a) column[rest[a]] = from_c[a];
+  };
+  for (Index k = 0; k < m; ++k) scatter(obs[k].cell, seen.col(k), x.col(k));
+  for (Index b = 0; b < c; ++b) scatter(rest[b], cross.col(b), rest_block.col(b));
+  return absl::OkStatus();
+}
+
 // The lower triangle of (L L^T)^-1 = L^-T L^-1 from a lower Cholesky factor,
 // in about 2 n^3 / 3 flops by skipping the known zeros of L^-1 (LAPACK's
 // potri does the same; Eigen has no counterpart). `l` is overwritten.
@@ -275,6 +355,9 @@ absl::Status GpMap::Update(std::span<const CellObservation> observations) {
   OAIPP_ASSIGN_OR_RETURN(std::vector<CellObservation> merged,
                          MergeObservations(observations, num_cells()));
   if (merged.empty()) return absl::OkStatus();
+  if (DenseBackendIsOpenBlas() && 2 * merged.size() >= static_cast<std::size_t>(num_cells())) {
+    return UpdateMostCells(merged, mean_, covariance_);
+  }
   UpdateFactors f;
   if (!Factor(covariance_, merged, f)) return NotPositiveDefinite();
   // Nothing fails from here on: the map changes only now.
