@@ -129,17 +129,8 @@ ScoredPath PathScorer::Score(const std::vector<Vec3>& waypoints_W) const {
   }
   out.information = evaluator_.Evaluate(observations);
 
-  // C_coll (Eq. 3): samples closer than r / 2 by the ESDF, or outside the
-  // flight volume.
-  const Environment& env = *mission_.environment;
-  const double dt = 1.0 / limits_.collision_sample_rate_hz;
-  const int samples = static_cast<int>(std::floor(traj->Duration() / dt)) + 1;
-  for (int i = 0; i <= samples; ++i) {
-    const Vec3 p = traj->Position(std::min(i * dt, traj->Duration()));
-    if (!env.flight_volume().Contains(p) || env.InCollision(p, limits_.uav_radius_m)) {
-      ++out.collision_samples;
-    }
-  }
+  // C_coll (Eq. 3), on the ESDF: every candidate pays it.
+  out.collision_samples = CollisionSamples(*traj, /*exact=*/false);
   const double t_flight = std::max(traj->Duration(), weights_.min_flight_time_s);
   out.score = (weights_.k1 * out.information - weights_.k2 * out.collision_samples) / t_flight;
   out.next_shot_mission_s = shots->next_shot_mission_s;
@@ -177,8 +168,30 @@ absl::Status PathScorer::CheckExact(const PolynomialTrajectory& trajectory) cons
   return CheckTrajectoryExact(*mission_.environment, trajectory, limits_);
 }
 
+int PathScorer::CollisionSamples(const PolynomialTrajectory& trajectory, bool exact) const {
+  const Environment& env = *mission_.environment;
+  const double dt = 1.0 / limits_.collision_sample_rate_hz;
+  const double r = limits_.uav_radius_m;
+  const int samples = static_cast<int>(std::floor(trajectory.Duration() / dt)) + 1;
+  int count = 0;
+  for (int i = 0; i <= samples; ++i) {
+    const Vec3 p = trajectory.Position(std::min(i * dt, trajectory.Duration()));
+    const bool near =
+        exact ? env.SignedDistance(p) < 0.5 * r : env.InCollision(p, limits_.uav_radius_m);
+    if (!env.flight_volume().Contains(p) || near) ++count;
+  }
+  return count;
+}
+
 PlannedPath PathScorer::Finish(ScoredPath scored, const std::vector<Vec3>& waypoints_W,
                                PlannerStats stats) const {
+  // One collision model for a returned path: the exact one its verdict used.
+  const int exact = CollisionSamples(*scored.trajectory, /*exact=*/true);
+  if (exact != scored.collision_samples) {
+    const double t_flight = std::max(scored.trajectory->Duration(), weights_.min_flight_time_s);
+    scored.collision_samples = exact;
+    scored.score = (weights_.k1 * scored.information - weights_.k2 * exact) / t_flight;
+  }
   std::vector<Vec3> control{state_.position_W};
   control.insert(control.end(), waypoints_W.begin(), waypoints_W.end());
   return PlannedPath{.trajectory = std::move(*scored.trajectory),

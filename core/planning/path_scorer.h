@@ -98,7 +98,11 @@ class PathScorer {
   // FailedPrecondition saying where.
   [[nodiscard]] absl::Status CheckExact(const PolynomialTrajectory& trajectory) const;
 
-  // Assembles the returned path (after CheckExact passed).
+  // Assembles the returned path (after CheckExact passed). Its C_coll is
+  // counted again at the same samples with the exact distance instead of
+  // the ESDF's estimate, and the objective with it, so that a returned path
+  // reports the collision cost of the geometry its verdict came from (the
+  // ESDF may underestimate a clearance by up to half a voxel diagonal).
   [[nodiscard]] PlannedPath Finish(ScoredPath scored, const std::vector<Vec3>& waypoints_W,
                                    PlannerStats stats) const;
 
@@ -115,6 +119,12 @@ class PathScorer {
   }
 
  private:
+  // C_coll of `trajectory` (docs/method.md §6.2): samples every
+  // 1 / collision_sample_rate_hz outside the flight volume or closer than
+  // r_uav / 2 to an obstacle, by the ESDF or (exact) by the obstacles' own
+  // geometry.
+  [[nodiscard]] int CollisionSamples(const PolynomialTrajectory& trajectory, bool exact) const;
+
   PathScorer(const PlanningContext& mission, const UavState& state, const PlannerLimits& limits,
              const InformationParams& information, const ScoreWeights& weights);
 

@@ -104,7 +104,7 @@ struct PlannedPath {
   std::vector<MeasurementPose> measurement_poses = {};
   double objective = 0.0;            // (k1 O_info - k2 C_coll) / t_flight
   double information = 0.0;          // O_info
-  int collision_samples = 0;         // C_coll: ESDF samples closer than r / 2
+  int collision_samples = 0;         // C_coll by the exact distance (PathScorer::Finish)
   bool collision_free = false;       // the exact check; always true for a returned path
   double next_shot_mission_s = 0.0;  // sensor phase after the path
   PlannerStats stats = {};

@@ -113,6 +113,17 @@ bool StraightStopIsSafe(const Aabb& volume, const std::vector<Obstacle>& obstacl
   return ::testing::AssertionSuccess();
 }
 
+// Samples every 1/20 s (and the end) where the ESDF puts the UAV closer
+// than r / 2 to an obstacle: what the search's penalty counts.
+int EsdfCollisionSamples(const Environment& env, const PolynomialTrajectory& traj) {
+  int count = 0;
+  const int samples = static_cast<int>(std::floor(traj.Duration() * 20.0)) + 1;
+  for (int i = 0; i <= samples; ++i) {
+    count += env.InCollision(traj.Position(std::min(i / 20.0, traj.Duration())), kUavRadius_m);
+  }
+  return count;
+}
+
 // A world of 6 to 12 rotated boxes and cylinders, 4 to 26 m tall, in the
 // 30 x 30 x [2, 26] m volume.
 std::vector<Obstacle> RandomObstacles(std::mt19937_64& rng) {
@@ -250,6 +261,7 @@ TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
                                PlannerKind::kOaIpp};
 
   int states = 0, admissible = 0, answered = 0, stopped_first = 0, answered_beyond = 0;
+  int esdf_would_count = 0;  // returned paths the ESDF alone would penalise
   std::map<std::string, int> refusals;
   for (int w = 0; w < kWorlds; ++w) {
     const std::vector<Obstacle> obstacles = RandomObstacles(rng);
@@ -273,6 +285,17 @@ TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
       if (path.ok()) {
         EXPECT_TRUE(IndependentlySafe(*path, volume, obstacles, *s))
             << PlannerKindName(planner_kind) << ", world " << w << ", state " << i;
+        // One collision model: a path the exact check passed reports no
+        // colliding samples, and its objective carries no penalty, even
+        // where the ESDF's estimate alone would have counted some.
+        EXPECT_EQ(path->collision_samples, 0)
+            << PlannerKindName(planner_kind) << ", world " << w << ", state " << i;
+        if (path->stats.stop_first_s == 0) {
+          const double t_flight = std::max(path->trajectory.Duration(), 0.5);
+          EXPECT_NEAR(path->objective, path->information / t_flight,
+                      1e-9 * std::abs(path->objective) + 1e-12);
+        }
+        esdf_would_count += EsdfCollisionSamples(*env, path->trajectory) > 0;
         answered += can_stop;
         answered_beyond += !can_stop;
         stopped_first += path->stats.stop_first_s > 0;
@@ -289,8 +312,8 @@ TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
   }
   std::printf(
       "%d states, %d admit a straight stop, %d of those answered (%d stopped first); "
-      "%d answered without one\n",
-      states, admissible, answered, stopped_first, answered_beyond);
+      "%d answered without one; %d returned paths have ESDF samples closer than r / 2\n",
+      states, admissible, answered, stopped_first, answered_beyond, esdf_would_count);
   EXPECT_EQ(states, kWorlds * kStatesPerWorld);
   EXPECT_GE(admissible, states / 2) << "the draw should mostly give states that can stop";
   if (kAssertRate) {
