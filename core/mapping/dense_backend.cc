@@ -135,9 +135,10 @@ void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd
 }
 
 void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+  if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
   const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt || b.size() == 0) {
+  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(b);
     return;
   }
@@ -147,9 +148,10 @@ void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b)
 }
 
 void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+  if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
   const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt || b.size() == 0) {
+  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(b);
     return;
   }
@@ -159,9 +161,10 @@ void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
 }
 
 void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+  if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
   const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt || b.size() == 0) {
+  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.triangularView<Eigen::Lower>().solveInPlace(b);
     return;
   }
