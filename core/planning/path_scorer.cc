@@ -131,8 +131,7 @@ ScoredPath PathScorer::Score(const std::vector<Vec3>& waypoints_W) const {
 
   // C_coll (Eq. 3), on the ESDF: every candidate pays it.
   out.collision_samples = CollisionSamples(*traj, /*exact=*/false);
-  const double t_flight = std::max(traj->Duration(), weights_.min_flight_time_s);
-  out.score = (weights_.k1 * out.information - weights_.k2 * out.collision_samples) / t_flight;
+  out.score = Objective(out.information, out.collision_samples, traj->Duration());
   out.next_shot_mission_s = shots->next_shot_mission_s;
   out.trajectory = std::move(traj).value();
   return out;
@@ -168,6 +167,11 @@ absl::Status PathScorer::CheckExact(const PolynomialTrajectory& trajectory) cons
   return CheckTrajectoryExact(*mission_.environment, trajectory, limits_);
 }
 
+double PathScorer::Objective(double information, int collision_samples, double duration_s) const {
+  const double t_flight = std::max(duration_s, weights_.min_flight_time_s);
+  return (weights_.k1 * information - weights_.k2 * collision_samples) / t_flight;
+}
+
 int PathScorer::CollisionSamples(const PolynomialTrajectory& trajectory, bool exact) const {
   const Environment& env = *mission_.environment;
   const double dt = 1.0 / limits_.collision_sample_rate_hz;
@@ -177,7 +181,7 @@ int PathScorer::CollisionSamples(const PolynomialTrajectory& trajectory, bool ex
   for (int i = 0; i <= samples; ++i) {
     const Vec3 p = trajectory.Position(std::min(i * dt, trajectory.Duration()));
     const bool near =
-        exact ? env.SignedDistance(p) < 0.5 * r : env.InCollision(p, limits_.uav_radius_m);
+        exact ? env.SignedDistance(p) < 0.5 * r : env.InCollision(p, r);
     if (!env.flight_volume().Contains(p) || near) ++count;
   }
   return count;
@@ -188,9 +192,8 @@ PlannedPath PathScorer::Finish(ScoredPath scored, const std::vector<Vec3>& waypo
   // One collision model for a returned path: the exact one its verdict used.
   const int exact = CollisionSamples(*scored.trajectory, /*exact=*/true);
   if (exact != scored.collision_samples) {
-    const double t_flight = std::max(scored.trajectory->Duration(), weights_.min_flight_time_s);
     scored.collision_samples = exact;
-    scored.score = (weights_.k1 * scored.information - weights_.k2 * exact) / t_flight;
+    scored.score = Objective(scored.information, exact, scored.trajectory->Duration());
   }
   std::vector<Vec3> control{state_.position_W};
   control.insert(control.end(), waypoints_W.begin(), waypoints_W.end());

@@ -119,6 +119,9 @@ class PathScorer {
   }
 
  private:
+  // (k1 O_info - k2 C_coll) / t_flight, t_flight floored at min_flight_time_s.
+  [[nodiscard]] double Objective(double information, int collision_samples,
+                                 double duration_s) const;
   // C_coll of `trajectory` (docs/method.md §6.2): samples every
   // 1 / collision_sample_rate_hz outside the flight volume or closer than
   // r_uav / 2 to an obstacle, by the ESDF or (exact) by the obstacles' own
