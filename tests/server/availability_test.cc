@@ -28,7 +28,7 @@ namespace {
 using testing::CreateEndless;
 using testing::Eventually;
 
-int FreePort() { return 20000 + static_cast<int>(std::random_device{}() % 20000); }
+using testing::FreePort;
 
 bool Serving(const std::shared_ptr<grpc::Channel>& channel) {
   auto health = grpc::health::v1::Health::NewStub(channel);
@@ -289,7 +289,7 @@ TEST(ReflectionTest, OnByDefaultAndOffByFlag) {
     ASSERT_TRUE(answer.ok()) << answer.status();
     EXPECT_NE(answer->find("oaipp.v1.MissionService"), std::string::npos);
   }
-  testing::ServerProcess server(port + 1, {"--store=memory", "--reflection=false"});
+  testing::ServerProcess server(FreePort(), {"--store=memory", "--reflection=false"});
   ASSERT_TRUE(server.Start());
   const absl::StatusOr<std::string> answer =
       ListServicesByReflection(testing::QuickReconnectChannel(server.address()));

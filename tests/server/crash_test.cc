@@ -104,7 +104,7 @@ INSTANTIATE_TEST_SUITE_P(Stores, CrashTest, ::testing::Values("sqlite", "postgre
 
 TEST_P(CrashTest, KilledServerLosesNothingAcknowledgedAndAppliesNothingTwice) {
   std::mt19937 rng(20261123);
-  const int port = 20000 + static_cast<int>(std::random_device{}() % 20000);
+  const int port = testing::FreePort();
   // Snapshots every 4 measurements, so that kills also land while one is
   // written and recovery starts from them.
   // On Eigen, as the in-process twin below: the maps are compared to 1e-12

@@ -34,6 +34,8 @@
 #include <system_error>
 #include <vector>
 
+#include "tests/server/free_port.h"
+
 namespace oaipp::testing {
 
 class PostgresInstance {
@@ -159,20 +161,11 @@ class PostgresInstance {
     return initialized_;
   }
 
-  // A port the kernel says is free on 127.0.0.1 now.
+  // A port free on 127.0.0.1 now, below the ephemeral range so that a
+  // restart finds it still free.
   bool PickPort() {
-    const int fd = socket(AF_INET, SOCK_STREAM, 0);
-    if (fd < 0) return false;
-    sockaddr_in address{};
-    address.sin_family = AF_INET;
-    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    address.sin_port = 0;
-    socklen_t size = sizeof(address);
-    const bool ok = bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof(address)) == 0 &&
-                    getsockname(fd, reinterpret_cast<sockaddr*>(&address), &size) == 0;
-    close(fd);
-    if (ok) port_ = ntohs(address.sin_port);
-    return ok;
+    port_ = server::testing::FreePort();
+    return port_ != 0;
   }
 
   // Settings appended to postgresql.conf (a later line wins, so a new port

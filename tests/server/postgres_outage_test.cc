@@ -5,7 +5,6 @@
 // retried write is applied once, and a restarted server finds it all.
 #include <chrono>
 #include <cstdlib>
-#include <random>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
@@ -72,7 +71,7 @@ v1::Mission Get(v1::MissionService::Stub& stub) {
 }
 
 TEST_F(PostgresOutageTest, WritesFailCleanlyWhileItIsDownAndResumeAfter) {
-  const int port = 20000 + static_cast<int>(std::random_device{}() % 20000);
+  const int port = testing::FreePort();
   testing::ServerProcess server(port, {absl::StrCat("--store=", postgres_.uri())});
   ASSERT_TRUE(server.Start());
   auto channel = testing::QuickReconnectChannel(server.address());

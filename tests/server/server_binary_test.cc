@@ -1,6 +1,5 @@
 // The real oaipp-server binary on loopback: start, health SERVING,
 // create / measure / plan / delete, SIGTERM, clean exit.
-#include <random>
 #include <thread>
 
 #include "grpc/health/v1/health.grpc.pb.h"
@@ -13,11 +12,9 @@ namespace oaipp::server {
 namespace {
 
 TEST(ServerBinaryTest, ServesAndStopsCleanlyOnSigterm) {
-  // A port unlikely to be taken; the server refuses to start otherwise and
-  // the health check below fails loudly. The store in memory: this test is
-  // about serving and stopping; the durable store has its own (crash_test).
-  std::mt19937 rng(static_cast<unsigned>(getpid()));
-  testing::ServerProcess server(20000 + static_cast<int>(rng() % 20000), {"--store=memory"});
+  // The store in memory: this test is about serving and stopping; the
+  // durable store has its own (crash_test).
+  testing::ServerProcess server(testing::FreePort(), {"--store=memory"});
   ASSERT_TRUE(server.Start()) << "oaipp-server did not start on " << server.address();
   auto channel = testing::QuickReconnectChannel(server.address());
   auto health = grpc::health::v1::Health::NewStub(channel);

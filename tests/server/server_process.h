@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "grpcpp/grpcpp.h"
+#include "tests/server/free_port.h"
 
 namespace oaipp::server::testing {
 
@@ -102,24 +103,6 @@ class ServerProcess : public ChildProcess {
     return args;
   }
 };
-
-// A port the kernel says is free on 127.0.0.1 now (0 when none could be
-// had).
-inline int FreePort() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return 0;
-  sockaddr_in sa{};
-  sa.sin_family = AF_INET;
-  sa.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t length = sizeof(sa);
-  int port = 0;
-  if (bind(fd, reinterpret_cast<sockaddr*>(&sa), sizeof(sa)) == 0 &&
-      getsockname(fd, reinterpret_cast<sockaddr*>(&sa), &length) == 0) {
-    port = ntohs(sa.sin_port);
-  }
-  close(fd);
-  return port;
-}
 
 // A channel that reconnects quickly after the server comes back.
 inline std::shared_ptr<grpc::Channel> QuickReconnectChannel(const std::string& address) {

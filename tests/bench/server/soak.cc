@@ -483,7 +483,7 @@ int main(int argc, char** argv) {
   std::ofstream(dir / "tokens") << "good " << oaipp::server::Authenticator::HashToken(kGoodToken)
                                 << "\nrogue "
                                 << oaipp::server::Authenticator::HashToken(kRogueToken) << "\n";
-  const int port = 20000 + static_cast<int>(std::random_device{}() % 20000);
+  const int port = oaipp::server::testing::FreePort();
   const std::vector<std::string> flags = {"--store=sqlite",
                                           "--data_dir=" + (dir / "data").string(),
                                           "--token_file=" + (dir / "tokens").string(),
