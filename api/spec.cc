@@ -149,6 +149,10 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   common.information.h_opt_m = OrDefault(p.has_h_opt_m(), p.h_opt_m(), info.h_opt_m);
   common.information.sigma1_m = OrDefault(p.has_sigma1_m(), p.sigma1_m(), info.sigma1_m);
   common.information.h_sat_m = OrDefault(p.has_h_sat_m(), p.h_sat_m(), info.h_sat_m);
+  common.information.confirmation_weight =
+      OrDefault(p.has_confirmation_weight(), p.confirmation_weight(), info.confirmation_weight);
+  common.information.decision_threshold =
+      OrDefault(p.has_decision_threshold(), p.decision_threshold(), info.decision_threshold);
   c.planner.oaipp.num_waypoints =
       OrDefault(p.has_num_waypoints(), p.num_waypoints(), oaipp.num_waypoints);
   c.planner.oaipp.population = OrDefault(p.has_population(), p.population(), oaipp.population);
@@ -168,6 +172,14 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   OAIPP_RETURN_IF_ERROR(CheckFinite("spec.planner.h_opt_m", common.information.h_opt_m));
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.sigma1_m", common.information.sigma1_m));
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.h_sat_m", common.information.h_sat_m));
+  OAIPP_RETURN_IF_ERROR(
+      CheckNonNegative("spec.planner.confirmation_weight", common.information.confirmation_weight));
+  if (!(common.information.decision_threshold > 0.0 &&
+        common.information.decision_threshold < 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.planner.decision_threshold: must lie in (0, 1), got ",
+                     common.information.decision_threshold));
+  }
   OAIPP_RETURN_IF_ERROR(
       CheckPositive("spec.planner.lawnmower_altitude_m", c.planner.lawnmower.altitude_m));
   OAIPP_RETURN_IF_ERROR(CheckIntRange("spec.planner.lawnmower_start_corner",
@@ -335,6 +347,8 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   p.set_h_opt_m(common.information.h_opt_m);
   p.set_sigma1_m(common.information.sigma1_m);
   p.set_h_sat_m(common.information.h_sat_m);
+  p.set_confirmation_weight(common.information.confirmation_weight);
+  p.set_decision_threshold(common.information.decision_threshold);
   p.set_lawnmower_altitude_m(c.planner.lawnmower.altitude_m);
   p.set_lawnmower_start_corner(c.planner.lawnmower.start_corner);
 

@@ -12,6 +12,8 @@ packages=(
   libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-imgcodecs-dev
   libopencv-videoio-dev
   libpagmo-dev libboost-serialization-dev libtbb-dev
+  # Owen's T function for the confirmation objective (Boost.Math, headers only)
+  libboost-dev
   libabsl-dev
   # service: gRPC + protobuf (plugin and library must come together), logs, metrics, JSON
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler

@@ -5,6 +5,7 @@
 
 #include "Eigen/Cholesky"
 #include "absl/strings/str_cat.h"
+#include "boost/math/special_functions/owens_t.hpp"
 #include "core/common/geometry.h"
 #include "core/mapping/dense_backend.h"
 
@@ -79,7 +80,36 @@ absl::Status InformationParams::Validate() const {
   }
   if (auto s = CheckFinite("h_opt_m", h_opt_m); !s.ok()) return s;
   if (auto s = CheckPositive("sigma1_m", sigma1_m); !s.ok()) return s;
-  return CheckPositive("h_sat_m", h_sat_m);
+  if (auto s = CheckPositive("h_sat_m", h_sat_m); !s.ok()) return s;
+  if (!(confirmation_weight >= 0.0) || !std::isfinite(confirmation_weight)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("confirmation_weight: must be >= 0 and finite, got ", confirmation_weight));
+  }
+  if (!(decision_threshold > 0.0 && decision_threshold < 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("decision_threshold: must lie in (0, 1), got ", decision_threshold));
+  }
+  if (confirmation_weight > 0.0 && kind != ObjectiveKind::kAdaptive) {
+    return absl::InvalidArgumentError(
+        "confirmation_weight: applies to the adaptive objective only, must be 0 for the "
+        "trace-reduction objective");
+  }
+  return absl::OkStatus();
+}
+
+double MisclassificationReduction(double mean, double variance, double noise_variance,
+                                  double threshold) {
+  if (!(variance > 0.0)) return 0.0;
+  const double sigma = std::sqrt(variance);
+  const double h = (threshold - mean) / sigma;
+  // M_before = Phi(-|h|); the true value X ~ N(mean, variance) and the
+  // posterior mean after the observation are jointly normal with correlation
+  // rho = sigma / sqrt(variance + r), and P(they straddle the threshold)
+  // reduces to 2 T(h, sqrt(1 - rho^2) / rho) = 2 T(h, sqrt(r) / sigma).
+  const double before = 0.5 * std::erfc(std::abs(h) / std::sqrt(2.0));
+  const double after =
+      2.0 * boost::math::owens_t(h, std::sqrt(std::max(noise_variance, 0.0)) / sigma);
+  return std::max(before - after, 0.0);
 }
 
 double InformationParams::AltitudeReward(double altitude_m) const {
@@ -145,9 +175,7 @@ double InformationEvaluator::PoseValue(const PoseObservation& pose,
   const double reward = pose.scored ? params_.AltitudeReward(pose.altitude_m) : 0.0;
   if (reward <= 0.0) return 0.0;
   double av = 0.0;
-  for (int c : pose.cells) {
-    av += mean_[c] + params_.kappa * std::sqrt(std::max(variances[c], 0.0));
-  }
+  for (int c : pose.cells) av += params_.CellValue(mean_[c], variances[c], pose.variance);
   return av * reward;
 }
 
@@ -174,7 +202,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
       }
       double av = 0.0;
       for (Eigen::Index j = 0; j < m; ++j) {
-        av += mean_[pose.cells[j]] + params_.kappa * std::sqrt(std::max(var[j], 0.0));
+        av += params_.CellValue(mean_[pose.cells[j]], var[j], pose.variance);
       }
       total += av * reward;
     }
@@ -234,7 +262,7 @@ double ReferenceInformation(const Eigen::VectorXd& mean, const Eigen::MatrixXd& 
     if (params.kind == ObjectiveKind::kAdaptive && pose.scored) {
       const double reward = params.AltitudeReward(pose.altitude_m);
       double av = 0.0;
-      for (int c : pose.cells) av += mean[c] + params.kappa * std::sqrt(std::max(p(c, c), 0.0));
+      for (int c : pose.cells) av += params.CellValue(mean[c], p(c, c), pose.variance);
       total += av * reward;
     }
     if (m == 0) continue;

@@ -7,6 +7,18 @@
 //    where sigma_i is the predicted standard deviation after fusing poses
 //    1 .. i-1, weighted by the altitude reward N(h_i; h_opt, sigma1);
 //  - non-adaptive (Eq. 8): Tr(P) before minus Tr(P) after fusing every pose.
+// The adaptive form takes an optional confirmation term (docs/method.md,
+// "Confirmation"): with weight lambda > 0 each cell of pose i also earns
+//   lambda * (M_before(x) - E[M_after(x)]),
+// the expected reduction of the probability that the map misclassifies x
+// against the decision threshold theta, for a Gaussian belief N(mu, sigma_i^2)
+// observed once with the pose's noise variance r:
+//   M_before = Phi(-|theta - mu| / sigma_i),
+//   E[M_after] = 2 T((theta - mu) / sigma_i, sqrt(r) / sigma_i)
+// (T: Owen's T function; the probability that the true value and the
+// posterior mean lie on different sides of theta). It is largest on cells
+// whose mean sits near theta (a person seen once and missed once) and
+// shrinks with r, so low, accurate shots earn more of it.
 //
 // Neither needs the n x n covariance to be copied or updated. Fusing
 // observations of the cells K with noise R changes the covariance by
@@ -26,6 +38,8 @@
 //   double r = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <span>
 #include <vector>
 
@@ -45,12 +59,41 @@ struct InformationParams {
   double sigma1_m = 7.0;
   // Poses at or above h_sat earn nothing (Eq. 9), metres.
   double h_sat_m = 26.0;
+  // Weight lambda of the confirmation term (adaptive objective only). 0 (the
+  // default) is the paper's objective, unchanged. Valid: >= 0, finite.
+  double confirmation_weight = 0.0;
+  // theta: a cell counts as a target where its mean exceeds it. Valid: in
+  // (0, 1).
+  double decision_threshold = 0.5;
 
   // InvalidArgument naming the first bad field.
   [[nodiscard]] absl::Status Validate() const;
   // N(h; h_opt, sigma1), or 0 at and above h_sat.
   [[nodiscard]] double AltitudeReward(double altitude_m) const;
+  // What one cell with map mean `mean` and predicted variance `variance`
+  // earns in a pose observed with noise variance `noise_variance` (before
+  // the altitude reward): mu + kappa sigma, plus the confirmation term when
+  // its weight is positive.
+  [[nodiscard]] double CellValue(double mean, double variance, double noise_variance) const;
 };
+
+// Expected reduction of the misclassification probability of a cell with
+// belief N(mean, variance) against `threshold` from one observation with
+// noise variance `noise_variance` >= 0 (the confirmation term above,
+// unweighted; a noiseless observation removes all of M_before). 0 for a
+// cell whose variance is not positive: it has nothing left to learn.
+[[nodiscard]] double MisclassificationReduction(double mean, double variance, double noise_variance,
+                                                double threshold);
+
+inline double InformationParams::CellValue(double mean, double variance,
+                                           double noise_variance) const {
+  double value = mean + kappa * std::sqrt(std::max(variance, 0.0));
+  if (confirmation_weight > 0.0) {
+    value += confirmation_weight *
+             MisclassificationReduction(mean, variance, noise_variance, decision_threshold);
+  }
+  return value;
+}
 
 // One measurement: the visible ground cells it observes (distinct indices),
 // the observation noise variance var(h) and the camera altitude.

@@ -87,6 +87,8 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
   EXPECT_EQ(a.information.h_opt_m, b.information.h_opt_m) << what;
   EXPECT_EQ(a.information.sigma1_m, b.information.sigma1_m) << what;
   EXPECT_EQ(a.information.h_sat_m, b.information.h_sat_m) << what;
+  EXPECT_EQ(a.information.confirmation_weight, b.information.confirmation_weight) << what;
+  EXPECT_EQ(a.information.decision_threshold, b.information.decision_threshold) << what;
   EXPECT_EQ(a.weights.k1, b.weights.k1) << what;
   EXPECT_EQ(a.weights.k2, b.weights.k2) << what;
   EXPECT_EQ(a.weights.min_flight_time_s, b.weights.min_flight_time_s) << what;
@@ -192,6 +194,8 @@ TEST(MissionSpecTest, DefaultSpecTakesTheProtoDocumentedDefaults) {
   EXPECT_EQ(c->planner.common.information.h_opt_m, 10);
   EXPECT_EQ(c->planner.common.information.sigma1_m, 7);
   EXPECT_EQ(c->planner.common.information.h_sat_m, 26);
+  EXPECT_EQ(c->planner.common.information.confirmation_weight, 0);  // the paper's objective
+  EXPECT_EQ(c->planner.common.information.decision_threshold, 0.5);
   EXPECT_EQ(c->planner.lawnmower.altitude_m, 10);
   EXPECT_EQ(c->planner.lawnmower.start_corner, -1);
   EXPECT_TRUE(c->obstacles.empty());
@@ -250,6 +254,7 @@ TEST(MissionSpecTest, FullyCustomSpecConvertsEveryFieldAndRoundTrips) {
   EXPECT_EQ(c->planner.common.information.h_opt_m, 12);
   EXPECT_EQ(c->planner.common.information.sigma1_m, 5);
   EXPECT_EQ(c->planner.common.information.h_sat_m, 28);
+  EXPECT_EQ(c->planner.common.information.decision_threshold, 0.4);
   EXPECT_EQ(c->planner.lawnmower.altitude_m, 14);
   ASSERT_EQ(c->obstacles.size(), 2u);
   EXPECT_EQ(c->obstacles[0].id, "tower");
@@ -644,6 +649,20 @@ std::vector<BadCase> BadCases() {
       {"negative kappa",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_kappa(-0.5); }); }, kInvalid,
        "spec.planner.kappa: "},
+      {"negative confirmation weight",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_confirmation_weight(-1); }); },
+       kInvalid, "spec.planner.confirmation_weight: "},
+      {"confirmation with the trace objective",
+       [] {
+         return SpecWith([](auto& s) {
+           s.mutable_planner()->set_kind(v1::PLANNER_KIND_OAIPP_NONADAPTIVE);
+           s.mutable_planner()->set_confirmation_weight(2);
+         });
+       },
+       kInvalid, "spec.planner.confirmation_weight: "},
+      {"decision threshold 1",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_decision_threshold(1); }); },
+       kInvalid, "spec.planner.decision_threshold: "},
       {"zero sigma1",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_sigma1_m(0); }); }, kInvalid,
        "spec.planner.sigma1_m: "},

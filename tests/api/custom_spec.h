@@ -49,6 +49,8 @@ inline v1::MissionSpec CustomSpec() {
   p.set_population(20);
   p.set_generations(10);
   p.set_kappa(2);
+  p.set_confirmation_weight(0);  // the only value the trace objective takes
+  p.set_decision_threshold(0.4);
   p.set_h_opt_m(12);
   p.set_sigma1_m(5);
   p.set_h_sat_m(28);

@@ -1,6 +1,9 @@
 #include "core/planning/information.h"
 
+#include <algorithm>
+#include <cmath>
 #include <random>
+#include <string>
 
 #include "core/mapping/camera.h"
 #include "core/mapping/gp_map.h"
@@ -189,6 +192,108 @@ TEST(InformationTest, ParamsValidateNamesTheField) {
   EXPECT_FALSE(InformationParams{.kappa = -1}.Validate().ok());
   EXPECT_FALSE(InformationParams{.sigma1_m = 0}.Validate().ok());
   EXPECT_TRUE(InformationParams{}.Validate().ok());
+  const auto message = [](const InformationParams& p) {
+    return std::string(p.Validate().message());
+  };
+  EXPECT_NE(message({.confirmation_weight = -0.5}).find("confirmation_weight"), std::string::npos);
+  EXPECT_NE(message({.confirmation_weight = INFINITY}).find("confirmation_weight"),
+            std::string::npos);
+  EXPECT_NE(message({.decision_threshold = 0.0}).find("decision_threshold"), std::string::npos);
+  EXPECT_NE(message({.decision_threshold = 1.0}).find("decision_threshold"), std::string::npos);
+  EXPECT_NE(message({.kind = ObjectiveKind::kNonAdaptive, .confirmation_weight = 1.0})
+                .find("confirmation_weight"),
+            std::string::npos);
+  EXPECT_TRUE(
+      (InformationParams{.confirmation_weight = 2.0, .decision_threshold = 0.3}).Validate().ok());
+}
+
+// The expected misclassification after one observation, integrated directly
+// over the measurement y ~ N(mu, v + r): the posterior mean and standard
+// deviation follow from the scalar Kalman update, and the posterior
+// misclassifies with probability Phi(-|mu' - theta| / sigma'). Simpson's rule
+// over +-12 standard deviations, split where mu' = theta (the integrand's
+// kink); no Owen's T involved.
+double ExpectedMisclassificationAfter(double mu, double v, double r, double theta) {
+  const double sy = std::sqrt(v + r);
+  const double gain = v / (v + r);
+  const double sigma_post = std::sqrt(v * r / (v + r));
+  const auto integrand = [&](double y) {
+    const double density = std::exp(-0.5 * std::pow((y - mu) / sy, 2)) / (sy * std::sqrt(2 * kPi));
+    const double mu_post = mu + gain * (y - mu);
+    return density * 0.5 * std::erfc(std::abs(mu_post - theta) / sigma_post / std::sqrt(2.0));
+  };
+  const auto simpson = [&](double a, double b) {
+    const int n = 20000;  // even
+    const double step = (b - a) / n;
+    double sum = 0.0;
+    for (int i = 0; i <= n; ++i) {
+      sum += (i == 0 || i == n ? 1 : (i % 2 == 1 ? 4 : 2)) * integrand(a + i * step);
+    }
+    return sum * step / 3.0;
+  };
+  const double lo = mu - 12 * sy, hi = mu + 12 * sy;
+  const double kink = std::clamp(mu + (theta - mu) / gain, lo, hi);
+  return simpson(lo, kink) + simpson(kink, hi);
+}
+
+TEST(InformationTest, MisclassificationReductionMatchesDirectIntegration) {
+  int checked = 0;
+  for (double mu : {-0.2, 0.0, 0.1, 0.4, 0.5, 0.57, 0.68, 1.1}) {
+    for (double v : {0.01, 0.12, 0.5, 1.82}) {
+      for (double r : {0.05, 0.39, 0.73, 3.0}) {
+        const double before = 0.5 * std::erfc(std::abs(0.5 - mu) / std::sqrt(v) / std::sqrt(2.0));
+        const double expected = before - ExpectedMisclassificationAfter(mu, v, r, 0.5);
+        EXPECT_NEAR(MisclassificationReduction(mu, v, r, 0.5), expected, 1e-9)
+            << "mu " << mu << " v " << v << " r " << r;
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(checked, 128);
+  // On the threshold the two straddle with probability arccos(rho) / pi,
+  // rho = sqrt(v / (v + r)); a noiseless look removes all of Phi(-|h|).
+  const double v = 0.3, r = 0.2;
+  EXPECT_NEAR(MisclassificationReduction(0.5, v, r, 0.5),
+              0.5 - std::acos(std::sqrt(v / (v + r))) / kPi, 1e-14);
+  EXPECT_NEAR(MisclassificationReduction(0.2, v, 0.0, 0.5),
+              0.5 * std::erfc(0.3 / std::sqrt(v) / std::sqrt(2.0)), 1e-14);
+  EXPECT_EQ(MisclassificationReduction(0.2, 0.0, r, 0.5), 0.0);
+}
+
+// With the same variance, a cell whose mean sits near the threshold (a
+// person seen once and missed once: 0.40 on the paper's map) earns more than
+// one the map is sure of either way, and a less noisy (lower) shot earns more.
+TEST(InformationTest, ConfirmationValuesAmbiguousCellsAndAccurateShots) {
+  const double v = 0.12;
+  const double ambiguous = MisclassificationReduction(0.40, v, 0.39, 0.5);
+  EXPECT_GT(ambiguous, 2 * MisclassificationReduction(0.0, v, 0.39, 0.5));
+  EXPECT_GT(ambiguous, 2 * MisclassificationReduction(1.0, v, 0.39, 0.5));
+  EXPECT_GT(MisclassificationReduction(0.40, v, 0.22, 0.5), ambiguous);
+  // Weight 0 leaves the paper's per-cell value exactly.
+  const InformationParams paper{.kappa = 1.0};
+  const InformationParams confirm{.kappa = 1.0, .confirmation_weight = 3.0};
+  EXPECT_EQ(paper.CellValue(0.4, v, 0.39), 0.4 + std::sqrt(v));
+  EXPECT_NEAR(confirm.CellValue(0.4, v, 0.39), 0.4 + std::sqrt(v) + 3.0 * ambiguous, 1e-15);
+}
+
+// With the confirmation term the fast evaluator still equals the oracle.
+TEST(InformationTest, ConfirmationFastEqualsReference) {
+  const GpMap map = RandomPosterior(16, 12);
+  const InformationParams params{
+      .kappa = 1.0, .confirmation_weight = 4.0, .decision_threshold = 0.45};
+  const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
+  const InformationParams paper{.kappa = 1.0};
+  const InformationEvaluator plain(map.Mean(), map.Covariance(), paper);
+  std::mt19937 rng(41);
+  int larger = 0;
+  for (int path = 0; path < 150; ++path) {
+    const std::vector<PoseObservation> poses = RandomPoses(map.grid(), rng);
+    const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
+    EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference) + 1e-12)
+        << "path " << path;
+    larger += reference > plain.Evaluate(poses) + 1e-9;
+  }
+  EXPECT_GT(larger, 100);  // the term is >= 0 and adds where a scored pose sees cells
 }
 
 }  // namespace
