@@ -4,6 +4,7 @@
 //   oaipp-client health
 //   oaipp-client map missions/m-000001 --png=map.png
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -13,9 +14,9 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/flags/usage.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "client/cli/evaluation.h"
@@ -45,6 +46,9 @@ ABSL_FLAG(
     std::string, scenario, "",
     "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
 ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
+ABSL_FLAG(double, confirmation_weight, 0.0,
+          "eval E1, E4, E5: > 0 adds the variant oaipp_confirm, OA-IPP with the confirmation "
+          "objective at this weight (docs/method.md 6.4); 0 leaves it out");
 ABSL_FLAG(std::string, geo_origin, "",
           "export: LAT,LON,ALT (degrees, degrees, metres above mean sea level) of the local "
           "frame's origin, for a scenario without mission.geo_origin; best the launch point");
@@ -83,6 +87,9 @@ Commands:
                            buildings at densities 5, 10, 15 (trial k flies
                            world k), --e3_budget_s (300) each;
                       E4, E5 = OA-IPP and lawnmower on e4.json / e5.json.
+                      --confirmation_weight=W (> 0) adds oaipp_confirm
+                      to E1, E4 and E5: OA-IPP with the confirmation
+                      objective at weight W, same seeds.
                       Writes trials.csv, summary.md, a figure over time
                       (rse.png, or trace.png for E3) and map_<variant>.png
                       (trial 1) to --out (default out/eval/<experiment>).
@@ -227,9 +234,10 @@ int Export(const std::string& path) {
     *spec.mutable_geo_origin() = *g;
   }
   if (!spec.has_geo_origin()) {
-    return Fail(absl::InvalidArgumentError(absl::StrCat(
-        path, ": mission.geo_origin is not set; give --geo_origin=LAT,LON,ALT (the launch "
-              "point, altitude above mean sea level)")));
+    return Fail(absl::InvalidArgumentError(
+        absl::StrCat(path,
+                     ": mission.geo_origin is not set; give --geo_origin=LAT,LON,ALT (the launch "
+                     "point, altitude above mean sea level)")));
   }
   oaipp::v1::ExportPathRequest request;
   request.set_setpoint_rate_hz(absl::GetFlag(FLAGS_setpoint_rate_hz));
@@ -267,9 +275,9 @@ int Export(const std::string& path) {
            "mission_type\n";
   for (const oaipp::v1::MissionItem& m : exported->mission_items()) {
     items << absl::StrCat(m.seq(), ",", m.frame(), ",", m.command(), ",", m.current(), ",",
-                          m.autocontinue(), ",", m.param1(), ",", m.param2(), ",", m.param3(),
-                          ",", m.param4(), ",", m.x(), ",", m.y(), ",", m.z(), ",",
-                          m.mission_type(), "\n");
+                          m.autocontinue(), ",", m.param1(), ",", m.param2(), ",", m.param3(), ",",
+                          m.param4(), ",", m.x(), ",", m.y(), ",", m.z(), ",", m.mission_type(),
+                          "\n");
   }
   std::ofstream setpoints(out + "/setpoints.csv");
   setpoints << "t_s,north_m,east_m,down_m,vn_m_s,ve_m_s,vd_m_s,an_m_s2,ae_m_s2,ad_m_s2,yaw_deg\n";
@@ -344,6 +352,17 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
   } else {
     return absl::InvalidArgumentError(
         absl::StrCat("eval: unknown experiment '", name, "' (E1, E2, E3, E4 or E5)"));
+  }
+  const double confirmation = absl::GetFlag(FLAGS_confirmation_weight);
+  if (!(confirmation >= 0.0) || !std::isfinite(confirmation)) {
+    return absl::InvalidArgumentError("--confirmation_weight: must be >= 0 and finite");
+  }
+  if (confirmation > 0.0) {
+    if (name != "E1" && name != "E4" && name != "E5") {
+      return absl::InvalidArgumentError(
+          "--confirmation_weight: adds a variant to E1, E4 and E5 only");
+    }
+    e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirmation));
   }
   return e;
 }

@@ -61,6 +61,17 @@ std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
   return variants;
 }
 
+Variant ConfirmationVariant(const v1::Scenario& scenario, double weight) {
+  Variant v = PlannerVariants(scenario, {PlannerKind::kOaIpp}).front();
+  v.label = "oaipp_confirm";
+  v.scenario = [oaipp = v.scenario, weight](int trial) -> absl::StatusOr<v1::Scenario> {
+    absl::StatusOr<v1::Scenario> s = oaipp(trial);
+    if (s.ok()) s->mutable_mission()->mutable_planner()->set_confirmation_weight(weight);
+    return s;
+  };
+  return v;
+}
+
 absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
                                          const std::vector<Variant>& variants,
                                          const EvalOptions& options,

@@ -41,6 +41,11 @@ struct Variant {
 [[nodiscard]] std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
                                                    const std::vector<PlannerKind>& planners);
 
+// OA-IPP with the confirmation objective (docs/method.md §6.4) at `weight`,
+// labelled "oaipp_confirm"; otherwise as PlannerVariants' OA-IPP, so that
+// trial k of both flies the same world, people and seeds.
+[[nodiscard]] Variant ConfirmationVariant(const v1::Scenario& scenario, double weight);
+
 struct TrialResult {
   std::string variant;
   int trial = 0;
