@@ -8,13 +8,16 @@
 #   EXPERIMENTS="E1 E5" bash deploy/experiments.sh
 # E5-settings flies E5 once per file in client/scenarios/e5-settings (e5.json
 # with one or two settings changed) to out/eval/E5-<file>.
+# confirmation flies E1, E4, E5 and E5 under a 12 m ceiling with the extra
+# variant oaipp_confirm (the confirmation objective at CONFIRMATION_WEIGHT,
+# default 100) to out/eval/confirmation-<experiment>.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -29,6 +32,13 @@ for e in $experiments; do
         echo "== E5 with $(basename "$f")"
         "${client[@]}" eval E5 --trials="$trials" --scenario="$f" --out="out/eval/E5-$(basename "$f" .json)"
       done ;;
+    confirmation)
+      weight="--confirmation_weight=${CONFIRMATION_WEIGHT:-100}"
+      for x in E1 E4 E5; do
+        "${client[@]}" eval "$x" --trials="$trials" "$weight" --out="out/eval/confirmation-$x"
+      done
+      "${client[@]}" eval E5 --trials="$trials" "$weight" \
+        --scenario=client/scenarios/e5-settings/ceiling12.json --out=out/eval/confirmation-E5-ceiling12 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done

@@ -107,8 +107,13 @@ double MisclassificationReduction(double mean, double variance, double noise_var
   // rho = sigma / sqrt(variance + r), and P(they straddle the threshold)
   // reduces to 2 T(h, sqrt(1 - rho^2) / rho) = 2 T(h, sqrt(r) / sigma).
   const double before = 0.5 * std::erfc(std::abs(h) / std::sqrt(2.0));
+  // In double precision throughout: Boost's default promotes to long double,
+  // about 1.4x slower for no gain at the accuracy the planner needs.
+  using DoublePrecision =
+      boost::math::policies::policy<boost::math::policies::promote_double<false>>;
   const double after =
-      2.0 * boost::math::owens_t(h, std::sqrt(std::max(noise_variance, 0.0)) / sigma);
+      2.0 *
+      boost::math::owens_t(h, std::sqrt(std::max(noise_variance, 0.0)) / sigma, DoublePrecision());
   return std::max(before - after, 0.0);
 }
 

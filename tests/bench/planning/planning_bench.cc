@@ -15,6 +15,9 @@
 //   first of docs/method.md §7.7) from the eight starts at rest and from the
 //   same places moving (seeded: 1 to 5 m/s, up to 3 m/s^2, any direction),
 //   alternating; `moving_over_rest` is the ratio of the medians.
+// - BM_ConfirmationAgainstPaper: the BM_ReplanE1 replans with the paper's
+//   objective and with the confirmation term (weight 100), alternating;
+//   `confirm_over_paper` is the ratio of the medians.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -153,6 +156,42 @@ void BM_ReplanE1(benchmark::State& state) {
   state.counters["evaluations_per_plan"] = static_cast<double>(evaluations) / seconds.size();
 }
 BENCHMARK(BM_ReplanE1)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// The confirmation objective's cost (docs/method.md §6.4): the same E1
+// replans as BM_ReplanE1 with the paper's objective and with the
+// confirmation term at weight 100 (as in the README's experiments),
+// alternating; `confirm_over_paper` is the ratio of the medians.
+void BM_ConfirmationAgainstPaper(benchmark::State& state) {
+  const World& w = E1();
+  const std::vector<Vec3> starts = {{10, 0, 7},    {-10, 8, 10}, {5, 10, 12},  {-12, -12, 8},
+                                    {12, -10, 15}, {0, 6, 5},    {-6, -5, 18}, {8, 8, 20}};
+  std::vector<double> paper_s, confirm_s;
+  for (auto _ : state) {
+    for (const Vec3& p : starts) {
+      for (const double weight : {0.0, 100.0}) {
+        PlannerCommon common;
+        common.information.confirmation_weight = weight;
+        OaIppPlanner planner(common, OaIppConfig{});
+        UavState start;
+        start.position_W = p;
+        const auto t0 = std::chrono::steady_clock::now();
+        auto path = planner.Plan(w.View(), start, absl::InfiniteFuture());
+        (weight > 0 ? confirm_s : paper_s)
+            .push_back(
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        if (!path.ok()) state.SkipWithError(std::string(path.status().message()).c_str());
+      }
+    }
+  }
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  state.counters["paper_median_ms"] = 1e3 * median(paper_s);
+  state.counters["confirm_median_ms"] = 1e3 * median(confirm_s);
+  state.counters["confirm_over_paper"] = median(confirm_s) / median(paper_s);
+}
+BENCHMARK(BM_ConfirmationAgainstPaper)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_MovingAgainstRest(benchmark::State& state) {
   const World& w = E1();
