@@ -206,9 +206,14 @@ absl::Status MissionServiceImpl::Run(const char* method, Body body, bool record_
     // and one line (no control characters; quotes escaped in the log).
     status =
         absl::Status(status.code(), api::SafeMessage(api::WithApiFieldNames(status).message()));
-    spdlog::info("rpc method={} code={} ms={:.2f} error=\"{}\"", method,
-                 absl::StatusCodeToString(status.code()), seconds * 1e3,
-                 absl::StrReplaceAll(status.message(), {{"\"", "\\\""}}));
+    // A fault of the server's own (not of the request) is an error worth
+    // an operator's attention; a refused request is routine.
+    const bool own_fault =
+        absl::IsInternal(status) || absl::IsDataLoss(status) || absl::IsUnknown(status);
+    spdlog::log(own_fault ? spdlog::level::err : spdlog::level::info,
+                "rpc method={} code={} ms={:.2f} error=\"{}\"", method,
+                absl::StatusCodeToString(status.code()), seconds * 1e3,
+                absl::StrReplaceAll(status.message(), {{"\"", "\\\""}}));
   }
   return status;
 }
