@@ -174,12 +174,8 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.h_sat_m", common.information.h_sat_m));
   OAIPP_RETURN_IF_ERROR(
       CheckNonNegative("spec.planner.confirmation_weight", common.information.confirmation_weight));
-  if (!(common.information.decision_threshold > 0.0 &&
-        common.information.decision_threshold < 1.0)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("spec.planner.decision_threshold: must lie in (0, 1), got ",
-                     common.information.decision_threshold));
-  }
+  OAIPP_RETURN_IF_ERROR(CheckOpenInterval("spec.planner.decision_threshold",
+                                          common.information.decision_threshold, 0.0, 1.0));
   OAIPP_RETURN_IF_ERROR(
       CheckPositive("spec.planner.lawnmower_altitude_m", c.planner.lawnmower.altitude_m));
   OAIPP_RETURN_IF_ERROR(CheckIntRange("spec.planner.lawnmower_start_corner",

@@ -180,8 +180,7 @@ int PathScorer::CollisionSamples(const PolynomialTrajectory& trajectory, bool ex
   int count = 0;
   for (int i = 0; i <= samples; ++i) {
     const Vec3 p = trajectory.Position(std::min(i * dt, trajectory.Duration()));
-    const bool near =
-        exact ? env.SignedDistance(p) < 0.5 * r : env.InCollision(p, r);
+    const bool near = exact ? env.SignedDistance(p) < 0.5 * r : env.InCollision(p, r);
     if (!env.flight_volume().Contains(p) || near) ++count;
   }
   return count;
