@@ -83,6 +83,8 @@ std::string StopReasonName(StopReason reason) {
       return "deadline";
     case StopReason::kCancelled:
       return "cancelled";
+    case StopReason::kGaveUp:
+      return "gave_up";
   }
   return "unknown";
 }
@@ -148,6 +150,10 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
       }
       if (options.cancelled && options.cancelled()) {
         result.stop_reason = StopReason::kCancelled;
+        break;
+      }
+      if (options.give_up && options.give_up()) {
+        result.stop_reason = StopReason::kGaveUp;
         break;
       }
       population = cmaes.evolve(population);

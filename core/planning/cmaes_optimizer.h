@@ -35,9 +35,12 @@ struct CmaesOptions {
   std::uint32_t seed = 1;
   // Asked between generations; true stops the run (e.g. a cancelled call).
   std::function<bool()> cancelled = nullptr;
+  // Asked between generations; true ends the run as not worth continuing
+  // (e.g. no candidate so far could be evaluated at all).
+  std::function<bool()> give_up = nullptr;
 };
 
-enum class StopReason { kEvaluationBudget, kDeadline, kCancelled };
+enum class StopReason { kEvaluationBudget, kDeadline, kCancelled, kGaveUp };
 [[nodiscard]] std::string StopReasonName(StopReason reason);
 
 struct CmaesResult {

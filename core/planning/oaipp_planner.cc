@@ -6,6 +6,7 @@
 #include <random>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "core/common/status_macros.h"
 #include "core/planning/cmaes_optimizer.h"
 
@@ -143,6 +144,10 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
   const Eigen::VectorXd x0 = FromWaypoints(greedy);
   const ScoredPath greedy_scored = scorer.Score(greedy);
   ++stats.evaluations;
+  // Candidates CMA-ES scored (the greedy start first), and those with a
+  // trajectory within the dynamic limits (from a moving start PlanMinSnap
+  // may find none).
+  std::int64_t scored = 0, flyable = 0;
   stats.initial_objective = greedy_scored.score;
   if (greedy_scored.ok() && greedy_scored.collision_samples == 0) remember(greedy_scored, x0);
 
@@ -163,6 +168,8 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
     }
     auto objective = [&](const Eigen::VectorXd& x) {
       const ScoredPath s = scorer.Score(ToWaypoints(x));
+      ++scored;
+      if (s.ok()) ++flyable;
       if (s.ok() && s.collision_samples == 0) remember(s, x);
       return -s.score;
     };
@@ -170,7 +177,12 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
         .population = config_.population,
         .max_evaluations = static_cast<std::int64_t>(config_.population) * generations + 1,
         .seed = static_cast<std::uint32_t>(seed >> 32),
-        .cancelled = mission.cancelled};
+        .cancelled = mission.cancelled,
+        // The greedy start and a whole generation around it without a
+        // single trajectory: the start state is the obstacle, not the
+        // waypoints, and more generations only burn the budget (a stop
+        // first, core/planning/stop_first.h, can still plan).
+        .give_up = [&] { return flyable == 0 && scored > config_.population; }};
     OAIPP_ASSIGN_OR_RETURN(CmaesResult result,
                            MinimizeCmaes(objective, x0, steps, lower, upper, options, deadline));
     stats.evaluations += result.evaluations - 1;  // x0 was scored above already
@@ -178,6 +190,12 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
     stats.stop_reason = StopReasonName(result.stop_reason);
     if (result.stop_reason == StopReason::kCancelled) {
       return absl::CancelledError("planning cancelled by the caller");
+    }
+    if (result.stop_reason == StopReason::kGaveUp) {
+      return absl::FailedPreconditionError(absl::StrFormat(
+          "state: from %.2f m/s and %.2f m/s^2 none of the first %d candidate paths meets the "
+          "speed and acceleration limits",
+          state.velocity_W_m_s.norm(), state.accel_W_m_s2.norm(), scored));
     }
   }
 

@@ -127,6 +127,26 @@ TEST(CmaesTest, CancelledStopsAtOnceEvenWithinAGeneration) {
   EXPECT_EQ(r->generations, 1);
 }
 
+// give_up is asked between generations only: the generation under way is
+// finished, and the run ends with kGaveUp.
+TEST(CmaesTest, GiveUpEndsTheRunBetweenGenerations) {
+  int evaluated = 0;
+  auto f = [&](const Eigen::VectorXd& x) {
+    ++evaluated;
+    return Sphere(x);
+  };
+  auto r = MinimizeCmaes(f, Eigen::VectorXd::Ones(3), Eigen::VectorXd::Ones(3),
+                         -Eigen::VectorXd::Ones(3) * 5, Eigen::VectorXd::Ones(3) * 5,
+                         {.population = 6, .max_evaluations = 600, .seed = 2, .give_up = [&] {
+                            return evaluated >= 10;
+                          }});
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->stop_reason, StopReason::kGaveUp);
+  EXPECT_EQ(StopReasonName(r->stop_reason), "gave_up");
+  EXPECT_EQ(evaluated, 13);  // x0 and two whole generations of 6
+  EXPECT_EQ(r->generations, 2);
+}
+
 TEST(CmaesTest, BadInputIsRefused) {
   const Eigen::VectorXd one = Eigen::VectorXd::Ones(2);
   EXPECT_FALSE(MinimizeCmaes(Sphere, one, -one, -one, one, {}).ok());

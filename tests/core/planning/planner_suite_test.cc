@@ -6,7 +6,9 @@
 #include <memory>
 #include <set>
 
+#include "absl/strings/str_cat.h"
 #include "core/planning/planners.h"
+#include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/core/planning/scenes.h"
 
@@ -162,6 +164,31 @@ TEST(OaIppTest, DeadlineGivesAnAnytimeResult) {
   EXPECT_EQ(path->stats.generations, 0);
   // The greedy start stopped after its first reachable viewpoint.
   EXPECT_EQ(path->control_waypoints_W.size(), 2u);
+}
+
+// At full speed and still accelerating forwards no minimum-snap path meets
+// the speed limit: OA-IPP gives up after the greedy start and one
+// generation instead of scoring all 45, and the stop-first wrapper brakes
+// and plans from rest.
+TEST(OaIppTest, GivesUpEarlyWhereNoTrajectoryMeetsTheLimits) {
+  const Scene& scene = CachedScene("E1");
+  UavState state = scene.start;
+  state.position_W = Vec3(-12.0, 0.0, 12.0);
+  state.velocity_W_m_s = Vec3(4.5, 0.0, 0.0);
+  state.accel_W_m_s2 = Vec3(3.0, 0.0, 0.0);
+  const OaIppConfig config;
+  OaIppPlanner planner(PlannerCommon{}, config);
+  absl::StatusOr<PlannedPath> direct = planner.Plan(scene.View(), state, absl::InfiniteFuture());
+  ASSERT_EQ(direct.status().code(), absl::StatusCode::kFailedPrecondition) << direct.status();
+  EXPECT_THAT(std::string(direct.status().message()),
+              ::testing::HasSubstr(absl::StrCat("none of the first ", config.population + 1,
+                                                " candidate paths meets the speed")));
+  auto wrapped = MakePlanner(PlannerConfig{});
+  ASSERT_TRUE(wrapped.ok());
+  absl::StatusOr<PlannedPath> path = (*wrapped)->Plan(scene.View(), state, absl::InfiniteFuture());
+  ASSERT_TRUE(path.ok()) << path.status();
+  EXPECT_GT(path->stats.stop_first_s, 0.0);
+  EXPECT_LE(path->trajectory.MaxSpeed(), 5.0 * (1 + 1e-6));
 }
 
 TEST(LawnmowerTest, PatternCoversTheFieldAtTenMetres) {
