@@ -407,19 +407,18 @@ absl::StatusOr<PolynomialTrajectory> PlanMinSnap(const StartState& start,
   const Vec3 off_velocity_W_m_s =
       start.velocity_W_m_s - std::max(0.0, start.velocity_W_m_s.dot(towards_W)) * towards_W;
   durations_s[0] += off_velocity_W_m_s.norm() / limits.max_accel_m_s2;
-  absl::StatusOr<PolynomialTrajectory> planned =
-      ScaleSearch(start, waypoints_W, durations_s, limits, /*free_start_jerk_snap=*/false).Run();
+  // From a moving start the start jerk and snap are left to the optimiser:
+  // the state carries no jerk, and held at 0 they would make the start
+  // acceleration last a fixed fraction of the first segment, so that long
+  // durations overshoot the speed while short ones break the acceleration
+  // limit. Freed, the acceleration fades quickly; the scaled trajectories
+  // are shorter and the search settles in fewer solves. From rest both are 0.
   const bool moving = !start.velocity_W_m_s.isZero(0.0) || !start.accel_W_m_s2.isZero(0.0);
+  absl::StatusOr<PolynomialTrajectory> planned =
+      ScaleSearch(start, waypoints_W, durations_s, limits, /*free_start_jerk_snap=*/moving).Run();
   if (planned.ok() || !moving || planned.status().code() != absl::StatusCode::kFailedPrecondition) {
     return planned;
   }
-  // From a moving start a common scaling can fail: with jerk 0 at the start
-  // the start acceleration lasts a fixed fraction of the first segment, so
-  // long durations overshoot the speed while short ones break the
-  // acceleration limit. Freeing the start jerk and snap lets it fade fast.
-  absl::StatusOr<PolynomialTrajectory> free_jerk =
-      ScaleSearch(start, waypoints_W, durations_s, limits, /*free_start_jerk_snap=*/true).Run();
-  if (free_jerk.ok()) return free_jerk;
   // A minimum-snap segment cannot cruise: a fast start and a long first
   // segment still overshoot. A transition segment of fixed duration tau then
   // carries on at the current velocity, to p + v tau (the free start jerk

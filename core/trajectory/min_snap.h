@@ -92,24 +92,26 @@ struct StartState {
 //     uniformly scaled trajectory to 0.1 %. From rest one step is exact
 //     (speed scales as 1/k, acceleration as 1/k^2: two solves in all, and
 //     a limit is met to rounding); with a non-zero start state it is not,
-//     so secant steps in log k (typically 3-5 solves) are followed, if they
+//     so secant steps in log k (typically 2-4 solves) are followed, if they
 //     do not settle, by a scan and a bisection (at most ~70 solves).
-//  4. Only if that fails from a moving start: with jerk 0 at the start the
-//     start acceleration decays over the whole first segment, so its
-//     contribution to the speed grows with the durations and no scaling
-//     may fit. Step 3 is retried with the start jerk and snap free (the
-//     state carries no jerk), then with a transition segment of 1 s, then
-//     2 s, that carries on at the start velocity (to p + v tau, its
-//     duration fixed) before the scaled segments.
+//     From a moving start the start jerk and snap are free (the state
+//     carries no jerk): held at 0, the start acceleration would decay over
+//     the whole first segment, its contribution to the speed growing with
+//     the durations, and many more starts would find no scaling.
+//  4. Only if that fails from a moving start: step 3 is retried with a
+//     transition segment of 1 s, then 2 s, that carries on at the start
+//     velocity (to p + v tau, its duration fixed) before the scaled
+//     segments.
 //
 // Returns InvalidArgument for a bad field (empty waypoints, non-finite
 // numbers, bad limits); FailedPrecondition if the start speed or
 // acceleration exceeds its limit by more than 1e-6 relative, or if no
-// scaling meets the limits. From rest that never happens. Measured over
-// 2000 random start states (|v| <= 5 m/s, |a| <= 3 m/s^2, two random
-// waypoints in the E1 volume): 4.4 % fail (29.5 % with step 3 alone); half
-// of the failures start above 3.5 m/s while still accelerating forwards.
-// The caller may then hold the current plan or replan from rest.
+// scaling meets the limits. From rest that never happens. Over 2000 random
+// moving starts (random directions, |v| uniform in [0, 5] m/s, |a| in
+// [0, 3] m/s^2, two random waypoints in the E1 volume) 7.6 % fail, about
+// half of them above 3.5 m/s while still accelerating forwards
+// (PlanMinSnapTest.MostMovingStartsPlan). The caller may then hold the
+// current plan or stop first (core/planning/stop_first.h).
 [[nodiscard]] absl::StatusOr<PolynomialTrajectory> PlanMinSnap(
     const StartState& start, const std::vector<Vec3>& waypoints_after_start_W,
     const TrajectoryLimits& limits);
