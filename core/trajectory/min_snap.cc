@@ -442,4 +442,28 @@ absl::StatusOr<PolynomialTrajectory> PlanMinSnap(const StartState& start,
   return planned;
 }
 
+absl::StatusOr<PolynomialTrajectory> PlanStopAndGo(const std::vector<Vec3>& points_W,
+                                                   const TrajectoryLimits& limits) {
+  OAIPP_RETURN_IF_ERROR(ValidateLimits(limits));
+  if (points_W.empty()) return absl::InvalidArgumentError("points_W: need at least one point");
+  for (size_t i = 0; i < points_W.size(); ++i) {
+    OAIPP_RETURN_IF_ERROR(CheckFiniteAt("points_W", i, points_W[i]));
+  }
+  std::vector<double> durations_s;
+  std::vector<PolynomialTrajectory::SegmentCoefficients> coefficients;
+  Vec3 from = points_W.front();
+  for (size_t i = 1; i < points_W.size(); ++i) {
+    if ((points_W[i] - from).norm() < kMergeDistance_m) continue;
+    OAIPP_ASSIGN_OR_RETURN(PolynomialTrajectory leg,
+                           PlanMinSnap(StartState{.position_W = from}, {points_W[i]}, limits));
+    for (int j = 0; j < leg.NumSegments(); ++j) {
+      durations_s.push_back(leg.SegmentDurations()[j]);
+      coefficients.push_back(leg.Coefficients(j));
+    }
+    from = points_W[i];
+  }
+  if (durations_s.empty()) return PlanMinSnap(StartState{.position_W = from}, {from}, limits);
+  return PolynomialTrajectory::FromCoefficients(std::move(durations_s), coefficients);
+}
+
 }  // namespace oaipp

@@ -116,4 +116,15 @@ struct StartState {
     const StartState& start, const std::vector<Vec3>& waypoints_after_start_W,
     const TrajectoryLimits& limits);
 
+// Stop and go: one rest-to-rest leg per consecutive pair of `points_W`
+// (the first is the start, at rest), each timed by PlanMinSnap. A single
+// minimum-snap segment between two rests is the straight line between its
+// ends, so the trajectory follows the polyline exactly and the UAV stops at
+// every point: slower than a smooth route, but as clear as the polyline.
+// Points closer than 1e-6 m to the previous one are skipped; fewer than two
+// distinct points give a zero-length hover of 0.1 s.
+// InvalidArgument for no points or a non-finite one, or bad limits.
+[[nodiscard]] absl::StatusOr<PolynomialTrajectory> PlanStopAndGo(const std::vector<Vec3>& points_W,
+                                                                 const TrajectoryLimits& limits);
+
 }  // namespace oaipp

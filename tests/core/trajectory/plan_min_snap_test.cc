@@ -180,6 +180,48 @@ TEST(PlanMinSnapTest, MostMovingStartsPlan) {
   EXPECT_LE(failed, 200);
 }
 
+// Stop and go follows the polyline: every sample lies on its leg's
+// segment, the UAV is at rest at every point, and the limits hold.
+TEST(PlanStopAndGoTest, FollowsThePolylineAndStopsAtEveryPoint) {
+  const std::vector<Vec3> points{{0, 0, 10}, {6, 0, 10}, {6, 6, 14}, {6, 6, 14}, {-3, 2, 5}};
+  const auto traj = PlanStopAndGo(points, kPaperLimits);
+  ASSERT_TRUE(traj.ok()) << traj.status();
+  ASSERT_EQ(traj->NumSegments(), 3);  // the repeated point is skipped
+  const std::vector<Vec3> ends{points[0], points[1], points[2], points[4]};
+  for (int j = 0; j < 3; ++j) {
+    const Vec3 a = ends[j], b = ends[j + 1];
+    const double t0 = traj->SegmentStartTime(j), T = traj->SegmentDurations()[j];
+    EXPECT_LE((traj->Position(t0) - a).norm(), 1e-9);
+    EXPECT_LE(traj->Velocity(t0).norm(), 1e-9);
+    EXPECT_LE(traj->Acceleration(t0).norm(), 1e-9);
+    for (int i = 1; i <= 200; ++i) {
+      const Vec3 p = traj->Position(t0 + T * i / 200.0);
+      const double along = (p - a).dot((b - a).normalized());
+      EXPECT_LE((p - a - along * (b - a).normalized()).norm(), 1e-9) << "leg " << j;
+      EXPECT_GE(along, -1e-9);
+      EXPECT_LE(along, (b - a).norm() + 1e-9);
+    }
+  }
+  EXPECT_LE((traj->Position(traj->Duration()) - points.back()).norm(), 1e-9);
+  const SampledMaxima m = DenseMaxima(*traj);
+  EXPECT_LE(m.speed_m_s, 5.0 * (1 + 1e-6));
+  EXPECT_LE(m.accel_m_s2, 3.0 * (1 + 1e-6));
+  // Each leg takes what one rest-to-rest segment of its length takes.
+  const auto first = PlanMinSnap(StartState{.position_W = points[0]}, {points[1]}, kPaperLimits);
+  ASSERT_TRUE(first.ok());
+  EXPECT_EQ(traj->SegmentDurations()[0], first->Duration());
+}
+
+TEST(PlanStopAndGoTest, BadInputIsRefused) {
+  EXPECT_EQ(PlanStopAndGo({}, kPaperLimits).status().code(), absl::StatusCode::kInvalidArgument);
+  const auto nan = PlanStopAndGo({{0, 0, 1}, {NAN, 0, 1}}, kPaperLimits);
+  EXPECT_EQ(nan.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(nan.status().message()), HasSubstr("points_W"));
+  const auto hover = PlanStopAndGo({{1, 2, 3}}, kPaperLimits);
+  ASSERT_TRUE(hover.ok());
+  EXPECT_EQ(hover->MaxSpeed(), 0.0);
+}
+
 TEST(PlanMinSnapTest, FullSpeedTowardsTheWaypointSucceeds) {
   const StartState start{{0, 0, 10}, {5, 0, 0}, Vec3::Zero()};
   const auto traj = PlanMinSnap(start, {{40, 0, 10}}, kPaperLimits);
