@@ -223,6 +223,33 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
                        .stop_reason = "pattern"};
     return scorer.Finish(std::move(scored), route, std::move(stats));
   }
+  // Last resort from rest: the route flown stop and go, one straight leg
+  // per detour corner, so it keeps the detour's own clearance exactly.
+  const bool at_rest = state.velocity_W_m_s.isZero(0.0) && state.accel_W_m_s2.isZero(0.0);
+  for (const double margin : {m, 0.5 * m}) {
+    if (!at_rest || absl::Now() >= deadline) break;
+    int index = next_index_;
+    std::vector<Vec3> route = build_route({margin, false}, &index);
+    if (route.empty()) continue;
+    std::vector<Vec3> points{state.position_W};
+    points.insert(points.end(), route.begin(), route.end());
+    absl::StatusOr<PolynomialTrajectory> legs = PlanStopAndGo(points, common_.limits.dynamics);
+    if (!legs.ok()) {
+      last_error = legs.status();
+      continue;
+    }
+    ScoredPath scored = scorer.ScoreTrajectory(*std::move(legs));
+    if (!scored.ok()) continue;
+    if (absl::Status exact = scorer.CheckExact(*scored.trajectory); !exact.ok()) {
+      last_error = exact;
+      continue;
+    }
+    next_index_ = index;
+    PlannerStats stats{.evaluations = 1,
+                       .wall_time_s = absl::ToDoubleSeconds(absl::Now() - started),
+                       .stop_reason = "pattern_stop_and_go"};
+    return scorer.Finish(std::move(scored), route, std::move(stats));
+  }
   if (absl::Now() >= deadline) return absl::DeadlineExceededError("lawnmower: deadline passed");
   return absl::FailedPreconditionError(absl::StrCat("lawnmower: ", last_error.message()));
 }

@@ -110,30 +110,34 @@ PoseObservation PathScorer::Observe(const Vec3& p_W, bool scored) const {
 }
 
 ScoredPath PathScorer::Score(const std::vector<Vec3>& waypoints_W) const {
-  ScoredPath out;
   StartState start{state_.position_W, state_.velocity_W_m_s, state_.accel_W_m_s2};
   absl::StatusOr<PolynomialTrajectory> traj = PlanMinSnap(start, waypoints_W, limits_.dynamics);
-  if (!traj.ok()) return out;
+  if (!traj.ok()) return ScoredPath{};
+  return ScoreTrajectory(*std::move(traj));
+}
+
+ScoredPath PathScorer::ScoreTrajectory(PolynomialTrajectory trajectory) const {
+  ScoredPath out;
   absl::StatusOr<MeasurementSchedule> shots = ScheduleMeasurements(
       {.trajectory_start_mission_s = state_.mission_time_s,
-       .duration_s = traj->Duration(),
+       .duration_s = trajectory.Duration(),
        .rate_hz = mission_.camera.rate_hz,
        .next_shot_mission_s = std::max(mission_.next_shot_mission_s, state_.mission_time_s)});
   if (!shots.ok()) return out;
 
   std::vector<PoseObservation> observations;
   for (double t : shots->times_s) {
-    const Vec3 p = traj->Position(t);
+    const Vec3 p = trajectory.Position(t);
     out.poses.push_back({t, state_.mission_time_s + t, p});
     observations.push_back(Observe(p, /*scored=*/t >= kStartShotTolerance_s));
   }
   out.information = evaluator_.Evaluate(observations);
 
   // C_coll (Eq. 3), on the ESDF: every candidate pays it.
-  out.collision_samples = CollisionSamples(*traj, /*exact=*/false);
-  out.score = Objective(out.information, out.collision_samples, traj->Duration());
+  out.collision_samples = CollisionSamples(trajectory, /*exact=*/false);
+  out.score = Objective(out.information, out.collision_samples, trajectory.Duration());
   out.next_shot_mission_s = shots->next_shot_mission_s;
-  out.trajectory = std::move(traj).value();
+  out.trajectory = std::move(trajectory);
   return out;
 }
 

@@ -72,6 +72,9 @@ class PathScorer {
   // The trajectory from the UAV state through `waypoints_W` (after the
   // start) and its score.
   [[nodiscard]] ScoredPath Score(const std::vector<Vec3>& waypoints_W) const;
+  // The score of a given trajectory from the UAV state (its start must be
+  // the state's position, velocity and acceleration; the caller's promise).
+  [[nodiscard]] ScoredPath ScoreTrajectory(PolynomialTrajectory trajectory) const;
 
   // The measurement taken at p_W: visible footprint cells and var(h).
   [[nodiscard]] PoseObservation Observe(const Vec3& p_W, bool scored = true) const;

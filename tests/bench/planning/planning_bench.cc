@@ -18,6 +18,10 @@
 // - BM_ConfirmationAgainstPaper: the BM_ReplanE1 replans with the paper's
 //   objective and with the confirmation term (weight 100), alternating;
 //   `confirm_over_paper` is the ratio of the medians.
+// - BM_LawnmowerFromRest: the lawnmower at rest from 6 places (where clear)
+//   in E3's worlds of 5, 10 and 15 low- and high-rise buildings, seeds 1 to
+//   60; counts the starts, the answers and those flown stop and go (the
+//   last resort where no smooth route passes the exact check).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -25,6 +29,7 @@
 #include <random>
 
 #include "core/planning/planners.h"
+#include "tests/core/planning/scenes.h"
 
 namespace oaipp {
 namespace {
@@ -192,6 +197,39 @@ void BM_ConfirmationAgainstPaper(benchmark::State& state) {
   state.counters["confirm_over_paper"] = median(confirm_s) / median(paper_s);
 }
 BENCHMARK(BM_ConfirmationAgainstPaper)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+void BM_LawnmowerFromRest(benchmark::State& state) {
+  const std::vector<Vec3> places = {{-5.193, -10.852, 8}, {-5.193, -10.852, 15},
+                                    {5, 10, 8},           {-10, 3, 12},
+                                    {0, 0, 20},           {12, -12, 5}};
+  int starts = 0, answered = 0, stop_and_go = 0;
+  for (auto _ : state) {
+    for (bool high_rise : {false, true}) {
+      for (int count : {5, 10, 15}) {
+        for (unsigned seed = 1; seed <= 60; ++seed) {
+          const testing::Scene scene = testing::RandomWorld(seed, count, high_rise);
+          for (const Vec3& p : places) {
+            if (scene.env->SignedDistance(p) < 1.0) continue;
+            UavState start;
+            start.position_W = p;
+            PlannerConfig config{.kind = PlannerKind::kLawnmower};
+            config.common.seed = seed;
+            auto planner = MakePlanner(config);
+            ++starts;
+            auto path = (*planner)->Plan(scene.View(), start, absl::InfiniteFuture());
+            if (!path.ok()) continue;
+            ++answered;
+            if (path->stats.stop_reason == "pattern_stop_and_go") ++stop_and_go;
+          }
+        }
+      }
+    }
+  }
+  state.counters["starts"] = starts;
+  state.counters["answered"] = answered;
+  state.counters["stop_and_go"] = stop_and_go;
+}
+BENCHMARK(BM_LawnmowerFromRest)->Unit(benchmark::kSecond)->Iterations(1);
 
 void BM_MovingAgainstRest(benchmark::State& state) {
   const World& w = E1();

@@ -361,6 +361,38 @@ TEST(MovingStartTest, ARefusalNamesTheFaceOrObstacle) {
   }
 }
 
+// At rest a stop is trivially safe, so every planner must answer. These
+// starts among E3's 4 x 4 m buildings each made the lawnmower fail before
+// it fell back to flying its route stop and go (its smoothed corners cut
+// past a building or a face, or only a narrow detour reached the pattern).
+TEST(MovingStartTest, LawnmowerAnswersFromRestAmongBuildings) {
+  struct Case {
+    unsigned seed;
+    int count;
+    bool high_rise;
+    Vec3 start_W;
+  };
+  const Case cases[] = {{2, 15, true, {-5.193, -10.852, 15}}, {13, 15, true, {5, 10, 8}},
+                        {27, 15, true, {12, -12, 5}},         {35, 15, true, {-10, 3, 12}},
+                        {33, 5, false, {5, 10, 8}},           {14, 10, false, {-5.193, -10.852, 8}},
+                        {23, 10, false, {5, 10, 8}},          {54, 15, false, {0, 0, 20}}};
+  for (const Case& c : cases) {
+    const testing::Scene scene = testing::RandomWorld(c.seed, c.count, c.high_rise);
+    std::vector<Obstacle> obstacles;
+    for (const auto& [id, obstacle] : scene.env->obstacles()) obstacles.push_back(obstacle);
+    UavState s;
+    s.position_W = c.start_W;
+    PlannerConfig config{.kind = PlannerKind::kLawnmower};
+    config.common.seed = c.seed;
+    auto planner = MakePlanner(config);
+    ASSERT_TRUE(planner.ok());
+    absl::StatusOr<PlannedPath> path = (*planner)->Plan(scene.View(), s, absl::InfiniteFuture());
+    ASSERT_TRUE(path.ok()) << scene.name << " seed " << c.seed << ": " << path.status();
+    EXPECT_TRUE(IndependentlySafe(*path, testing::FlightVolume(), obstacles, s))
+        << scene.name << " seed " << c.seed;
+  }
+}
+
 // Braking first, then planning from rest: one trajectory, continuous to the
 // snap at the joint, whose measurement poses follow the camera's phase.
 TEST(MovingStartTest, StopFirstJoinsBrakeAndPathSmoothly) {
