@@ -133,6 +133,7 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
   prefix_.clear();
   conditioned_.resize(0, 0);
   base_squared_.resize(0, 0);
+  work_without_square_ = 0.0;
   MergedCells fused;
   for (const PoseObservation& pose : prefix) fused.Add(pose);
   if (fused.empty()) return absl::OkStatus();
@@ -229,7 +230,7 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
     const std::vector<int>& k = fused.cells();
     const auto m = static_cast<Eigen::Index>(k.size());
     const Eigen::LLT<Eigen::MatrixXd> factor = fused.Factor(base);
-    if (base_is_cached && m < base.cols() / 2) {
+    if (base_is_cached && m < base.cols() / 2 && UseBaseSquared(m, base.cols())) {
       // sum((B_KK + R)^-1 o (B^2)_KK): about m^3 once B^2 is known.
       const Eigen::MatrixXd& g = BaseSquared();
       const Eigen::MatrixXd s_inv = factor.solve(Eigen::MatrixXd::Identity(m, m));
@@ -243,6 +244,15 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
     return WhitenedRows(fused, base, factor.matrixLLT()).squaredNorm();
   };
   return reduction(all) - reduction(baseline);
+}
+
+bool InformationEvaluator::UseBaseSquared(Eigen::Index m, Eigen::Index n) const {
+  if (base_squared_.size() > 0) return true;
+  const double build =
+      0.5 * static_cast<double>(n) * static_cast<double>(n) * static_cast<double>(n);
+  if (work_without_square_ >= build) return true;
+  work_without_square_ += static_cast<double>(m) * static_cast<double>(m) * static_cast<double>(n);
+  return false;
 }
 
 const Eigen::MatrixXd& InformationEvaluator::BaseSquared() const {

@@ -153,6 +153,13 @@ class InformationEvaluator {
   // (B^2) of the base the non-adaptive objective starts from (P_c when a
   // prefix is conditioned, else P), computed on first need.
   const Eigen::MatrixXd& BaseSquared() const;
+  // Whether a reduction over m cells should read B^2. Building it costs
+  // about n^3 / 2 multiply-adds, each evaluation without it about m^2 n:
+  // B^2 is built only once the evaluations without it have cost as much
+  // (so the total is within 2x of the better choice in hindsight, and the
+  // first evaluations of a plan, which an anytime answer waits for, stay
+  // cheap).
+  [[nodiscard]] bool UseBaseSquared(Eigen::Index m, Eigen::Index n) const;
 
   const Eigen::VectorXd& mean_;
   const Eigen::MatrixXd& cov_;
@@ -160,6 +167,7 @@ class InformationEvaluator {
   std::vector<PoseObservation> prefix_;
   Eigen::MatrixXd conditioned_;  // P_c, empty without a prefix
   mutable Eigen::MatrixXd base_squared_;
+  mutable double work_without_square_ = 0.0;  // multiply-adds, see UseBaseSquared
 };
 
 // The oracle: sequential full Kalman covariance updates on a copy of the

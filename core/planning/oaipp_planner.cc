@@ -158,7 +158,10 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
           ? std::max(1, static_cast<int>(std::ceil(fraction * config_.generations - 1e-9)))
           : 0;
   stats.search_fraction = fraction;
-  if (config_.refine && generations > 0) {
+  // Past the deadline CMA-ES would only score the greedy start again.
+  const bool search = config_.refine && generations > 0;
+  if (search && absl::Now() >= deadline) stats.stop_reason = "deadline";
+  if (search && absl::Now() < deadline) {
     const auto n = x0.size();
     Eigen::VectorXd lower(n), upper(n), steps(n);
     for (Eigen::Index i = 0; i < n; i += 3) {
