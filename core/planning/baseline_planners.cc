@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <queue>
 #include <random>
 
@@ -197,6 +198,23 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
     return route;
   };
   absl::Status last_error = absl::OkStatus();
+  // A scored route is flown if it passes the exact check.
+  auto fly_if_safe = [&](ScoredPath scored, const std::vector<Vec3>& route, int index,
+                         const char* how) -> std::optional<PlannedPath> {
+    if (!scored.ok()) {
+      last_error = absl::FailedPreconditionError("no feasible trajectory along the pattern");
+      return std::nullopt;
+    }
+    if (absl::Status exact = scorer.CheckExact(*scored.trajectory); !exact.ok()) {
+      last_error = exact;
+      return std::nullopt;
+    }
+    next_index_ = index;
+    PlannerStats stats{.evaluations = 1,
+                       .wall_time_s = absl::ToDoubleSeconds(absl::Now() - started),
+                       .stop_reason = how};
+    return scorer.Finish(std::move(scored), route, std::move(stats));
+  };
   const double m = config_.detour_margin_m;
   const Attempt attempts[] = {
       {m, false},    {2 * m, false},  {0.5 * m, false}, {0.0, false},      {m, true},
@@ -208,20 +226,9 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
       last_error = absl::FailedPreconditionError("no pattern point reachable from the UAV");
       continue;
     }
-    ScoredPath scored = scorer.Score(route);
-    if (!scored.ok()) {
-      last_error = absl::FailedPreconditionError("no feasible trajectory along the pattern");
-      continue;
+    if (auto path = fly_if_safe(scorer.Score(route), route, index, "pattern")) {
+      return *std::move(path);
     }
-    if (absl::Status exact = scorer.CheckExact(*scored.trajectory); !exact.ok()) {
-      last_error = exact;
-      continue;
-    }
-    next_index_ = index;
-    PlannerStats stats{.evaluations = 1,
-                       .wall_time_s = absl::ToDoubleSeconds(absl::Now() - started),
-                       .stop_reason = "pattern"};
-    return scorer.Finish(std::move(scored), route, std::move(stats));
   }
   // Last resort from rest: the route flown stop and go, one straight leg
   // per detour corner, so it keeps the detour's own clearance exactly.
@@ -229,7 +236,7 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
   for (const double margin : {m, 0.5 * m}) {
     if (!at_rest || absl::Now() >= deadline) break;
     int index = next_index_;
-    std::vector<Vec3> route = build_route({margin, false}, &index);
+    const std::vector<Vec3> route = build_route({margin, false}, &index);
     if (route.empty()) continue;
     std::vector<Vec3> points{state.position_W};
     points.insert(points.end(), route.begin(), route.end());
@@ -238,17 +245,10 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
       last_error = legs.status();
       continue;
     }
-    ScoredPath scored = scorer.ScoreTrajectory(*std::move(legs));
-    if (!scored.ok()) continue;
-    if (absl::Status exact = scorer.CheckExact(*scored.trajectory); !exact.ok()) {
-      last_error = exact;
-      continue;
+    if (auto path = fly_if_safe(scorer.ScoreTrajectory(*std::move(legs)), route, index,
+                                "pattern_stop_and_go")) {
+      return *std::move(path);
     }
-    next_index_ = index;
-    PlannerStats stats{.evaluations = 1,
-                       .wall_time_s = absl::ToDoubleSeconds(absl::Now() - started),
-                       .stop_reason = "pattern_stop_and_go"};
-    return scorer.Finish(std::move(scored), route, std::move(stats));
   }
   if (absl::Now() >= deadline) return absl::DeadlineExceededError("lawnmower: deadline passed");
   return absl::FailedPreconditionError(absl::StrCat("lawnmower: ", last_error.message()));
