@@ -94,10 +94,12 @@ struct StartState {
 //     a limit is met to rounding); with a non-zero start state it is not,
 //     so secant steps in log k (typically 2-4 solves) are followed, if they
 //     do not settle, by a scan and a bisection (at most ~70 solves).
-//     From a moving start the start jerk and snap are free (the state
-//     carries no jerk): held at 0, the start acceleration would decay over
-//     the whole first segment, its contribution to the speed growing with
-//     the durations, and many more starts would find no scaling.
+//     From a moving start (above 1e-6 m/s or 1e-6 m/s^2; below that they
+//     are 0, as at rest, unless that finds no scaling) the start jerk and
+//     snap are free, since the state carries no jerk: held at 0, the start
+//     acceleration would decay over the whole first segment, its
+//     contribution to the speed growing with the durations, and many more
+//     starts would find no scaling.
 //  4. Only if that fails from a moving start: step 3 is retried with a
 //     transition segment of 1 s, then 2 s, that carries on at the start
 //     velocity (to p + v tau, its duration fixed) before the scaled

@@ -222,6 +222,21 @@ TEST(PlanStopAndGoTest, BadInputIsRefused) {
   EXPECT_EQ(hover->MaxSpeed(), 0.0);
 }
 
+// A replan from a path's end carries rounding residue in the velocity
+// (~1e-15 m/s): it plans as from rest, start jerk and snap held at 0, while
+// a real moving start leaves them free.
+TEST(PlanMinSnapTest, RoundingResidueIsRestButMotionFreesTheStartJerk) {
+  const Vec3 goal(10, 5, 12);
+  const auto residue =
+      PlanMinSnap({{0, 0, 10}, {1e-15, -2e-15, 0}, Vec3::Zero()}, {goal}, kPaperLimits);
+  ASSERT_TRUE(residue.ok()) << residue.status();
+  EXPECT_EQ(residue->Coefficients(0).row(3).norm(), 0.0);  // jerk / 3!
+  EXPECT_EQ(residue->Coefficients(0).row(4).norm(), 0.0);  // snap / 4!
+  const auto moving = PlanMinSnap({{0, 0, 10}, {1.0, 0, 0}, Vec3::Zero()}, {goal}, kPaperLimits);
+  ASSERT_TRUE(moving.ok()) << moving.status();
+  EXPECT_GT(moving->Coefficients(0).row(3).norm(), 1e-6);
+}
+
 TEST(PlanMinSnapTest, FullSpeedTowardsTheWaypointSucceeds) {
   const StartState start{{0, 0, 10}, {5, 0, 0}, Vec3::Zero()};
   const auto traj = PlanMinSnap(start, {{40, 0, 10}}, kPaperLimits);
