@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
 #include "core/planning/oaipp_planner.h"
+#include "core/trajectory/min_snap.h"
 
 namespace oaipp {
 namespace {
@@ -232,7 +233,7 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
   }
   // Last resort from rest: the route flown stop and go, one straight leg
   // per detour corner, so it keeps the detour's own clearance exactly.
-  const bool at_rest = state.velocity_W_m_s.isZero(0.0) && state.accel_W_m_s2.isZero(0.0);
+  const bool at_rest = AtRest(state.velocity_W_m_s, state.accel_W_m_s2);
   for (const double margin : {m, 0.5 * m}) {
     if (!at_rest || absl::Now() >= deadline) break;
     int index = next_index_;

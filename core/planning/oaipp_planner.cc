@@ -144,10 +144,6 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
   const Eigen::VectorXd x0 = FromWaypoints(greedy);
   const ScoredPath greedy_scored = scorer.Score(greedy);
   ++stats.evaluations;
-  // Candidates CMA-ES scored (the greedy start first), and those with a
-  // trajectory within the dynamic limits (from a moving start PlanMinSnap
-  // may find none).
-  std::int64_t scored = 0, flyable = 0;
   stats.initial_objective = greedy_scored.score;
   if (greedy_scored.ok() && greedy_scored.collision_samples == 0) remember(greedy_scored, x0);
 
@@ -160,8 +156,13 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
   stats.search_fraction = fraction;
   // Past the deadline CMA-ES would only score the greedy start again.
   const bool search = config_.refine && generations > 0;
-  if (search && absl::Now() >= deadline) stats.stop_reason = "deadline";
-  if (search && absl::Now() < deadline) {
+  const bool late = absl::Now() >= deadline;
+  if (search && late) stats.stop_reason = "deadline";
+  if (search && !late) {
+    // Candidates CMA-ES scored (the greedy start first), and those with a
+    // trajectory within the dynamic limits (from a moving start PlanMinSnap
+    // may find none).
+    std::int64_t scored = 0, flyable = 0;
     const auto n = x0.size();
     Eigen::VectorXd lower(n), upper(n), steps(n);
     for (Eigen::Index i = 0; i < n; i += 3) {

@@ -10,22 +10,17 @@
 #include "absl/strings/str_format.h"
 #include "core/common/status_macros.h"
 #include "core/trajectory/measurement_schedule.h"
+#include "core/trajectory/min_snap.h"
 
 namespace oaipp {
 namespace {
 
-// Below these the UAV counts as at rest: the planners start from rest.
-constexpr double kRestSpeed_m_s = 1e-6;
-constexpr double kRestAccel_m_s2 = 1e-6;
 // The brake's ramps, seconds, gentlest first: PlanBrake takes the first
 // that keeps clear. Shorter ramps brake harder (more jerk) and stop closer
 // to the straight stop at the acceleration limit.
 constexpr double kBrakeRamps_s[] = {0.5, 0.3, 0.2, 0.1, 0.05, 0.03, 0.02};
 
-bool Moving(const UavState& state) {
-  return state.velocity_W_m_s.norm() > kRestSpeed_m_s ||
-         state.accel_W_m_s2.norm() > kRestAccel_m_s2;
-}
+bool Moving(const UavState& state) { return !AtRest(state.velocity_W_m_s, state.accel_W_m_s2); }
 
 std::string Point(const Vec3& p) {
   return absl::StrFormat("(%.2f, %.2f, %.2f)", p.x(), p.y(), p.z());

@@ -218,10 +218,6 @@ constexpr double kLimitTolerance = 1e-6;
 constexpr double kTightness = 1e-3;
 // Waypoints closer than this are merged.
 constexpr double kMergeDistance_m = 1e-6;
-// Up to these the start counts as at rest for the start jerk and snap
-// (PlanMinSnap; the planners' stop first uses the same).
-constexpr double kRestSpeed_m_s = 1e-6;
-constexpr double kRestAccel_m_s2 = 1e-6;
 // Lower bound on the allocated (unscaled) segment time.
 constexpr double kMinSegmentTime_s = 0.1;
 constexpr int kMaxFixedPointIterations = 12;
@@ -416,13 +412,10 @@ absl::StatusOr<PolynomialTrajectory> PlanMinSnap(const StartState& start,
   // acceleration last a fixed fraction of the first segment, so that long
   // durations overshoot the speed while short ones break the acceleration
   // limit. Freed, the acceleration fades quickly; the scaled trajectories
-  // are shorter and the search settles in fewer solves. At rest both are 0,
-  // and so they are below kRestSpeed_m_s / kRestAccel_m_s2: a path's end
-  // state carries rounding residue (~1e-15 m/s), and a replan from there
-  // plans as from rest, as it always has.
+  // are shorter and the search settles in fewer solves. At rest (AtRest,
+  // which takes in a path's end state) both are 0.
   const bool moving = !start.velocity_W_m_s.isZero(0.0) || !start.accel_W_m_s2.isZero(0.0);
-  const bool free_jerk =
-      start.velocity_W_m_s.norm() > kRestSpeed_m_s || start.accel_W_m_s2.norm() > kRestAccel_m_s2;
+  const bool free_jerk = !AtRest(start.velocity_W_m_s, start.accel_W_m_s2);
   absl::StatusOr<PolynomialTrajectory> planned =
       ScaleSearch(start, waypoints_W, durations_s, limits, free_jerk).Run();
   if (planned.ok() || !moving || planned.status().code() != absl::StatusCode::kFailedPrecondition) {
@@ -454,6 +447,10 @@ absl::StatusOr<PolynomialTrajectory> PlanMinSnap(const StartState& start,
     if (t.ok()) return t;
   }
   return planned;
+}
+
+bool AtRest(const Vec3& velocity_W_m_s, const Vec3& accel_W_m_s2) {
+  return velocity_W_m_s.norm() <= 1e-6 && accel_W_m_s2.norm() <= 1e-6;
 }
 
 absl::StatusOr<PolynomialTrajectory> PlanStopAndGo(const std::vector<Vec3>& points_W,

@@ -38,6 +38,11 @@ struct TrajectoryLimits {
 // OK, or InvalidArgument naming the first bad field.
 [[nodiscard]] absl::Status ValidateLimits(const TrajectoryLimits& limits);
 
+// Whether a start counts as at rest: speed and acceleration at most 1e-6
+// (m/s, m/s^2). A path's end state carries rounding residue (~1e-15 m/s),
+// and a replan from there plans as from rest.
+[[nodiscard]] bool AtRest(const Vec3& velocity_W_m_s, const Vec3& accel_W_m_s2);
+
 // The UAV's state when the trajectory starts, in W.
 struct StartState {
   Vec3 position_W = Vec3::Zero();

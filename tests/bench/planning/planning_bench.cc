@@ -62,6 +62,12 @@ World MakeWorld(double side_m) {
   return w;
 }
 
+// The middle element (the upper one of an even count).
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
 const World& E1() {
   static const World* world = new World(MakeWorld(30.0));
   return *world;
@@ -195,13 +201,9 @@ void BM_ConfirmationAgainstPaper(benchmark::State& state) {
       }
     }
   }
-  const auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-  };
-  state.counters["paper_median_ms"] = 1e3 * median(paper_s);
-  state.counters["confirm_median_ms"] = 1e3 * median(confirm_s);
-  state.counters["confirm_over_paper"] = median(confirm_s) / median(paper_s);
+  state.counters["paper_median_ms"] = 1e3 * Median(paper_s);
+  state.counters["confirm_median_ms"] = 1e3 * Median(confirm_s);
+  state.counters["confirm_over_paper"] = Median(confirm_s) / Median(paper_s);
 }
 BENCHMARK(BM_ConfirmationAgainstPaper)->Unit(benchmark::kMillisecond)->Iterations(2);
 
@@ -247,10 +249,6 @@ void BM_PastDeadline(benchmark::State& state) {
                                                    : PlannerKind::kOaIppNonAdaptive};
   UavState start;
   start.position_W = Vec3(side / 3.0, 0, 7);
-  const auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-  };
   std::vector<double> answer_s, eval_s;
   int answered = 0;
   for (auto _ : state) {
@@ -279,8 +277,8 @@ void BM_PastDeadline(benchmark::State& state) {
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
   }
-  state.counters["answer_ms"] = 1e3 * median(answer_s);
-  state.counters["eval_ms"] = 1e3 * median(eval_s);
+  state.counters["answer_ms"] = 1e3 * Median(answer_s);
+  state.counters["eval_ms"] = 1e3 * Median(eval_s);
   state.counters["answered"] = answered;
 }
 BENCHMARK(BM_PastDeadline)
@@ -319,13 +317,9 @@ void BM_MovingAgainstRest(benchmark::State& state) {
       time_plan(moving, &moving_s);
     }
   }
-  auto median = [](std::vector<double> v) {
-    std::sort(v.begin(), v.end());
-    return v[v.size() / 2];
-  };
-  state.counters["rest_median_ms"] = 1e3 * median(rest_s);
-  state.counters["moving_median_ms"] = 1e3 * median(moving_s);
-  state.counters["moving_over_rest"] = median(moving_s) / median(rest_s);
+  state.counters["rest_median_ms"] = 1e3 * Median(rest_s);
+  state.counters["moving_median_ms"] = 1e3 * Median(moving_s);
+  state.counters["moving_over_rest"] = Median(moving_s) / Median(rest_s);
   state.counters["stopped_first"] = stopped_first;
   state.counters["refused"] = refused;
 }
