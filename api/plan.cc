@@ -65,6 +65,7 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
   stats.set_initial_objective(path.stats.initial_objective);
   stats.set_stop_first_s(path.stats.stop_first_s);
   stats.set_search_fraction(path.stats.search_fraction);
+  stats.set_queued_s(path.stats.queued_s);
 }
 
 absl::StatusOr<PolynomialTrajectory> TrajectoryFromProto(const v1::Trajectory& trajectory) {
@@ -127,7 +128,8 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
                 // Plans stored before the field existed ran their whole search.
                 .search_fraction = response.stats().search_fraction() > 0.0
                                        ? response.stats().search_fraction()
-                                       : 1.0};
+                                       : 1.0,
+                .queued_s = response.stats().queued_s()};
   return path;
 }
 

@@ -84,6 +84,11 @@ ABSL_FLAG(std::string, dense_backend, "openblas",
           "where the Kalman update's rank-m product runs: openblas (Debian's libopenblas0-serial, "
           "loaded at start; Eigen when it is missing) or eigen");
 ABSL_FLAG(double, min_search_fraction, 0.1, "the least share of its search a shed plan runs");
+ABSL_FLAG(double, plan_latency_s, 0.0,
+          "overload: a plan's search ends this many seconds after its call arrived, the wait "
+          "for a planner included, but never sooner than a tenth of it after it started (it "
+          "then returns its best path so far; stats.queued_s says how long it waited); 0: no "
+          "bound");
 ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, 0,
           "memory all missions together may need (admission control, estimated from each spec "
@@ -251,14 +256,16 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_max_mission_memory_mb) < 0 ||
       !(absl::GetFlag(FLAGS_shed_above) >= 0 && absl::GetFlag(FLAGS_shed_above) < 1e6) ||
       !(absl::GetFlag(FLAGS_min_search_fraction) > 0 &&
-        absl::GetFlag(FLAGS_min_search_fraction) <= 1)) {
+        absl::GetFlag(FLAGS_min_search_fraction) <= 1) ||
+      !(absl::GetFlag(FLAGS_plan_latency_s) >= 0 && absl::GetFlag(FLAGS_plan_latency_s) < 1e6)) {
     spdlog::error(
         "bad flags: need worker_threads >= 2, planning_threads >= 1, "
         "planning_queue >= 0, 0 <= planning_nice <= 19, max_missions >= 1, max_cells >= 1, "
         "prior_cache >= 0, "
         "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0, "
         "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas "
-        "and memory limits >= 0, 0 <= shed_above < 1e6, 0 < min_search_fraction <= 1");
+        "and memory limits >= 0, 0 <= shed_above < 1e6, 0 < min_search_fraction <= 1, "
+        "0 <= plan_latency_s < 1e6");
     return 2;
   }
   absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials();
@@ -362,6 +369,7 @@ int main(int argc, char** argv) {
        .max_planning = absl::Seconds(absl::GetFlag(FLAGS_max_planning_s)),
        .shed_above = absl::GetFlag(FLAGS_shed_above),
        .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
+       .plan_latency = absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s)),
        .replica_id = absl::GetFlag(FLAGS_replica_id)});
 
   grpc::EnableDefaultHealthCheckService(true);

@@ -517,11 +517,12 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     // The budget ended planning, not the call's deadline: DeadlineExceeded
     // is kept for the latter (proto: PlanPathRequest.planning_budget_s).
     return absl::FailedPreconditionError(absl::StrCat(
-        "planning_budget_s: no collision-free path was found within the planning budget of ",
+        call.budget_cause, ": no collision-free path was found within the planning budget of ",
         absl::ToDoubleSeconds(call.budget), " s (", path.status().message(),
         "); a larger budget may find one"));
   }
   if (!path.ok()) return path.status();
+  path->stats.queued_s = absl::ToDoubleSeconds(call.queued);
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.
   const std::string state_after = planner_->SaveState();

@@ -268,6 +268,10 @@ class Mission {
     PersistPlanFn persist = nullptr;
     // PlanningContext::search_fraction: below 1 when the server sheds load.
     double search_fraction = 1.0;
+    // What set `budget`, for the error when no path was found within it.
+    std::string budget_cause = "planning_budget_s";
+    // How long the call waited for a planner (PlannerStats::queued_s).
+    absl::Duration queued = absl::ZeroDuration();
   };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,

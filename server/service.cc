@@ -488,7 +488,11 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
  public:
   PlanReactor(MissionServiceImpl* service, grpc::CallbackServerContext* context,
               const v1::PlanPathRequest* request, v1::PlanPathResponse* response)
-      : service_(service), context_(context), request_(request), response_(response) {
+      : service_(service),
+        context_(context),
+        request_(request),
+        response_(response),
+        arrived_(absl::Now()) {
     service_->TagReplica(context_);
     // A plan that was queued is counted (metrics, log) when it ends.
     const absl::Status status = service_->Run(
@@ -569,6 +573,19 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     const absl::Status status = service_->Run("PlanPath", [&]() -> absl::Status {
       if (call_.cancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
       call_.search_fraction = service_->SearchFraction();
+      call_.queued = absl::Now() - arrived_;
+      if (const absl::Duration bound = service_->limits_.plan_latency;
+          bound > absl::ZeroDuration()) {
+        // A plan that waited the whole bound still plans a tenth of it: its
+        // greedy start then scores all its candidates (one alone may not
+        // even give a flyable path), and the answer comes at most
+        // 1.1 x the bound after the call.
+        const absl::Duration left = std::max(bound - call_.queued, bound / 10);
+        if (left < call_.budget) {
+          call_.budget = left;
+          call_.budget_cause = "the server's plan latency bound";
+        }
+      }
       if (absl::Now() >= call_.deadline) {
         return absl::DeadlineExceededError("PlanPath: the deadline passed waiting for a planner");
       }
@@ -601,6 +618,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   std::shared_ptr<Mission> mission_;
   UavState state_;
   std::optional<double> next_shot_;
+  const absl::Time arrived_;
   Mission::PlanCall call_;
   std::string fingerprint_;
   bool holds_plan_ = false;

@@ -52,6 +52,13 @@ struct ServiceLimits {
   // 0: never shed (every plan runs its whole search).
   double shed_above = 0.0;
   double min_search_fraction = 0.1;
+  // Overload: a plan's search ends at most this long after its call
+  // arrived, the wait for a planner included, so a burst of plans cannot
+  // keep callers waiting for seconds. A plan that waited the whole bound
+  // still plans for a tenth of it and returns its best path by then
+  // (stop_reason "deadline"); stats.queued_s says how long it waited.
+  // Zero: no bound.
+  absl::Duration plan_latency = absl::ZeroDuration();
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of
   // a cluster); empty: not sent.

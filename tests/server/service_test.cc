@@ -444,6 +444,60 @@ TEST(ServiceTest, PlansThatStartBehindAQueueRunAShareOfTheirSearch) {
                                      ::testing::DoubleEq(1.0), ::testing::DoubleEq(1.0)));
 }
 
+// Overload: with a plan latency bound, a plan that waited longer than the
+// bound for a planner plans only a tenth of the bound and answers with its
+// best path by then, saying so (stop_reason "deadline", queued_s at least
+// the time the test held the planner).
+TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) {
+  // A tenth of the bound is far less than the whole search takes (50 000
+  // generations), and the plan waits longer than the bound.
+  constexpr absl::Duration kBound = absl::Seconds(1);
+  constexpr absl::Duration kHeld = absl::Milliseconds(1500);
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
+                     /*planning_queue=*/8, nullptr, nullptr, {.plan_latency = kBound});
+  for (const char* id : {"late", "free"}) {
+    grpc::ClientContext context;
+    v1::CreateMissionRequest create;
+    create.set_mission_id(id);
+    *create.mutable_spec() = SmallSpec();
+    create.mutable_spec()->mutable_planner()->set_generations(50000);
+    v1::Mission mission;
+    ASSERT_TRUE(s.stub().CreateMission(&context, create, &mission).ok());
+  }
+  auto plan = [&](const std::string& id, v1::PlanPathResponse* path) {
+    v1::PlanPathRequest request;
+    request.set_name("missions/" + id);
+    *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    return s.stub().PlanPath(&context, request, path);
+  };
+  absl::Notification release;
+  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
+  v1::PlanPathResponse late;
+  grpc::Status late_status;
+  std::thread caller([&] { late_status = plan("late", &late); });
+  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 1; }));
+  absl::SleepFor(kHeld);
+  release.Notify();
+  caller.join();
+  ASSERT_TRUE(late_status.ok()) << late_status.error_message();
+  EXPECT_EQ(late.stats().stop_reason(), "deadline");
+  EXPECT_LT(late.stats().generations(), 50000);
+  EXPECT_GE(late.stats().queued_s(), absl::ToDoubleSeconds(kHeld));
+  EXPECT_TRUE(late.collision_free());
+  EXPECT_GT(late.trajectory().segments_size(), 0);
+
+  // Nothing queued: the whole bound is the plan's, and its search ends there
+  // too.
+  v1::PlanPathResponse free;
+  const grpc::Status free_status = plan("free", &free);
+  ASSERT_TRUE(free_status.ok()) << free_status.error_message();
+  EXPECT_EQ(free.stats().stop_reason(), "deadline");
+  EXPECT_LT(free.stats().queued_s(), late.stats().queued_s());
+  EXPECT_TRUE(free.collision_free());
+}
+
 // The planner is anytime: with far more generations than fit before the
 // call's deadline, the best path found by then still reaches the client.
 TEST(ServiceTest, PlanPathAnswersWithinTheCallsDeadline) {

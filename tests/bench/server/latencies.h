@@ -11,6 +11,13 @@
 
 namespace oaipp::bench {
 
+// The q-quantile (0..1) of `v` (sorted in place); 0 when it is empty.
+inline double Quantile(std::vector<double>& v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+}
+
 class Latencies {
  public:
   // One call: when it started (seconds since the run began; for the
@@ -47,10 +54,7 @@ class Latencies {
   // The q-quantile (0..1) of `method`'s latencies, ms; 0 when it has none.
   double Percentile(const std::string& method, double q) {
     std::lock_guard<std::mutex> lock(mu_);
-    std::vector<double>& v = samples_[method];
-    if (v.empty()) return 0.0;
-    std::sort(v.begin(), v.end());
-    return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
+    return Quantile(samples_[method], q);
   }
 
   std::vector<std::string> Methods() {

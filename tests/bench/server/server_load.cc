@@ -59,6 +59,7 @@ ABSL_FLAG(double, shed_above, 2.0,
           "server overload shedding (oaipp-server --shed_above); 0: every plan runs its whole "
           "search");
 ABSL_FLAG(double, min_search_fraction, 0.1, "oaipp-server --min_search_fraction");
+ABSL_FLAG(double, plan_latency_s, 0.0, "oaipp-server --plan_latency_s (0: no bound)");
 ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
@@ -88,8 +89,9 @@ struct MissionResult {
   int plans = 0;
   double wall_s = 0.0;
   // Each plan: when it was asked for (s since the load started), the
-  // planner's wall time (s), evaluations, generations, search share.
-  std::vector<std::array<double, 5>> plan_stats;
+  // planner's wall time (s), evaluations, generations, search share, the
+  // wait for a planner (s), and 1 when the deadline ended its search.
+  std::vector<std::array<double, 7>> plan_stats;
 };
 
 // What one run of the load measured.
@@ -187,7 +189,8 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
     ++result.plans;
     result.plan_stats.push_back(
         {asked_s, path.stats().wall_time_s(), static_cast<double>(path.stats().evaluations()),
-         static_cast<double>(path.stats().generations()), path.stats().search_fraction()});
+         static_cast<double>(path.stats().generations()), path.stats().search_fraction(),
+         path.stats().queued_s(), path.stats().stop_reason() == "deadline" ? 1.0 : 0.0});
     const auto flight_start = Clock::now();
     const double fly = std::min(path.trajectory().duration_s(), budget - state.mission_time_s());
     for (const auto& pose : path.measurement_poses()) {
@@ -246,7 +249,9 @@ void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
   server::MissionServiceImpl service(
       &registry, &planners, nullptr, nullptr,
       {.shed_above = alone ? 0.0 : absl::GetFlag(FLAGS_shed_above),
-       .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction)});
+       .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
+       .plan_latency =
+           alone ? absl::ZeroDuration() : absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s))});
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
@@ -311,6 +316,17 @@ void Print(LoadResult& r, int missions, double budget, const std::string& pace) 
   for (double f : shares) shed += f < 1.0 ? 1 : 0;
   std::printf("plans shed: %d of %zu (mean search share %.3f)\n", shed, shares.size(),
               Mean(shares));
+  std::vector<double> queued;
+  int cut = 0;
+  for (const MissionResult& m : r.missions) {
+    if (!m.finished) continue;
+    for (const auto& plan : m.plan_stats) {
+      queued.push_back(plan[5]);
+      cut += plan[6] > 0.0 ? 1 : 0;
+    }
+  }
+  std::printf("waits for a planner: mean %.3f s, p99 %.3f s; searches ended by the deadline: %d\n",
+              Mean(queued), oaipp::bench::Quantile(queued, 0.99), cut);
   std::printf("memory per mission (map + its share of the ESDF, as reported): %.1f MB\n",
               r.bytes_per_mission / 1e6);
   std::printf("peak RSS of the process (server and clients): %.0f MB, %.1f MB per mission\n",
@@ -346,7 +362,8 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
                         {"rse", m.rse},
                         {"found", m.found},
                         {"plans", m.plans},
-                        // [asked_s, wall_s, evaluations, generations, share]
+                        // [asked_s, wall_s, evaluations, generations, share,
+                        //  queued_s, ended_by_deadline]
                         {"plan_stats", m.plan_stats},
                         {"wall_s", m.wall_s}});
   }
