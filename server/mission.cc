@@ -446,7 +446,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     OAIPP_RETURN_IF_ERROR(Persist(persist));
     absl::MutexLock lock(&mu_);
     GpMap& map = MutableMap();
-    OAIPP_RETURN_IF_ERROR(map.Update(observations));
+    OAIPP_RETURN_IF_ERROR(map.UpdateDeferred(observations));
     ++measurements_fused_;
     mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
     result =
@@ -498,7 +498,10 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   std::shared_ptr<const Environment> env;
   std::shared_ptr<const GpMap> map;
   {
-    absl::ReaderMutexLock lock(&mu_);
+    // Settled and taken under one lock, so no measurement leaves it pending
+    // in between.
+    absl::MutexLock lock(&mu_);
+    map_->Settle();
     env = env_;
     map = map_;
   }
@@ -563,6 +566,7 @@ MissionState Mission::CaptureState() const {
   // so that nothing changes while the state is copied.
   absl::MutexLock planner_lock(&planner_mu_);
   absl::MutexLock order(&mutation_mu_);
+  SettleMap();  // nothing can leave it pending again while order is held
   absl::ReaderMutexLock lock(&mu_);
   MissionState state;
   state.sequence = next_sequence() - 1;
@@ -666,8 +670,23 @@ MissionSnapshot Mission::Snapshot() const {
 }
 
 void Mission::ReadMap(const std::function<void(const GpMap&)>& reader) const {
-  absl::ReaderMutexLock lock(&mu_);
-  reader(*map_);
+  for (;;) {
+    SettleMap();
+    absl::ReaderMutexLock lock(&mu_);
+    // A measurement may have come in between: settle again.
+    if (map_->settled()) {
+      reader(*map_);
+      return;
+    }
+  }
+}
+
+void Mission::SettleMap() const {
+  absl::MutexLock lock(&mu_);
+  // Settling changes how the map is stored, not what it holds: no reader
+  // holds a map with a downdate pending (they settle it first), so this is
+  // the only copy.
+  map_->Settle();
 }
 
 absl::Status Mission::CheckLogRoom(std::int64_t bytes) const {

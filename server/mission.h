@@ -321,8 +321,16 @@ class Mission {
   // RESOURCE_EXHAUSTED before anything is applied or stored. The registry
   // sets it from the mission's memory budget; no limit until then.
   void set_log_limit(std::int64_t bytes) { log_limit_.store(bytes); }
-  // Reads the map under the reader lock.
+  // Reads the map under the reader lock (settled first, see SettleMap).
   void ReadMap(const std::function<void(const GpMap&)>& reader) const;
+  // AddMeasurement answers once the measurement is durable and fused into
+  // the map's mean and trace; the covariance's rank-m downdate, most of a
+  // small shot's work, is left pending (GpMap::UpdateDeferred). Everything
+  // that reads the covariance (a plan, ReadMap, a snapshot, the next update)
+  // settles it first, so no reader sees the difference; this applies it
+  // early, off the caller's path (the server calls it right after
+  // answering).
+  void SettleMap() const;
   [[nodiscard]] std::vector<LogEntry> Log() const;
   [[nodiscard]] const std::string& id() const { return id_; }
   [[nodiscard]] const MissionConfig& config() const { return config_; }

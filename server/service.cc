@@ -417,6 +417,7 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
     response->set_cells_fused(result.cells_fused);
     response->set_trace(result.trace);
     response->set_measurements_fused(result.measurements_fused);
+    (void)settlers_.Submit(mission->id(), [mission] { mission->SettleMap(); });
     return absl::OkStatus();
   });
 }

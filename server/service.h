@@ -139,6 +139,11 @@ class MissionServiceImpl final : public MissionServiceBase {
   int streams_ ABSL_GUARDED_BY(quota_mu_) = 0;
   std::map<std::string, int> streams_by_client_ ABSL_GUARDED_BY(quota_mu_);
   std::map<std::string, int> plans_by_tenant_ ABSL_GUARDED_BY(quota_mu_);
+  // Applies the covariance downdates AddMeasurement leaves pending
+  // (Mission::SettleMap) after it has answered, one at a time, at the
+  // process's priority; a full queue is harmless (readers settle). Last, so
+  // that it is destroyed first, running what it holds.
+  PlanningPool settlers_{/*threads=*/1, /*queue=*/4096};
 };
 
 }  // namespace oaipp::server

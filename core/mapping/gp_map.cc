@@ -352,9 +352,25 @@ absl::StatusOr<GpMap> GpMap::FromPrior(const FieldGrid& grid, VectorXd mean, Mat
 }
 
 absl::Status GpMap::Update(std::span<const CellObservation> observations) {
+  return Fuse(observations, /*defer_downdate=*/false);
+}
+
+absl::Status GpMap::UpdateDeferred(std::span<const CellObservation> observations) {
+  return Fuse(observations, /*defer_downdate=*/true);
+}
+
+void GpMap::Settle() {
+  if (settled()) return;
+  SymmetricRankUpdate(-1.0, pending_, covariance_);
+  MirrorLowerToUpper(covariance_);
+  pending_.resize(0, 0);
+}
+
+absl::Status GpMap::Fuse(std::span<const CellObservation> observations, bool defer_downdate) {
   OAIPP_ASSIGN_OR_RETURN(std::vector<CellObservation> merged,
                          MergeObservations(observations, num_cells()));
   if (merged.empty()) return absl::OkStatus();
+  Settle();
   if (DenseBackendIsOpenBlas() && 2 * merged.size() >= static_cast<std::size_t>(num_cells())) {
     return UpdateMostCells(merged, mean_, covariance_);
   }
@@ -368,6 +384,11 @@ absl::Status GpMap::Update(std::span<const CellObservation> observations) {
   }
   f.lower.triangularView<Eigen::Lower>().solveInPlace(innovation);
   mean_.noalias() += f.bt * innovation;
+  if (defer_downdate) {
+    trace_after_pending_ = covariance_.trace() - f.bt.squaredNorm();
+    pending_ = std::move(f.bt);
+    return absl::OkStatus();
+  }
   SymmetricRankUpdate(-1.0, f.bt, covariance_);
   MirrorLowerToUpper(covariance_);
   return absl::OkStatus();

@@ -23,6 +23,7 @@
 //   OAIPP_ASSIGN_OR_RETURN(double predicted, TraceAfterUpdate(map.Covariance(), obs));
 #pragma once
 
+#include <cassert>
 #include <span>
 #include <utility>
 #include <vector>
@@ -111,7 +112,12 @@ class GpMap {
   // The covariance is 8 n^2 bytes: copies are explicit.
   GpMap(const GpMap&) = delete;
   GpMap& operator=(const GpMap&) = delete;
-  [[nodiscard]] GpMap Clone() const { return GpMap(grid_, mean_, covariance_); }
+  [[nodiscard]] GpMap Clone() const {
+    GpMap copy(grid_, mean_, covariance_);
+    copy.pending_ = pending_;
+    copy.trace_after_pending_ = trace_after_pending_;
+    return copy;
+  }
 
   // Fuses `observations` in one Kalman update (docs/method.md §3), repeated
   // cells merged first (MergeObservations). An empty span does nothing.
@@ -127,23 +133,58 @@ class GpMap {
   // variance again, harmlessly). Repeated cells count once. Errors as Update.
   [[nodiscard]] absl::Status FuseNearCertainZeros(std::span<const int> cells);
 
+  // Update in two halves, for a caller that answers before the expensive
+  // one: the mean, the trace and the factor of the update now (O(n m^2)),
+  // the covariance's rank-m downdate P -= Bt Bt^T (O(n^2 m), most of the
+  // work for a shot that sees a small part of the field) on Settle. Once
+  // settled the map is bit for bit what Update gives. Until then
+  // Covariance(), Variance() and Variances() must not be read (Settle
+  // first); Mean() and Trace() already include the update. A shot that sees
+  // at least half the field is fused whole (on OpenBLAS it takes another
+  // route, core/mapping/dense_backend.h). A pending downdate is settled
+  // before any further update. Errors as Update.
+  [[nodiscard]] absl::Status UpdateDeferred(std::span<const CellObservation> observations);
+  // Applies a pending downdate; nothing when there is none.
+  void Settle();
+  [[nodiscard]] bool settled() const { return pending_.size() == 0; }
+
   [[nodiscard]] const FieldGrid& grid() const { return grid_; }
   [[nodiscard]] int num_cells() const { return static_cast<int>(mean_.size()); }
   [[nodiscard]] const Eigen::VectorXd& Mean() const { return mean_; }
-  [[nodiscard]] const Eigen::MatrixXd& Covariance() const { return covariance_; }
+  // Precondition of the three: settled().
+  [[nodiscard]] const Eigen::MatrixXd& Covariance() const {
+    assert(settled());
+    return covariance_;
+  }
   // Posterior variance of one cell. Precondition: grid().IsValidCell(cell).
-  [[nodiscard]] double Variance(int cell) const { return covariance_(cell, cell); }
-  [[nodiscard]] Eigen::VectorXd Variances() const { return covariance_.diagonal(); }
-  // Tr(P), the map's total uncertainty (the non-adaptive objective).
-  [[nodiscard]] double Trace() const { return covariance_.trace(); }
+  [[nodiscard]] double Variance(int cell) const {
+    assert(settled());
+    return covariance_(cell, cell);
+  }
+  [[nodiscard]] Eigen::VectorXd Variances() const {
+    assert(settled());
+    return covariance_.diagonal();
+  }
+  // Tr(P), the map's total uncertainty (the non-adaptive objective). With a
+  // downdate pending: Tr(P) - |Bt|_F^2, equal to the settled trace up to
+  // rounding.
+  [[nodiscard]] double Trace() const {
+    return settled() ? covariance_.trace() : trace_after_pending_;
+  }
 
  private:
   GpMap(const FieldGrid& grid, Eigen::VectorXd mean, Eigen::MatrixXd covariance)
       : grid_(grid), mean_(std::move(mean)), covariance_(std::move(covariance)) {}
 
+  // Update, or UpdateDeferred with `defer_downdate`.
+  absl::Status Fuse(std::span<const CellObservation> observations, bool defer_downdate);
+
   FieldGrid grid_;
   Eigen::VectorXd mean_;
   Eigen::MatrixXd covariance_;
+  // Bt (n x m) of an update whose downdate is pending; empty when settled.
+  Eigen::MatrixXd pending_;
+  double trace_after_pending_ = 0.0;
 };
 
 }  // namespace oaipp

@@ -337,6 +337,46 @@ TEST(GpMapTest, UpdateMatchesDenseKalmanAndSequentialUpdates) {
   }
 }
 
+// The deferred update is the same update in two halves: the mean at once
+// and bit for bit, the trace at once to rounding (against the brute-force
+// twin), and once settled the covariance bit for bit; a second update
+// settles the first before it starts, and a clone carries what is pending.
+TEST(GpMapTest, DeferredUpdatesSettleToTheSameMapBitForBit) {
+  const FieldGrid grid = Grid(12, 10, 0.75);
+  auto base = GpMap::Create(grid, GpParams::PaperPreset(0.75));
+  ASSERT_TRUE(base.ok());
+  std::mt19937 rng(7);
+  GpMap whole = base->Clone();
+  GpMap deferred = base->Clone();
+  VectorXd mu = base->Mean();
+  MatrixXd p = base->Covariance();
+  for (int shot = 0; shot < 4; ++shot) {
+    const std::vector<CellObservation> obs = RandomObservations(rng, grid.num_cells(), 25);
+    ASSERT_TRUE(whole.Update(obs).ok());
+    ASSERT_TRUE(deferred.UpdateDeferred(obs).ok());
+    DenseUpdate(obs, mu, p);
+    EXPECT_FALSE(deferred.settled());
+    EXPECT_EQ(deferred.Mean(), whole.Mean());
+    EXPECT_NEAR(deferred.Trace(), p.trace(), 1e-10 * p.trace());
+  }
+  const GpMap copy = deferred.Clone();
+  deferred.Settle();
+  EXPECT_TRUE(deferred.settled());
+  EXPECT_EQ(deferred.Covariance(), whole.Covariance());
+  EXPECT_EQ(deferred.Trace(), whole.Trace());
+  EXPECT_FALSE(copy.settled());
+  GpMap settled_copy = copy.Clone();
+  settled_copy.Settle();
+  EXPECT_EQ(settled_copy.Covariance(), whole.Covariance());
+  // A bad update leaves even a pending map as it was.
+  GpMap pending = base->Clone();
+  ASSERT_TRUE(pending.UpdateDeferred(RandomObservations(rng, grid.num_cells(), 10)).ok());
+  const double trace = pending.Trace();
+  const std::vector<CellObservation> bad = {{.cell = -1, .value = 1.0, .variance = 0.1}};
+  EXPECT_FALSE(pending.UpdateDeferred(bad).ok());
+  EXPECT_EQ(pending.Trace(), trace);
+}
+
 TEST(MergeObservationsTest, PrecisionsAddAndValuesArePrecisionWeighted) {
   const std::vector<CellObservation> obs = {{.cell = 3, .value = 1.0, .variance = 0.5},
                                             {.cell = 1, .value = 0.2, .variance = 0.3},
