@@ -177,10 +177,17 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
                                                          const SiteCaches& caches) {
   std::string world_key;
   if (caches.worlds != nullptr || caches.start_maps != nullptr) world_key = WorldKey(config);
-  OAIPP_ASSIGN_OR_RETURN(
-      Environment env, caches.worlds != nullptr
-                           ? caches.worlds->Get(world_key, [&] { return config.MakeEnvironment(); })
-                           : config.MakeEnvironment());
+  // A world built for the cache joins the ESDF pool as it is built, once:
+  // its clones then find their grid in the pool by identity, instead of
+  // each hashing 16 MB when a fleet's missions are created at once.
+  auto build = [&]() -> absl::StatusOr<Environment> {
+    OAIPP_ASSIGN_OR_RETURN(Environment built, config.MakeEnvironment());
+    if (caches.esdfs != nullptr) built.ShareEsdf(*caches.esdfs);
+    return built;
+  };
+  OAIPP_ASSIGN_OR_RETURN(Environment env, caches.worlds != nullptr
+                                              ? caches.worlds->Get(world_key, build)
+                                              : config.MakeEnvironment());
   // The UAV must start where it may fly: clear of every obstacle by half
   // its radius, as PlanPath asks of every state (exact distance).
   const Vec3& start = config.start.position_W;
