@@ -495,11 +495,6 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     next_shot = period * std::ceil(state.mission_time_s / period - 1e-9);
   }
   const std::string state_before = planner_->SaveState();
-  // The planning budget counts from here: a caller that queued the plan
-  // calls this once a planner is free, and waiting is not planning.
-  const absl::Time deadline = call.budget == absl::InfiniteDuration()
-                                  ? call.deadline
-                                  : std::min(call.deadline, absl::Now() + call.budget);
   // The world and map as they are now; changes made while planning go to
   // copies (MutableMap) and count from the next plan.
   std::shared_ptr<const Environment> env;
@@ -512,6 +507,12 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     env = env_;
     map = map_;
   }
+  // The planning budget counts from here: a caller that queued the plan
+  // calls this once a planner is free, and neither waiting nor settling the
+  // last measurement's downdate is planning.
+  const absl::Time deadline = call.budget == absl::InfiniteDuration()
+                                  ? call.deadline
+                                  : std::min(call.deadline, absl::Now() + call.budget);
   const PlanningContext context{.environment = env.get(),
                                 .map = map.get(),
                                 .camera = config_.camera,
@@ -526,8 +527,17 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   if (absl::IsDeadlineExceeded(path.status()) && deadline < call.deadline) {
     // The budget ended planning, not the call's deadline: DeadlineExceeded
     // is kept for the latter (proto: PlanPathRequest.planning_budget_s).
+    if (call.budget_is_servers) {
+      // The server's load cut it short: the caller cannot fix that by
+      // asking differently, only by asking again.
+      return absl::UnavailableError(absl::StrCat(
+          "PlanPath: the server is loaded: after ", absl::ToDoubleSeconds(call.queued),
+          " s waiting for a planner, its plan latency bound left ",
+          absl::ToDoubleSeconds(call.budget), " s, and no collision-free path was found in it (",
+          path.status().message(), "); retry"));
+    }
     return absl::FailedPreconditionError(absl::StrCat(
-        call.budget_cause, ": no collision-free path was found within the planning budget of ",
+        "planning_budget_s: no collision-free path was found within the planning budget of ",
         absl::ToDoubleSeconds(call.budget), " s (", path.status().message(),
         "); a larger budget may find one"));
   }
@@ -677,15 +687,19 @@ MissionSnapshot Mission::Snapshot() const {
 }
 
 void Mission::ReadMap(const std::function<void(const GpMap&)>& reader) const {
-  for (;;) {
-    SettleMap();
+  SettleMap();
+  {
     absl::ReaderMutexLock lock(&mu_);
-    // A measurement may have come in between: settle again.
     if (map_->settled()) {
       reader(*map_);
       return;
     }
   }
+  // A measurement came in between: settle and read under one lock, so that
+  // a steady stream of them cannot keep the reader waiting.
+  absl::MutexLock lock(&mu_);
+  map_->Settle();
+  reader(*map_);
 }
 
 void Mission::SettleMap() const {

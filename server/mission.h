@@ -268,9 +268,11 @@ class Mission {
     PersistPlanFn persist = nullptr;
     // PlanningContext::search_fraction: below 1 when the server sheds load.
     double search_fraction = 1.0;
-    // What set `budget`, for the error when no path was found within it.
-    std::string budget_cause = "planning_budget_s";
-    // How long the call waited for a planner (PlannerStats::queued_s).
+    // Whether `budget` is the server's plan latency bound rather than the
+    // caller's planning_budget_s (which error a plan without a path gets).
+    bool budget_is_servers = false;
+    // From the call's arrival until a planner took it up
+    // (PlannerStats::queued_s).
     absl::Duration queued = absl::ZeroDuration();
   };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,

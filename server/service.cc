@@ -584,7 +584,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
         const absl::Duration left = std::max(bound - call_.queued, bound / 10);
         if (left < call_.budget) {
           call_.budget = left;
-          call_.budget_cause = "the server's plan latency bound";
+          call_.budget_is_servers = true;
         }
       }
       if (absl::Now() >= call_.deadline) {

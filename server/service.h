@@ -56,8 +56,8 @@ struct ServiceLimits {
   // arrived, the wait for a planner included, so a burst of plans cannot
   // keep callers waiting for seconds. A plan that waited the whole bound
   // still plans for a tenth of it and returns its best path by then
-  // (stop_reason "deadline"); stats.queued_s says how long it waited.
-  // Zero: no bound.
+  // (stop_reason "deadline"; UNAVAILABLE if it found none, since only a
+  // retry helps); stats.queued_s says how long it waited. Zero: no bound.
   absl::Duration plan_latency = absl::ZeroDuration();
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of

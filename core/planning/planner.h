@@ -96,7 +96,8 @@ struct PlannerStats {
   double stop_first_s = 0.0;
   // PlanningContext::search_fraction as this plan ran it.
   double search_fraction = 1.0;
-  // Seconds the plan waited for a planner (set by the server; 0 in-process).
+  // Seconds from the call's arrival until a planner took it up (set by the
+  // server; 0 in-process).
   double queued_s = 0.0;
 };
 
