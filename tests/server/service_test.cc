@@ -446,8 +446,8 @@ TEST(ServiceTest, PlansThatStartBehindAQueueRunAShareOfTheirSearch) {
 
 // Overload: with a plan latency bound, a plan that waited longer than the
 // bound for a planner plans only a tenth of the bound and answers with its
-// best path by then, saying so (stop_reason "deadline", queued_s at least
-// the time the test held the planner).
+// best path by then, saying so (stop_reason "deadline", queued_s beyond
+// the bound).
 TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) {
   // A tenth of the bound is far less than the whole search takes (50 000
   // generations), and the plan waits longer than the bound.
@@ -484,7 +484,9 @@ TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) 
   ASSERT_TRUE(late_status.ok()) << late_status.error_message();
   EXPECT_EQ(late.stats().stop_reason(), "deadline");
   EXPECT_LT(late.stats().generations(), 50000);
-  EXPECT_GE(late.stats().queued_s(), absl::ToDoubleSeconds(kHeld));
+  // It waited past the bound (held 1.5 s; the server's clock and the
+  // test's sleep need not agree to the millisecond).
+  EXPECT_GT(late.stats().queued_s(), absl::ToDoubleSeconds(kBound));
   EXPECT_TRUE(late.collision_free());
   EXPECT_GT(late.trajectory().segments_size(), 0);
 
