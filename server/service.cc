@@ -579,8 +579,8 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
           bound > absl::ZeroDuration()) {
         // A plan that waited the whole bound still plans a tenth of it: its
         // greedy start then scores all its candidates (one alone may not
-        // even give a flyable path), and the answer comes at most
-        // 1.1 x the bound after the call.
+        // even give a flyable path). The search ends by 1.1 x the bound
+        // after the call; the exact check and the reply come after it.
         const absl::Duration left = std::max(bound - call_.queued, bound / 10);
         if (left < call_.budget) {
           call_.budget = left;

@@ -139,10 +139,10 @@ class GpMap {
   // work for a shot that sees a small part of the field) on Settle. Once
   // settled the map is bit for bit what Update gives. Until then
   // Covariance(), Variance() and Variances() must not be read (Settle
-  // first); Mean() and Trace() already include the update. A shot that sees
-  // at least half the field is fused whole (on OpenBLAS it takes another
-  // route, core/mapping/dense_backend.h). A pending downdate is settled
-  // before any further update. Errors as Update.
+  // first); Mean() and Trace() already include the update. On OpenBLAS a
+  // shot that sees at least half the field is fused whole (it takes another
+  // route there, core/mapping/dense_backend.h). A pending downdate is
+  // settled before any further update. Errors as Update.
   [[nodiscard]] absl::Status UpdateDeferred(std::span<const CellObservation> observations);
   // Applies a pending downdate; nothing when there is none.
   void Settle();
