@@ -208,6 +208,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
                                     : GpMap::Create(grid, config.gp);
   };
   std::shared_ptr<GpMap> map;
+  std::shared_ptr<const StartMap> start_map;
   std::vector<int> covered;
   if (caches.start_maps != nullptr) {
     // The same prior and the same fusion, in the same cell order, as
@@ -224,6 +225,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
             }));
     map = shared->map;
     covered = shared->covered_cells;
+    start_map = std::move(shared);
   } else {
     OAIPP_ASSIGN_OR_RETURN(GpMap fresh, prior());
     map = std::make_shared<GpMap>(std::move(fresh));
@@ -232,6 +234,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
                                                std::move(map), std::move(planner), caches));
   absl::MutexLock lock(&mission->mu_);
+  mission->start_map_ = std::move(start_map);
   mission->covered_cells_.insert(covered.begin(), covered.end());
   OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
   mission->mission_time_s_ = mission->config_.start.mission_time_s;
@@ -499,6 +502,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   // copies (MutableMap) and count from the next plan.
   std::shared_ptr<const Environment> env;
   std::shared_ptr<const GpMap> map;
+  std::shared_ptr<ConditionedCache> conditioned;
   {
     // Settled and taken under one lock, so no measurement leaves it pending
     // in between.
@@ -506,6 +510,11 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     map_->Settle();
     env = env_;
     map = map_;
+    if (start_map_ != nullptr && start_map_->map == map_) {
+      conditioned = start_map_->conditioned;
+    } else {
+      start_map_.reset();  // the map has changed since: it never goes back
+    }
   }
   // The planning budget counts from here: a caller that queued the plan
   // calls this once a planner is free, and neither waiting nor settling the
@@ -520,10 +529,12 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .next_shot_mission_s = next_shot,
                                 .remaining_budget_s = config_.budget_s - elapsed,
                                 .cancelled = call.cancelled,
-                                .search_fraction = call.search_fraction};
+                                .search_fraction = call.search_fraction,
+                                .conditioned = conditioned.get()};
   absl::StatusOr<PlannedPath> path = planner_->Plan(context, state, deadline);
   env.reset();
   map.reset();
+  conditioned.reset();
   if (absl::IsDeadlineExceeded(path.status()) && deadline < call.deadline) {
     // The budget ended planning, not the call's deadline: DeadlineExceeded
     // is kept for the latter (proto: PlanPathRequest.planning_budget_s).

@@ -157,6 +157,10 @@ struct MissionSnapshot {
 struct StartMap {
   std::shared_ptr<GpMap> map;      // never changed while shared
   std::vector<int> covered_cells;  // the cells fused, in the order fused
+  // The map conditioned on a first shot, for the first plans of the
+  // missions still holding `map` (a fleet starting from one point conditions
+  // it on the same shot); two entries of 8 n^2 bytes at most.
+  std::shared_ptr<ConditionedCache> conditioned = std::make_shared<ConditionedCache>(2);
 };
 using StartMapCache = SingleFlightCache<std::string, StartMap>;
 
@@ -409,6 +413,9 @@ class Mission {
   // a plan holds them.
   std::shared_ptr<const Environment> env_ ABSL_GUARDED_BY(mu_);
   std::shared_ptr<GpMap> map_ ABSL_GUARDED_BY(mu_);
+  // The shared map this mission started from (null if none): while map_ is
+  // still its map, plans share its conditioned covariances.
+  std::shared_ptr<const StartMap> start_map_ ABSL_GUARDED_BY(mu_);
   std::set<int> covered_cells_ ABSL_GUARDED_BY(mu_);
   std::vector<LogEntry> log_ ABSL_GUARDED_BY(mu_);
   std::atomic<std::int64_t> log_bytes_{0};

@@ -7,6 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "boost/math/special_functions/owens_t.hpp"
 #include "core/common/geometry.h"
+#include "core/common/status_macros.h"
 #include "core/mapping/dense_backend.h"
 
 namespace oaipp {
@@ -123,7 +124,8 @@ double InformationParams::AltitudeReward(double altitude_m) const {
   return std::exp(-0.5 * z * z) / (sigma1_m * std::sqrt(2.0 * kPi));
 }
 
-absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix) {
+absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix,
+                                             ConditionedCache* shared) {
   for (std::size_t i = 0; i < prefix.size(); ++i) {
     if (prefix[i].scored) {
       return absl::InvalidArgumentError(absl::StrCat(
@@ -131,16 +133,30 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
     }
   }
   prefix_.clear();
-  conditioned_.resize(0, 0);
+  conditioned_.reset();
   base_squared_.resize(0, 0);
   work_without_square_ = 0.0;
   MergedCells fused;
   for (const PoseObservation& pose : prefix) fused.Add(pose);
   if (fused.empty()) return absl::OkStatus();
-  const Eigen::MatrixXd w = WhitenedRows(fused, cov_, fused.FactorLower(cov_));
-  conditioned_ = cov_;
-  SymmetricRankUpdate(-1.0, w.transpose(), conditioned_);
-  conditioned_.triangularView<Eigen::StrictlyUpper>() = conditioned_.transpose();
+  auto compute = [&]() -> absl::StatusOr<Eigen::MatrixXd> {
+    const Eigen::MatrixXd w = WhitenedRows(fused, cov_, fused.FactorLower(cov_));
+    Eigen::MatrixXd conditioned = cov_;
+    SymmetricRankUpdate(-1.0, w.transpose(), conditioned);
+    conditioned.triangularView<Eigen::StrictlyUpper>() = conditioned.transpose();
+    return conditioned;
+  };
+  if (shared != nullptr) {
+    PrefixKey key;
+    for (const PoseObservation& pose : prefix) {
+      key.cells.push_back(pose.cells);
+      key.variances.push_back(pose.variance);
+    }
+    OAIPP_ASSIGN_OR_RETURN(conditioned_, shared->Get(key, compute));
+  } else {
+    OAIPP_ASSIGN_OR_RETURN(Eigen::MatrixXd own, compute());
+    conditioned_ = std::make_shared<const Eigen::MatrixXd>(std::move(own));
+  }
   prefix_ = std::move(prefix);
   return absl::OkStatus();
 }
@@ -157,7 +173,7 @@ std::size_t InformationEvaluator::PrefixLength(std::span<const PoseObservation> 
 
 double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) const {
   const std::size_t skip = PrefixLength(poses);
-  const Eigen::MatrixXd& base = skip > 0 ? conditioned_ : cov_;
+  const Eigen::MatrixXd& base = skip > 0 ? *conditioned_ : cov_;
   const auto rest = poses.subspan(skip);
   return params_.kind == ObjectiveKind::kAdaptive
              ? Adaptive(rest, base)
@@ -167,7 +183,7 @@ double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) co
 Eigen::VectorXd InformationEvaluator::PosteriorVariances(
     std::span<const PoseObservation> poses) const {
   const std::size_t skip = PrefixLength(poses);
-  const Eigen::MatrixXd& base = skip > 0 ? conditioned_ : cov_;
+  const Eigen::MatrixXd& base = skip > 0 ? *conditioned_ : cov_;
   MergedCells fused;
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
@@ -258,7 +274,7 @@ bool InformationEvaluator::UseBaseSquared(Eigen::Index m, Eigen::Index n) const 
 const Eigen::MatrixXd& InformationEvaluator::BaseSquared() const {
   if (base_squared_.size() == 0) {
     // B symmetric: B^2 = B B^T, a symmetric rank-n update (half a product).
-    const Eigen::MatrixXd& base = prefix_.empty() ? cov_ : conditioned_;
+    const Eigen::MatrixXd& base = prefix_.empty() ? cov_ : *conditioned_;
     base_squared_ = Eigen::MatrixXd::Zero(base.rows(), base.cols());
     base_squared_.selfadjointView<Eigen::Lower>().rankUpdate(base);
     base_squared_.triangularView<Eigen::StrictlyUpper>() = base_squared_.transpose();

@@ -40,11 +40,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "Eigen/Core"
 #include "absl/status/status.h"
+#include "core/common/single_flight_cache.h"
 
 namespace oaipp {
 
@@ -107,6 +109,20 @@ struct PoseObservation {
   bool scored = true;
 };
 
+// What a covariance conditioned on a prefix depends on besides the
+// covariance: each prefix pose's cells and noise variance.
+struct PrefixKey {
+  std::vector<std::vector<int>> cells;
+  std::vector<double> variances;
+  bool operator==(const PrefixKey&) const = default;
+};
+// Covariances conditioned on a prefix (InformationEvaluator::Condition),
+// shared by the evaluators of many plans over one covariance that does not
+// change while the cache is used with it: the missions of a fleet that start
+// from one shared map at one start point all condition it on the same first
+// shot, and compute it once (a copy and a rank-k update of n^2 doubles).
+using ConditionedCache = SingleFlightCache<PrefixKey, Eigen::MatrixXd>;
+
 class InformationEvaluator {
  public:
   // Holds references: mean (n) and covariance (n x n, symmetric) must
@@ -123,7 +139,10 @@ class InformationEvaluator {
   // from P_c and skip them; others take the plain path. About k n^2 flops
   // for k prefix cells, n^2 doubles of memory. InvalidArgument if a prefix
   // pose is scored.
-  absl::Status Condition(std::vector<PoseObservation> prefix);
+  // With `shared`, P_c comes from it (made there on first need), as computed
+  // here bit for bit: the caller promises that `shared` serves this
+  // evaluator's covariance only.
+  absl::Status Condition(std::vector<PoseObservation> prefix, ConditionedCache* shared = nullptr);
 
   [[nodiscard]] ObjectiveKind kind() const { return params_.kind; }
 
@@ -165,7 +184,7 @@ class InformationEvaluator {
   const Eigen::MatrixXd& cov_;
   InformationParams params_;
   std::vector<PoseObservation> prefix_;
-  Eigen::MatrixXd conditioned_;  // P_c, empty without a prefix
+  std::shared_ptr<const Eigen::MatrixXd> conditioned_;  // P_c, null without a prefix
   mutable Eigen::MatrixXd base_squared_;
   mutable double work_without_square_ = 0.0;  // multiply-adds, see UseBaseSquared
 };

@@ -95,7 +95,8 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   if (mission.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
     scorer.start_observations_.push_back(scorer.Observe(state.position_W, /*scored=*/false));
     // Every candidate fuses this shot first: condition on it once.
-    OAIPP_RETURN_IF_ERROR(scorer.evaluator_.Condition(scorer.start_observations_));
+    OAIPP_RETURN_IF_ERROR(
+        scorer.evaluator_.Condition(scorer.start_observations_, mission.conditioned));
   }
   return scorer;
 }

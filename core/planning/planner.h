@@ -53,6 +53,11 @@ struct PlanningContext {
   // Below 1 only when a loaded server sheds work (docs/capacity.md); the
   // other planners ignore it.
   double search_fraction = 1.0;
+  // Covariances of `map` conditioned on a plan's first shot, shared with
+  // other plans over the same map (nullptr: each plan conditions its own).
+  // The caller promises that the map does not change while the cache is used
+  // with it, and that the cache serves no other covariance.
+  ConditionedCache* conditioned = nullptr;
 };
 
 // The UAV when planning starts: its kinematic state on the mission clock.

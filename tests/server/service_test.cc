@@ -227,6 +227,54 @@ TEST(ServiceTest, MissionsOverOneSiteShareTheirStartingMap) {
   EXPECT_EQ(start_maps.computations(), 3);
 }
 
+// The first plans of missions that still hold one shared starting map, from
+// one start point, condition that map on the first shot once, and plan
+// exactly what a mission on its own plans. A mission whose map has changed
+// conditions its own.
+TEST(ServiceTest, FirstPlansOverASharedStartingMapConditionItOnce) {
+  auto config = api::MissionSpecToConfig(SmallSpec());
+  ASSERT_TRUE(config.ok()) << config.status();
+  StartMapCache start_maps(/*capacity=*/4);
+  const SiteCaches caches{.start_maps = &start_maps};
+  auto a = Mission::Create("a", *config, caches);
+  auto b = Mission::Create("b", *config, caches);
+  auto alone = Mission::Create("alone", *config);
+  ASSERT_TRUE(a.ok() && b.ok() && alone.ok());
+  auto conditionings = [&] {
+    std::int64_t n = -1;
+    EXPECT_TRUE(start_maps.AnyHeld([&](const StartMap& held) {
+      n = held.conditioned->computations();
+      return true;
+    }));
+    return n;
+  };
+  const UavState start = config->start;
+  auto own = (*alone)->Plan(start, std::nullopt, "p0", {});
+  ASSERT_TRUE(own.ok()) << own.status();
+  ASSERT_GT(own->measurement_poses.size(), 0u);
+  ASSERT_NEAR(own->measurement_poses.front().mission_time_s, start.mission_time_s, 1e-9)
+      << "the first shot is due at the start: the plan conditions on it";
+  for (const auto* m : {&*a, &*b}) {
+    auto shared = (*m)->Plan(start, std::nullopt, "p0", {});
+    ASSERT_TRUE(shared.ok()) << shared.status();
+    EXPECT_EQ(shared->control_waypoints_W, own->control_waypoints_W);
+    EXPECT_EQ(shared->objective, own->objective);
+  }
+  EXPECT_EQ(conditionings(), 1);
+  // After a measurement `a` plans over its own copy: nothing more is shared.
+  auto measurement = api::MeasurementFromProto(LabelMeasurement("missions/a", 3, 3, 10, 1.0, 1.0));
+  ASSERT_TRUE(measurement.ok()) << measurement.status();
+  ASSERT_TRUE((*a)->AddMeasurement(*measurement, "").ok());
+  ASSERT_TRUE((*alone)->AddMeasurement(*measurement, "").ok());
+  UavState later = start;
+  later.mission_time_s = 1.0;  // the measurement's time
+  auto changed = (*a)->Plan(later, std::nullopt, "p1", {});
+  auto changed_alone = (*alone)->Plan(later, std::nullopt, "p1", {});
+  ASSERT_TRUE(changed.ok() && changed_alone.ok());
+  EXPECT_EQ(changed->control_waypoints_W, changed_alone->control_waypoints_W);
+  EXPECT_EQ(conditionings(), 1);
+}
+
 TEST(ServiceTest, MeasurementsShrinkTheMapAndRequestIdsFuseOnce) {
   InProcessService s;
   CreateSmall(s.stub(), "m");

@@ -111,6 +111,46 @@ TEST_P(InformationAgreementTest, ConditionedPrefixEqualsReference) {
   EXPECT_EQ(with_prefix, 150);
 }
 
+// Evaluators over one covariance that share a ConditionedCache condition
+// it once per prefix, and value every path bit for bit as an evaluator that
+// conditions on its own.
+TEST_P(InformationAgreementTest, SharedConditioningEqualsOwnBitForBit) {
+  const GpMap map = RandomPosterior(16, 6);
+  const InformationParams params{.kind = GetParam(), .kappa = 0.8};
+  std::mt19937 rng(41);
+  std::vector<PoseObservation> prefix = RandomPoses(map.grid(), rng);
+  for (PoseObservation& pose : prefix) pose.scored = false;
+  ConditionedCache shared(/*capacity=*/2);
+  InformationEvaluator own(map.Mean(), map.Covariance(), params);
+  InformationEvaluator first(map.Mean(), map.Covariance(), params);
+  InformationEvaluator second(map.Mean(), map.Covariance(), params);
+  ASSERT_TRUE(own.Condition(prefix).ok());
+  ASSERT_TRUE(first.Condition(prefix, &shared).ok());
+  ASSERT_TRUE(second.Condition(prefix, &shared).ok());
+  EXPECT_EQ(shared.computations(), 1);
+  for (int path = 0; path < 50; ++path) {
+    std::vector<PoseObservation> poses = prefix;
+    for (PoseObservation pose : RandomPoses(map.grid(), rng)) poses.push_back(std::move(pose));
+    const double expected = own.Evaluate(poses);
+    EXPECT_EQ(first.Evaluate(poses), expected) << "path " << path;
+    EXPECT_EQ(second.Evaluate(poses), expected) << "path " << path;
+    const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
+    EXPECT_NEAR(expected, reference, 1e-9 * std::abs(reference) + 1e-12) << "path " << path;
+  }
+  // Another prefix (one more pose, or another noise) is another entry.
+  std::vector<PoseObservation> longer = prefix;
+  longer.push_back(prefix.front());
+  ASSERT_TRUE(second.Condition(longer, &shared).ok());
+  std::vector<PoseObservation> noisier = prefix;
+  noisier.front().variance *= 2.0;
+  ASSERT_TRUE(first.Condition(noisier, &shared).ok());
+  EXPECT_EQ(shared.computations(), 3);
+  std::vector<PoseObservation> poses = noisier;
+  for (PoseObservation pose : RandomPoses(map.grid(), rng)) poses.push_back(std::move(pose));
+  const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
+  EXPECT_NEAR(first.Evaluate(poses), reference, 1e-9 * std::abs(reference) + 1e-12);
+}
+
 INSTANTIATE_TEST_SUITE_P(BothObjectives, InformationAgreementTest,
                          ::testing::Values(ObjectiveKind::kAdaptive, ObjectiveKind::kNonAdaptive));
 
