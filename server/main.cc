@@ -86,9 +86,10 @@ ABSL_FLAG(std::string, dense_backend, "openblas",
 ABSL_FLAG(double, min_search_fraction, 0.1, "the least share of its search a shed plan runs");
 ABSL_FLAG(double, plan_latency_s, 0.0,
           "overload: a plan's search ends this many seconds after its call arrived, the wait "
-          "for a planner included, but never sooner than a tenth of it after it started (it "
-          "then returns its best path so far; stats.queued_s says how long it waited); 0: no "
-          "bound");
+          "for a planner included; plans queued together share the time until the newest "
+          "one's bound; none searches less than a hundredth of it (it then returns its best "
+          "path so far; stats.queued_s says how long it waited); 0: no bound. With a bound, "
+          "--shed_above=0 is the better setting");
 ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, 0,
           "memory all missions together may need (admission control, estimated from each spec "

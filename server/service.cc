@@ -263,6 +263,7 @@ void MissionServiceImpl::ReleaseStream(const std::string& client) {
 
 absl::Status MissionServiceImpl::AcquirePlan(const std::string& tenant) {
   absl::MutexLock lock(&quota_mu_);
+  newest_plan_ = std::max(newest_plan_, absl::Now());
   int& mine = plans_by_tenant_[tenant];
   if (limits_.max_plans_per_tenant > 0 && mine >= limits_.max_plans_per_tenant) {
     if (mine == 0) plans_by_tenant_.erase(tenant);
@@ -293,6 +294,21 @@ double MissionServiceImpl::SearchFraction() const {
   const double allowed = limits_.shed_above * planners_->threads();
   if (waiting <= allowed) return 1.0;
   return std::clamp(allowed / waiting, limits_.min_search_fraction, 1.0);
+}
+
+// Plans are taken up in arrival order, so the newest has the latest bound:
+// the plan starting now and the `behind` queued after it share the planning
+// threads until then.
+absl::Duration MissionServiceImpl::FairShare() const {
+  const absl::Duration bound = limits_.plan_latency;
+  const int behind = planners_->waiting();
+  if (bound <= absl::ZeroDuration() || behind == 0) return absl::InfiniteDuration();
+  absl::Time newest;
+  {
+    absl::MutexLock lock(&quota_mu_);
+    newest = newest_plan_;
+  }
+  return (newest + bound - absl::Now()) * planners_->threads() / (behind + 1);
 }
 
 int MissionServiceImpl::open_streams() const {
@@ -577,11 +593,16 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
       call_.queued = absl::Now() - arrived_;
       if (const absl::Duration bound = service_->limits_.plan_latency;
           bound > absl::ZeroDuration()) {
-        // A plan that waited the whole bound still plans a tenth of it: its
-        // greedy start then scores all its candidates (one alone may not
-        // even give a flyable path). The search ends by 1.1 x the bound
-        // after the call; the exact check and the reply come after it.
-        const absl::Duration left = std::max(bound - call_.queued, bound / 10);
+        // The plan and those queued behind it share the time left until
+        // the newest one's bound (FairShare), and none searches past its
+        // own. A plan with (almost) nothing left still plans for a
+        // hundredth of the bound: its greedy start scores at least one
+        // candidate per waypoint, and a straight segment to the first is
+        // the last resort. Unless the wait took (almost) all of the bound,
+        // the search ends within it; the exact check and the reply come
+        // after it.
+        const absl::Duration left =
+            std::max(std::min(bound - call_.queued, service_->FairShare()), bound / 100);
         if (left < call_.budget) {
           call_.budget = left;
           call_.budget_is_servers = true;

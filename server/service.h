@@ -54,10 +54,16 @@ struct ServiceLimits {
   double min_search_fraction = 0.1;
   // Overload: a plan's search ends at most this long after its call
   // arrived, the wait for a planner included, so a burst of plans cannot
-  // keep callers waiting for seconds. A plan that waited the whole bound
-  // still plans for a tenth of it and returns its best path by then
-  // (stop_reason "deadline"; UNAVAILABLE if it found none, since only a
-  // retry helps); stats.queued_s says how long it waited. Zero: no bound.
+  // keep callers waiting for seconds. Plans queued together share the time
+  // left until the newest one's bound: one that starts with k plans queued
+  // behind it searches at most threads x (time left) / (k + 1), so the
+  // whole queue is answered within the bound instead of the first plans
+  // taking all of it and the last ones none. A plan with (almost) nothing
+  // left still plans for a hundredth of the bound and returns its best path
+  // by then (stop_reason "deadline"; UNAVAILABLE if it found none, since
+  // only a retry helps); stats.queued_s says how long it waited. Zero: no
+  // bound. shed_above is then best left at 0: the bound already shrinks
+  // searches as much as the queue needs, and no more.
   absl::Duration plan_latency = absl::ZeroDuration();
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of
@@ -105,6 +111,10 @@ class MissionServiceImpl final : public MissionServiceBase {
   [[nodiscard]] bool Overloaded() const;
   // The share of its search a plan starting now runs (ServiceLimits::shed_above).
   [[nodiscard]] double SearchFraction() const;
+  // With a plan latency bound: how long a plan starting now may search so
+  // that it and the plans queued behind it all end by the newest one's
+  // bound (ServiceLimits::plan_latency).
+  [[nodiscard]] absl::Duration FairShare() const;
   [[nodiscard]] int open_streams() const;
 
  private:
@@ -139,6 +149,8 @@ class MissionServiceImpl final : public MissionServiceBase {
   int streams_ ABSL_GUARDED_BY(quota_mu_) = 0;
   std::map<std::string, int> streams_by_client_ ABSL_GUARDED_BY(quota_mu_);
   std::map<std::string, int> plans_by_tenant_ ABSL_GUARDED_BY(quota_mu_);
+  // When the newest plan arrived (the last one queued: the queue is FIFO).
+  absl::Time newest_plan_ ABSL_GUARDED_BY(quota_mu_) = absl::InfinitePast();
   // Applies the covariance downdates AddMeasurement leaves pending
   // (Mission::SettleMap) after it has answered, one at a time, at the
   // process's priority; a full queue is harmless (readers settle). Last, so
