@@ -4,8 +4,8 @@
 One panel per method (PlanPath, AddMeasurement): the 50th, 90th and 99th
 percentile of the calls that started in each window, on a log scale, with
 the number of calls per window on a second axis; a last panel shows the
-share of its search each plan ran (overload shedding) against when it was
-asked for. CreateMission (all at the start) is summed up in the title.
+share of its CMA-ES generations each plan ran (shed, or ended by the
+latency bound) against when it was asked for. CreateMission (all at the start) is summed up in the title.
 
     /usr/bin/python3 tests/bench/server/plot_load.py load.json load.png [--window_s 10]
 """
@@ -71,16 +71,22 @@ def main():
         counts = ax.twinx()
         counts.bar(t, [r[4] for r in rows], width=args.window_s * 0.8, alpha=0.15, color="grey")
         counts.set_ylabel(f"calls per {args.window_s:g} s")
-    # The search share of each plan, against when the plan was asked for.
+    # The share of its CMA-ES generations each plan ran (cut by shedding or
+    # by the latency bound), against when the plan was asked for.
     plans = [p for m in run["missions"] for p in m["plan_stats"]]
-    shares = [p[4] for p in plans]
+    generations = max(1, figures.get("generations", 45))
     ax = axes[-1]
-    ax.plot([p[0] for p in plans], shares, ".", markersize=3, alpha=0.5)
+    for cut, colour, label in ((False, "tab:blue", "whole search or shed"),
+                               (True, "tab:red", "ended by the latency bound")):
+        chosen = [p for p in plans if (p[6] > 0) == cut]
+        ax.plot([p[0] for p in chosen], [min(p[3] / generations, 1.0) for p in chosen], ".",
+                markersize=3, alpha=0.5, color=colour, label=f"{label}: {len(chosen)}")
     ax.set_ylim(0, 1.05)
-    ax.set_ylabel("search share")
+    ax.set_ylabel("generations run / configured")
     ax.set_xlabel("seconds since the load started")
-    shed = sum(1 for s in shares if s < 1.0)
-    ax.set_title(f"plans shed under load: {shed} of {len(shares)}")
+    short = sum(1 for p in plans if p[3] < generations)
+    ax.set_title(f"plans that ran fewer than {generations} generations: {short} of {len(plans)}")
+    ax.legend(loc="lower right")
     ax.grid(True, alpha=0.3)
     create = run["methods"].get("CreateMission", {"p50_ms": 0, "p99_ms": 0})
     fig.suptitle(f"{figures['missions']} E1 missions of {figures['budget_s']:g} s ({run['pace']}), "

@@ -60,6 +60,12 @@ ABSL_FLAG(double, shed_above, 2.0,
           "search");
 ABSL_FLAG(double, min_search_fraction, 0.1, "oaipp-server --min_search_fraction");
 ABSL_FLAG(double, plan_latency_s, 0.0, "oaipp-server --plan_latency_s (0: no bound)");
+ABSL_FLAG(double, first_plan_budget_s, 0.0,
+          "each mission asks for its first path with this planning_budget_s, in every run "
+          "(0: none): what the first plans' search is worth to the RSE");
+ABSL_FLAG(double, launch_spread_s, 0.0,
+          "missions start one after another, evenly over this many seconds (0: all at once, "
+          "the default); not in the one-at-a-time run");
 ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
@@ -183,6 +189,10 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
       r.set_name(name);
       *r.mutable_state() = state;
       r.set_request_id(absl::StrCat("plan-", state.mission_time_s()));
+      if (const double first = absl::GetFlag(FLAGS_first_plan_budget_s);
+          first > 0.0 && result.plans == 0) {
+        r.set_planning_budget_s(first);
+      }
       return stub.PlanPath(&c, r, &path);
     });
     if (!planned.ok()) return result;
@@ -288,6 +298,10 @@ void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
     std::vector<std::thread> threads;
     for (int m = 0; m < missions; ++m) {
       threads.emplace_back([&, m] {
+        // Launches spread evenly over --launch_spread_s (0: all at once).
+        std::this_thread::sleep_until(
+            start +
+            std::chrono::duration<double>(absl::GetFlag(FLAGS_launch_spread_s) * m / missions));
         out.missions[m] = FlyMission(*stub, m, paced, start, out, out_mu);
         ++done;
       });
@@ -402,8 +416,11 @@ int main(int argc, char** argv) {
   std::printf("Kalman update on %s\n", oaipp::DenseBackendName().c_str());
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
-  if (missions < 1 || !(budget > 0)) {
-    std::fprintf(stderr, "--missions must be >= 1 and --budget_s > 0\n");
+  if (missions < 1 || !(budget > 0) || !(absl::GetFlag(FLAGS_first_plan_budget_s) >= 0.0) ||
+      !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0)) {
+    std::fprintf(stderr,
+                 "--missions must be >= 1, --budget_s > 0, --first_plan_budget_s >= 0 and "
+                 "--launch_spread_s >= 0\n");
     return 2;
   }
   std::vector<std::unique_ptr<LoadResult>> runs;
@@ -462,6 +479,16 @@ int main(int argc, char** argv) {
         "(of the missions alone)\n",
         Mean(together), Mean(apart), Mean(together) - Mean(apart),
         StdErr(apart) > 0 ? (Mean(together) - Mean(apart)) / StdErr(apart) : 0.0);
+    // Mission by mission (same seed in both runs): the spread of the
+    // difference says how much of it one run's luck can explain.
+    std::vector<double> differences;
+    for (std::size_t m = 0; m < alone->missions.size(); ++m) {
+      const MissionResult& a = runs.front()->missions[m];
+      const MissionResult& b = alone->missions[m];
+      if (a.finished && b.finished) differences.push_back(a.rse - b.rse);
+    }
+    std::printf("mission by mission: mean difference %.3f, standard error %.3f (%zu pairs)\n",
+                Mean(differences), StdErr(differences), differences.size());
   }
   if (const std::string path = absl::GetFlag(FLAGS_json); !path.empty()) {
     nlohmann::json j;
