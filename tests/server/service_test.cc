@@ -443,6 +443,42 @@ TEST(ServiceTest, APlanningBudgetThatEndsWithoutAPathIsNotADeadline) {
   EXPECT_THAT(status.error_message(), HasSubstr("planning_budget_s: no collision-free path"));
 }
 
+// Creates `n` missions "<prefix>0", "<prefix>1", ... with `generations`
+// CMA-ES generations, holds the only planner until a plan for each waits,
+// then lets them run: their answers, in mission order.
+void PlanQueuedTogether(InProcessService& s, const std::string& prefix, int n, int generations,
+                        std::vector<grpc::Status>* statuses,
+                        std::vector<v1::PlanPathResponse>* paths) {
+  for (int i = 0; i < n; ++i) {
+    grpc::ClientContext context;
+    v1::CreateMissionRequest create;
+    create.set_mission_id(absl::StrCat(prefix, i));
+    *create.mutable_spec() = SmallSpec();
+    create.mutable_spec()->mutable_planner()->set_generations(generations);
+    v1::Mission mission;
+    ASSERT_TRUE(s.stub().CreateMission(&context, create, &mission).ok());
+  }
+  absl::Notification release;
+  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
+  statuses->assign(n, grpc::Status());
+  paths->assign(n, v1::PlanPathResponse());
+  std::vector<std::thread> callers;
+  for (int i = 0; i < n; ++i) {
+    callers.emplace_back([&, i] {
+      v1::PlanPathRequest request;
+      request.set_name(absl::StrCat("missions/", prefix, i));
+      *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
+      grpc::ClientContext context;
+      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+      (*statuses)[i] = s.stub().PlanPath(&context, request, &(*paths)[i]);
+    });
+  }
+  const bool all_wait = Eventually([&] { return s.planners().waiting() == n; });
+  release.Notify();
+  for (auto& c : callers) c.join();
+  ASSERT_TRUE(all_wait);
+}
+
 // Overload: with shed_above = 1 and one planning thread, a plan that starts
 // while k > 1 others wait runs 1/k of its CMA-ES generations and says so.
 TEST(ServiceTest, PlansThatStartBehindAQueueRunAShareOfTheirSearch) {
@@ -450,34 +486,9 @@ TEST(ServiceTest, PlansThatStartBehindAQueueRunAShareOfTheirSearch) {
                      /*planning_queue=*/8, nullptr, nullptr, {.shed_above = 1.0});
   constexpr int kPlans = 4;
   constexpr int kGenerations = 20;
-  for (int i = 0; i < kPlans; ++i) {
-    grpc::ClientContext context;
-    v1::CreateMissionRequest create;
-    create.set_mission_id(absl::StrCat("m", i));
-    *create.mutable_spec() = SmallSpec();
-    create.mutable_spec()->mutable_planner()->set_generations(kGenerations);
-    v1::Mission mission;
-    ASSERT_TRUE(s.stub().CreateMission(&context, create, &mission).ok());
-  }
-  // Hold the only planner until all four plans wait.
-  absl::Notification release;
-  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
-  std::vector<v1::PlanPathResponse> paths(kPlans);
-  std::vector<grpc::Status> statuses(kPlans);
-  std::vector<std::thread> callers;
-  for (int i = 0; i < kPlans; ++i) {
-    callers.emplace_back([&, i] {
-      v1::PlanPathRequest request;
-      request.set_name(absl::StrCat("missions/m", i));
-      *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
-      grpc::ClientContext context;
-      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-      statuses[i] = s.stub().PlanPath(&context, request, &paths[i]);
-    });
-  }
-  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == kPlans; }));
-  release.Notify();
-  for (auto& t : callers) t.join();
+  std::vector<grpc::Status> statuses;
+  std::vector<v1::PlanPathResponse> paths;
+  ASSERT_NO_FATAL_FAILURE(PlanQueuedTogether(s, "m", kPlans, kGenerations, &statuses, &paths));
   // They start with 3, 2, 1 and 0 others waiting: shares 1/3, 1/2, 1, 1.
   std::vector<double> fractions;
   for (int i = 0; i < kPlans; ++i) {
@@ -558,33 +569,9 @@ TEST(ServiceTest, PlansQueuedTogetherShareTheTimeUntilTheBound) {
   constexpr int kPlans = 4;
   InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
                      /*planning_queue=*/8, nullptr, nullptr, {.plan_latency = kBound});
-  for (int i = 0; i < kPlans; ++i) {
-    grpc::ClientContext context;
-    v1::CreateMissionRequest create;
-    create.set_mission_id(absl::StrCat("q", i));
-    *create.mutable_spec() = SmallSpec();
-    create.mutable_spec()->mutable_planner()->set_generations(50000);
-    v1::Mission mission;
-    ASSERT_TRUE(s.stub().CreateMission(&context, create, &mission).ok());
-  }
-  absl::Notification release;
-  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
-  std::vector<v1::PlanPathResponse> paths(kPlans);
-  std::vector<grpc::Status> statuses(kPlans);
-  std::vector<std::thread> callers;
-  for (int i = 0; i < kPlans; ++i) {
-    callers.emplace_back([&, i] {
-      v1::PlanPathRequest request;
-      request.set_name(absl::StrCat("missions/q", i));
-      *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
-      grpc::ClientContext context;
-      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-      statuses[i] = s.stub().PlanPath(&context, request, &paths[i]);
-    });
-  }
-  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == kPlans; }));
-  release.Notify();
-  for (auto& c : callers) c.join();
+  std::vector<grpc::Status> statuses;
+  std::vector<v1::PlanPathResponse> paths;
+  ASSERT_NO_FATAL_FAILURE(PlanQueuedTogether(s, "q", kPlans, 50000, &statuses, &paths));
   double first_done_s = 1e9;
   for (int i = 0; i < kPlans; ++i) {
     ASSERT_TRUE(statuses[i].ok()) << statuses[i].error_message();
