@@ -176,19 +176,32 @@ TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
   EXPECT_EQ(uncached.registry().PriorComputations(), 0);
 }
 
+// Two missions "a" and "b" over one site sharing its starting map, and
+// "alone" over the same site with nothing shared.
+struct SharedSite {
+  absl::StatusOr<MissionConfig> config = api::MissionSpecToConfig(SmallSpec());
+  StartMapCache start_maps{/*capacity=*/4};
+  absl::StatusOr<std::shared_ptr<Mission>> a, b, alone;
+  void Create() {
+    ASSERT_TRUE(config.ok()) << config.status();
+    const SiteCaches caches{.start_maps = &start_maps};
+    a = Mission::Create("a", *config, caches);
+    b = Mission::Create("b", *config, caches);
+    alone = Mission::Create("alone", *config);
+    ASSERT_TRUE(a.ok() && b.ok() && alone.ok());
+  }
+};
+
 // Missions over one site copy one starting map (the prior with the ground
 // under its building fused) instead of fusing it again, and the copy is the
 // map a mission fusing on its own gets, bit for bit. Another site, or other
 // GP parameters, is another starting map.
 TEST(ServiceTest, MissionsOverOneSiteShareTheirStartingMap) {
-  auto config = api::MissionSpecToConfig(SmallSpec());
-  ASSERT_TRUE(config.ok()) << config.status();
-  StartMapCache start_maps(/*capacity=*/4);
-  const SiteCaches caches{.start_maps = &start_maps};
-  auto a = Mission::Create("a", *config, caches);
-  auto b = Mission::Create("b", *config, caches);
-  auto alone = Mission::Create("alone", *config);
-  ASSERT_TRUE(a.ok() && b.ok() && alone.ok());
+  SharedSite site;
+  ASSERT_NO_FATAL_FAILURE(site.Create());
+  const auto& config = site.config;
+  StartMapCache& start_maps = site.start_maps;
+  auto &a = site.a, &b = site.b, &alone = site.alone;
   EXPECT_EQ(start_maps.computations(), 1);
   const MissionState own = (*alone)->CaptureState();
   // The building's footprint (2 x 4 m over 0.75 m cells) was fused.
@@ -210,6 +223,7 @@ TEST(ServiceTest, MissionsOverOneSiteShareTheirStartingMap) {
   ASSERT_TRUE((*a)->AddMeasurement(*measurement, "").ok());
   EXPECT_LT((*a)->CaptureState().covariance.trace(), own.covariance.trace() - 1.0);
   EXPECT_TRUE((*b)->CaptureState().covariance == own.covariance);
+  const SiteCaches caches{.start_maps = &start_maps};
   auto later = Mission::Create("c", *config, caches);
   ASSERT_TRUE(later.ok());
   EXPECT_TRUE((*later)->CaptureState().covariance == own.covariance);
@@ -233,14 +247,11 @@ TEST(ServiceTest, MissionsOverOneSiteShareTheirStartingMap) {
 // exactly what a mission on its own plans. A mission whose map has changed
 // conditions its own.
 TEST(ServiceTest, FirstPlansOverASharedStartingMapConditionItOnce) {
-  auto config = api::MissionSpecToConfig(SmallSpec());
-  ASSERT_TRUE(config.ok()) << config.status();
-  StartMapCache start_maps(/*capacity=*/4);
-  const SiteCaches caches{.start_maps = &start_maps};
-  auto a = Mission::Create("a", *config, caches);
-  auto b = Mission::Create("b", *config, caches);
-  auto alone = Mission::Create("alone", *config);
-  ASSERT_TRUE(a.ok() && b.ok() && alone.ok());
+  SharedSite site;
+  ASSERT_NO_FATAL_FAILURE(site.Create());
+  const auto& config = site.config;
+  StartMapCache& start_maps = site.start_maps;
+  auto &a = site.a, &b = site.b, &alone = site.alone;
   auto conditionings = [&] {
     std::int64_t n = -1;
     EXPECT_TRUE(start_maps.AnyHeld([&](const StartMap& held) {
