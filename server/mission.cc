@@ -334,6 +334,9 @@ GpMap& Mission::MutableMap() {
   // Only holders of mu_ copy map_, and this one holds it for writing: a
   // count of 1 cannot grow under us. A plan that lets go meanwhile costs
   // one needless copy, no harm.
+  // The shared start map and its conditionings are no longer this
+  // mission's (a plan in progress keeps what it holds).
+  start_map_.reset();
   if (map_.use_count() > 1) map_ = std::make_shared<GpMap>(map_->Clone());
   return *map_;
 }

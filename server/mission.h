@@ -159,7 +159,8 @@ struct StartMap {
   std::vector<int> covered_cells;  // the cells fused, in the order fused
   // The map conditioned on a first shot, for the first plans of the
   // missions still holding `map` (a fleet starting from one point conditions
-  // it on the same shot); two entries of 8 n^2 bytes at most.
+  // it on the same shot): two entries of 8 n^2 bytes, kept while the site's
+  // cache or such a mission holds this (a plan in progress keeps its own).
   std::shared_ptr<ConditionedCache> conditioned = std::make_shared<ConditionedCache>(2);
 };
 using StartMapCache = SingleFlightCache<std::string, StartMap>;
@@ -413,8 +414,8 @@ class Mission {
   // a plan holds them.
   std::shared_ptr<const Environment> env_ ABSL_GUARDED_BY(mu_);
   std::shared_ptr<GpMap> map_ ABSL_GUARDED_BY(mu_);
-  // The shared map this mission started from (null if none): while map_ is
-  // still its map, plans share its conditioned covariances.
+  // The shared map this mission started from, until its map changes
+  // (MutableMap): plans share its conditioned covariances.
   std::shared_ptr<const StartMap> start_map_ ABSL_GUARDED_BY(mu_);
   std::set<int> covered_cells_ ABSL_GUARDED_BY(mu_);
   std::vector<LogEntry> log_ ABSL_GUARDED_BY(mu_);

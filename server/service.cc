@@ -263,7 +263,6 @@ void MissionServiceImpl::ReleaseStream(const std::string& client) {
 
 absl::Status MissionServiceImpl::AcquirePlan(const std::string& tenant) {
   absl::MutexLock lock(&quota_mu_);
-  newest_plan_ = std::max(newest_plan_, absl::Now());
   int& mine = plans_by_tenant_[tenant];
   if (limits_.max_plans_per_tenant > 0 && mine >= limits_.max_plans_per_tenant) {
     if (mine == 0) plans_by_tenant_.erase(tenant);
@@ -296,9 +295,16 @@ double MissionServiceImpl::SearchFraction() const {
   return std::clamp(allowed / waiting, limits_.min_search_fraction, 1.0);
 }
 
-// Plans are taken up in arrival order, so the newest has the latest bound:
-// the plan starting now and the `behind` queued after it share the planning
-// threads until then.
+void MissionServiceImpl::NotePlanQueued(absl::Time arrived) {
+  absl::MutexLock lock(&quota_mu_);
+  newest_plan_ = std::max(newest_plan_, arrived);
+}
+
+// Plans are taken up in about arrival order (one plan per mission at a
+// time), so the newest has about the latest bound: the plan starting now
+// and the `behind` queued after it share the planning threads until then.
+// Plans already running on other threads are not counted, so a queue that
+// forms behind them can end somewhat past the bound.
 absl::Duration MissionServiceImpl::FairShare() const {
   const absl::Duration bound = limits_.plan_latency;
   const int behind = planners_->waiting();
@@ -582,6 +588,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
       return job.status();
     }
     job_ = *std::move(job);
+    service_->NotePlanQueued(arrived_);
     return absl::OkStatus();
   }
 

@@ -57,8 +57,9 @@ struct ServiceLimits {
   // keep callers waiting for seconds. Plans queued together share the time
   // left until the newest one's bound: one that starts with k plans queued
   // behind it searches at most threads x (time left) / (k + 1), so the
-  // whole queue is answered within the bound instead of the first plans
-  // taking all of it and the last ones none. A plan with (almost) nothing
+  // queue is answered at about the bound instead of the first plans taking
+  // all of it and the last ones none (plans already running on other
+  // threads are not counted). A plan with (almost) nothing
   // left still plans for a hundredth of the bound and returns its best path
   // by then (stop_reason "deadline"; UNAVAILABLE if it found none, since
   // only a retry helps); stats.queued_s says how long it waited. Zero: no
@@ -115,6 +116,8 @@ class MissionServiceImpl final : public MissionServiceBase {
   // that it and the plans queued behind it all end by the newest one's
   // bound (ServiceLimits::plan_latency).
   [[nodiscard]] absl::Duration FairShare() const;
+  // A plan that arrived at `arrived` was queued (FairShare's newest plan).
+  void NotePlanQueued(absl::Time arrived);
   [[nodiscard]] int open_streams() const;
 
  private:
@@ -149,7 +152,7 @@ class MissionServiceImpl final : public MissionServiceBase {
   int streams_ ABSL_GUARDED_BY(quota_mu_) = 0;
   std::map<std::string, int> streams_by_client_ ABSL_GUARDED_BY(quota_mu_);
   std::map<std::string, int> plans_by_tenant_ ABSL_GUARDED_BY(quota_mu_);
-  // When the newest plan arrived (the last one queued: the queue is FIFO).
+  // When the newest queued plan arrived (NotePlanQueued).
   absl::Time newest_plan_ ABSL_GUARDED_BY(quota_mu_) = absl::InfinitePast();
   // Applies the covariance downdates AddMeasurement leaves pending
   // (Mission::SettleMap) after it has answered, one at a time, at the

@@ -278,12 +278,18 @@ TEST(ServiceTest, FirstPlansOverASharedStartingMapConditionItOnce) {
   ASSERT_TRUE(measurement.ok()) << measurement.status();
   ASSERT_TRUE((*a)->AddMeasurement(*measurement, "").ok());
   ASSERT_TRUE((*alone)->AddMeasurement(*measurement, "").ok());
+  // At the next shot's time and the same place: the start shot's key is the
+  // first plans', so a plan that still used the shared conditioning would
+  // plan over the map without the measurement.
   UavState later = start;
-  later.mission_time_s = 1.0;  // the measurement's time
+  later.mission_time_s = 1.0 / config->sensor_rate_hz();
   auto changed = (*a)->Plan(later, std::nullopt, "p1", {});
   auto changed_alone = (*alone)->Plan(later, std::nullopt, "p1", {});
   ASSERT_TRUE(changed.ok() && changed_alone.ok());
+  ASSERT_NEAR(changed->measurement_poses.front().mission_time_s, later.mission_time_s, 1e-9);
   EXPECT_EQ(changed->control_waypoints_W, changed_alone->control_waypoints_W);
+  EXPECT_EQ(changed->objective, changed_alone->objective);
+  EXPECT_NE(changed->objective, own->objective);
   EXPECT_EQ(conditionings(), 1);
 }
 
@@ -516,7 +522,7 @@ TEST(ServiceTest, PlansThatStartBehindAQueueRunAShareOfTheirSearch) {
 }
 
 // Overload: with a plan latency bound, a plan that waited longer than the
-// bound for a planner plans only a tenth of the bound and answers with its
+// bound for a planner plans only a hundredth of the bound and answers with its
 // best path by then, saying so (stop_reason "deadline", queued_s beyond
 // the bound).
 TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) {
