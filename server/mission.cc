@@ -513,11 +513,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     map_->Settle();
     env = env_;
     map = map_;
-    if (start_map_ != nullptr && start_map_->map == map_) {
-      conditioned = start_map_->conditioned;
-    } else {
-      start_map_.reset();  // the map has changed since: it never goes back
-    }
+    // MutableMap lets go of start_map_ at the map's first change.
+    if (start_map_ != nullptr && start_map_->map == map_) conditioned = start_map_->conditioned;
   }
   // The planning budget counts from here: a caller that queued the plan
   // calls this once a planner is free, and neither waiting nor settling the

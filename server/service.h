@@ -59,12 +59,12 @@ struct ServiceLimits {
   // behind it searches at most threads x (time left) / (k + 1), so the
   // queue is answered at about the bound instead of the first plans taking
   // all of it and the last ones none (plans already running on other
-  // threads are not counted). A plan with (almost) nothing
-  // left still plans for a hundredth of the bound and returns its best path
-  // by then (stop_reason "deadline"; UNAVAILABLE if it found none, since
-  // only a retry helps); stats.queued_s says how long it waited. Zero: no
-  // bound. shed_above is then best left at 0: the bound already shrinks
-  // searches as much as the queue needs, and no more.
+  // threads are not counted). A plan with (almost) nothing left still plans
+  // for a hundredth of the bound and returns its best path by then
+  // (stop_reason "deadline"; UNAVAILABLE if it found none, since only a
+  // retry helps); stats.queued_s says how long it waited. Zero: no bound.
+  // shed_above is then best left at 0: the bound already shrinks searches
+  // as much as the queue needs, and no more.
   absl::Duration plan_latency = absl::ZeroDuration();
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of

@@ -5,7 +5,8 @@ One panel per method (PlanPath, AddMeasurement): the 50th, 90th and 99th
 percentile of the calls that started in each window, on a log scale, with
 the number of calls per window on a second axis; a last panel shows the
 share of its CMA-ES generations each plan ran (shed, or ended by the
-latency bound) against when it was asked for. CreateMission (all at the start) is summed up in the title.
+latency bound) against when it was asked for. CreateMission (all at the
+start) is summed up in the title.
 
     /usr/bin/python3 tests/bench/server/plot_load.py load.json load.png [--window_s 10]
 """

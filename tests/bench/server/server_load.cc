@@ -496,6 +496,9 @@ int main(int argc, char** argv) {
     j["budget_s"] = budget;
     j["planning_threads"] = absl::GetFlag(FLAGS_planning_threads);
     j["shed_above"] = absl::GetFlag(FLAGS_shed_above);
+    j["plan_latency_s"] = absl::GetFlag(FLAGS_plan_latency_s);
+    j["launch_spread_s"] = absl::GetFlag(FLAGS_launch_spread_s);
+    j["first_plan_budget_s"] = absl::GetFlag(FLAGS_first_plan_budget_s);
     j["generations"] = absl::GetFlag(FLAGS_generations);
     j["dense_backend"] = oaipp::DenseBackendName();
     nlohmann::json list = nlohmann::json::array();
