@@ -84,17 +84,22 @@ absl::StatusOr<Simulation> Simulation::Create(const v1::Scenario& scenario) {
   return sim;
 }
 
-std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng) const {
+std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng,
+                                         std::vector<TargetSightings>* sightings) const {
+  if (sightings != nullptr) sightings->resize(targets_.size());
   std::vector<PixelBox> boxes;
   // A box clipped to the image edge can be left with no area: the rule every
   // box is held to (PixelBox::Validate) drops it, after its random draws, so
   // the stream does not depend on it.
   const auto keep_valid = [&](const PixelBox& box) {
-    if (box.Validate(&intrinsics_).ok()) boxes.push_back(box);
+    if (!box.Validate(&intrinsics_).ok()) return false;
+    boxes.push_back(box);
+    return true;
   };
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const double h = p_W.z();
-  for (const v1::Target& t : targets_) {
+  for (std::size_t i = 0; i < targets_.size(); ++i) {
+    const v1::Target& t = targets_[i];
     const Vec3 centre(0.5 * (t.x_min_m() + t.x_max_m()), 0.5 * (t.y_min_m() + t.y_max_m()), 0.0);
     const double draw = unit(rng);  // drawn for every target: one stream whatever is visible
     if (!env_->IsVisible(p_W, centre)) continue;
@@ -112,10 +117,12 @@ std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng) 
     if (!in_front || !Project(intrinsics_, p_W, centre, &c)) continue;
     if (c.x() < 0 || c.y() < 0 || c.x() > intrinsics_.width_px || c.y() > intrinsics_.height_px)
       continue;
+    if (sightings != nullptr) ++(*sightings)[i].in_view;
     if (draw >= detector_.DetectionProbability(h)) continue;
     lo = lo.cwiseMax(Vec2(0, 0));
     hi = hi.cwiseMin(Vec2(intrinsics_.width_px, intrinsics_.height_px));
-    keep_valid({lo.x(), lo.y(), hi.x(), hi.y(), 0.5 + 0.5 * unit(rng)});
+    if (keep_valid({lo.x(), lo.y(), hi.x(), hi.y(), 0.5 + 0.5 * unit(rng)}) && sightings != nullptr)
+      ++(*sightings)[i].detected;
   }
   // The server takes at most api::kMaxBoxes boxes an image; a mean far
   // above that (a high camera) would only draw boxes to be refused.
@@ -127,8 +134,8 @@ std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng) 
   for (int i = 0; i < n; ++i) {
     const double x = unit(rng) * std::max(1.0, intrinsics_.width_px - w),
                  y = unit(rng) * std::max(1.0, intrinsics_.height_px - l);
-    keep_valid({x, y, std::min<double>(x + w, intrinsics_.width_px),
-                std::min<double>(y + l, intrinsics_.height_px), 0.5 + 0.5 * unit(rng)});
+    (void)keep_valid({x, y, std::min<double>(x + w, intrinsics_.width_px),
+                      std::min<double>(y + l, intrinsics_.height_px), 0.5 + 0.5 * unit(rng)});
   }
   return boxes;
 }

@@ -35,6 +35,13 @@ struct DetectorParams {
   [[nodiscard]] double FalsePositiveRate(double altitude_m) const;
 };
 
+// How often the camera had a target in view and how often the detector
+// reported it: what tells a target never seen from one seen and missed.
+struct TargetSightings {
+  int in_view = 0;   // visible and its centre inside the image
+  int detected = 0;  // of those, reported by the detector
+};
+
 class Simulation {
  public:
   // Validates the scenario (targets inside the field, detector ranges) and
@@ -44,7 +51,12 @@ class Simulation {
   // The boxes a downward camera at p_W (yaw 0) reports: each visible target
   // (its centre in line of sight, inside the image) with probability p(h),
   // plus Poisson false positives of a person's size at random places.
-  [[nodiscard]] std::vector<PixelBox> Detect(const Vec3& p_W, std::mt19937_64& rng) const;
+  // When `sightings` is set (one entry per target, in scenario order), each
+  // target in view counts one sighting there, and one detection when it is
+  // reported; the random stream is the same either way.
+  [[nodiscard]] std::vector<PixelBox> Detect(
+      const Vec3& p_W, std::mt19937_64& rng,
+      std::vector<TargetSightings>* sightings = nullptr) const;
   // What a perfect detector reports from p_W (yaw 0): the visible footprint
   // cells, labelled 1 where a target covers them and 0 elsewhere.
   [[nodiscard]] CellLabels TruthLabels(const Vec3& p_W) const;

@@ -90,9 +90,11 @@ Commands:
                       --confirmation_weight=W (> 0) adds oaipp_confirm
                       to E1, E4 and E5: OA-IPP with the confirmation
                       objective at weight W, same seeds.
-                      Writes trials.csv, summary.md, a figure over time
-                      (rse.png, or trace.png for E3) and map_<variant>.png
-                      (trial 1) to --out (default out/eval/<experiment>).
+                      Writes trials.csv, targets.csv (how often each
+                      target was in view and detected), summary.md, a
+                      figure over time (rse.png, or trace.png for E3) and
+                      map_<variant>.png (trial 1) to --out (default
+                      out/eval/<experiment>).
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --parallel (2), --plan_budget_s
@@ -410,6 +412,7 @@ int Eval(const std::string& experiment) {
   if (out.empty()) out = "out/eval/" + experiment;
   std::filesystem::create_directories(out);
   std::ofstream(out + "/trials.csv") << oaipp::client::TrialsCsv(*result);
+  std::ofstream(out + "/targets.csv") << oaipp::client::TargetsCsv(*result);
   const double budget = result->grid_s.empty() ? 0.0 : result->grid_s.back();
   const std::string summary = oaipp::client::SummaryMarkdown(*result, budget);
   std::ofstream(out + "/summary.md") << summary;

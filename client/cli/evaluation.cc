@@ -123,6 +123,7 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
         out.num_targets = sim->num_targets();
         out.target_ids = sim->TargetIds();
         out.found_at_end = run->found_at_end;
+        out.sightings = run->sightings;
         out.steps = Resample(run->steps, result.grid_s);
         out.plans = run->plans;
         out.planning_time_s = run->planning_time_s;
@@ -148,6 +149,20 @@ std::string TrialsCsv(const EvalResult& result) {
       absl::StrAppendFormat(&csv, "%s,%d,%.1f,%.6f,%.6f,%.6f,%d,%.3f,%d\n", t.variant, t.trial,
                             s.mission_time_s, s.rse, s.rmse, s.trace, s.targets_found,
                             s.path_length_m, s.collisions);
+    }
+  }
+  return csv;
+}
+
+std::string TargetsCsv(const EvalResult& result) {
+  std::string csv = "variant,trial,target,in_view,detected,found\n";
+  for (const TrialResult& t : result.trials) {
+    const std::size_t n =
+        std::min({t.target_ids.size(), t.sightings.size(), t.found_at_end.size()});
+    for (std::size_t i = 0; i < n; ++i) {
+      absl::StrAppendFormat(&csv, "%s,%d,%s,%d,%d,%d\n", t.variant, t.trial, t.target_ids[i],
+                            t.sightings[i].in_view, t.sightings[i].detected,
+                            t.found_at_end[i] ? 1 : 0);
     }
   }
   return csv;
@@ -221,6 +236,44 @@ std::string SummaryMarkdown(const EvalResult& result, double budget_s) {
         }
       }
       absl::StrAppend(&md, "\n");
+    }
+  }
+  // Why targets were missed: never in view (coverage), in view but never
+  // reported (the detector), or reported and still not above 0.5 at the end
+  // (outvoted by misses, or not confirmed).
+  bool any_sightings = false;
+  for (const TrialResult& t : result.trials) any_sightings |= !t.sightings.empty();
+  if (any_sightings) {
+    absl::StrAppend(&md,
+                    "\nTargets not found at the end, by what the camera saw (counts over all "
+                    "trials):\n\n| variant | targets | not found | never in view | in view, "
+                    "never detected | detected, not found | in view per target (mean) | in view "
+                    "2+ times |\n| --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    for (const std::string& name : order) {
+      int targets = 0, missed = 0, unseen = 0, undetected = 0, outvoted = 0, twice = 0;
+      double views = 0.0;
+      for (const TrialResult* t : by_variant[name]) {
+        const std::size_t n = std::min(t->sightings.size(), t->found_at_end.size());
+        for (std::size_t i = 0; i < n; ++i) {
+          const sim::TargetSightings& s = t->sightings[i];
+          ++targets;
+          views += s.in_view;
+          twice += s.in_view >= 2;
+          if (t->found_at_end[i]) continue;
+          ++missed;
+          if (s.in_view == 0) {
+            ++unseen;
+          } else if (s.detected == 0) {
+            ++undetected;
+          } else {
+            ++outvoted;
+          }
+        }
+      }
+      if (targets == 0) continue;
+      absl::StrAppendFormat(&md, "| %s | %d | %d | %d | %d | %d | %.2f | %.0f %% |\n", name,
+                            targets, missed, unseen, undetected, outvoted, views / targets,
+                            100.0 * twice / targets);
     }
   }
   for (const TrialResult& t : result.trials) {

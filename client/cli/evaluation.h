@@ -55,8 +55,9 @@ struct TrialResult {
   double planning_time_s = 0.0;
   std::string map_png;  // the final map with the flown path (trial 1 only)
   std::vector<std::string> target_ids;
-  std::vector<bool> found_at_end;  // per target id
-  std::string error;               // non-empty when the trial failed
+  std::vector<bool> found_at_end;               // per target id
+  std::vector<sim::TargetSightings> sightings;  // per target id
+  std::string error;                            // non-empty when the trial failed
 };
 
 struct EvalResult {
@@ -78,6 +79,10 @@ struct EvalResult {
 // variant,trial,time_s,rse,rmse,trace,targets_found,path_length_m,collisions
 // on the grid, one row per variant, trial and grid time.
 [[nodiscard]] std::string TrialsCsv(const EvalResult& result);
+// "variant,trial,target,in_view,detected,found" and a row per target of each
+// finished trial: how often the camera had it in view, how often the
+// detector reported it, and whether the final map finds it (1) or not (0).
+[[nodiscard]] std::string TargetsCsv(const EvalResult& result);
 // A Markdown table, a row per variant in the order first seen: trials,
 // failures, RSE at the start and the end (mean +- std, standard error),
 // Tr(P) at the end (mean +- std), targets found (mean), trials that found

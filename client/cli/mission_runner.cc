@@ -20,6 +20,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
                                       bool keep_mission,
                                       const std::function<void(const std::string&)>& frame) {
   RunResult result;
+  result.sightings.resize(static_cast<std::size_t>(sim.num_targets()));
   OAIPP_ASSIGN_OR_RETURN(v1::Mission mission, client.CreateMission(scenario.mission()));
   result.mission_name = mission.name();
   const double budget = mission.spec().budget_s();
@@ -75,7 +76,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
              path.measurement_poses(next_shot).t_s() <= t + 1e-9) {
         const v1::MeasurementPose& shot = path.measurement_poses(next_shot++);
         const Vec3 camera = api::FromProto(shot.position_m());
-        const std::vector<PixelBox> boxes = sim.Detect(camera, rng);
+        const std::vector<PixelBox> boxes = sim.Detect(camera, rng, &result.sightings);
         api::MeasurementInput input{.mission_time_s = shot.mission_time_s(),
                                     .pose = CameraPose{camera, 0.0}};
         if (scenario.send_cell_labels()) {

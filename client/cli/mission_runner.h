@@ -35,6 +35,7 @@ struct RunResult {
   double planning_time_s = 0.0;
   std::string final_map_png;       // map mean | std with obstacles, targets and the flown path
   std::vector<bool> found_at_end;  // per target, Simulation::FoundEach of the final map
+  std::vector<sim::TargetSightings> sightings;  // per target, over the whole flight
 };
 
 // progress: called with the metrics after each measurement. frame: when

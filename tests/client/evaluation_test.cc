@@ -1,5 +1,7 @@
 #include "client/cli/evaluation.h"
 
+#include <algorithm>
+
 #include "gtest/gtest.h"
 
 namespace oaipp::client {
@@ -42,6 +44,13 @@ TEST(EvaluationTest, SummaryReportsMeanStdAndStandardError) {
     t.planning_time_s = 1.0;
     t.target_ids = {"a", "b"};
     t.found_at_end = {true, k == 2};
+    // a: in view 3 times, detected twice. b: in view twice and detected
+    // once in trial 1, never in view in trial 2, in view once and missed in
+    // trial 3 (where it is found all the same, as a map may have it).
+    t.sightings = {{3, 2},
+                   k == 0   ? sim::TargetSightings{2, 1}
+                   : k == 1 ? sim::TargetSightings{0, 0}
+                            : sim::TargetSightings{1, 0}};
     result.trials.push_back(t);
   }
   TrialResult failed;
@@ -59,6 +68,14 @@ TEST(EvaluationTest, SummaryReportsMeanStdAndStandardError) {
   EXPECT_NE(md.find("| variant | a | b |"), std::string::npos) << md;
   EXPECT_NE(md.find("| random | 100 % | 33 % |"), std::string::npos) << md;
   EXPECT_NE(md.find("random trial 4 failed: server gone"), std::string::npos) << md;
+  // b is missed in trials 1 (detected, outvoted) and 2 (never in view); six
+  // targets in view (3 + 2 + 3 + 0 + 3 + 1) / 6 = 2 times each, four of six
+  // at least twice.
+  EXPECT_NE(md.find("| random | 6 | 2 | 1 | 0 | 1 | 2.00 | 67 % |"), std::string::npos) << md;
+  const std::string csv = TargetsCsv(result);
+  EXPECT_NE(csv.find("random,1,b,2,1,0\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("random,3,b,1,0,1\n"), std::string::npos) << csv;
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7) << csv;  // header + 2 x 3
 }
 
 }  // namespace

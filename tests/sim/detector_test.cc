@@ -81,6 +81,37 @@ TEST(DetectorTest, SameSeedSameDetections) {
   }
 }
 
+// The tally of sightings: the person under the camera is in view every
+// time and reported as often as the configured p(h) says; a camera whose
+// footprint misses the person counts nothing; counting leaves the random
+// stream, and so the boxes, as they were.
+TEST(DetectorTest, SightingsCountViewsAndDetections) {
+  const Simulation sim = OnePerson(0.0);
+  std::mt19937_64 counted(5), plain(5);
+  std::vector<TargetSightings> tally;
+  constexpr int kDraws = 20000;
+  int boxes = 0;
+  for (int i = 0; i < kDraws; ++i) {
+    const auto x = sim.Detect(Vec3(0, 0, 14), counted, &tally);
+    const auto y = sim.Detect(Vec3(0, 0, 14), plain);
+    ASSERT_EQ(x.size(), y.size());
+    for (std::size_t k = 0; k < x.size(); ++k) EXPECT_EQ(x[k].x_min_px, y[k].x_min_px);
+    boxes += static_cast<int>(x.size());  // no false positives: each box is the person
+  }
+  ASSERT_EQ(tally.size(), 1u);
+  EXPECT_EQ(tally[0].in_view, kDraws);
+  EXPECT_EQ(tally[0].detected, boxes);
+  const double p = 0.95 * std::exp(-0.5 * std::pow(4.0 / 7.0, 2));  // p(14 m)
+  EXPECT_NEAR(static_cast<double>(tally[0].detected) / kDraws, p,
+              4 * std::sqrt(p * (1 - p) / kDraws));
+  // 5 m up at x = 12: the footprint is about 4 x 6 m, the person at x = 0.
+  std::vector<TargetSightings> away;
+  for (int i = 0; i < 100; ++i) (void)sim.Detect(Vec3(12, 0, 5), counted, &away);
+  ASSERT_EQ(away.size(), 1u);
+  EXPECT_EQ(away[0].in_view, 0);
+  EXPECT_EQ(away[0].detected, 0);
+}
+
 // A sure detector over each E1 person, camera 10 m above it: the boxes,
 // projected back through the server's rule, mark exactly the cells the
 // ground truth marks, 48 in all (docs/method.md), so a map equal to those labels
