@@ -35,8 +35,10 @@ packages=(
   # the live mission view's small HTTP server
   libcpp-httplib-dev
   # the Kalman update's rank-m product on the CPU's own vector units (loaded
-  # at run time by the server; core/mapping/dense_backend.h)
-  libopenblas0-serial
+  # at run time by the server; core/mapping/dense_backend.h). The pthreads
+  # build, not the serial one: the server calls it from several threads and
+  # the serial build's buffer pool has no lock.
+  libopenblas0-pthread
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # fuzzing (fuzz/run.sh): clang, with libFuzzer and the sanitizer runtimes

@@ -81,8 +81,8 @@ ABSL_FLAG(double, shed_above, 2.0,
           "runs only (shed_above x planning_threads / waiting) of its search, at least "
           "--min_search_fraction (stats.search_fraction says so); 0: never shed");
 ABSL_FLAG(std::string, dense_backend, "openblas",
-          "where the Kalman update's rank-m product runs: openblas (Debian's libopenblas0-serial, "
-          "loaded at start; Eigen when it is missing) or eigen");
+          "where the Kalman update's rank-m product runs: openblas (Debian's libopenblas0-pthread, "
+          "loaded at start; Eigen when it is missing or another build) or eigen");
 ABSL_FLAG(double, min_search_fraction, 0.1, "the least share of its search a shed plan runs");
 ABSL_FLAG(double, plan_latency_s, 0.0,
           "overload: a plan's search ends this many seconds after its call arrived, the wait "

@@ -8,6 +8,7 @@
 #include <cstdlib>
 
 #include "Eigen/Cholesky"
+#include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 
 namespace oaipp {
@@ -33,6 +34,7 @@ using Dpotrf = void (*)(const char* uplo, const int* n, double* a, const int* ld
 using Dpotri = Dpotrf;  // the same arguments
 using SetThreads = void (*)(int);
 using CoreName = char* (*)();
+using GetParallel = int (*)();
 
 struct OpenBlas {
   Dsyrk dsyrk = nullptr;
@@ -69,26 +71,52 @@ bool SetCoreTypeIfUnset() {
 
 void RestartWithOpenBlasKernels(char** argv) {
   if (!SetCoreTypeIfUnset()) return;
+  // Read when the library loads, like the kernels: no thread pool to start.
+  setenv("OPENBLAS_NUM_THREADS", "1", 0);
   execv("/proc/self/exe", argv);
   // Still here: the restart failed; go on with what OpenBLAS picked.
 }
 
 absl::Status UseOpenBlas() {
-  static const OpenBlas* loaded = []() -> const OpenBlas* {
+  static const absl::StatusOr<const OpenBlas*> loaded = []() -> absl::StatusOr<const OpenBlas*> {
     SetCoreTypeIfUnset();
-    // Debian's single-threaded build first: the server has its own threads.
+    // One thread per call: the server has its own threads.
+    setenv("OPENBLAS_NUM_THREADS", "1", 0);
+    // 0: serial build, 1: pthreads, 2: OpenMP (whose buffer pool does not
+    // lock for threads it did not start). Only 1 is safe here.
+    constexpr int kPthreads = 1;
+    // Where OpenBLAS is the system's BLAS it was loaded with the program, and
+    // the library opened below binds its internal calls (the buffer pool
+    // among them) to that copy's: it must be the pthreads build too.
+    if (auto global = reinterpret_cast<GetParallel>(dlsym(RTLD_DEFAULT, "openblas_get_parallel"));
+        global != nullptr && global() != kPthreads) {
+      return absl::FailedPreconditionError(
+          "the system's BLAS is an OpenBLAS build other than pthreads (see update-alternatives "
+          "--display libopenblas.so.0-x86_64-linux-gnu), which is not safe to call from several "
+          "threads at once; the Kalman update runs on Eigen");
+    }
     void* library = nullptr;
     for (const char* path :
-         {"/usr/lib/x86_64-linux-gnu/openblas-serial/libopenblas.so.0", "libopenblas.so.0"}) {
+         {"/usr/lib/x86_64-linux-gnu/openblas-pthread/libopenblas.so.0", "libopenblas.so.0"}) {
       library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
       if (library != nullptr) break;
     }
-    if (library == nullptr) return nullptr;
+    if (library == nullptr) {
+      return absl::FailedPreconditionError(
+          "OpenBLAS (libopenblas0-pthread) could not be loaded; the Kalman update runs on Eigen");
+    }
+    if (auto parallel = reinterpret_cast<GetParallel>(dlsym(library, "openblas_get_parallel"));
+        parallel == nullptr || parallel() != kPthreads) {
+      return absl::FailedPreconditionError(
+          "the OpenBLAS found is not the pthreads build (libopenblas0-pthread), the only one safe "
+          "to call from several threads at once; the Kalman update runs on Eigen");
+    }
     auto* blas = new OpenBlas;
     blas->dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
     blas->dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
     blas->dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
     blas->dpotri = reinterpret_cast<Dpotri>(dlsym(library, "dpotri_"));
+    // Loaded with the program, it sized its pool before the variable was set.
     if (auto set_threads = reinterpret_cast<SetThreads>(dlsym(library, "openblas_set_num_threads"));
         set_threads != nullptr) {
       set_threads(1);
@@ -97,15 +125,14 @@ absl::Status UseOpenBlas() {
     blas->kernel = core_name != nullptr ? core_name() : "unknown";
     if (blas->dsyrk == nullptr || blas->dtrsm == nullptr || blas->dpotrf == nullptr ||
         blas->dpotri == nullptr) {
-      return nullptr;
+      return absl::FailedPreconditionError(
+          "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_ or dpotri_; the Kalman "
+          "update runs on Eigen");
     }
     return blas;
   }();
-  if (loaded == nullptr) {
-    return absl::FailedPreconditionError(
-        "OpenBLAS (libopenblas0-serial) could not be loaded; the Kalman update runs on Eigen");
-  }
-  g_open_blas.store(loaded);
+  if (!loaded.ok()) return loaded.status();
+  g_open_blas.store(*loaded);
   return absl::OkStatus();
 }
 

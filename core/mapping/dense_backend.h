@@ -6,9 +6,18 @@
 // compiles Eigen for generic x86-64 (see CMakeLists.txt), so its kernels use
 // 128-bit vectors; OpenBLAS picks kernels for the CPU it runs on, 3-6x faster
 // for this product (docs/capacity.md). OpenBLAS is not linked: UseOpenBlas()
-// opens Debian's libopenblas0-serial with dlopen, so the server runs (on
+// opens Debian's libopenblas0-pthread with dlopen, so the server runs (on
 // Eigen) where it is missing, and the core library's results stay bit for bit
 // those of Eigen unless a program asks for OpenBLAS.
+//
+// Only the pthreads build is used, with one thread per call. The server calls
+// these functions from several threads at once, and Debian's serial build
+// (libopenblas0-serial, built without USE_LOCKING) hands out its scratch
+// buffers without a lock: two concurrent calls can get the same buffer and
+// return wrong numbers, silently (thousands of wrong 16 x 32 triangular
+// solves in 80 000 from four threads on a 2-core machine). The pthreads build
+// locks its buffer pool and runs the same kernels; UseOpenBlas() refuses any
+// other build.
 //
 // OpenBLAS 0.3.21 (Debian 12) does not recognise CPUs newer than it and then
 // falls back to its oldest kernels. It reads OPENBLAS_CORETYPE once, when it
@@ -39,9 +48,11 @@ namespace oaipp {
 // when the restart failed (then OpenBLAS keeps the kernels it picks).
 void RestartWithOpenBlasKernels(char** argv);
 
-// Loads OpenBLAS and makes SymmetricRankUpdate use it. Call once, from one
-// thread, before other threads start. FailedPrecondition (naming what is
-// missing) leaves Eigen in use.
+// Loads OpenBLAS (the pthreads build, one thread per call) and makes these
+// functions use it. Call once, from one thread, before other threads start
+// (it may set OPENBLAS_NUM_THREADS). FailedPrecondition (naming what is
+// missing, or that the library found is not the pthreads build) leaves Eigen
+// in use.
 [[nodiscard]] absl::Status UseOpenBlas();
 
 // Goes back to Eigen (tests compare the two).

@@ -103,7 +103,7 @@ void BM_KalmanUpdateOpenBlas(benchmark::State& state) {
   double blas_s = 0.0;
   using Clock = std::chrono::steady_clock;
   if (!UseOpenBlas().ok()) {
-    state.SkipWithError("OpenBLAS (libopenblas0-serial) is not installed");
+    state.SkipWithError("OpenBLAS (libopenblas0-pthread) is not installed");
     return;
   }
   const std::string kernel = DenseBackendName();

@@ -6,6 +6,9 @@
 
 #include <random>
 #include <span>
+#include <thread>
+#include <utility>
+#include <vector>
 
 #include "Eigen/Cholesky"
 
@@ -23,7 +26,7 @@ class DenseBackendTest : public ::testing::Test {
 };
 
 TEST_F(DenseBackendTest, OpenBlasRankUpdateEqualsEigensOnTheLowerTriangle) {
-  // deploy/install-deps.sh installs libopenblas0-serial.
+  // deploy/install-deps.sh installs libopenblas0-pthread.
   ASSERT_TRUE(UseOpenBlas().ok());
   EXPECT_THAT(DenseBackendName(), ::testing::StartsWith("openblas ("));
   std::mt19937 rng(3);
@@ -195,6 +198,58 @@ TEST_F(DenseBackendTest, AShotSeeingMostOfTheFieldIsFusedAsTheTextbookUpdate) {
     EXPECT_GT(on_blas.Covariance().diagonal().minCoeff(), 0.0);
   }
   EXPECT_GE(all_seen, 1);
+}
+
+TEST_F(DenseBackendTest, ConcurrentCallsGiveTheSingleThreadedResultsBitForBit) {
+  // The server's planning and measurement threads call the backend at the same
+  // time. Each thread repeats the same solves and rank updates and must get
+  // what one thread alone gets, to the bit. Debian's serial OpenBLAS, which
+  // hands out scratch buffers without a lock, fails this: small calls, many
+  // of them, make the race likely.
+  ASSERT_TRUE(UseOpenBlas().ok());
+  std::mt19937 rng(5);
+  std::normal_distribution<double> normal;
+  constexpr int kThreads = 4;
+  constexpr int kRepeats = 5000;
+  struct Work {
+    Eigen::MatrixXd lower, b, p;
+  };
+  std::vector<Work> work;
+  for (int t = 0; t < kThreads; ++t) {
+    const int m = 16 + t;
+    const int k = 32 + t;
+    Eigen::MatrixXd a(m, m);
+    for (double& v : a.reshaped()) v = normal(rng);
+    Work w;
+    w.lower = Eigen::LLT<Eigen::MatrixXd>(a * a.transpose() + m * Eigen::MatrixXd::Identity(m, m))
+                  .matrixLLT();
+    w.b.resize(m, k);
+    for (double& v : w.b.reshaped()) v = normal(rng);
+    w.p = Eigen::MatrixXd::Identity(k, k);
+    work.push_back(std::move(w));
+  }
+  auto run = [](const Work& w) {
+    Eigen::MatrixXd x = w.b;
+    SolveLeftLower(w.lower, x);
+    Eigen::MatrixXd p = w.p;
+    SymmetricRankUpdate(-1e-3, x.transpose(), p);
+    return std::pair{x, p};
+  };
+  std::vector<std::pair<Eigen::MatrixXd, Eigen::MatrixXd>> alone;
+  for (const Work& w : work) alone.push_back(run(w));
+  std::vector<int> mismatches(kThreads, 0);
+  {
+    std::vector<std::jthread> threads;
+    for (int t = 0; t < kThreads; ++t) {
+      threads.emplace_back([&, t] {
+        for (int r = 0; r < kRepeats; ++r) {
+          const auto [x, p] = run(work[t]);
+          if (x != alone[t].first || p != alone[t].second) ++mismatches[t];
+        }
+      });
+    }
+  }
+  for (int t = 0; t < kThreads; ++t) EXPECT_EQ(mismatches[t], 0) << "thread " << t;
 }
 
 }  // namespace
