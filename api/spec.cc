@@ -153,6 +153,13 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       OrDefault(p.has_confirmation_weight(), p.confirmation_weight(), info.confirmation_weight);
   common.information.decision_threshold =
       OrDefault(p.has_decision_threshold(), p.decision_threshold(), info.decision_threshold);
+  common.information.confirmation_phase_s =
+      OrDefault(p.has_confirmation_phase_s(), p.confirmation_phase_s(), info.confirmation_phase_s);
+  common.information.confirmation_phase_weight =
+      OrDefault(p.has_confirmation_phase_weight(), p.confirmation_phase_weight(),
+                info.confirmation_phase_weight);
+  common.information.ambiguity_margin =
+      OrDefault(p.has_ambiguity_margin(), p.ambiguity_margin(), info.ambiguity_margin);
   c.planner.oaipp.num_waypoints =
       OrDefault(p.has_num_waypoints(), p.num_waypoints(), oaipp.num_waypoints);
   c.planner.oaipp.population = OrDefault(p.has_population(), p.population(), oaipp.population);
@@ -176,6 +183,14 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       CheckNonNegative("spec.planner.confirmation_weight", common.information.confirmation_weight));
   OAIPP_RETURN_IF_ERROR(CheckOpenInterval("spec.planner.decision_threshold",
                                           common.information.decision_threshold, 0.0, 1.0));
+  OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.confirmation_phase_s",
+                                         common.information.confirmation_phase_s));
+  OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.confirmation_phase_weight",
+                                         common.information.confirmation_phase_weight));
+  if (const double margin = common.information.ambiguity_margin; !(margin > 0.0 && margin <= 0.5)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.planner.ambiguity_margin: must lie in (0, 0.5], got ", margin));
+  }
   OAIPP_RETURN_IF_ERROR(
       CheckPositive("spec.planner.lawnmower_altitude_m", c.planner.lawnmower.altitude_m));
   OAIPP_RETURN_IF_ERROR(CheckIntRange("spec.planner.lawnmower_start_corner",
@@ -345,6 +360,9 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   p.set_h_sat_m(common.information.h_sat_m);
   p.set_confirmation_weight(common.information.confirmation_weight);
   p.set_decision_threshold(common.information.decision_threshold);
+  p.set_confirmation_phase_s(common.information.confirmation_phase_s);
+  p.set_confirmation_phase_weight(common.information.confirmation_phase_weight);
+  p.set_ambiguity_margin(common.information.ambiguity_margin);
   p.set_lawnmower_altitude_m(c.planner.lawnmower.altitude_m);
   p.set_lawnmower_start_corner(c.planner.lawnmower.start_corner);
 

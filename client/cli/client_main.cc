@@ -49,6 +49,9 @@ ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, sec
 ABSL_FLAG(double, confirmation_weight, 0.0,
           "eval E1, E4, E5: > 0 adds the variant oaipp_confirm, OA-IPP with the confirmation "
           "objective at this weight (docs/method.md 6.4); 0 leaves it out");
+ABSL_FLAG(double, confirmation_phase_s, 0.0,
+          "eval: with --confirmation_weight, oaipp_confirm also confirms over the last this many "
+          "seconds of its budget (PlannerSpec.confirmation_phase_s); 0: no phase");
 ABSL_FLAG(std::string, geo_origin, "",
           "export: LAT,LON,ALT (degrees, degrees, metres above mean sea level) of the local "
           "frame's origin, for a scenario without mission.geo_origin; best the launch point");
@@ -89,7 +92,9 @@ Commands:
                       E4, E5 = OA-IPP and lawnmower on e4.json / e5.json.
                       --confirmation_weight=W (> 0) adds oaipp_confirm
                       to E1, E4 and E5: OA-IPP with the confirmation
-                      objective at weight W, same seeds.
+                      objective at weight W, same seeds;
+                      --confirmation_phase_s=S adds a confirmation phase
+                      over its last S seconds.
                       Writes trials.csv, targets.csv (how often each
                       target was in view and detected), summary.md, a
                       figure over time (rse.png, or trace.png for E3) and
@@ -359,12 +364,20 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
   if (!(confirmation >= 0.0) || !std::isfinite(confirmation)) {
     return absl::InvalidArgumentError("--confirmation_weight: must be >= 0 and finite");
   }
+  const double phase = absl::GetFlag(FLAGS_confirmation_phase_s);
+  if (!(phase >= 0.0) || !std::isfinite(phase)) {
+    return absl::InvalidArgumentError("--confirmation_phase_s: must be >= 0 and finite");
+  }
+  if (phase > 0.0 && confirmation == 0.0) {
+    return absl::InvalidArgumentError(
+        "--confirmation_phase_s: applies to the oaipp_confirm variant; set --confirmation_weight");
+  }
   if (confirmation > 0.0) {
     if (name != "E1" && name != "E4" && name != "E5") {
       return absl::InvalidArgumentError(
           "--confirmation_weight: adds a variant to E1, E4 and E5 only");
     }
-    e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirmation));
+    e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirmation, phase));
   }
   return e;
 }

@@ -61,12 +61,16 @@ std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
   return variants;
 }
 
-Variant ConfirmationVariant(const v1::Scenario& scenario, double weight) {
+Variant ConfirmationVariant(const v1::Scenario& scenario, double weight, double phase_s) {
   Variant v = PlannerVariants(scenario, {PlannerKind::kOaIpp}).front();
   v.label = "oaipp_confirm";
-  v.scenario = [oaipp = v.scenario, weight](int trial) -> absl::StatusOr<v1::Scenario> {
+  v.scenario = [oaipp = v.scenario, weight, phase_s](int trial) -> absl::StatusOr<v1::Scenario> {
     absl::StatusOr<v1::Scenario> s = oaipp(trial);
-    if (s.ok()) s->mutable_mission()->mutable_planner()->set_confirmation_weight(weight);
+    if (s.ok()) {
+      v1::PlannerSpec& planner = *s->mutable_mission()->mutable_planner();
+      planner.set_confirmation_weight(weight);
+      if (phase_s > 0.0) planner.set_confirmation_phase_s(phase_s);
+    }
     return s;
   };
   return v;

@@ -41,10 +41,13 @@ struct Variant {
 [[nodiscard]] std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
                                                    const std::vector<PlannerKind>& planners);
 
-// OA-IPP with the confirmation objective (docs/method.md §6.4) at `weight`,
-// labelled "oaipp_confirm"; otherwise as PlannerVariants' OA-IPP, so that
-// trial k of both flies the same world, people and seeds.
-[[nodiscard]] Variant ConfirmationVariant(const v1::Scenario& scenario, double weight);
+// OA-IPP with the confirmation objective (docs/method.md §6.4) at `weight`
+// and, when phase_s > 0, a confirmation phase over the last phase_s seconds
+// of the budget (the scenario's weight and margin for it), labelled
+// "oaipp_confirm"; otherwise as PlannerVariants' OA-IPP, so that trial k of
+// both flies the same world, people and seeds.
+[[nodiscard]] Variant ConfirmationVariant(const v1::Scenario& scenario, double weight,
+                                          double phase_s = 0.0);
 
 struct TrialResult {
   std::string variant;

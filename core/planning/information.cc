@@ -95,7 +95,34 @@ absl::Status InformationParams::Validate() const {
         "confirmation_weight: applies to the adaptive objective only, must be 0 for the "
         "trace-reduction objective");
   }
+  if (!(confirmation_phase_s >= 0.0) || !std::isfinite(confirmation_phase_s)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("confirmation_phase_s: must be >= 0 and finite, got ", confirmation_phase_s));
+  }
+  if (!(confirmation_phase_weight >= 0.0) || !std::isfinite(confirmation_phase_weight)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "confirmation_phase_weight: must be >= 0 and finite, got ", confirmation_phase_weight));
+  }
+  if (!(ambiguity_margin > 0.0 && ambiguity_margin <= 0.5)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("ambiguity_margin: must lie in (0, 0.5], got ", ambiguity_margin));
+  }
+  if (confirmation_phase_s > 0.0 && kind != ObjectiveKind::kAdaptive) {
+    return absl::InvalidArgumentError(
+        "confirmation_phase_s: applies to the adaptive objective only, must be 0 for the "
+        "trace-reduction objective");
+  }
   return absl::OkStatus();
+}
+
+InformationParams InformationParams::ForRemainingBudget(double remaining_budget_s) const {
+  InformationParams p = *this;
+  if (kind == ObjectiveKind::kAdaptive && confirmation_phase_s > 0.0 &&
+      remaining_budget_s <= confirmation_phase_s) {
+    p.confirming = true;
+    p.kappa = 0.0;
+  }
+  return p;
 }
 
 double MisclassificationReduction(double mean, double variance, double noise_variance,

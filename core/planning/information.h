@@ -67,15 +67,31 @@ struct InformationParams {
   // theta: a cell counts as a target where its mean exceeds it. Valid: in
   // (0, 1).
   double decision_threshold = 0.5;
+  // Confirmation phase (adaptive objective only): plans asked for with at
+  // most this much flight budget left (seconds) stop exploring and go back
+  // to what is undecided. 0 (the default): no phase. Valid: >= 0, finite.
+  double confirmation_phase_s = 0.0;
+  // In the phase, kappa is 0 and a cell whose mean lies within
+  // ambiguity_margin of theta earns confirmation_phase_weight times its
+  // predicted variance. Valid: weight >= 0 and finite; margin in (0, 0.5].
+  double confirmation_phase_weight = 3000.0;
+  double ambiguity_margin = 0.25;
+  // True when these are the phase's parameters (set by ForRemainingBudget).
+  bool confirming = false;
 
   // InvalidArgument naming the first bad field.
   [[nodiscard]] absl::Status Validate() const;
   // N(h; h_opt, sigma1), or 0 at and above h_sat.
   [[nodiscard]] double AltitudeReward(double altitude_m) const;
+  // The parameters a plan asked for with `remaining_budget_s` of flight
+  // left scores with: these, or inside the confirmation phase a copy with
+  // confirming set and kappa 0.
+  [[nodiscard]] InformationParams ForRemainingBudget(double remaining_budget_s) const;
   // What one cell with map mean `mean` and predicted variance `variance`
   // earns in a pose observed with noise variance `noise_variance` (before
   // the altitude reward): mu + kappa sigma, plus the confirmation term when
-  // its weight is positive.
+  // its weight is positive, plus in the confirmation phase the ambiguity
+  // term.
   [[nodiscard]] double CellValue(double mean, double variance, double noise_variance) const;
 };
 
@@ -93,6 +109,9 @@ inline double InformationParams::CellValue(double mean, double variance,
   if (confirmation_weight > 0.0) {
     value += confirmation_weight *
              MisclassificationReduction(mean, variance, noise_variance, decision_threshold);
+  }
+  if (confirming && std::abs(mean - decision_threshold) < ambiguity_margin) {
+    value += confirmation_phase_weight * std::max(variance, 0.0);
   }
   return value;
 }

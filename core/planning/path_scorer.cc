@@ -91,7 +91,9 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   if (state.accel_W_m_s2.norm() > limits.dynamics.max_accel_m_s2 * (1 + 1e-6)) {
     return absl::InvalidArgumentError("state.accel_W_m_s2: beyond limits.max_accel_m_s2");
   }
-  PathScorer scorer(mission, state, limits, common.information, common.weights);
+  PathScorer scorer(mission, state, limits,
+                    common.information.ForRemainingBudget(mission.remaining_budget_s),
+                    common.weights);
   if (mission.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
     scorer.start_observations_.push_back(scorer.Observe(state.position_W, /*scored=*/false));
     // Every candidate fuses this shot first: condition on it once.

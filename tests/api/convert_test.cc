@@ -89,6 +89,10 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
   EXPECT_EQ(a.information.h_sat_m, b.information.h_sat_m) << what;
   EXPECT_EQ(a.information.confirmation_weight, b.information.confirmation_weight) << what;
   EXPECT_EQ(a.information.decision_threshold, b.information.decision_threshold) << what;
+  EXPECT_EQ(a.information.confirmation_phase_s, b.information.confirmation_phase_s) << what;
+  EXPECT_EQ(a.information.confirmation_phase_weight, b.information.confirmation_phase_weight)
+      << what;
+  EXPECT_EQ(a.information.ambiguity_margin, b.information.ambiguity_margin) << what;
   EXPECT_EQ(a.weights.k1, b.weights.k1) << what;
   EXPECT_EQ(a.weights.k2, b.weights.k2) << what;
   EXPECT_EQ(a.weights.min_flight_time_s, b.weights.min_flight_time_s) << what;
@@ -663,6 +667,28 @@ std::vector<BadCase> BadCases() {
       {"decision threshold 1",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_decision_threshold(1); }); },
        kInvalid, "spec.planner.decision_threshold: "},
+      {"negative confirmation phase",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_confirmation_phase_s(-1); }); },
+       kInvalid, "spec.planner.confirmation_phase_s: "},
+      {"infinite confirmation phase weight",
+       [] {
+         return SpecWith([](auto& s) {
+           s.mutable_planner()->set_confirmation_phase_weight(
+               std::numeric_limits<double>::infinity());
+         });
+       },
+       kInvalid, "spec.planner.confirmation_phase_weight: "},
+      {"ambiguity margin above 0.5",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_ambiguity_margin(0.6); }); },
+       kInvalid, "spec.planner.ambiguity_margin: "},
+      {"confirmation phase with the trace objective",
+       [] {
+         return SpecWith([](auto& s) {
+           s.mutable_planner()->set_kind(v1::PLANNER_KIND_OAIPP_NONADAPTIVE);
+           s.mutable_planner()->set_confirmation_phase_s(30);
+         });
+       },
+       kInvalid, "spec.planner.confirmation_phase_s: "},
       {"zero sigma1",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_sigma1_m(0); }); }, kInvalid,
        "spec.planner.sigma1_m: "},

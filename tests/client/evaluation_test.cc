@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "gtest/gtest.h"
+#include "sim/scenario.h"
 
 namespace oaipp::client {
 namespace {
@@ -12,6 +13,31 @@ StepRecord At(double t, double rse) {
   r.mission_time_s = t;
   r.rse = rse;
   return r;
+}
+
+// The confirmation variant flies OA-IPP's trial with the confirmation
+// weight and, when asked, the phase; the scenario's other settings stay.
+TEST(EvaluationTest, ConfirmationVariantSetsTheWeightAndThePhase) {
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  const Variant plain = PlannerVariants(*scenario, {PlannerKind::kOaIpp}).front();
+  const Variant confirm = ConfirmationVariant(*scenario, 100.0, 45.0);
+  EXPECT_EQ(confirm.label, "oaipp_confirm");
+  auto a = plain.scenario(3);
+  auto b = confirm.scenario(3);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(b->mission().planner().confirmation_weight(), 100.0);
+  EXPECT_EQ(b->mission().planner().confirmation_phase_s(), 45.0);
+  EXPECT_FALSE(a->mission().planner().has_confirmation_phase_s());
+  v1::Scenario same = *b;
+  same.mutable_mission()->mutable_planner()->clear_confirmation_weight();
+  same.mutable_mission()->mutable_planner()->clear_confirmation_phase_s();
+  EXPECT_EQ(same.SerializeAsString(), a->SerializeAsString());
+  EXPECT_FALSE(ConfirmationVariant(*scenario, 100.0)
+                   .scenario(3)
+                   ->mission()
+                   .planner()
+                   .has_confirmation_phase_s());
 }
 
 // The grid value at t is the map after every measurement before t: the

@@ -336,5 +336,70 @@ TEST(InformationTest, ConfirmationFastEqualsReference) {
   EXPECT_GT(larger, 100);  // the term is >= 0 and adds where a scored pose sees cells
 }
 
+// The confirmation phase starts when the flight budget left falls to
+// confirmation_phase_s: kappa drops to 0 and cells within the margin of the
+// threshold earn weight x variance; outside the phase nothing changes.
+TEST(InformationTest, ConfirmationPhaseValuesUndecidedCellsInTheLastSeconds) {
+  const InformationParams params{.kappa = 1.0,
+                                 .confirmation_weight = 100.0,
+                                 .confirmation_phase_s = 45.0,
+                                 .confirmation_phase_weight = 3000.0,
+                                 .ambiguity_margin = 0.25};
+  ASSERT_TRUE(params.Validate().ok());
+  const InformationParams before = params.ForRemainingBudget(45.5);
+  EXPECT_FALSE(before.confirming);
+  EXPECT_EQ(before.kappa, 1.0);
+  const InformationParams phase = params.ForRemainingBudget(45.0);
+  EXPECT_TRUE(phase.confirming);
+  EXPECT_EQ(phase.kappa, 0.0);
+  // A person seen once and missed once: mean 0.39, variance 0.06; a 12 m
+  // shot's noise variance 1 - exp(-0.6).
+  const double r = 1.0 - std::exp(-0.6);
+  const double tie = 100.0 * MisclassificationReduction(0.39, 0.06, r, 0.5);
+  EXPECT_NEAR(before.CellValue(0.39, 0.06, r), 0.39 + std::sqrt(0.06) + tie, 1e-12);
+  EXPECT_NEAR(phase.CellValue(0.39, 0.06, r), 0.39 + tie + 3000.0 * 0.06, 1e-12);
+  // Unseen (0.1) and confirmed (0.8) cells lie outside the margin: no bonus.
+  const double unseen = 100.0 * MisclassificationReduction(0.1, 0.23, r, 0.5);
+  EXPECT_NEAR(phase.CellValue(0.1, 0.23, r), 0.1 + unseen, 1e-12);
+  const double sure = 100.0 * MisclassificationReduction(0.8, 0.05, r, 0.5);
+  EXPECT_NEAR(phase.CellValue(0.8, 0.05, r), 0.8 + sure, 1e-12);
+  // The trace objective has no phase.
+  const InformationParams trace{.kind = ObjectiveKind::kNonAdaptive};
+  EXPECT_FALSE(trace.ForRemainingBudget(0.0).confirming);
+  const auto message = [](const InformationParams& p) {
+    return std::string(p.Validate().message());
+  };
+  EXPECT_NE(message({.confirmation_phase_s = -1}).find("confirmation_phase_s"), std::string::npos);
+  EXPECT_NE(message({.confirmation_phase_weight = NAN}).find("confirmation_phase_weight"),
+            std::string::npos);
+  EXPECT_NE(message({.ambiguity_margin = 0.0}).find("ambiguity_margin"), std::string::npos);
+  EXPECT_NE(message({.ambiguity_margin = 0.51}).find("ambiguity_margin"), std::string::npos);
+  EXPECT_NE(message({.kind = ObjectiveKind::kNonAdaptive, .confirmation_phase_s = 10})
+                .find("confirmation_phase_s"),
+            std::string::npos);
+}
+
+// In the phase the fast evaluator still equals the oracle, and earns more
+// than outside it where a path sees undecided cells.
+TEST(InformationTest, ConfirmationPhaseFastEqualsReference) {
+  const GpMap map = RandomPosterior(16, 12);
+  const InformationParams params =
+      InformationParams{.kappa = 1.0, .confirmation_phase_s = 30.0, .ambiguity_margin = 0.3}
+          .ForRemainingBudget(10.0);
+  ASSERT_TRUE(params.confirming);
+  const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
+  const InformationEvaluator greedy(map.Mean(), map.Covariance(), InformationParams{.kappa = 0.0});
+  std::mt19937 rng(43);
+  int larger = 0;
+  for (int path = 0; path < 150; ++path) {
+    const std::vector<PoseObservation> poses = RandomPoses(map.grid(), rng);
+    const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
+    EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference) + 1e-12)
+        << "path " << path;
+    larger += reference > greedy.Evaluate(poses) + 1e-9;
+  }
+  EXPECT_GT(larger, 100);  // the bonus is >= 0 and adds where a pose sees undecided cells
+}
+
 }  // namespace
 }  // namespace oaipp
