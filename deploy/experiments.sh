@@ -11,13 +11,16 @@
 # confirmation flies E1, E4, E5 and E5 under a 12 m ceiling with the extra
 # variant oaipp_confirm (the confirmation objective at CONFIRMATION_WEIGHT,
 # default 100) to out/eval/confirmation-<experiment>.
+# confirmation-phase adds the confirmation phase over the last 45 s to that
+# variant: E1 and E4, and E5 under a 12 m ceiling with N = 4 at 50 trials,
+# with and without the phase (out/eval/confirmation-phase-<experiment>).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -39,6 +42,16 @@ for e in $experiments; do
       done
       "${client[@]}" eval E5 --trials="$trials" "$weight" \
         --scenario=client/scenarios/e5-settings/ceiling12.json --out=out/eval/confirmation-E5-ceiling12 ;;
+    confirmation-phase)
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" --confirmation_weight=100 \
+          --confirmation_phase_s=45 --out="out/eval/confirmation-phase-$x"
+      done
+      for phase in 0 45; do
+        "${client[@]}" eval E5 --trials=50 --confirmation_weight=100 --confirmation_phase_s="$phase" \
+          --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
+          --out="out/eval/confirmation-phase-E5-ceiling12-n4-$phase"
+      done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
