@@ -245,6 +245,14 @@ TEST(InformationTest, ParamsValidateNamesTheField) {
             std::string::npos);
   EXPECT_TRUE(
       (InformationParams{.confirmation_weight = 2.0, .decision_threshold = 0.3}).Validate().ok());
+  EXPECT_NE(message({.confirmation_phase_s = -1}).find("confirmation_phase_s"), std::string::npos);
+  EXPECT_NE(message({.confirmation_phase_weight = NAN}).find("confirmation_phase_weight"),
+            std::string::npos);
+  EXPECT_NE(message({.ambiguity_margin = 0.0}).find("ambiguity_margin"), std::string::npos);
+  EXPECT_NE(message({.ambiguity_margin = 0.51}).find("ambiguity_margin"), std::string::npos);
+  EXPECT_NE(message({.kind = ObjectiveKind::kNonAdaptive, .confirmation_phase_s = 10})
+                .find("confirmation_phase_s"),
+            std::string::npos);
 }
 
 // The expected misclassification after one observation, integrated directly
@@ -366,17 +374,6 @@ TEST(InformationTest, ConfirmationPhaseValuesUndecidedCellsInTheLastSeconds) {
   // The trace objective has no phase.
   const InformationParams trace{.kind = ObjectiveKind::kNonAdaptive};
   EXPECT_FALSE(trace.ForRemainingBudget(0.0).confirming);
-  const auto message = [](const InformationParams& p) {
-    return std::string(p.Validate().message());
-  };
-  EXPECT_NE(message({.confirmation_phase_s = -1}).find("confirmation_phase_s"), std::string::npos);
-  EXPECT_NE(message({.confirmation_phase_weight = NAN}).find("confirmation_phase_weight"),
-            std::string::npos);
-  EXPECT_NE(message({.ambiguity_margin = 0.0}).find("ambiguity_margin"), std::string::npos);
-  EXPECT_NE(message({.ambiguity_margin = 0.51}).find("ambiguity_margin"), std::string::npos);
-  EXPECT_NE(message({.kind = ObjectiveKind::kNonAdaptive, .confirmation_phase_s = 10})
-                .find("confirmation_phase_s"),
-            std::string::npos);
 }
 
 // In the phase the fast evaluator still equals the oracle, and earns more
