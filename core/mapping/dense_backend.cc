@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdlib>
+#include <utility>
 
 #include "Eigen/Cholesky"
 #include "absl/status/statusor.h"
@@ -107,29 +108,34 @@ absl::Status UseOpenBlas() {
     }
     if (auto parallel = reinterpret_cast<GetParallel>(dlsym(library, "openblas_get_parallel"));
         parallel == nullptr || parallel() != kPthreads) {
+      dlclose(library);
       return absl::FailedPreconditionError(
           "the OpenBLAS found is not the pthreads build (libopenblas0-pthread), the only one safe "
           "to call from several threads at once; the Kalman update runs on Eigen");
     }
-    auto* blas = new OpenBlas;
-    blas->dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
-    blas->dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
-    blas->dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
-    blas->dpotri = reinterpret_cast<Dpotri>(dlsym(library, "dpotri_"));
-    // Loaded with the program, it sized its pool before the variable was set.
-    if (auto set_threads = reinterpret_cast<SetThreads>(dlsym(library, "openblas_set_num_threads"));
-        set_threads != nullptr) {
-      set_threads(1);
-    }
-    auto core_name = reinterpret_cast<CoreName>(dlsym(library, "openblas_get_corename"));
-    blas->kernel = core_name != nullptr ? core_name() : "unknown";
-    if (blas->dsyrk == nullptr || blas->dtrsm == nullptr || blas->dpotrf == nullptr ||
-        blas->dpotri == nullptr) {
+    OpenBlas blas;
+    blas.dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
+    blas.dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
+    blas.dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
+    blas.dpotri = reinterpret_cast<Dpotri>(dlsym(library, "dpotri_"));
+    if (blas.dsyrk == nullptr || blas.dtrsm == nullptr || blas.dpotrf == nullptr ||
+        blas.dpotri == nullptr) {
+      dlclose(library);
       return absl::FailedPreconditionError(
           "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_ or dpotri_; the Kalman "
           "update runs on Eigen");
     }
-    return blas;
+    // A copy loaded with the program sized its pool before the variable was
+    // set (when no restart set it): one thread per call in both copies.
+    for (void* scope : {RTLD_DEFAULT, library}) {
+      if (auto set_threads = reinterpret_cast<SetThreads>(dlsym(scope, "openblas_set_num_threads"));
+          set_threads != nullptr) {
+        set_threads(1);
+      }
+    }
+    auto core_name = reinterpret_cast<CoreName>(dlsym(library, "openblas_get_corename"));
+    blas.kernel = core_name != nullptr ? core_name() : "unknown";
+    return new OpenBlas(std::move(blas));
   }();
   if (!loaded.ok()) return loaded.status();
   g_open_blas.store(*loaded);

@@ -377,7 +377,8 @@ TEST(InformationTest, ConfirmationPhaseValuesUndecidedCellsInTheLastSeconds) {
 }
 
 // In the phase the fast evaluator still equals the oracle, and earns more
-// than outside it where a path sees undecided cells.
+// than the same objective without the bonus (kappa 0, no phase) where a path
+// sees undecided cells.
 TEST(InformationTest, ConfirmationPhaseFastEqualsReference) {
   const GpMap map = RandomPosterior(16, 12);
   const InformationParams params =
