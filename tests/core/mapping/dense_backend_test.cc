@@ -204,8 +204,9 @@ TEST_F(DenseBackendTest, ConcurrentCallsGiveTheSingleThreadedResultsBitForBit) {
   // The server's planning and measurement threads call the backend at the same
   // time. Each thread repeats the same solves and rank updates and must get
   // what one thread alone gets, to the bit. Debian's serial OpenBLAS, which
-  // hands out scratch buffers without a lock, fails this: small calls, many
-  // of them, make the race likely.
+  // hands out scratch buffers without a lock, failed this before
+  // UseOpenBlas() refused it: small calls, many of them, make the race
+  // likely.
   ASSERT_TRUE(UseOpenBlas().ok());
   std::mt19937 rng(5);
   std::normal_distribution<double> normal;
