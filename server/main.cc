@@ -36,8 +36,8 @@
 #include "grpcpp/health_check_service_interface.h"
 #include "grpcpp/impl/server_builder_option.h"
 #include "grpcpp/impl/server_builder_plugin.h"
-#include "prometheus/exposer.h"
 #include "server/auth.h"
+#include "server/metrics_http.h"
 #include "server/service.h"
 #include "server/store/open_store.h"
 #include "server/web_view.h"
@@ -352,15 +352,14 @@ int main(int argc, char** argv) {
   }
   oaipp::server::PlanningPool planners(planning_threads, planning_queue, planning_nice);
   oaipp::server::Metrics metrics;
-  std::unique_ptr<prometheus::Exposer> exposer;
+  oaipp::server::MetricsHttp metrics_http(metrics.registry());
+  std::string metrics_at = "-";
   if (const std::string address = absl::GetFlag(FLAGS_metrics_listen); !address.empty()) {
-    try {
-      exposer = std::make_unique<prometheus::Exposer>(address);
-      exposer->RegisterCollectable(metrics.registry());
-    } catch (const std::exception& e) {
-      spdlog::error("metrics: cannot listen on {}: {}", address, e.what());
+    if (const absl::Status st = metrics_http.Start(address); !st.ok()) {
+      spdlog::error("{}", std::string(st.message()));
       return 1;
     }
+    metrics_at = absl::StrCat(address.substr(0, address.rfind(':') + 1), metrics_http.port());
   }
   oaipp::server::MissionServiceImpl service(
       &registry, &planners, &metrics, &auth,
@@ -407,10 +406,9 @@ int main(int argc, char** argv) {
   }
   server->GetHealthCheckService()->SetServingStatus("oaipp.v1.MissionService", true);
   server->GetHealthCheckService()->SetServingStatus(true);
-  spdlog::info(
-      "oaipp-server listening on {} ({}{}; metrics on {})", absl::GetFlag(FLAGS_listen),
-      tls ? "TLS" : "plaintext", absl::GetFlag(FLAGS_tls_client_ca).empty() ? "" : ", mutual",
-      absl::GetFlag(FLAGS_metrics_listen).empty() ? "-" : absl::GetFlag(FLAGS_metrics_listen));
+  spdlog::info("oaipp-server listening on {} ({}{}; metrics on {})", absl::GetFlag(FLAGS_listen),
+               tls ? "TLS" : "plaintext",
+               absl::GetFlag(FLAGS_tls_client_ca).empty() ? "" : ", mutual", metrics_at);
 
   // Health follows the store and the load: NOT_SERVING while the store
   // cannot be written (the disk gone or full) or while new plans or streams

@@ -3,7 +3,7 @@
 //
 //   Metrics metrics;                         // owns a prometheus::Registry
 //   metrics.RecordCall("PlanPath", grpc::StatusCode::OK, 0.21);
-//   exposer.RegisterCollectable(metrics.registry());
+//   MetricsHttp http(metrics.registry());    // serves GET /metrics
 #pragma once
 
 #include <memory>

@@ -10,6 +10,7 @@
 #include "api/map.h"
 #include "httplib.h"
 #include "nlohmann/json.hpp"
+#include "server/http_serving.h"
 #include "server/web/index_html.h"
 #include "spdlog/spdlog.h"
 
@@ -61,6 +62,7 @@ absl::Status WebView::Start(const std::string& address, int port) {
         "with --token_file"));
   }
   http_->new_task_queue = [] { return new httplib::ThreadPool(kThreads); };
+  ExclusivePort(*http_);
   http_->set_payload_max_length(1 << 16);
   http_->set_keep_alive_max_count(100);
   Routes();
@@ -74,15 +76,14 @@ absl::Status WebView::Start(const std::string& address, int port) {
     return absl::UnavailableError(
         absl::StrCat("web_port: cannot listen on ", address.substr(0, 64), ":", port));
   }
-  thread_ = std::thread([this] { http_->listen_after_bind(); });
+  listener_.Start(http_.get());
   spdlog::info("web view: http://{}:{}/", address, port_);
   return absl::OkStatus();
 }
 
 void WebView::Stop() {
   if (stopping_.exchange(true)) return;
-  http_->stop();
-  if (thread_.joinable()) thread_.join();
+  listener_.Stop(http_.get());
 }
 
 std::string WebView::MissionsJson(const std::string& tenant) const {
@@ -200,13 +201,13 @@ void WebView::Routes() {
     res.set_content(web::kIndexHtml, "text/html; charset=utf-8");
   });
 
-  http_->Get("/api/missions", [this, tenant_of](const httplib::Request& req,
-                                                httplib::Response& res) {
-    const std::optional<std::string> tenant = tenant_of(req, res);
-    if (!tenant.has_value()) return;
-    res.set_header("Cache-Control", "no-store");
-    res.set_content(MissionsJson(*tenant), kJson);
-  });
+  http_->Get("/api/missions",
+             [this, tenant_of](const httplib::Request& req, httplib::Response& res) {
+               const std::optional<std::string> tenant = tenant_of(req, res);
+               if (!tenant.has_value()) return;
+               res.set_header("Cache-Control", "no-store");
+               res.set_content(MissionsJson(*tenant), kJson);
+             });
 
   http_->Get(R"(/api/missions/([a-z0-9-]{1,63}))",
              [this, tenant_of](const httplib::Request& req, httplib::Response& res) {
@@ -222,62 +223,61 @@ void WebView::Routes() {
                res.set_content(*body, kJson);
              });
 
-  http_->Get(R"(/api/missions/([a-z0-9-]{1,63})/events)", [this, tenant_of](
-                                                              const httplib::Request& req,
-                                                              httplib::Response& res) {
-    const std::optional<std::string> tenant = tenant_of(req, res);
-    if (!tenant.has_value()) return;
-    absl::StatusOr<std::shared_ptr<Mission>> mission =
-        registry_->GetHeld(absl::StrCat("missions/", req.matches[1].str()), *tenant);
-    if (!mission.ok()) {
-      Error(res, 404, std::string(mission.status().message()));
-      return;
-    }
-    if (streams_.fetch_add(1) >= kMaxStreams) {
-      streams_.fetch_sub(1);
-      Error(res, 503, absl::StrCat("too many open event streams (", kMaxStreams, ")"));
-      return;
-    }
-    std::shared_ptr<EventQueue> queue = (*mission)->Subscribe();
-    auto greeted = std::make_shared<bool>(false);
-    auto idle = std::make_shared<int>(0);
-    res.set_header("Cache-Control", "no-store");
-    res.set_chunked_content_provider(
-        "text/event-stream",
-        [this, queue, greeted, idle](std::size_t, httplib::DataSink& sink) {
-          if (!*greeted) {
-            *greeted = true;
-            const std::string hello = "retry: 2000\n: connected\n\n";
-            return sink.write(hello.data(), hello.size());
-          }
-          if (stopping_.load()) {
-            sink.done();
-            return true;
-          }
-          // Wakes at least once a second to notice a stop or a closed page.
-          std::optional<MissionEventData> event = queue->Pop(absl::Now() + absl::Seconds(1));
-          if (!event.has_value()) {
-            if (queue->closed()) {
-              sink.done();
-              return true;
-            }
-            if (++*idle % 5 != 0) return true;
-            const std::string ping = ": keep-alive\n\n";
-            return sink.write(ping.data(), ping.size());
-          }
-          const std::string message =
-              absl::StrCat("event: mission\ndata: ",
-                           json{{"sequence", event->sequence}, {"kind", EventKind(*event)}}.dump(),
-                           "\n\n");
-          if (!sink.write(message.data(), message.size())) return false;
-          if (std::holds_alternative<MissionEventData::Deleted>(event->event)) sink.done();
-          return true;
-        },
-        [this, queue, mission = *mission](bool) {
-          mission->Unsubscribe(queue);
+  http_->Get(
+      R"(/api/missions/([a-z0-9-]{1,63})/events)",
+      [this, tenant_of](const httplib::Request& req, httplib::Response& res) {
+        const std::optional<std::string> tenant = tenant_of(req, res);
+        if (!tenant.has_value()) return;
+        absl::StatusOr<std::shared_ptr<Mission>> mission =
+            registry_->GetHeld(absl::StrCat("missions/", req.matches[1].str()), *tenant);
+        if (!mission.ok()) {
+          Error(res, 404, std::string(mission.status().message()));
+          return;
+        }
+        if (streams_.fetch_add(1) >= kMaxStreams) {
           streams_.fetch_sub(1);
-        });
-  });
+          Error(res, 503, absl::StrCat("too many open event streams (", kMaxStreams, ")"));
+          return;
+        }
+        std::shared_ptr<EventQueue> queue = (*mission)->Subscribe();
+        auto greeted = std::make_shared<bool>(false);
+        auto idle = std::make_shared<int>(0);
+        res.set_header("Cache-Control", "no-store");
+        res.set_chunked_content_provider(
+            "text/event-stream",
+            [this, queue, greeted, idle](std::size_t, httplib::DataSink& sink) {
+              if (!*greeted) {
+                *greeted = true;
+                const std::string hello = "retry: 2000\n: connected\n\n";
+                return sink.write(hello.data(), hello.size());
+              }
+              if (stopping_.load()) {
+                sink.done();
+                return true;
+              }
+              // Wakes at least once a second to notice a stop or a closed page.
+              std::optional<MissionEventData> event = queue->Pop(absl::Now() + absl::Seconds(1));
+              if (!event.has_value()) {
+                if (queue->closed()) {
+                  sink.done();
+                  return true;
+                }
+                if (++*idle % 5 != 0) return true;
+                const std::string ping = ": keep-alive\n\n";
+                return sink.write(ping.data(), ping.size());
+              }
+              const std::string message = absl::StrCat(
+                  "event: mission\ndata: ",
+                  json{{"sequence", event->sequence}, {"kind", EventKind(*event)}}.dump(), "\n\n");
+              if (!sink.write(message.data(), message.size())) return false;
+              if (std::holds_alternative<MissionEventData::Deleted>(event->event)) sink.done();
+              return true;
+            },
+            [this, queue, mission = *mission](bool) {
+              mission->Unsubscribe(queue);
+              streams_.fetch_sub(1);
+            });
+      });
 }
 
 }  // namespace oaipp::server

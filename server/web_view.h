@@ -20,15 +20,11 @@
 #include <atomic>
 #include <memory>
 #include <string>
-#include <thread>
 
 #include "absl/status/statusor.h"
 #include "server/auth.h"
+#include "server/http_serving.h"
 #include "server/registry.h"
-
-namespace httplib {
-class Server;
-}
 
 namespace oaipp::server {
 
@@ -64,7 +60,7 @@ class WebView {
   MissionRegistry* const registry_;
   const Authenticator* const auth_;
   std::unique_ptr<httplib::Server> http_;
-  std::thread thread_;
+  ListenThread listener_;
   int port_ = 0;
   std::atomic<bool> stopping_{false};
   std::atomic<int> streams_{0};
