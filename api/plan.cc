@@ -133,4 +133,26 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
   return path;
 }
 
+bool PlanWasCutByLoad(const v1::PlanPathResponse& path, bool asked_budget) {
+  return path.stats().search_fraction() < 1.0 ||
+         (!asked_budget && path.stats().stop_reason() == "deadline");
+}
+
+double FlightBeforeReplan(const v1::PlanPathResponse& path, bool asked_budget, double fly_s,
+                          double from_s) {
+  if (!PlanWasCutByLoad(path, asked_budget)) return fly_s;
+  for (const v1::MeasurementPose& pose : path.measurement_poses()) {
+    if (pose.t_s() > 0.0 && pose.t_s() >= from_s && pose.t_s() < fly_s) return pose.t_s();
+  }
+  return fly_s;
+}
+
+v1::UavState StateAlongPath(const PolynomialTrajectory& trajectory, double t_s,
+                            double start_mission_time_s) {
+  return UavStateToProto({.position_W = trajectory.Position(t_s),
+                          .velocity_W_m_s = trajectory.Velocity(t_s),
+                          .accel_W_m_s2 = trajectory.Acceleration(t_s),
+                          .mission_time_s = start_mission_time_s + t_s});
+}
+
 }  // namespace oaipp::api

@@ -67,7 +67,10 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     ++result.plans;
     OAIPP_ASSIGN_OR_RETURN(const PolynomialTrajectory traj,
                            api::TrajectoryFromProto(path.trajectory()));
-    const double fly = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
+    // A plan the server cut short under load is flown to its first shot
+    // only, and the next one asked for from the moving state there.
+    const double whole = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
+    const double fly = api::FlightBeforeReplan(path, scenario.has_planning_budget_s(), whole);
     // Fly, checking the exact clearance every step; the camera fires at the
     // planned shots.
     int next_shot = 0;
@@ -98,6 +101,11 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
       return absl::OkStatus();
     }));
     record_flight();
+    if (fly < whole) {
+      ++result.provisional_plans;
+      state = api::StateAlongPath(traj, fly, state.mission_time_s());
+      continue;
+    }
     *state.mutable_position_m() = api::ToProto(traj.Position(fly));
     *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(fly));
     state.clear_acceleration_m_s2();  // replans happen at the path's end, at rest
