@@ -36,6 +36,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/strings/str_cat.h"
+#include "api/plan.h"
 #include "core/mapping/dense_backend.h"
 #include "grpcpp/grpcpp.h"
 #include "nlohmann/json.hpp"
@@ -63,6 +64,12 @@ ABSL_FLAG(double, plan_latency_s, 0.0, "oaipp-server --plan_latency_s (0: no bou
 ABSL_FLAG(double, first_plan_budget_s, 0.0,
           "each mission asks for its first path with this planning_budget_s, in every run "
           "(0: none): what the first plans' search is worth to the RSE");
+ABSL_FLAG(double, replan_cut_within_s, 0.0,
+          "a plan whose search was cut (stats.search_fraction < 1, or stop_reason deadline) is "
+          "flown only to its first "
+          "shot after a point of its own in [0, this) s, and the next plan is asked for from "
+          "the moving state there; the points are spread over the missions so that those "
+          "replans do not arrive together (0: every path is flown to its end)");
 ABSL_FLAG(double, launch_spread_s, 0.0,
           "missions start one after another, evenly over this many seconds (0: all at once, "
           "the default); not in the one-at-a-time run");
@@ -93,6 +100,7 @@ struct MissionResult {
   double rse = 0.0;
   int found = 0;
   int plans = 0;
+  int cut_replans = 0;  // cut plans left early (--replan_cut_within_s)
   double wall_s = 0.0;
   // Each plan: when it was asked for (s since the load started), the
   // planner's wall time (s), evaluations, generations, search share, the
@@ -179,6 +187,7 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
   if (!made.ok()) return result;
   v1::UavState state = created.spec().start();
   int shots = 0;
+  const double first_budget = absl::GetFlag(FLAGS_first_plan_budget_s);
   while (state.mission_time_s() < budget) {
     v1::PlanPathResponse path;
     const double asked_s = Seconds(Clock::now() - t0);
@@ -189,10 +198,7 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
       r.set_name(name);
       *r.mutable_state() = state;
       r.set_request_id(absl::StrCat("plan-", state.mission_time_s()));
-      if (const double first = absl::GetFlag(FLAGS_first_plan_budget_s);
-          first > 0.0 && result.plans == 0) {
-        r.set_planning_budget_s(first);
-      }
+      if (first_budget > 0.0 && result.plans == 0) r.set_planning_budget_s(first_budget);
       return stub.PlanPath(&c, r, &path);
     });
     if (!planned.ok()) return result;
@@ -202,7 +208,15 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
          static_cast<double>(path.stats().generations()), path.stats().search_fraction(),
          path.stats().queued_s(), path.stats().stop_reason() == "deadline" ? 1.0 : 0.0});
     const auto flight_start = Clock::now();
-    const double fly = std::min(path.trajectory().duration_s(), budget - state.mission_time_s());
+    double fly = std::min(path.trajectory().duration_s(), budget - state.mission_time_s());
+    // A cut plan is provisional: fly it to one shot, then ask again, from a
+    // point of this mission's own (golden-ratio spread, no two missions
+    // alike) so the fleet's replans spread out instead of arriving together.
+    const double whole = fly;
+    if (const double within = absl::GetFlag(FLAGS_replan_cut_within_s); within > 0.0) {
+      fly = oaipp::api::FlightBeforeReplan(path, result.plans == 1 && first_budget > 0.0, whole,
+                                           within * std::fmod(0.6180339887498949 * (m + 1), 1.0));
+    }
     for (const auto& pose : path.measurement_poses()) {
       if (pose.t_s() > fly) break;
       if (paced)
@@ -217,8 +231,18 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
       });
     }
     if (paced) std::this_thread::sleep_until(flight_start + std::chrono::duration<double>(fly));
+    if (fly < whole) {
+      absl::StatusOr<oaipp::PolynomialTrajectory> flown =
+          oaipp::api::TrajectoryFromProto(path.trajectory());
+      if (!flown.ok()) return result;
+      ++result.cut_replans;
+      state = oaipp::api::StateAlongPath(*flown, fly, state.mission_time_s());
+      continue;
+    }
     const auto& last = path.trajectory().samples(path.trajectory().samples_size() - 1);
     *state.mutable_position_m() = last.position_m();
+    state.clear_velocity_m_s();  // paths end at rest
+    state.clear_acceleration_m_s2();
     state.set_mission_time_s(state.mission_time_s() + path.trajectory().duration_s());
   }
   v1::GetMapResponse map;
@@ -341,6 +365,11 @@ void Print(LoadResult& r, int missions, double budget, const std::string& pace) 
   }
   std::printf("waits for a planner: mean %.3f s, p99 %.3f s; searches ended by the deadline: %d\n",
               Mean(queued), oaipp::bench::Quantile(queued, 0.99), cut);
+  if (absl::GetFlag(FLAGS_replan_cut_within_s) > 0.0) {
+    int left = 0;
+    for (const MissionResult& m : r.missions) left += m.finished ? m.cut_replans : 0;
+    std::printf("cut plans left at a shot and replanned from the moving state: %d\n", left);
+  }
   std::printf("memory per mission (map + its share of the ESDF, as reported): %.1f MB\n",
               r.bytes_per_mission / 1e6);
   std::printf("peak RSS of the process (server and clients): %.0f MB, %.1f MB per mission\n",
@@ -417,10 +446,11 @@ int main(int argc, char** argv) {
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
   if (missions < 1 || !(budget > 0) || !(absl::GetFlag(FLAGS_first_plan_budget_s) >= 0.0) ||
-      !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0)) {
+      !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0) ||
+      !(absl::GetFlag(FLAGS_replan_cut_within_s) >= 0.0)) {
     std::fprintf(stderr,
-                 "--missions must be >= 1, --budget_s > 0, --first_plan_budget_s >= 0 and "
-                 "--launch_spread_s >= 0\n");
+                 "--missions must be >= 1, --budget_s > 0, --first_plan_budget_s >= 0, "
+                 "--launch_spread_s >= 0 and --replan_cut_within_s >= 0\n");
     return 2;
   }
   std::vector<std::unique_ptr<LoadResult>> runs;
@@ -499,6 +529,7 @@ int main(int argc, char** argv) {
     j["plan_latency_s"] = absl::GetFlag(FLAGS_plan_latency_s);
     j["launch_spread_s"] = absl::GetFlag(FLAGS_launch_spread_s);
     j["first_plan_budget_s"] = absl::GetFlag(FLAGS_first_plan_budget_s);
+    j["replan_cut_within_s"] = absl::GetFlag(FLAGS_replan_cut_within_s);
     j["generations"] = absl::GetFlag(FLAGS_generations);
     j["dense_backend"] = oaipp::DenseBackendName();
     nlohmann::json list = nlohmann::json::array();
