@@ -2,17 +2,20 @@
 
 #include <sys/socket.h>
 
+#include <algorithm>
 #include <chrono>
 
 #include "httplib.h"
 
 namespace oaipp::server {
 
-void ExclusivePort(httplib::Server& http) {
+int BindExclusive(httplib::Server& http, const std::string& host, int port) {
   http.set_socket_options([](socket_t sock) {
     int yes = 1;
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
   });
+  if (port == 0) return std::max(0, http.bind_to_any_port(host));
+  return http.bind_to_port(host, port) ? port : 0;
 }
 
 void ListenThread::Start(httplib::Server* http) {

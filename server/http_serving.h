@@ -1,14 +1,15 @@
 // What the server's two small HTTP endpoints (the live view and /metrics)
 // share on top of cpp-httplib.
 //
-//   ExclusivePort(*http);            // before binding
+//   const int port = BindExclusive(*http, "127.0.0.1", 0);   // 0: not bound
 //   ListenThread listener;
-//   listener.Start(http.get());      // after bind_to_port
+//   listener.Start(http.get());
 //   ...
 //   listener.Stop(http.get());
 #pragma once
 
 #include <atomic>
+#include <string>
 #include <thread>
 
 namespace httplib {
@@ -17,10 +18,12 @@ class Server;
 
 namespace oaipp::server {
 
-// httplib binds with SO_REUSEPORT by default, so a second process could
-// bind the same port and take half the connections; SO_REUSEADDR alone
-// still lets a restart rebind at once but refuses a port in use.
-void ExclusivePort(httplib::Server& http);
+// Binds `host`:`port` (0: any free port); the bound port, or 0 when it
+// cannot be bound. httplib binds with SO_REUSEPORT by default, so a second
+// process could bind the same port and take half the connections; this
+// sets SO_REUSEADDR alone, which still lets a restart rebind at once but
+// refuses a port in use.
+[[nodiscard]] int BindExclusive(httplib::Server& http, const std::string& host, int port);
 
 // The thread that runs listen_after_bind(). httplib's stop() does nothing
 // until the listen loop has started, so Stop() waits for that first (or for

@@ -50,17 +50,11 @@ absl::Status MetricsHttp::Start(const std::string& listen) {
   }
 
   http_->new_task_queue = [] { return new httplib::ThreadPool(kThreads); };
-  ExclusivePort(*http_);
   http_->set_payload_max_length(1 << 10);
   http_->Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
     res.set_content(Body(), kTextFormat);
   });
-  if (port == 0) {
-    port_ = http_->bind_to_any_port(host);
-    if (port_ < 0) port_ = 0;
-  } else if (http_->bind_to_port(host, port)) {
-    port_ = port;
-  }
+  port_ = BindExclusive(*http_, host, port);
   if (port_ == 0) {
     return absl::UnavailableError(
         absl::StrCat("metrics_listen: cannot listen on ", listen.substr(0, 64)));

@@ -62,16 +62,10 @@ absl::Status WebView::Start(const std::string& address, int port) {
         "with --token_file"));
   }
   http_->new_task_queue = [] { return new httplib::ThreadPool(kThreads); };
-  ExclusivePort(*http_);
   http_->set_payload_max_length(1 << 16);
   http_->set_keep_alive_max_count(100);
   Routes();
-  if (port == 0) {
-    port_ = http_->bind_to_any_port(address);
-    if (port_ < 0) port_ = 0;
-  } else if (http_->bind_to_port(address, port)) {
-    port_ = port;
-  }
+  port_ = BindExclusive(*http_, address, port);
   if (port_ == 0) {
     return absl::UnavailableError(
         absl::StrCat("web_port: cannot listen on ", address.substr(0, 64), ":", port));
