@@ -44,7 +44,8 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out);
     const v1::PlanPathResponse& response);
 
 // Whether the server cut this plan's search short because it was loaded:
-// it shed part of the search (stats.search_fraction < 1), or the latency
+// it shed part of the search (stats.search_fraction < 1; unset counts as
+// 1, as from a server that never sheds), or the latency
 // bound ended it (stop_reason "deadline") while the request set no
 // planning_budget_s of its own (`asked_budget`; with one, a deadline may be
 // that budget's). Such a path is as safe as any, but its search was short:
@@ -55,10 +56,12 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out);
 // Seconds to fly `path` before asking for the next one. `fly_s` is what
 // would be flown otherwise (its duration, or what is left of the budget).
 // For a plan cut by load (PlanWasCutByLoad): up to its first measurement
-// pose after 0 and at or after `from_s`, so that shot is taken and the next
-// plan starts from the moving state there; a fleet gives each UAV its own
-// `from_s` so that their replans do not arrive together. `fly_s` when the
-// plan was not cut or no shot lies in that range.
+// pose at or after `from_s` (and at least 1 ms in). The path is left at
+// that pose's point and the shot itself is not taken on it: it belongs to
+// the next path, asked for from the moving state there, whose first pose
+// it is (at t = 0), as a shot at a path's end always does. A fleet gives
+// each UAV its own `from_s` so that their replans do not arrive together.
+// `fly_s` when the plan was not cut or no shot lies in that range.
 [[nodiscard]] double FlightBeforeReplan(const v1::PlanPathResponse& path, bool asked_budget,
                                         double fly_s, double from_s = 0.0);
 

@@ -359,7 +359,7 @@ int main(int argc, char** argv) {
       spdlog::error("{}", std::string(st.message()));
       return 1;
     }
-    metrics_at = absl::StrCat(address.substr(0, address.rfind(':') + 1), metrics_http.port());
+    metrics_at = metrics_http.address();
   }
   oaipp::server::MissionServiceImpl service(
       &registry, &planners, &metrics, &auth,

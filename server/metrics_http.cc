@@ -2,6 +2,7 @@
 
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "httplib.h"
@@ -34,6 +35,9 @@ std::string MetricsHttp::Body() const {
 }
 
 absl::Status MetricsHttp::Start(const std::string& listen) {
+  if (stopping_ || port_ != 0) {
+    return absl::FailedPreconditionError("metrics_listen: the endpoint was started or stopped");
+  }
   std::string host = "0.0.0.0";
   std::string port_text = listen;
   if (const size_t colon = listen.rfind(':'); colon != std::string::npos) {
@@ -51,6 +55,9 @@ absl::Status MetricsHttp::Start(const std::string& listen) {
 
   http_->new_task_queue = [] { return new httplib::ThreadPool(kThreads); };
   http_->set_payload_max_length(1 << 10);
+  // One request per connection: an idle keep-alive scraper would hold one
+  // of the two threads for httplib's 5 s idle timeout.
+  http_->set_keep_alive_max_count(1);
   http_->Get("/metrics", [this](const httplib::Request&, httplib::Response& res) {
     res.set_content(Body(), kTextFormat);
   });
@@ -59,6 +66,8 @@ absl::Status MetricsHttp::Start(const std::string& listen) {
     return absl::UnavailableError(
         absl::StrCat("metrics_listen: cannot listen on ", listen.substr(0, 64)));
   }
+  address_ =
+      absl::StrCat(absl::StrContains(host, ':') ? absl::StrCat("[", host, "]") : host, ":", port_);
   listener_.Start(http_.get());
   return absl::OkStatus();
 }

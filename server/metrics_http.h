@@ -31,12 +31,14 @@ class MetricsHttp {
   ~MetricsHttp();
 
   // Binds `listen` ("host:port", "[v6]:port" or a bare port, which binds
-  // every address; port 0 picks a free one) and serves on threads of its own.
-  // InvalidArgument for a malformed address, Unavailable when it cannot be
-  // bound; both name --metrics_listen.
+  // every IPv4 address, 0.0.0.0; port 0 picks a free one) and serves on
+  // threads of its own. InvalidArgument for a malformed address,
+  // Unavailable when it cannot be bound, FailedPrecondition when started or
+  // stopped before; all name --metrics_listen.
   [[nodiscard]] absl::Status Start(const std::string& listen);
-  // The bound port (after Start).
+  // The bound port, and host:port as bound (after Start).
   [[nodiscard]] int port() const { return port_; }
+  [[nodiscard]] const std::string& address() const { return address_; }
   // Stops serving. Idempotent.
   void Stop();
 
@@ -48,6 +50,7 @@ class MetricsHttp {
   std::unique_ptr<httplib::Server> http_;
   ListenThread listener_;
   int port_ = 0;
+  std::string address_;
   std::atomic<bool> stopping_{false};
 };
 

@@ -1,5 +1,6 @@
 // The client-side helpers for a plan the server cut short under load: when
-// to leave it, and the moving state to ask again from.
+// to leave it, and the moving state to ask again from. The mission runner
+// and server_load take the shot at the point left as the next path's first.
 #include <cmath>
 
 #include "api/plan.h"
@@ -43,6 +44,16 @@ TEST(PlanTest, APlanCutByLoadIsLeftAtItsFirstShotAfterTheStart) {
   EXPECT_EQ(FlightBeforeReplan(late, false, 20.0, 14.0), 20.0);
   EXPECT_EQ(FlightBeforeReplan(late, false, 13.0, 7.0), 13.0);
   EXPECT_EQ(FlightBeforeReplan(Response({}, 0.5, "deadline"), false, 20.0), 20.0);
+  // The start shot a few ulps after 0 (the time the plan was asked for) is
+  // not a place to leave: that would not move the UAV.
+  EXPECT_EQ(FlightBeforeReplan(Response({1e-14, 6.5}, 0.5, "deadline"), false, 20.0), 6.5);
+}
+
+TEST(PlanTest, AnUnsetSearchShareIsAWholeSearch) {
+  // A server from before stats.search_fraction leaves it 0; it never shed.
+  const v1::PlanPathResponse old = Response({0.0, 6.5}, 0.0, "evaluation_budget");
+  EXPECT_FALSE(PlanWasCutByLoad(old, false));
+  EXPECT_EQ(FlightBeforeReplan(old, false, 20.0), 20.0);
 }
 
 TEST(PlanTest, ADeadlineOfTheClientsOwnBudgetIsNotLoad) {

@@ -54,6 +54,19 @@ TEST(MetricsHttpTest, RefusesMalformedAddressesNamingTheFlag) {
   }
 }
 
+TEST(MetricsHttpTest, ABarePortBindsEveryIpv4Address) {
+  MetricsHttp http(std::make_shared<prometheus::Registry>());
+  ASSERT_TRUE(http.Start("0").ok());
+  EXPECT_EQ(http.address(), "0.0.0.0:" + std::to_string(http.port()));
+  httplib::Client client("127.0.0.1", http.port());
+  const httplib::Result res = client.Get("/metrics");
+  ASSERT_TRUE(res) << httplib::to_string(res.error());
+  EXPECT_EQ(res->status, 200);
+  // Once stopped it does not start again.
+  http.Stop();
+  EXPECT_EQ(http.Start("127.0.0.1:0").code(), absl::StatusCode::kFailedPrecondition);
+}
+
 TEST(MetricsHttpTest, APortInUseIsUnavailable) {
   MetricsHttp first(std::make_shared<prometheus::Registry>());
   ASSERT_TRUE(first.Start("127.0.0.1:0").ok());

@@ -197,7 +197,7 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
       v1::PlanPathRequest r;
       r.set_name(name);
       *r.mutable_state() = state;
-      r.set_request_id(absl::StrCat("plan-", state.mission_time_s()));
+      r.set_request_id(absl::StrCat("plan-", result.plans));
       if (first_budget > 0.0 && result.plans == 0) r.set_planning_budget_s(first_budget);
       return stub.PlanPath(&c, r, &path);
     });
@@ -218,7 +218,8 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
                                            within * std::fmod(0.6180339887498949 * (m + 1), 1.0));
     }
     for (const auto& pose : path.measurement_poses()) {
-      if (pose.t_s() > fly) break;
+      // Left early, the shot where it is left is the next path's first.
+      if (pose.t_s() > fly || (fly < whole && pose.t_s() >= fly)) break;
       if (paced)
         std::this_thread::sleep_until(flight_start + std::chrono::duration<double>(pose.t_s()));
       timed("AddMeasurement", [&] {
