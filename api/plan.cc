@@ -1,6 +1,5 @@
 #include "api/plan.h"
 
-#include <algorithm>
 #include <string>
 #include <utility>
 #include <vector>
@@ -132,26 +131,6 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
                                        : 1.0,
                 .queued_s = response.stats().queued_s()};
   return path;
-}
-
-bool PlanWasCutByLoad(const v1::PlanPathResponse& path, bool asked_budget) {
-  // Unset (0): a server from before the field, which never shed.
-  const double share = path.stats().search_fraction();
-  return (share > 0.0 && share < 1.0) ||
-         (!asked_budget && path.stats().stop_reason() == "deadline");
-}
-
-double FlightBeforeReplan(const v1::PlanPathResponse& path, bool asked_budget, double fly_s,
-                          double from_s) {
-  if (!PlanWasCutByLoad(path, asked_budget)) return fly_s;
-  // A shot within a millisecond of the start is the one the path was asked
-  // for at (rounding can put it a few ulps after 0): leaving there would
-  // not move the UAV.
-  const double earliest = std::max(from_s, 1e-3);
-  for (const v1::MeasurementPose& pose : path.measurement_poses()) {
-    if (pose.t_s() >= earliest && pose.t_s() < fly_s) return pose.t_s();
-  }
-  return fly_s;
 }
 
 v1::UavState StateAlongPath(const PolynomialTrajectory& trajectory, double t_s,

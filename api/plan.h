@@ -5,7 +5,6 @@
 //   PlannedPathToProto(path, &response);                                           // server
 //   OAIPP_ASSIGN_OR_RETURN(PolynomialTrajectory t, TrajectoryFromProto(response.trajectory()));
 //   Vec3 p_W = t.Position(2.5);                                                     // client
-//   const double fly = FlightBeforeReplan(response, false, t.Duration());          // client
 #pragma once
 
 #include "absl/status/statusor.h"
@@ -43,31 +42,10 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out);
 [[nodiscard]] absl::StatusOr<PlannedPath> PlannedPathFromProto(
     const v1::PlanPathResponse& response);
 
-// Whether the server cut this plan's search short because it was loaded:
-// it shed part of the search (stats.search_fraction < 1; unset counts as
-// 1, as from a server that never sheds), or the latency
-// bound ended it (stop_reason "deadline") while the request set no
-// planning_budget_s of its own (`asked_budget`; with one, a deadline may be
-// that budget's). Such a path is as safe as any, but its search was short:
-// a client does best to fly it only to an early shot and then ask again,
-// when the server has had time to catch up (FlightBeforeReplan).
-[[nodiscard]] bool PlanWasCutByLoad(const v1::PlanPathResponse& path, bool asked_budget);
-
-// Seconds to fly `path` before asking for the next one. `fly_s` is what
-// would be flown otherwise (its duration, or what is left of the budget).
-// For a plan cut by load (PlanWasCutByLoad): up to its first measurement
-// pose at or after `from_s` (and at least 1 ms in). The path is left at
-// that pose's point and the shot itself is not taken on it: it belongs to
-// the next path, asked for from the moving state there, whose first pose
-// it is (at t = 0), as a shot at a path's end always does. A fleet gives
-// each UAV its own `from_s` so that their replans do not arrive together.
-// `fly_s` when the plan was not cut or no shot lies in that range.
-[[nodiscard]] double FlightBeforeReplan(const v1::PlanPathResponse& path, bool asked_budget,
-                                        double fly_s, double from_s = 0.0);
-
 // The UAV's state `t_s` seconds into `trajectory`, which it started at
 // mission time `start_mission_time_s`: position, velocity and acceleration
-// from the polynomial, the request's state for a replan from there.
+// from the polynomial, the request's state for a replan from there (a
+// replan mid-path, e.g. after a new obstacle).
 [[nodiscard]] v1::UavState StateAlongPath(const PolynomialTrajectory& trajectory, double t_s,
                                           double start_mission_time_s);
 

@@ -206,10 +206,6 @@ int Run(const std::string& path) {
     if (!result->found_at_end[i]) missed.push_back(ids[i]);
   }
   if (!missed.empty()) std::printf("not found: %s\n", absl::StrJoin(missed, ", ").c_str());
-  if (result->provisional_plans > 0) {
-    std::printf("%d plans were cut short by the server's load and flown to their first shot only\n",
-                result->provisional_plans);
-  }
   std::printf(
       "done: %d plans (%.1f s planning), RSE %.3f -> %.3f, %d/%d targets found, "
       "%d collisions; wrote %s/steps.csv and %s/map.png\n",

@@ -67,19 +67,13 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     ++result.plans;
     OAIPP_ASSIGN_OR_RETURN(const PolynomialTrajectory traj,
                            api::TrajectoryFromProto(path.trajectory()));
-    // A plan the server cut short under load is flown to its first shot
-    // only, and the next one asked for from the moving state there (it
-    // takes that shot first).
-    const double whole = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
-    const double fly = api::FlightBeforeReplan(path, scenario.has_planning_budget_s(), whole);
+    const double fly = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
     // Fly, checking the exact clearance every step; the camera fires at the
     // planned shots.
     int next_shot = 0;
     OAIPP_RETURN_IF_ERROR(flight.Fly(traj, fly, [&](double t) -> absl::Status {
-      // Left early, the shot where it is left is the next path's first.
       while (next_shot < path.measurement_poses_size() &&
-             path.measurement_poses(next_shot).t_s() <= t + 1e-9 &&
-             (fly == whole || path.measurement_poses(next_shot).t_s() < fly - 1e-9)) {
+             path.measurement_poses(next_shot).t_s() <= t + 1e-9) {
         const v1::MeasurementPose& shot = path.measurement_poses(next_shot++);
         const Vec3 camera = api::FromProto(shot.position_m());
         const std::vector<PixelBox> boxes = sim.Detect(camera, rng, &result.sightings);
@@ -104,11 +98,6 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
       return absl::OkStatus();
     }));
     record_flight();
-    if (fly < whole) {
-      ++result.provisional_plans;
-      state = api::StateAlongPath(traj, fly, state.mission_time_s());
-      continue;
-    }
     *state.mutable_position_m() = api::ToProto(traj.Position(fly));
     *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(fly));
     state.clear_acceleration_m_s2();  // replans happen at the path's end, at rest

@@ -32,9 +32,6 @@ struct RunResult {
   std::vector<StepRecord> steps;
   std::vector<Vec3> flown_path_W;  // 10 Hz
   int plans = 0;
-  // Plans the server cut short under load (api::PlanWasCutByLoad), flown
-  // only to their first shot before the next plan.
-  int provisional_plans = 0;
   double planning_time_s = 0.0;
   std::string final_map_png;       // map mean | std with obstacles, targets and the flown path
   std::vector<bool> found_at_end;  // per target, Simulation::FoundEach of the final map

@@ -65,10 +65,11 @@ ABSL_FLAG(double, first_plan_budget_s, 0.0,
           "each mission asks for its first path with this planning_budget_s, in every run "
           "(0: none): what the first plans' search is worth to the RSE");
 ABSL_FLAG(double, replan_cut_within_s, 0.0,
-          "a plan whose search was cut (stats.search_fraction < 1, or stop_reason deadline) is "
-          "flown only to its first "
+          "an experiment (it costs RSE, docs/capacity.md): a plan whose search was cut "
+          "(stats.search_fraction < 1, or stop_reason deadline) is flown only to its first "
           "shot after a point of its own in [0, this) s, and the next plan is asked for from "
-          "the moving state there; the points are spread over the missions so that those "
+          "the moving state there, whose path takes that shot first; the points are spread "
+          "over the missions so that those "
           "replans do not arrive together (0: every path is flown to its end)");
 ABSL_FLAG(double, launch_spread_s, 0.0,
           "missions start one after another, evenly over this many seconds (0: all at once, "
@@ -209,13 +210,22 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
          path.stats().queued_s(), path.stats().stop_reason() == "deadline" ? 1.0 : 0.0});
     const auto flight_start = Clock::now();
     double fly = std::min(path.trajectory().duration_s(), budget - state.mission_time_s());
-    // A cut plan is provisional: fly it to one shot, then ask again, from a
-    // point of this mission's own (golden-ratio spread, no two missions
-    // alike) so the fleet's replans spread out instead of arriving together.
+    // --replan_cut_within_s: a plan cut by load (shed, or ended by the
+    // latency bound rather than a budget this mission asked for) is left
+    // at its first shot after a point of this mission's own (golden-ratio
+    // spread, no two missions alike), so the fleet's replans spread out.
     const double whole = fly;
-    if (const double within = absl::GetFlag(FLAGS_replan_cut_within_s); within > 0.0) {
-      fly = oaipp::api::FlightBeforeReplan(path, result.plans == 1 && first_budget > 0.0, whole,
-                                           within * std::fmod(0.6180339887498949 * (m + 1), 1.0));
+    const bool cut =
+        path.stats().search_fraction() < 1.0 ||
+        (path.stats().stop_reason() == "deadline" && !(result.plans == 1 && first_budget > 0.0));
+    if (const double within = absl::GetFlag(FLAGS_replan_cut_within_s); within > 0.0 && cut) {
+      const double from = std::max(1e-3, within * std::fmod(0.6180339887498949 * (m + 1), 1.0));
+      for (const auto& pose : path.measurement_poses()) {
+        if (pose.t_s() >= from && pose.t_s() < whole) {
+          fly = pose.t_s();
+          break;
+        }
+      }
     }
     for (const auto& pose : path.measurement_poses()) {
       // Left early, the shot where it is left is the next path's first.
