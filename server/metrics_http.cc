@@ -8,7 +8,6 @@
 #include "httplib.h"
 #include "prometheus/text_serializer.h"
 #include "server/http_serving.h"
-#include "spdlog/spdlog.h"
 
 namespace oaipp::server {
 namespace {

@@ -1,5 +1,4 @@
 // The UAV's state along a returned path, to replan from mid-flight.
-#include <cmath>
 
 #include "api/plan.h"
 #include "gtest/gtest.h"

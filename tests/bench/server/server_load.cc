@@ -69,8 +69,8 @@ ABSL_FLAG(double, replan_cut_within_s, 0.0,
           "(stats.search_fraction < 1, or stop_reason deadline) is flown only to its first "
           "shot after a point of its own in [0, this) s, and the next plan is asked for from "
           "the moving state there, whose path takes that shot first; the points are spread "
-          "over the missions so that those "
-          "replans do not arrive together (0: every path is flown to its end)");
+          "over the missions so that those replans do not arrive together (0: every path is "
+          "flown to its end)");
 ABSL_FLAG(double, launch_spread_s, 0.0,
           "missions start one after another, evenly over this many seconds (0: all at once, "
           "the default); not in the one-at-a-time run");
@@ -229,7 +229,7 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
     }
     for (const auto& pose : path.measurement_poses()) {
       // Left early, the shot where it is left is the next path's first.
-      if (pose.t_s() > fly || (fly < whole && pose.t_s() >= fly)) break;
+      if (fly < whole ? pose.t_s() >= fly : pose.t_s() > fly) break;
       if (paced)
         std::this_thread::sleep_until(flight_start + std::chrono::duration<double>(pose.t_s()));
       timed("AddMeasurement", [&] {
