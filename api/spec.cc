@@ -89,6 +89,20 @@ absl::Status FillSensor(const v1::SensorSpec& s, MissionConfig& c) {
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.noise_a_var", c.noise.a_var));
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.noise_b_per_m", c.noise.b_per_m));
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.rate_hz", c.camera.rate_hz));
+  if (s.has_detector_noise()) {
+    if (s.has_noise_a_var() || s.has_noise_b_per_m()) {
+      return absl::InvalidArgumentError(
+          "spec.sensor.detector_noise: replaces noise_a_var and noise_b_per_m, set one or the "
+          "other");
+    }
+    const v1::DetectorNoise& d = s.detector_noise();
+    const DetectorAccuracy defaults;
+    c.noise.detector =
+        DetectorAccuracy{.p_max = OrDefault(d.has_p_max(), d.p_max(), defaults.p_max),
+                         .h_best_m = OrDefault(d.has_h_best_m(), d.h_best_m(), defaults.h_best_m),
+                         .width_m = OrDefault(d.has_width_m(), d.width_m(), defaults.width_m)};
+    OAIPP_RETURN_IF_ERROR(Prefixed("spec.sensor.detector_noise.", c.noise.detector->Validate()));
+  }
   OAIPP_RETURN_IF_ERROR(Prefixed("spec.sensor.", c.camera.Validate()));
   return Prefixed("spec.sensor.", c.noise.Validate());
 }
@@ -335,8 +349,15 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   v1::SensorSpec& s = *spec.mutable_sensor();
   s.set_fov_x_deg(c.camera.fov_x_deg);
   s.set_fov_y_deg(c.camera.fov_y_deg);
-  s.set_noise_a_var(c.noise.a_var);
-  s.set_noise_b_per_m(c.noise.b_per_m);
+  if (c.noise.detector.has_value()) {
+    v1::DetectorNoise& d = *s.mutable_detector_noise();
+    d.set_p_max(c.noise.detector->p_max);
+    d.set_h_best_m(c.noise.detector->h_best_m);
+    d.set_width_m(c.noise.detector->width_m);
+  } else {
+    s.set_noise_a_var(c.noise.a_var);
+    s.set_noise_b_per_m(c.noise.b_per_m);
+  }
   s.set_rate_hz(c.camera.rate_hz);
 
   v1::FlightSpec& fl = *spec.mutable_flight();

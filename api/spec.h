@@ -30,7 +30,8 @@ namespace oaipp::api {
 // Fails with InvalidArgument naming the field ("spec.preset",
 // "spec.field.x_max_m", "spec.obstacles[3].id", "spec.start.position_m", ...)
 // for: an unknown preset; a non-finite number; a size, rate, variance or
-// limit that must be positive and is not; a field extent that is not a
+// limit that must be positive and is not; sensor.detector_noise set with
+// noise_a_var or noise_b_per_m, or out of range; a field extent that is not a
 // whole number of cells; min_altitude_m >= max_altitude_m; a planner
 // parameter out of range or an unknown planner kind; a bad or duplicate
 // obstacle; a start that is not finite, lies outside the flight volume or
@@ -41,8 +42,9 @@ namespace oaipp::api {
 // at spec.geo_origin first (api/geodetic.h; errors name them).
 [[nodiscard]] absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec);
 
-// The effective spec of `config`: every optional field set explicitly and
-// the start always present, so that MissionSpecToConfig(ConfigToMissionSpec(
+// The effective spec of `config`: every optional field set explicitly (of
+// the sensor noise, noise_a_var and noise_b_per_m or detector_noise, the
+// model in use) and the start always present, so that MissionSpecToConfig(ConfigToMissionSpec(
 // c)) == c field for field for any c that MissionSpecToConfig returned
 // (angles pass through degrees, so yaws agree to a few ulps).
 [[nodiscard]] v1::MissionSpec ConfigToMissionSpec(const MissionConfig& config);

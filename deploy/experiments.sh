@@ -14,13 +14,17 @@
 # confirmation-phase adds the confirmation phase over the last 45 s to that
 # variant: E1 and E4, and E5 under a 12 m ceiling with N = 4 at 50 trials,
 # with and without the phase (out/eval/confirmation-phase-<experiment>).
+# detector-noise flies every variant with the noise of the scenario's
+# detector (--detector_noise) and oaipp_confirm with the phase: E1 and E4,
+# and E5 with the paper's settings and under a 12 m ceiling with N = 4 at 100
+# trials (out/eval/detector-noise-<experiment>).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -52,6 +56,15 @@ for e in $experiments; do
           --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
           --out="out/eval/confirmation-phase-E5-ceiling12-n4-$phase"
       done ;;
+    detector-noise)
+      confirm=(--detector_noise --confirmation_weight=100 --confirmation_phase_s=45)
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" --out="out/eval/detector-noise-$x"
+      done
+      "${client[@]}" eval E5 --trials=100 "${confirm[@]}" --out=out/eval/detector-noise-E5
+      "${client[@]}" eval E5 --trials=100 "${confirm[@]}" \
+        --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
+        --out=out/eval/detector-noise-E5-ceiling12-n4 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done

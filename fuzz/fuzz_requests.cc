@@ -137,6 +137,7 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(camera.rate_hz);
   OAIPP_FUZZ_SAME(noise.a_var);
   OAIPP_FUZZ_SAME(noise.b_per_m);
+  OAIPP_FUZZ_SAME(noise.detector);
   OAIPP_FUZZ_SAME(min_altitude_m);
   OAIPP_FUZZ_SAME(max_altitude_m);
   OAIPP_FUZZ_SAME(esdf.voxel_size_m);

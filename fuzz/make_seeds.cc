@@ -95,6 +95,9 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
   *create.mutable_spec() = FixedMissionSpec();
   *create.mutable_spec()->mutable_start()->mutable_position_m() = V(-2, -2, 6);
   WriteSeed(dir, "create_mission-small", Kind::kCreateMission, create);
+  create.set_mission_id("small-detector-noise");
+  create.mutable_spec()->mutable_sensor()->mutable_detector_noise()->set_p_max(0.9);
+  WriteSeed(dir, "create_mission-detector_noise", Kind::kCreateMission, create);
 
   v1::GetMissionRequest get;
   get.set_name("missions/e1");

@@ -203,4 +203,21 @@ bool Simulation::Collides(const Vec3& p_W) const {
          env_->SignedDistance(p_W) < 0.5 * config_.planner.common.limits.uav_radius_m;
 }
 
+absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario) {
+  const v1::DetectorModel& d = scenario.detector();
+  const DetectorParams defaults;
+  if (d.has_p_max() && !(d.p_max() > 0.0 && d.p_max() < 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("detector.p_max: detector noise needs it in (0, 1), got ", d.p_max()));
+  }
+  v1::SensorSpec& sensor = *scenario.mutable_mission()->mutable_sensor();
+  sensor.clear_noise_a_var();
+  sensor.clear_noise_b_per_m();
+  v1::DetectorNoise& noise = *sensor.mutable_detector_noise();
+  noise.set_p_max(d.has_p_max() ? d.p_max() : defaults.p_max);
+  noise.set_h_best_m(d.has_h_best_m() ? d.h_best_m() : defaults.h_best_m);
+  noise.set_width_m(d.has_width_m() ? d.width_m() : defaults.width_m);
+  return scenario;
+}
+
 }  // namespace oaipp::sim

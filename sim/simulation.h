@@ -98,4 +98,13 @@ class Simulation {
   std::vector<double> truth_;
 };
 
+// The scenario with its mission fusing labels by the noise of the
+// scenario's own detector (SensorSpec.detector_noise from
+// DetectorModel's p_max, h_best_m and width_m, defaults as DetectorParams),
+// in place of noise_a_var and noise_b_per_m: a ground station that knows its
+// detector's accuracy curve tells the server. InvalidArgument naming
+// detector.p_max when it is 0 or 1 (a scenario may have them; the noise
+// needs p_max in (0, 1)).
+[[nodiscard]] absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario);
+
 }  // namespace oaipp::sim

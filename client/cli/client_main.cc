@@ -52,6 +52,9 @@ ABSL_FLAG(double, confirmation_weight, 0.0,
 ABSL_FLAG(double, confirmation_phase_s, 0.0,
           "eval: with --confirmation_weight, oaipp_confirm also confirms over the last this many "
           "seconds of its budget (PlannerSpec.confirmation_phase_s); 0: no phase");
+ABSL_FLAG(bool, detector_noise, false,
+          "run, eval: missions fuse labels with the noise of the scenario's detector model "
+          "(SensorSpec.detector_noise) instead of the paper's A (1 - exp(-B h))");
 ABSL_FLAG(std::string, geo_origin, "",
           "export: LAT,LON,ALT (degrees, degrees, metres above mean sea level) of the local "
           "frame's origin, for a scenario without mission.geo_origin; best the launch point");
@@ -94,7 +97,9 @@ Commands:
                       to E1, E4 and E5: OA-IPP with the confirmation
                       objective at weight W, same seeds;
                       --confirmation_phase_s=S adds a confirmation phase
-                      over its last S seconds.
+                      over its last S seconds. --detector_noise (run and
+                      eval): every mission fuses labels with the noise of
+                      the scenario's detector (SensorSpec.detector_noise).
                       Writes trials.csv, targets.csv (how often each
                       target was in view and detected), summary.md, a
                       figure over time (rse.png, or trace.png for E3) and
@@ -103,8 +108,8 @@ Commands:
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --parallel (2), --plan_budget_s
-       (0: none), --scenario, --e3_budget_s, --geo_origin, --setpoint_rate_hz
-       (20), --autopilot (px4).)";
+       (0: none), --scenario, --e3_budget_s, --detector_noise, --geo_origin,
+       --setpoint_rate_hz (20), --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -130,8 +135,20 @@ absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel() {
   return Client::OpenChannel(absl::GetFlag(FLAGS_server), Options());
 }
 
-int Run(const std::string& path) {
+// The scenario file at `path`, with --detector_noise applied.
+absl::StatusOr<oaipp::v1::Scenario> LoadScenario(const std::string& path) {
   absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
+  if (!scenario.ok() || !absl::GetFlag(FLAGS_detector_noise)) return scenario;
+  absl::StatusOr<oaipp::v1::Scenario> with = oaipp::sim::WithDetectorNoise(*std::move(scenario));
+  if (!with.ok()) {
+    return absl::Status(with.status().code(),
+                        absl::StrCat(path, ": --detector_noise: ", with.status().message()));
+  }
+  return with;
+}
+
+int Run(const std::string& path) {
+  absl::StatusOr<oaipp::v1::Scenario> scenario = LoadScenario(path);
   if (!scenario.ok()) return Fail(scenario.status());
   absl::StatusOr<oaipp::sim::Simulation> sim = oaipp::sim::Simulation::Create(*scenario);
   if (!sim.ok())
@@ -391,7 +408,7 @@ std::string DefaultScenario(const std::string& experiment) {
 int Eval(const std::string& experiment) {
   std::string scenario_path = absl::GetFlag(FLAGS_scenario);
   if (scenario_path.empty()) scenario_path = DefaultScenario(experiment);
-  absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(scenario_path);
+  absl::StatusOr<oaipp::v1::Scenario> scenario = LoadScenario(scenario_path);
   if (!scenario.ok()) return Fail(scenario.status());
   absl::StatusOr<Experiment> e = MakeExperiment(experiment, *scenario);
   if (!e.ok()) return Fail(e.status());

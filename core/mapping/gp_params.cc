@@ -21,9 +21,24 @@ absl::Status GpParams::Validate() const {
   return CheckFinite("prior_mean", prior_mean);
 }
 
+absl::Status DetectorAccuracy::Validate() const {
+  if (!(p_max > 0.0 && p_max < 1.0)) {
+    return absl::InvalidArgumentError(absl::StrCat("p_max: must lie in (0, 1), got ", p_max));
+  }
+  if (!(h_best_m >= 0.0) || !std::isfinite(h_best_m)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("h_best_m: must be >= 0 and finite, got ", h_best_m));
+  }
+  return CheckPositive("width_m", width_m);
+}
+
 absl::Status SensorNoise::Validate() const {
   OAIPP_RETURN_IF_ERROR(CheckPositive("a_var", a_var));
-  return CheckPositive("b_per_m", b_per_m);
+  OAIPP_RETURN_IF_ERROR(CheckPositive("b_per_m", b_per_m));
+  if (!detector.has_value()) return absl::OkStatus();
+  const absl::Status status = detector->Validate();
+  if (status.ok()) return status;
+  return absl::InvalidArgumentError(absl::StrCat("detector.", status.message()));
 }
 
 }  // namespace oaipp

@@ -3,7 +3,8 @@
 //
 // The map's prior is a GP with an isotropic Matérn 3/2 kernel over the cell
 // centres; a measurement taken from altitude h has noise variance
-// var(h) = A (1 - exp(-B h)): higher is noisier.
+// var(h) = A (1 - exp(-B h)): higher is noisier; or, per mission, a variance
+// from the detector's accuracy at h (DetectorAccuracy).
 //
 //   GpParams gp = GpParams::PaperPreset(/*resolution_m=*/0.75);  // l = 2.752 m
 //   double k = Matern32(/*distance_m=*/1.5, gp.length_scale_m, gp.signal_var);
@@ -11,6 +12,7 @@
 #pragma once
 
 #include <cmath>
+#include <optional>
 
 #include "absl/status/status.h"
 
@@ -58,18 +60,62 @@ struct GpParams {
   [[nodiscard]] absl::Status Validate() const;
 };
 
+// Noise from the detector's own accuracy (docs/method.md §3.4): a person in
+// view from altitude h is detected with probability
+// p(h) = p_max exp(-((h - h_best) / width)^2 / 2). A label from there is
+// weighted by (1 - p) / p, the variance that label / p(h), an unbiased
+// estimate of the person's presence, has for a cell holding one; the label
+// itself is fused unscaled. Lowest at h_best and growing both above and
+// below it, where the paper's model makes the lowest shots the most precise.
+//
+//   DetectorAccuracy d;                  // 0.95 at 10 m, width 7 m
+//   double v = d.Variance(10.0);         // 0.05 / 0.95 = 0.0526
+//   double w = d.Variance(17.0);         // p = 0.95 e^-0.5 = 0.5762: 0.7355
+struct DetectorAccuracy {
+  // Detection probability at h_best_m. Valid: (0, 1).
+  double p_max = 0.95;
+  // Altitude of the best detection, metres. Valid: >= 0, finite.
+  double h_best_m = 10.0;
+  // Width of the accuracy curve, metres. Valid: > 0, finite.
+  double width_m = 7.0;
+
+  // Largest variance returned, where p(h) all but vanishes: a label from
+  // there changes nothing.
+  static constexpr double kMaxVariance = 1e6;
+
+  [[nodiscard]] double DetectionProbability(double altitude_m) const {
+    const double z = (altitude_m - h_best_m) / width_m;
+    return p_max * std::exp(-0.5 * z * z);
+  }
+  // NaN for a NaN altitude, as the paper's model gives.
+  [[nodiscard]] double Variance(double altitude_m) const {
+    const double p = DetectionProbability(altitude_m);
+    if (std::isnan(p)) return p;
+    return p * kMaxVariance > 1.0 - p ? (1.0 - p) / p : kMaxVariance;
+  }
+
+  // InvalidArgument naming the first bad field.
+  [[nodiscard]] absl::Status Validate() const;
+
+  bool operator==(const DetectorAccuracy&) const = default;
+};
+
 // Altitude-dependent measurement noise var(h) = A (1 - exp(-B h))
-// (docs/method.md §3; the paper's A = 1, B = 0.05).
+// (docs/method.md §3; the paper's A = 1, B = 0.05), or, when `detector` is
+// set, the detector's accuracy curve instead (DetectorAccuracy).
 struct SensorNoise {
   // Saturation variance A, label units squared. Valid: > 0.
   double a_var = 1.0;
   // Growth rate B, per metre of altitude. Valid: > 0.
   double b_per_m = 0.05;
+  // When set, replaces A and B. Off by default (the paper's model).
+  std::optional<DetectorAccuracy> detector;
 
   // var(h) for a camera at altitude_m above the ground. Precondition:
-  // altitude_m > 0 (var(0) = 0 is not a valid observation variance, and
-  // GpMap::Update refuses it).
+  // altitude_m > 0 (callers check it: LabelsToObservations refuses other
+  // altitudes, and the paper's var(0) = 0 is no valid observation variance).
   [[nodiscard]] double Variance(double altitude_m) const {
+    if (detector.has_value()) return detector->Variance(altitude_m);
     return a_var * (1.0 - std::exp(-b_per_m * altitude_m));
   }
 

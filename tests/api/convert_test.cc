@@ -114,6 +114,12 @@ void ExpectConfigsEqual(const MissionConfig& a, const MissionConfig& b) {
   EXPECT_EQ(a.camera.rate_hz, b.camera.rate_hz);
   EXPECT_EQ(a.noise.a_var, b.noise.a_var);
   EXPECT_EQ(a.noise.b_per_m, b.noise.b_per_m);
+  ASSERT_EQ(a.noise.detector.has_value(), b.noise.detector.has_value());
+  if (a.noise.detector.has_value()) {
+    EXPECT_EQ(a.noise.detector->p_max, b.noise.detector->p_max);
+    EXPECT_EQ(a.noise.detector->h_best_m, b.noise.detector->h_best_m);
+    EXPECT_EQ(a.noise.detector->width_m, b.noise.detector->width_m);
+  }
   EXPECT_EQ(a.min_altitude_m, b.min_altitude_m);
   EXPECT_EQ(a.max_altitude_m, b.max_altitude_m);
   EXPECT_EQ(a.esdf.voxel_size_m, b.esdf.voxel_size_m);
@@ -180,6 +186,7 @@ TEST(MissionSpecTest, DefaultSpecTakesTheProtoDocumentedDefaults) {
   EXPECT_EQ(c->camera.fov_y_deg, 60);
   EXPECT_EQ(c->noise.a_var, 1);
   EXPECT_EQ(c->noise.b_per_m, 0.05);
+  EXPECT_FALSE(c->noise.detector.has_value());  // the paper's noise model
   EXPECT_EQ(c->sensor_rate_hz(), 0.15);
   EXPECT_EQ(c->min_altitude_m, 2);
   EXPECT_EQ(c->max_altitude_m, 26);
@@ -272,6 +279,38 @@ TEST(MissionSpecTest, FullyCustomSpecConvertsEveryFieldAndRoundTrips) {
   ExpectRoundTrip(spec);
   // Every field was set, so the effective spec is the spec itself.
   EXPECT_TRUE(MessageDifferencer::ApproximatelyEquals(ConfigToMissionSpec(*c), spec));
+}
+
+TEST(MissionSpecTest, DetectorNoiseTakesItsDocumentedDefaultsAndRoundTrips) {
+  v1::MissionSpec spec;
+  spec.mutable_sensor()->mutable_detector_noise();
+  absl::StatusOr<MissionConfig> c = MissionSpecToConfig(spec);
+  ASSERT_TRUE(c.ok()) << c.status();
+  ASSERT_TRUE(c->noise.detector.has_value());
+  // Numbers from the comments in mission_service.proto.
+  EXPECT_EQ(c->noise.detector->p_max, 0.95);
+  EXPECT_EQ(c->noise.detector->h_best_m, 10);
+  EXPECT_EQ(c->noise.detector->width_m, 7);
+  // var(10 m) = (1 - 0.95) / 0.95, not the paper's 1 - e^-0.5 = 0.3935.
+  EXPECT_NEAR(c->noise.Variance(10.0), 0.05 / 0.95, 1e-15);
+  ExpectRoundTrip(spec);
+  const v1::SensorSpec effective = ConfigToMissionSpec(*c).sensor();
+  EXPECT_TRUE(effective.has_detector_noise());
+  EXPECT_FALSE(effective.has_noise_a_var());
+  EXPECT_FALSE(effective.has_noise_b_per_m());
+
+  v1::DetectorNoise& d = *spec.mutable_sensor()->mutable_detector_noise();
+  d.set_p_max(0.8);
+  d.set_h_best_m(6);
+  d.set_width_m(3);
+  c = MissionSpecToConfig(spec);
+  ASSERT_TRUE(c.ok()) << c.status();
+  EXPECT_EQ(c->noise.detector->p_max, 0.8);
+  EXPECT_EQ(c->noise.detector->h_best_m, 6);
+  EXPECT_EQ(c->noise.detector->width_m, 3);
+  ExpectRoundTrip(spec);
+  EXPECT_TRUE(MessageDifferencer::ApproximatelyEquals(
+      ConfigToMissionSpec(*c).sensor().detector_noise(), d));
 }
 
 TEST(MissionSpecTest, EveryPlannerKindRoundTripsThroughASpec) {
@@ -606,6 +645,52 @@ std::vector<BadCase> BadCases() {
       {"negative noise B",
        [] { return SpecWith([](auto& s) { s.mutable_sensor()->set_noise_b_per_m(-0.1); }); },
        kInvalid, "spec.sensor.noise_b_per_m: "},
+      {"detector noise with the paper's A",
+       [] {
+         return SpecWith([](auto& s) {
+           s.mutable_sensor()->set_noise_a_var(1.0);
+           s.mutable_sensor()->mutable_detector_noise();
+         });
+       },
+       kInvalid, "spec.sensor.detector_noise: replaces noise_a_var and noise_b_per_m"},
+      {"detector noise with the paper's B",
+       [] {
+         return SpecWith([](auto& s) {
+           s.mutable_sensor()->set_noise_b_per_m(0.05);
+           s.mutable_sensor()->mutable_detector_noise();
+         });
+       },
+       kInvalid, "spec.sensor.detector_noise: replaces noise_a_var and noise_b_per_m"},
+      {"detector noise best below ground",
+       [] {
+         return SpecWith(
+             [](auto& s) { s.mutable_sensor()->mutable_detector_noise()->set_h_best_m(-2); });
+       },
+       kInvalid, "spec.sensor.detector_noise.h_best_m: must be >= 0"},
+      {"detector noise p_max 1",
+       [] {
+         return SpecWith(
+             [](auto& s) { s.mutable_sensor()->mutable_detector_noise()->set_p_max(1); });
+       },
+       kInvalid, "spec.sensor.detector_noise.p_max: must lie in (0, 1), got 1"},
+      {"detector noise p_max 0",
+       [] {
+         return SpecWith(
+             [](auto& s) { s.mutable_sensor()->mutable_detector_noise()->set_p_max(0); });
+       },
+       kInvalid, "spec.sensor.detector_noise.p_max: "},
+      {"detector noise NaN best altitude",
+       [] {
+         return SpecWith(
+             [](auto& s) { s.mutable_sensor()->mutable_detector_noise()->set_h_best_m(kNaN); });
+       },
+       kInvalid, "spec.sensor.detector_noise.h_best_m: "},
+      {"detector noise zero width",
+       [] {
+         return SpecWith(
+             [](auto& s) { s.mutable_sensor()->mutable_detector_noise()->set_width_m(0); });
+       },
+       kInvalid, "spec.sensor.detector_noise.width_m: "},
       {"max altitude below min",
        [] {
          return SpecWith([](auto& s) {

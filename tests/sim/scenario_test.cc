@@ -24,6 +24,34 @@ TEST(ScenarioTest, TheE1FileParsesIntoThePapersWorld) {
   EXPECT_NEAR(sim->Rse(std::vector<double>(1600, 0.1)), 7.375636, 1e-6);
 }
 
+TEST(ScenarioTest, WithDetectorNoiseTellsTheServerTheScenariosDetector) {
+  auto scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  scenario->mutable_mission()->mutable_sensor()->set_noise_a_var(0.5);
+  scenario->mutable_detector()->set_p_max(0.9);
+  scenario->mutable_detector()->set_width_m(5.0);
+  scenario->mutable_detector()->clear_h_best_m();
+  const absl::StatusOr<v1::Scenario> with = WithDetectorNoise(*scenario);
+  ASSERT_TRUE(with.ok()) << with.status();
+  const v1::Scenario& s = *with;
+  const v1::SensorSpec& sensor = s.mission().sensor();
+  EXPECT_FALSE(sensor.has_noise_a_var());
+  EXPECT_FALSE(sensor.has_noise_b_per_m());
+  ASSERT_TRUE(sensor.has_detector_noise());
+  EXPECT_EQ(sensor.detector_noise().p_max(), 0.9);
+  EXPECT_EQ(sensor.detector_noise().h_best_m(), 10.0);  // unset in the scenario: the default
+  EXPECT_EQ(sensor.detector_noise().width_m(), 5.0);
+  // The rest of the scenario is as it was.
+  EXPECT_EQ(s.targets_size(), 7);
+  EXPECT_EQ(s.mission().obstacles_size(), scenario->mission().obstacles_size());
+  EXPECT_TRUE(Simulation::Create(s).ok());
+
+  // A scenario's detector may be perfect; its noise would be zero.
+  scenario->mutable_detector()->set_p_max(1.0);
+  EXPECT_THAT(WithDetectorNoise(*scenario).status().message(),
+              HasSubstr("detector.p_max: detector noise needs it in (0, 1), got 1"));
+}
+
 // zurich.json places the E1-like world on Earth: people and buildings given
 // by latitude/longitude land where a local degree length puts them
 // (WGS84 radii of curvature: 111178.6 m per degree of latitude and 75489.7 m

@@ -21,7 +21,9 @@ TEST(SensorNoiseTest, MatchesReference) {
   EXPECT_NEAR(noise.Variance(2), 0.095163, 5e-7);
   EXPECT_NEAR(noise.Variance(10), 0.393469, 5e-7);
   EXPECT_NEAR(noise.Variance(26), 0.727468, 5e-7);
-  EXPECT_THAT(SensorNoise{.b_per_m = 0}.Validate().message(), HasSubstr("b_per_m"));
+  SensorNoise flat;
+  flat.b_per_m = 0;
+  EXPECT_THAT(flat.Validate().message(), HasSubstr("b_per_m"));
 }
 
 TEST(DownwardCameraTest, FootprintSizesMatchReference) {

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -89,6 +90,41 @@ TEST(GpParamsTest, PaperPresetAndDefaults) {
   EXPECT_TRUE(d.Validate().ok());
   EXPECT_THAT(GpParams{.noise_var = 0}.Validate().message(), HasSubstr("noise_var"));
   EXPECT_THAT(GpParams{.prior_mean = NAN}.Validate().message(), HasSubstr("prior_mean"));
+}
+
+// (1 - p) / p with p = 0.95 exp(-((h - 10) / 7)^2 / 2), evaluated by hand
+// (Python's math module) at the best altitude, one width either side, the
+// paper's lowest altitude and its saturation altitude.
+TEST(SensorNoiseTest, DetectorNoiseFollowsTheDetectorsAccuracyCurve) {
+  SensorNoise noise;
+  ExpectRel(noise.Variance(10.0), 0.393469340);  // unset: the paper's A (1 - exp(-B h))
+  noise.detector = DetectorAccuracy{};
+  EXPECT_TRUE(noise.Validate().ok());
+  ExpectRel(noise.Variance(10.0), 0.052631578947368474, 1e-13);
+  ExpectRel(noise.detector->DetectionProbability(17.0), 0.5762041267270017, 1e-13);
+  ExpectRel(noise.Variance(17.0), 0.7354960744211876, 1e-13);
+  ExpectRel(noise.Variance(3.0), 0.7354960744211876, 1e-13);
+  ExpectRel(noise.Variance(2.0), 1.0225407516150768, 1e-13);  // the paper's model: 0.0952
+  ExpectRel(noise.Variance(26.0), 13.346961711214805, 1e-13);
+  ExpectRel(noise.Variance(45.0), 282459.30160092044, 1e-10);  // p = 3.54e-6, below the cap
+  // Where the detector sees (almost) nothing, a label changes (almost)
+  // nothing: at 50 m (1 - p) / p would be 1.297e7.
+  EXPECT_EQ(noise.Variance(50.0), DetectorAccuracy::kMaxVariance);
+  EXPECT_EQ(noise.Variance(500.0), DetectorAccuracy::kMaxVariance);
+  EXPECT_EQ(noise.Variance(-1e300), DetectorAccuracy::kMaxVariance);
+
+  auto with = [](auto edit) {
+    SensorNoise n;
+    n.detector = DetectorAccuracy{};
+    edit(*n.detector);
+    return std::string(n.Validate().message());
+  };
+  EXPECT_THAT(with([](auto& d) { d.p_max = 1.0; }),
+              HasSubstr("detector.p_max: must lie in (0, 1)"));
+  EXPECT_THAT(with([](auto& d) { d.h_best_m = INFINITY; }), HasSubstr("detector.h_best_m"));
+  EXPECT_THAT(with([](auto& d) { d.h_best_m = -1; }), HasSubstr("detector.h_best_m: must be >= 0"));
+  EXPECT_TRUE(std::isnan(noise.Variance(NAN)));
+  EXPECT_THAT(with([](auto& d) { d.width_m = -1; }), HasSubstr("detector.width_m"));
 }
 
 // docs/reference-values.md §3 (1-D GP): kernel 2.0 * Matern32(l = 1.5), noise 0.1, X = [0, 1, 3],
