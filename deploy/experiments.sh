@@ -15,9 +15,10 @@
 # variant: E1 and E4, and E5 under a 12 m ceiling with N = 4 at 50 trials,
 # with and without the phase (out/eval/confirmation-phase-<experiment>).
 # detector-noise flies every variant with the noise of the scenario's
-# detector (--detector_noise) and oaipp_confirm with the phase: E1 and E4,
-# and E5 with the paper's settings and under a 12 m ceiling with N = 4 at 100
-# trials (out/eval/detector-noise-<experiment>).
+# detector (--detector_noise) and oaipp_confirm with the phase, at
+# confirmation weights 100 and 1000: E1 and E4, and E5 under a 12 m ceiling
+# with N = 4 at 100 trials; E5 with the paper's settings at 100 trials and
+# weight 100 (out/eval/detector-noise-w<weight>-<experiment>).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -57,14 +58,18 @@ for e in $experiments; do
           --out="out/eval/confirmation-phase-E5-ceiling12-n4-$phase"
       done ;;
     detector-noise)
-      confirm=(--detector_noise --confirmation_weight=100 --confirmation_phase_s=45)
-      for x in E1 E4; do
-        "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" --out="out/eval/detector-noise-$x"
+      for w in 100 1000; do
+        confirm=(--detector_noise --confirmation_weight="$w" --confirmation_phase_s=45)
+        for x in E1 E4; do
+          "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" \
+            --out="out/eval/detector-noise-w$w-$x"
+        done
+        "${client[@]}" eval E5 --trials=100 "${confirm[@]}" \
+          --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
+          --out="out/eval/detector-noise-w$w-E5-ceiling12-n4"
       done
-      "${client[@]}" eval E5 --trials=100 "${confirm[@]}" --out=out/eval/detector-noise-E5
-      "${client[@]}" eval E5 --trials=100 "${confirm[@]}" \
-        --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
-        --out=out/eval/detector-noise-E5-ceiling12-n4 ;;
+      "${client[@]}" eval E5 --trials=100 --detector_noise --confirmation_weight=100 \
+        --confirmation_phase_s=45 --out=out/eval/detector-noise-w100-E5 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
