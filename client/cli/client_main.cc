@@ -37,7 +37,10 @@ ABSL_FLAG(std::string, out, "",
           "for trials.csv, summary.md and figures (default out/eval/<experiment>)");
 ABSL_FLAG(bool, keep, false, "run: keep the mission on the server afterwards");
 ABSL_FLAG(std::string, png, "", "map: file to write the map image to");
-ABSL_FLAG(int, trials, 25, "eval: trials per planner (seeds 1..trials)");
+ABSL_FLAG(int, trials, 25, "eval: trials per planner (seeds first_trial..first_trial+trials-1)");
+ABSL_FLAG(int, first_trial, 1,
+          "eval: the first trial's seed, in [1, 1000000] (fresh seeds for a setting chosen on "
+          "the first ones)");
 ABSL_FLAG(int, parallel, 2, "eval: missions flown at once");
 ABSL_FLAG(double, plan_budget_s, 0.0,
           "eval: wall-clock seconds each replan may take (0: the planner's full evaluation "
@@ -107,9 +110,9 @@ Commands:
                       out/eval/<experiment>).
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
-       --frames (run), --trials (25), --parallel (2), --plan_budget_s
-       (0: none), --scenario, --e3_budget_s, --detector_noise, --geo_origin,
-       --setpoint_rate_hz (20), --autopilot (px4).)";
+       --frames (run), --trials (25), --first_trial (1), --parallel (2),
+       --plan_budget_s (0: none), --scenario, --e3_budget_s, --detector_noise,
+       --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -422,6 +425,7 @@ int Eval(const std::string& experiment) {
   Client probe(*channel, Options());
   if (absl::Status up = probe.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
   oaipp::client::EvalOptions options{.trials = absl::GetFlag(FLAGS_trials),
+                                     .first_trial = absl::GetFlag(FLAGS_first_trial),
                                      .parallel = absl::GetFlag(FLAGS_parallel),
                                      .plan_budget_s = absl::GetFlag(FLAGS_plan_budget_s),
                                      .client = Options()};

@@ -15,6 +15,9 @@
 namespace oaipp::client {
 namespace {
 
+// Largest first trial (seed) an evaluation may start from.
+constexpr int kMaxFirstTrial = 1'000'000;
+
 struct Moments {
   double n = 0, sum = 0, sum2 = 0;
   void Add(double x) {
@@ -80,8 +83,11 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
                                          const std::vector<Variant>& variants,
                                          const EvalOptions& options,
                                          const std::function<void(int, int)>& progress) {
-  if (options.trials < 1 || options.parallel < 1 || !(options.grid_s > 0)) {
-    return absl::InvalidArgumentError("eval: trials, parallel and grid_s must be positive");
+  if (options.trials < 1 || options.parallel < 1 || !(options.grid_s > 0) ||
+      options.first_trial < 1 || options.first_trial > kMaxFirstTrial) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("eval: trials, parallel and grid_s must be positive, first_trial in [1, ",
+                     kMaxFirstTrial, "]"));
   }
   if (variants.empty()) return absl::InvalidArgumentError("eval: no variants");
   if (!(options.plan_budget_s >= 0)) {
@@ -92,12 +98,12 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
     int trial;
   };
   std::vector<Job> jobs;
-  for (int t = 1; t <= options.trials; ++t) {
+  for (int t = options.first_trial; t < options.first_trial + options.trials; ++t) {
     for (const Variant& v : variants) jobs.push_back({&v, t});
   }
   EvalResult result;
   result.trials.resize(jobs.size());
-  absl::StatusOr<v1::Scenario> first = variants.front().scenario(1);
+  absl::StatusOr<v1::Scenario> first = variants.front().scenario(options.first_trial);
   if (!first.ok()) return first.status();
   const double budget =
       first->mission().has_budget_s() ? first->mission().budget_s() : api::MissionConfig{}.budget_s;
@@ -131,7 +137,7 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
         out.steps = Resample(run->steps, result.grid_s);
         out.plans = run->plans;
         out.planning_time_s = run->planning_time_s;
-        if (out.trial == 1) out.map_png = std::move(run->final_map_png);
+        if (out.trial == options.first_trial) out.map_png = std::move(run->final_map_png);
       } else {
         out.error = std::string(run.status().message());
       }

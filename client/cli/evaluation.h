@@ -19,6 +19,7 @@ namespace oaipp::client {
 
 struct EvalOptions {
   int trials = 25;      // per planner; trial k uses seed k for planner and detector
+  int first_trial = 1;  // trials first_trial .. first_trial + trials - 1 (>= 1)
   int parallel = 2;     // missions flown at once
   double grid_s = 5.0;  // time grid of the resampled curves
   // Wall-clock seconds per replan (sets Scenario.planning_budget_s);
