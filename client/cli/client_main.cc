@@ -106,7 +106,7 @@ Commands:
                       Writes trials.csv, targets.csv (how often each
                       target was in view and detected), summary.md, a
                       figure over time (rse.png, or trace.png for E3) and
-                      map_<variant>.png (trial 1) to --out (default
+                      map_<variant>.png (the first trial) to --out (default
                       out/eval/<experiment>).
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
@@ -420,6 +420,18 @@ int Eval(const std::string& experiment) {
     return Fail(absl::InvalidArgumentError(
         "--trials and --parallel must be >= 1, --plan_budget_s >= 0, --e3_budget_s > 0"));
   }
+  const int first = absl::GetFlag(FLAGS_first_trial);
+  if (first < 1 || first > 1'000'000 || absl::GetFlag(FLAGS_trials) > 1'000'000) {
+    return Fail(absl::InvalidArgumentError(
+        "--first_trial must lie in [1, 1000000] and --trials in [1, 1000000]"));
+  }
+  // E3 draws world k of density n from seed 1000 n + k: past trial 999 the
+  // densities would share worlds.
+  if (experiment == "E3" && first + absl::GetFlag(FLAGS_trials) - 1 > 999) {
+    return Fail(absl::InvalidArgumentError(
+        "--first_trial, --trials: E3's trials must end by trial 999 (world seeds are "
+        "1000 x density + trial)"));
+  }
   absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
   if (!channel.ok()) return Fail(channel.status());
   Client probe(*channel, Options());
@@ -452,7 +464,7 @@ int Eval(const std::string& experiment) {
   std::ofstream(out + "/summary.md") << summary;
   std::printf("%s\n", summary.c_str());
   std::vector<std::string> written = {"trials.csv", "summary.md"};
-  // The final map of trial 1 of each variant, with its flown path.
+  // The final map of the first trial of each variant, with its flown path.
   for (const oaipp::client::TrialResult& t : result->trials) {
     if (t.map_png.empty()) continue;
     std::string file = absl::StrCat("map_", t.variant, ".png");

@@ -15,8 +15,10 @@
 namespace oaipp::client {
 namespace {
 
-// Largest first trial (seed) an evaluation may start from.
+// Largest first trial (seed) an evaluation may start from, and most trials
+// per variant: their sum stays far inside an int.
 constexpr int kMaxFirstTrial = 1'000'000;
+constexpr int kMaxTrials = 1'000'000;
 
 struct Moments {
   double n = 0, sum = 0, sum2 = 0;
@@ -83,11 +85,11 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
                                          const std::vector<Variant>& variants,
                                          const EvalOptions& options,
                                          const std::function<void(int, int)>& progress) {
-  if (options.trials < 1 || options.parallel < 1 || !(options.grid_s > 0) ||
-      options.first_trial < 1 || options.first_trial > kMaxFirstTrial) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("eval: trials, parallel and grid_s must be positive, first_trial in [1, ",
-                     kMaxFirstTrial, "]"));
+  if (options.trials < 1 || options.trials > kMaxTrials || options.parallel < 1 ||
+      !(options.grid_s > 0) || options.first_trial < 1 || options.first_trial > kMaxFirstTrial) {
+    return absl::InvalidArgumentError(absl::StrCat("eval: trials must lie in [1, ", kMaxTrials,
+                                                   "], first_trial in [1, ", kMaxFirstTrial,
+                                                   "], parallel and grid_s must be positive"));
   }
   if (variants.empty()) return absl::InvalidArgumentError("eval: no variants");
   if (!(options.plan_budget_s >= 0)) {

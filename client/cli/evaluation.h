@@ -57,7 +57,7 @@ struct TrialResult {
   std::vector<StepRecord> steps;
   int plans = 0;
   double planning_time_s = 0.0;
-  std::string map_png;  // the final map with the flown path (trial 1 only)
+  std::string map_png;  // the final map with the flown path (the first trial only)
   std::vector<std::string> target_ids;
   std::vector<bool> found_at_end;               // per target id
   std::vector<sim::TargetSightings> sightings;  // per target id

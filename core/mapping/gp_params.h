@@ -62,8 +62,8 @@ struct GpParams {
 
 // Noise from the detector's own accuracy (docs/method.md §3.4): a person in
 // view from altitude h is detected with probability
-// p(h) = p_max exp(-((h - h_best) / width)^2 / 2). A label from there is
-// weighted by (1 - p) / p, the variance that label / p(h), an unbiased
+// p(h) = p_max exp(-((h - h_best) / width)^2 / 2). A label from there gets
+// the variance (1 - p) / p, the one that label / p(h), an unbiased
 // estimate of the person's presence, has for a cell holding one; the label
 // itself is fused unscaled. Lowest at h_best and growing both above and
 // below it, where the paper's model makes the lowest shots the most precise.
