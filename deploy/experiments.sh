@@ -16,9 +16,10 @@
 # with and without the phase (out/eval/confirmation-phase-<experiment>).
 # detector-noise flies every variant with the noise of the scenario's
 # detector (--detector_noise) and oaipp_confirm with the phase, at
-# confirmation weights 100 and 1000: E1 and E4, and E5 under a 12 m ceiling
-# with N = 4 at 100 trials; E5 with the paper's settings at 100 trials and
-# weight 100 (out/eval/detector-noise-w<weight>-<experiment>).
+# confirmation weights 100 and 1000: E1 and E4, E5 under a 12 m ceiling
+# with N = 4 and E5 with the paper's settings at 100 trials; at weight 1000
+# also E5 under the ceiling on seeds 101-200
+# (out/eval/detector-noise-w<weight>-<experiment>).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -67,9 +68,12 @@ for e in $experiments; do
         "${client[@]}" eval E5 --trials=100 "${confirm[@]}" \
           --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
           --out="out/eval/detector-noise-w$w-E5-ceiling12-n4"
+        "${client[@]}" eval E5 --trials=100 "${confirm[@]}" --out="out/eval/detector-noise-w$w-E5"
       done
-      "${client[@]}" eval E5 --trials=100 --detector_noise --confirmation_weight=100 \
-        --confirmation_phase_s=45 --out=out/eval/detector-noise-w100-E5 ;;
+      "${client[@]}" eval E5 --trials=100 --first_trial=101 --detector_noise \
+        --confirmation_weight=1000 --confirmation_phase_s=45 \
+        --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
+        --out=out/eval/detector-noise-w1000-E5-ceiling12-n4-seeds101-200 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
