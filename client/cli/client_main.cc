@@ -421,9 +421,11 @@ int Eval(const std::string& experiment) {
         "--trials and --parallel must be >= 1, --plan_budget_s >= 0, --e3_budget_s > 0"));
   }
   const int first = absl::GetFlag(FLAGS_first_trial);
-  if (first < 1 || first > 1'000'000 || absl::GetFlag(FLAGS_trials) > 1'000'000) {
+  if (first < 1 || first > oaipp::client::kMaxFirstTrial ||
+      absl::GetFlag(FLAGS_trials) > oaipp::client::kMaxTrials) {
     return Fail(absl::InvalidArgumentError(
-        "--first_trial must lie in [1, 1000000] and --trials in [1, 1000000]"));
+        absl::StrCat("--first_trial must lie in [1, ", oaipp::client::kMaxFirstTrial,
+                     "] and --trials in [1, ", oaipp::client::kMaxTrials, "]")));
   }
   // E3 draws world k of density n from seed 1000 n + k: past trial 999 the
   // densities would share worlds.

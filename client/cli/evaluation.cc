@@ -15,11 +15,6 @@
 namespace oaipp::client {
 namespace {
 
-// Largest first trial (seed) an evaluation may start from, and most trials
-// per variant: their sum stays far inside an int.
-constexpr int kMaxFirstTrial = 1'000'000;
-constexpr int kMaxTrials = 1'000'000;
-
 struct Moments {
   double n = 0, sum = 0, sum2 = 0;
   void Add(double x) {

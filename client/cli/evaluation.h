@@ -17,6 +17,11 @@
 
 namespace oaipp::client {
 
+// Largest first trial (seed) an evaluation may start from, and most trials
+// per variant: their sum stays far inside an int.
+inline constexpr int kMaxFirstTrial = 1'000'000;
+inline constexpr int kMaxTrials = 1'000'000;
+
 struct EvalOptions {
   int trials = 25;      // per planner; trial k uses seed k for planner and detector
   int first_trial = 1;  // trials first_trial .. first_trial + trials - 1 (>= 1)
