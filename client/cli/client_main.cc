@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
@@ -55,6 +56,12 @@ ABSL_FLAG(double, confirmation_weight, 0.0,
 ABSL_FLAG(double, confirmation_phase_s, 0.0,
           "eval: with --confirmation_weight, oaipp_confirm also confirms over the last this many "
           "seconds of its budget (PlannerSpec.confirmation_phase_s); 0: no phase");
+ABSL_FLAG(double, confirmation_phase_weight, -1.0,
+          "eval: with --confirmation_phase_s, the phase's weight on undecided cells "
+          "(PlannerSpec.confirmation_phase_weight, >= 0); -1: the planner's default");
+ABSL_FLAG(std::string, variants, "",
+          "eval: comma-separated variants to fly (e.g. oaipp_confirm); empty: all of the "
+          "experiment's");
 ABSL_FLAG(bool, detector_noise, false,
           "run, eval: missions fuse labels with the noise of the scenario's detector model "
           "(SensorSpec.detector_noise) instead of the paper's A (1 - exp(-B h))");
@@ -100,7 +107,10 @@ Commands:
                       to E1, E4 and E5: OA-IPP with the confirmation
                       objective at weight W, same seeds;
                       --confirmation_phase_s=S adds a confirmation phase
-                      over its last S seconds. --detector_noise (run and
+                      over its last S seconds, at
+                      --confirmation_phase_weight (default 3000).
+                      --variants=a,b flies only the named variants
+                      (e.g. oaipp_confirm). --detector_noise (run and
                       eval): every mission fuses labels with the noise of
                       the scenario's detector (SensorSpec.detector_noise).
                       Writes trials.csv, targets.csv (how often each
@@ -111,7 +121,8 @@ Commands:
 
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --first_trial (1), --parallel (2),
-       --plan_budget_s (0: none), --scenario, --e3_budget_s, --detector_noise,
+       --plan_budget_s (0: none), --scenario, --e3_budget_s, --confirmation_weight,
+       --confirmation_phase_s, --confirmation_phase_weight, --variants, --detector_noise,
        --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
 
 using oaipp::client::Client;
@@ -392,13 +403,35 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
     return absl::InvalidArgumentError(
         "--confirmation_phase_s: applies to the oaipp_confirm variant; set --confirmation_weight");
   }
+  const double phase_weight = absl::GetFlag(FLAGS_confirmation_phase_weight);
+  std::optional<double> phase_weight_set;
+  if (phase_weight != -1.0) {
+    if (!(phase_weight >= 0.0) || !std::isfinite(phase_weight)) {
+      return absl::InvalidArgumentError(
+          "--confirmation_phase_weight: must be >= 0 and finite, or -1 for the default");
+    }
+    if (phase == 0.0) {
+      return absl::InvalidArgumentError(
+          "--confirmation_phase_weight: weighs the confirmation phase; set "
+          "--confirmation_phase_s");
+    }
+    phase_weight_set = phase_weight;
+  }
   if (confirmation > 0.0) {
     if (name != "E1" && name != "E4" && name != "E5") {
       return absl::InvalidArgumentError(
           "--confirmation_weight: adds a variant to E1, E4 and E5 only");
     }
-    e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirmation, phase));
+    e.variants.push_back(
+        oaipp::client::ConfirmationVariant(scenario, confirmation, phase, phase_weight_set));
   }
+  const std::string wanted = absl::GetFlag(FLAGS_variants);
+  std::vector<std::string> labels;
+  if (!wanted.empty()) labels = absl::StrSplit(wanted, ',');
+  absl::StatusOr<std::vector<oaipp::client::Variant>> selected =
+      oaipp::client::SelectVariants(std::move(e.variants), labels, "--variants");
+  if (!selected.ok()) return selected.status();
+  e.variants = *std::move(selected);
   return e;
 }
 

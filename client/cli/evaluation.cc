@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_join.h"
 #include "api/spec.h"
 #include "sim/simulation.h"
 
@@ -61,19 +62,52 @@ std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
   return variants;
 }
 
-Variant ConfirmationVariant(const v1::Scenario& scenario, double weight, double phase_s) {
+Variant ConfirmationVariant(const v1::Scenario& scenario, double weight, double phase_s,
+                            std::optional<double> phase_weight) {
   Variant v = PlannerVariants(scenario, {PlannerKind::kOaIpp}).front();
   v.label = "oaipp_confirm";
-  v.scenario = [oaipp = v.scenario, weight, phase_s](int trial) -> absl::StatusOr<v1::Scenario> {
+  v.scenario = [oaipp = v.scenario, weight, phase_s,
+                phase_weight](int trial) -> absl::StatusOr<v1::Scenario> {
     absl::StatusOr<v1::Scenario> s = oaipp(trial);
     if (s.ok()) {
       v1::PlannerSpec& planner = *s->mutable_mission()->mutable_planner();
       planner.set_confirmation_weight(weight);
-      if (phase_s > 0.0) planner.set_confirmation_phase_s(phase_s);
+      if (phase_s > 0.0) {
+        planner.set_confirmation_phase_s(phase_s);
+        if (phase_weight.has_value()) planner.set_confirmation_phase_weight(*phase_weight);
+      }
     }
     return s;
   };
   return v;
+}
+
+absl::StatusOr<std::vector<Variant>> SelectVariants(std::vector<Variant> all,
+                                                    const std::vector<std::string>& labels,
+                                                    const std::string& flag) {
+  if (labels.empty()) return all;
+  std::vector<std::string> known;
+  for (const Variant& v : all) known.push_back(v.label);
+  for (std::size_t i = 0; i < labels.size(); ++i) {
+    if (std::find(known.begin(), known.end(), labels[i]) == known.end()) {
+      // The name comes from the command line: quote a bounded prefix.
+      return absl::InvalidArgumentError(
+          absl::StrCat(flag, ": no variant '", labels[i].substr(0, 40),
+                       "' in this experiment (it has: ", absl::StrJoin(known, ", "), ")"));
+    }
+    if (std::find(labels.begin(), labels.begin() + static_cast<std::ptrdiff_t>(i), labels[i]) !=
+        labels.begin() + static_cast<std::ptrdiff_t>(i)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(flag, ": variant '", labels[i], "' is named twice"));
+    }
+  }
+  std::vector<Variant> kept;
+  for (Variant& v : all) {
+    if (std::find(labels.begin(), labels.end(), v.label) != labels.end()) {
+      kept.push_back(std::move(v));
+    }
+  }
+  return kept;
 }
 
 absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,

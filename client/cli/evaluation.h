@@ -8,6 +8,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,11 +50,19 @@ struct Variant {
 
 // OA-IPP with the confirmation objective (docs/method.md §6.4) at `weight`
 // and, when phase_s > 0, a confirmation phase over the last phase_s seconds
-// of the budget (the scenario's weight and margin for it), labelled
-// "oaipp_confirm"; otherwise as PlannerVariants' OA-IPP, so that trial k of
-// both flies the same world, people and seeds.
+// of the budget (at `phase_weight` when given, else the scenario's weight;
+// the scenario's margin), labelled "oaipp_confirm"; otherwise as
+// PlannerVariants' OA-IPP, so that trial k of both flies the same world,
+// people and seeds.
 [[nodiscard]] Variant ConfirmationVariant(const v1::Scenario& scenario, double weight,
-                                          double phase_s = 0.0);
+                                          double phase_s = 0.0,
+                                          std::optional<double> phase_weight = std::nullopt);
+
+// The variants of `all` whose labels `labels` names, in the order of `all`
+// (every one when `labels` is empty). InvalidArgument naming `flag` when a
+// label is not among them or is named twice.
+[[nodiscard]] absl::StatusOr<std::vector<Variant>> SelectVariants(
+    std::vector<Variant> all, const std::vector<std::string>& labels, const std::string& flag);
 
 struct TrialResult {
   std::string variant;

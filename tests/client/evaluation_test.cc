@@ -40,6 +40,56 @@ TEST(EvaluationTest, ConfirmationVariantSetsTheWeightAndThePhase) {
                    .has_confirmation_phase_s());
 }
 
+// The phase's weight reaches the spec only with a phase, and only when given.
+TEST(EvaluationTest, ConfirmationVariantSetsThePhaseWeightWhenGiven) {
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  auto weighted = ConfirmationVariant(*scenario, 1000.0, 45.0, 30000.0).scenario(2);
+  ASSERT_TRUE(weighted.ok());
+  EXPECT_EQ(weighted->mission().planner().confirmation_phase_weight(), 30000.0);
+  auto unweighted = ConfirmationVariant(*scenario, 1000.0, 45.0).scenario(2);
+  ASSERT_TRUE(unweighted.ok());
+  EXPECT_FALSE(unweighted->mission().planner().has_confirmation_phase_weight());
+  auto no_phase = ConfirmationVariant(*scenario, 1000.0, 0.0, 30000.0).scenario(2);
+  ASSERT_TRUE(no_phase.ok());
+  EXPECT_FALSE(no_phase->mission().planner().has_confirmation_phase_weight());
+}
+
+std::vector<std::string> Labels(const std::vector<Variant>& variants) {
+  std::vector<std::string> labels;
+  for (const Variant& v : variants) labels.push_back(v.label);
+  return labels;
+}
+
+// --variants keeps the named variants in the experiment's order and refuses
+// a name the experiment lacks (bounded in the message) or a repeat.
+TEST(EvaluationTest, SelectVariantsKeepsTheNamedOnes) {
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  auto all = [&] {
+    return PlannerVariants(*scenario,
+                           {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom});
+  };
+  auto every = SelectVariants(all(), {}, "--variants");
+  ASSERT_TRUE(every.ok());
+  EXPECT_EQ(Labels(*every), (std::vector<std::string>{"oaipp", "lawnmower", "random"}));
+  auto two = SelectVariants(all(), {"random", "oaipp"}, "--variants");
+  ASSERT_TRUE(two.ok());
+  EXPECT_EQ(Labels(*two), (std::vector<std::string>{"oaipp", "random"}));
+  auto flown = (*two)[1].scenario(4);
+  ASSERT_TRUE(flown.ok());
+  EXPECT_EQ(flown->mission().planner().seed(), 4u);
+
+  auto unknown = SelectVariants(all(), {"oaipp", std::string(5000, 'x')}, "--variants");
+  EXPECT_EQ(unknown.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(unknown.status().message().rfind("--variants: no variant '", 0), 0u);
+  EXPECT_NE(unknown.status().message().find("oaipp, lawnmower, random"), std::string::npos);
+  EXPECT_LT(unknown.status().message().size(), 200u);
+  auto twice = SelectVariants(all(), {"random", "random"}, "--variants");
+  EXPECT_EQ(twice.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(twice.status().message().find("named twice"), std::string::npos);
+}
+
 // The grid value at t is the map after every measurement before t: the
 // prior at 0 even when a shot is taken at 0, the final map at the budget.
 TEST(EvaluationTest, ResampleTakesTheMapBeforeEachGridTime) {
