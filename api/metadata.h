@@ -14,4 +14,9 @@ inline constexpr char kRouteHeader[] = "x-oaipp-mission";
 // given a --replica_id.
 inline constexpr char kReplicaHeader[] = "x-oaipp-replica";
 
+// Response header (trailing metadata) on a RESOURCE_EXHAUSTED that only a
+// later retry can help: how long to wait first, whole milliseconds. Sent on
+// a take-off plan refused by take-off pacing (docs/capacity.md).
+inline constexpr char kRetryAfterHeader[] = "x-oaipp-retry-after-ms";
+
 }  // namespace oaipp::api

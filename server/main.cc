@@ -90,6 +90,11 @@ ABSL_FLAG(double, plan_latency_s, 0.0,
           "one's bound; none searches less than a hundredth of it (it then returns its best "
           "path so far; stats.queued_s says how long it waited); 0: no bound. With a bound, "
           "--shed_above=0 is the better setting");
+ABSL_FLAG(int, max_take_off_plans, 0,
+          "take-off pacing: take-off plans (mission time 0, at rest) queued or running at once; "
+          "one more is refused with RESOURCE_EXHAUSTED and a retry delay in the trailing "
+          "metadata x-oaipp-retry-after-ms, so a fleet taking off together leaves over a few "
+          "seconds with whole first plans; 0: no pacing");
 ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, 0,
           "memory all missions together may need (admission control, estimated from each spec "
@@ -251,7 +256,7 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_keep_idle) <= absl::ZeroDuration() ||
       absl::GetFlag(FLAGS_prior_cache) < 0 || absl::GetFlag(FLAGS_max_streams) < 1 ||
       absl::GetFlag(FLAGS_max_streams_per_client) < 1 ||
-      absl::GetFlag(FLAGS_max_plans_per_tenant) < 0 ||
+      absl::GetFlag(FLAGS_max_plans_per_tenant) < 0 || absl::GetFlag(FLAGS_max_take_off_plans) < 0 ||
       !(absl::GetFlag(FLAGS_max_planning_s) > 0 && absl::GetFlag(FLAGS_max_planning_s) < 1e6) ||
       absl::GetFlag(FLAGS_max_missions_per_tenant) < 0 || absl::GetFlag(FLAGS_max_memory_mb) < 0 ||
       absl::GetFlag(FLAGS_max_mission_memory_mb) < 0 ||
@@ -264,8 +269,8 @@ int main(int argc, char** argv) {
         "planning_queue >= 0, 0 <= planning_nice <= 19, max_missions >= 1, max_cells >= 1, "
         "prior_cache >= 0, "
         "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0, "
-        "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas "
-        "and memory limits >= 0, 0 <= shed_above < 1e6, 0 < min_search_fraction <= 1, "
+        "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas, "
+        "max_take_off_plans and memory limits >= 0, 0 <= shed_above < 1e6, 0 < min_search_fraction <= 1, "
         "0 <= plan_latency_s < 1e6");
     return 2;
   }
@@ -370,6 +375,7 @@ int main(int argc, char** argv) {
        .shed_above = absl::GetFlag(FLAGS_shed_above),
        .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
        .plan_latency = absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s)),
+       .max_take_off_plans = absl::GetFlag(FLAGS_max_take_off_plans),
        .replica_id = absl::GetFlag(FLAGS_replica_id)});
 
   grpc::EnableDefaultHealthCheckService(true);

@@ -300,6 +300,25 @@ void MissionServiceImpl::NotePlanQueued(absl::Time arrived) {
   newest_plan_ = std::max(newest_plan_, arrived);
 }
 
+std::optional<absl::Duration> MissionServiceImpl::AdmitTakeOff() {
+  absl::MutexLock lock(&quota_mu_);
+  if (take_offs_ < limits_.max_take_off_plans) {
+    ++take_offs_;
+    return std::nullopt;
+  }
+  // Refused callers queue up virtually: each is told to come back one
+  // take-off plan's share of the threads after the one before.
+  const absl::Time now = absl::Now();
+  take_off_slot_ = std::max(take_off_slot_, now) + take_off_cost_ / planners_->threads();
+  return take_off_slot_ - now;
+}
+
+void MissionServiceImpl::TakeOffEnded(absl::Duration planned) {
+  absl::MutexLock lock(&quota_mu_);
+  --take_offs_;
+  if (planned > absl::ZeroDuration()) take_off_cost_ = 0.8 * take_off_cost_ + 0.2 * planned;
+}
+
 // Plans are taken up in about arrival order (one plan per mission at a
 // time), so the newest has about the latest bound: the plan starting now
 // and the `behind` queued after it share the planning threads until then.
@@ -520,7 +539,10 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     // A plan that was queued is counted (metrics, log) when it ends.
     const absl::Status status = service_->Run(
         "PlanPath", [&] { return Start(); }, /*record_ok=*/false);
-    if (!status.ok()) Finish(ToGrpcStatus(status));
+    if (!status.ok()) {
+      if (take_off_) service_->TakeOffEnded(absl::ZeroDuration());
+      Finish(ToGrpcStatus(status));
+    }
   }
 
   void OnCancel() override {
@@ -577,6 +599,20 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
                                                            .epoch = mission_->epoch()}));
       };
     }
+    // A UAV at rest at mission time 0 has not flown: it can wait on the
+    // ground for its first path.
+    if (service_->limits_.max_take_off_plans > 0 && state_.mission_time_s == 0.0 &&
+        state_.velocity_W_m_s.isZero() && state_.accel_W_m_s2.isZero()) {
+      if (const std::optional<absl::Duration> wait = service_->AdmitTakeOff(); wait.has_value()) {
+        const std::int64_t ms = std::max<std::int64_t>(1, absl::ToInt64Milliseconds(*wait));
+        context_->AddTrailingMetadata(api::kRetryAfterHeader, absl::StrCat(ms));
+        return absl::ResourceExhaustedError(absl::StrCat(
+            "PlanPath: ", service_->limits_.max_take_off_plans,
+            " take-off plans are being planned; this UAV is at rest at mission time 0: retry in ",
+            ms, " ms (", api::kRetryAfterHeader, ")"));
+      }
+      take_off_ = true;
+    }
     OAIPP_RETURN_IF_ERROR(service_->AcquirePlan(tenant_));
     holds_plan_ = true;
     absl::MutexLock lock(&mu_);
@@ -627,6 +663,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
         service_->metrics_->RecordPlan(path.stats.wall_time_s,
                                        static_cast<double>(path.stats.evaluations));
       }
+      planned_ = absl::Seconds(path.stats.wall_time_s);
       PlannedPathToProto(path, response_);
       return absl::OkStatus();
     });
@@ -636,6 +673,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   // The last thing either path does: after Finish the reactor may be gone.
   void End(const absl::Status& status) {
     if (holds_plan_) service_->ReleasePlan(tenant_);
+    if (take_off_) service_->TakeOffEnded(planned_);
     Finish(ToGrpcStatus(status));
   }
 
@@ -651,6 +689,9 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   Mission::PlanCall call_;
   std::string fingerprint_;
   bool holds_plan_ = false;
+  // Admitted by take-off pacing (counted until End), and how long it planned.
+  bool take_off_ = false;
+  absl::Duration planned_ = absl::ZeroDuration();
   std::atomic<bool> cancelled_{false};
   absl::Mutex mu_;
   PlanningPool::Handle job_ ABSL_GUARDED_BY(mu_);

@@ -20,6 +20,7 @@
 
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "absl/synchronization/mutex.h"
@@ -66,6 +67,16 @@ struct ServiceLimits {
   // shed_above is then best left at 0: the bound already shrinks searches
   // as much as the queue needs, and no more.
   absl::Duration plan_latency = absl::ZeroDuration();
+  // Take-off pacing: at most this many take-off plans (asked for at mission
+  // time 0 from rest, by a UAV that has not flown yet and can wait on the
+  // ground) queued or running at once. One more is refused at once with
+  // RESOURCE_EXHAUSTED and a retry delay (trailing metadata
+  // api::kRetryAfterHeader): the refused callers are told to come back one
+  // after another, a take-off plan's recent planning time over the threads
+  // apart. A fleet that takes off together then leaves over a few seconds
+  // with whole first plans, instead of every first plan searching a share
+  // of the bound. Replans are never paced. 0: no pacing.
+  int max_take_off_plans = 0;
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of
   // a cluster); empty: not sent.
@@ -118,6 +129,13 @@ class MissionServiceImpl final : public MissionServiceBase {
   [[nodiscard]] absl::Duration FairShare() const;
   // A plan that arrived at `arrived` was queued (FairShare's newest plan).
   void NotePlanQueued(absl::Time arrived);
+  // Take-off pacing (ServiceLimits::max_take_off_plans): nullopt, and the
+  // plan is counted, when a take-off plan may be queued now; else how long
+  // its caller should wait before asking again.
+  [[nodiscard]] std::optional<absl::Duration> AdmitTakeOff();
+  // A take-off plan admitted by AdmitTakeOff ended, after planning for
+  // `planned` (zero when it did not run).
+  void TakeOffEnded(absl::Duration planned);
   [[nodiscard]] int open_streams() const;
 
  private:
@@ -154,6 +172,12 @@ class MissionServiceImpl final : public MissionServiceBase {
   std::map<std::string, int> plans_by_tenant_ ABSL_GUARDED_BY(quota_mu_);
   // When the newest queued plan arrived (NotePlanQueued).
   absl::Time newest_plan_ ABSL_GUARDED_BY(quota_mu_) = absl::InfinitePast();
+  // Take-off pacing: admitted take-off plans not yet ended, the time the
+  // last refused caller was told to come back, and the running mean of a
+  // take-off plan's planning time (0.1 s until one has run).
+  int take_offs_ ABSL_GUARDED_BY(quota_mu_) = 0;
+  absl::Time take_off_slot_ ABSL_GUARDED_BY(quota_mu_) = absl::InfinitePast();
+  absl::Duration take_off_cost_ ABSL_GUARDED_BY(quota_mu_) = absl::Milliseconds(100);
   // Applies the covariance downdates AddMeasurement leaves pending
   // (Mission::SettleMap) after it has answered, one at a time, at the
   // process's priority; a full queue is harmless (readers settle). Last, so

@@ -5,10 +5,12 @@
 #include <thread>
 #include <vector>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
 #include "api/geometry.h"
 #include "api/measurement.h"
+#include "api/metadata.h"
 #include "api/spec.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -575,6 +577,66 @@ TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) 
   EXPECT_EQ(free.stats().stop_reason(), "deadline");
   EXPECT_LT(free.stats().queued_s(), late.stats().queued_s());
   EXPECT_TRUE(free.collision_free());
+}
+
+// Take-off pacing: with one take-off plan queued, the next UAV at rest at
+// mission time 0 is refused at once with a retry delay; a replan (mission
+// time > 0) and a moving start are never paced, and once the take-off plan
+// has ended the next one is admitted.
+TEST(ServiceTest, TakeOffPlansBeyondTheLimitAreRefusedWithARetryDelay) {
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
+                     /*planning_queue=*/8, nullptr, nullptr, {.max_take_off_plans = 1});
+  for (const char* id : {"a", "b", "c", "d"}) CreateSmall(s.stub(), id);
+  struct Answer {
+    grpc::Status status;
+    std::string retry_after;
+  };
+  auto plan = [&](const std::string& id, double mission_time_s, double vx) {
+    v1::PlanPathRequest request;
+    request.set_name("missions/" + id);
+    *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
+    request.mutable_state()->mutable_velocity_m_s()->set_x(vx);
+    request.mutable_state()->set_mission_time_s(mission_time_s);
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    v1::PlanPathResponse path;
+    Answer answer{s.stub().PlanPath(&context, request, &path), ""};
+    const auto& trailers = context.GetServerTrailingMetadata();
+    if (auto it = trailers.find(api::kRetryAfterHeader); it != trailers.end()) {
+      answer.retry_after.assign(it->second.data(), it->second.size());
+    }
+    return answer;
+  };
+  absl::Notification release;
+  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
+  Answer a, replan, moving;
+  std::thread take_off([&] { a = plan("a", 0.0, 0.0); });
+  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 1; }));
+
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const Answer refused = plan("b", 0.0, 0.0);
+    EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << attempt;
+    EXPECT_THAT(refused.status.error_message(), HasSubstr("take-off"));
+    int ms = 0;
+    EXPECT_TRUE(absl::SimpleAtoi(refused.retry_after, &ms)) << refused.retry_after;
+    EXPECT_GE(ms, 1);
+  }
+  std::thread later([&] { replan = plan("c", 5.0, 0.0); });
+  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 2; }));
+  std::thread flying([&] { moving = plan("b", 0.0, 0.5); });
+  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 3; }));
+  release.Notify();
+  take_off.join();
+  later.join();
+  flying.join();
+  EXPECT_TRUE(a.status.ok()) << a.status.error_message();
+  EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
+  EXPECT_TRUE(moving.retry_after.empty());
+  EXPECT_NE(moving.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << moving.status.error_message();
+  const Answer admitted = plan("d", 0.0, 0.0);
+  EXPECT_TRUE(admitted.status.ok()) << admitted.status.error_message();
+  EXPECT_TRUE(admitted.retry_after.empty());
 }
 
 // Plans queued together share the time until the newest one's bound: the

@@ -35,7 +35,9 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "api/metadata.h"
 #include "api/plan.h"
 #include "core/mapping/dense_backend.h"
 #include "grpcpp/grpcpp.h"
@@ -74,6 +76,10 @@ ABSL_FLAG(double, replan_cut_within_s, 0.0,
 ABSL_FLAG(double, launch_spread_s, 0.0,
           "missions start one after another, evenly over this many seconds (0: all at once, "
           "the default); not in the one-at-a-time run");
+ABSL_FLAG(int, take_off_plans, 0,
+          "oaipp-server --max_take_off_plans (take-off pacing; not in the one-at-a-time run): "
+          "a refused first plan is asked for again after the server's x-oaipp-retry-after-ms, "
+          "the UAV waiting on the ground; 0: no pacing");
 ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
@@ -102,6 +108,8 @@ struct MissionResult {
   int found = 0;
   int plans = 0;
   int cut_replans = 0;  // cut plans left early (--replan_cut_within_s)
+  int take_off_refusals = 0;  // first plans refused by take-off pacing
+  double take_off_wait_s = 0.0;  // from creation to the first path's answer
   double wall_s = 0.0;
   // Each plan: when it was asked for (s since the load started), the
   // planner's wall time (s), evaluations, generations, search share, the
@@ -191,8 +199,9 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
   const double first_budget = absl::GetFlag(FLAGS_first_plan_budget_s);
   while (state.mission_time_s() < budget) {
     v1::PlanPathResponse path;
-    const double asked_s = Seconds(Clock::now() - t0);
-    const grpc::Status planned = timed("PlanPath", [&] {
+    double asked_s = Seconds(Clock::now() - t0);
+    std::string retry_after;
+    auto plan = [&] {
       grpc::ClientContext c;
       c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
       v1::PlanPathRequest r;
@@ -200,9 +209,34 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
       *r.mutable_state() = state;
       r.set_request_id(absl::StrCat("plan-", result.plans));
       if (first_budget > 0.0 && result.plans == 0) r.set_planning_budget_s(first_budget);
-      return stub.PlanPath(&c, r, &path);
-    });
+      const grpc::Status status = stub.PlanPath(&c, r, &path);
+      retry_after.clear();
+      const auto& trailers = c.GetServerTrailingMetadata();
+      if (auto it = trailers.find(oaipp::api::kRetryAfterHeader); it != trailers.end()) {
+        retry_after.assign(it->second.data(), it->second.size());
+      }
+      return status;
+    };
+    grpc::Status planned;
+    while (true) {
+      const auto start = Clock::now();
+      planned = plan();
+      const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+      int wait_ms = 0;
+      // Take-off pacing: wait on the ground as long as the server says.
+      if (planned.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED && result.plans == 0 &&
+          absl::SimpleAtoi(retry_after, &wait_ms) && wait_ms > 0 && wait_ms <= 60'000) {
+        latencies.Add("PlanPath (take-off refused)", ms, true, Seconds(start - t0));
+        ++result.take_off_refusals;
+        std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
+        asked_s = Seconds(Clock::now() - t0);
+        continue;
+      }
+      latencies.Add("PlanPath", ms, planned.ok(), Seconds(start - t0));
+      break;
+    }
     if (!planned.ok()) return result;
+    if (result.plans == 0) result.take_off_wait_s = Seconds(Clock::now() - mission_start);
     ++result.plans;
     result.plan_stats.push_back(
         {asked_s, path.stats().wall_time_s(), static_cast<double>(path.stats().evaluations()),
@@ -296,7 +330,8 @@ void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
       {.shed_above = alone ? 0.0 : absl::GetFlag(FLAGS_shed_above),
        .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
        .plan_latency =
-           alone ? absl::ZeroDuration() : absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s))});
+           alone ? absl::ZeroDuration() : absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s)),
+       .max_take_off_plans = alone ? 0 : absl::GetFlag(FLAGS_take_off_plans)});
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
@@ -376,6 +411,20 @@ void Print(LoadResult& r, int missions, double budget, const std::string& pace) 
   }
   std::printf("waits for a planner: mean %.3f s, p99 %.3f s; searches ended by the deadline: %d\n",
               Mean(queued), oaipp::bench::Quantile(queued, 0.99), cut);
+  std::vector<double> first_generations, waits;
+  int refusals = 0;
+  for (const MissionResult& m : r.missions) {
+    if (!m.finished) continue;
+    if (!m.plan_stats.empty()) first_generations.push_back(m.plan_stats.front()[3]);
+    waits.push_back(m.take_off_wait_s);
+    refusals += m.take_off_refusals;
+  }
+  std::printf("first plans: mean %.1f generations\n", Mean(first_generations));
+  std::printf(
+      "take-off (creation to the first path, on the ground): p50 %.2f s, p99 %.2f s, max %.2f s; "
+      "%d first plans refused by take-off pacing\n",
+      oaipp::bench::Quantile(waits, 0.5), oaipp::bench::Quantile(waits, 0.99),
+      oaipp::bench::Quantile(waits, 1.0), refusals);
   if (absl::GetFlag(FLAGS_replan_cut_within_s) > 0.0) {
     int left = 0;
     for (const MissionResult& m : r.missions) left += m.finished ? m.cut_replans : 0;
@@ -419,6 +468,8 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
                         // [asked_s, wall_s, evaluations, generations, share,
                         //  queued_s, ended_by_deadline]
                         {"plan_stats", m.plan_stats},
+                        {"take_off_wait_s", m.take_off_wait_s},
+                        {"take_off_refusals", m.take_off_refusals},
                         {"wall_s", m.wall_s}});
   }
   j["missions"] = missions;
@@ -457,11 +508,11 @@ int main(int argc, char** argv) {
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
   if (missions < 1 || !(budget > 0) || !(absl::GetFlag(FLAGS_first_plan_budget_s) >= 0.0) ||
-      !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0) ||
+      !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0) || absl::GetFlag(FLAGS_take_off_plans) < 0 ||
       !(absl::GetFlag(FLAGS_replan_cut_within_s) >= 0.0)) {
     std::fprintf(stderr,
                  "--missions must be >= 1, --budget_s > 0, --first_plan_budget_s >= 0, "
-                 "--launch_spread_s >= 0 and --replan_cut_within_s >= 0\n");
+                 "--launch_spread_s >= 0, --take_off_plans >= 0 and --replan_cut_within_s >= 0\n");
     return 2;
   }
   std::vector<std::unique_ptr<LoadResult>> runs;
@@ -539,6 +590,7 @@ int main(int argc, char** argv) {
     j["shed_above"] = absl::GetFlag(FLAGS_shed_above);
     j["plan_latency_s"] = absl::GetFlag(FLAGS_plan_latency_s);
     j["launch_spread_s"] = absl::GetFlag(FLAGS_launch_spread_s);
+    j["take_off_plans"] = absl::GetFlag(FLAGS_take_off_plans);
     j["first_plan_budget_s"] = absl::GetFlag(FLAGS_first_plan_budget_s);
     j["replan_cut_within_s"] = absl::GetFlag(FLAGS_replan_cut_within_s);
     j["generations"] = absl::GetFlag(FLAGS_generations);
