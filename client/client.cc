@@ -4,8 +4,10 @@
 #include <random>
 #include <sstream>
 #include <thread>
+#include <utility>
 
 #include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "api/metadata.h"
@@ -79,9 +81,11 @@ template <typename Request, typename Response, typename Method>
 absl::StatusOr<Response> Client::Call(const char* what, Method method, const Request& request,
                                       absl::Duration timeout, const std::string& route) {
   absl::Duration backoff = options_.first_backoff;
+  absl::Duration paced = absl::ZeroDuration();  // waited as the server asked
+  bool waited = false;                           // the wait was the server's
   grpc::Status status;
   for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
-    if (attempt > 1) {
+    if (const bool after_wait = std::exchange(waited, false); attempt > 1 && !after_wait) {
       std::this_thread::sleep_for(absl::ToChronoMilliseconds(backoff));
       backoff = std::min(2 * backoff, options_.max_backoff);
     }
@@ -96,6 +100,23 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
       last_replica_.assign(it->second.data(), it->second.size());
     }
     if (status.ok()) return response;
+    if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
+      // Asked to come back later (take-off pacing): wait as long as the
+      // server says, within max_retry_after; this is not a failed attempt.
+      const auto& trailers = context.GetServerTrailingMetadata();
+      int ms = 0;
+      if (auto it = trailers.find(api::kRetryAfterHeader);
+          it != trailers.end() &&
+          absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms) &&
+          ms > 0 && paced + absl::Milliseconds(ms) <= options_.max_retry_after) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+        paced += absl::Milliseconds(ms);
+        ++paced_calls_;
+        --attempt;
+        waited = true;
+        continue;
+      }
+    }
     if (status.error_code() != grpc::StatusCode::UNAVAILABLE) break;
     if (attempt < options_.max_attempts) ++retried_calls_;
   }

@@ -31,6 +31,10 @@ struct ClientOptions {
   int max_attempts = 8;
   absl::Duration first_backoff = absl::Milliseconds(200);
   absl::Duration max_backoff = absl::Seconds(2);
+  // A RESOURCE_EXHAUSTED that names a retry delay (api::kRetryAfterHeader:
+  // a take-off plan refused by the server's take-off pacing) is asked again
+  // after that delay, for at most this long in all per call. Zero: never.
+  absl::Duration max_retry_after = absl::Seconds(60);
   // Who the client is, for a server with --token_file: sent as
   // "authorization: Bearer <token>" on every call. Empty: none.
   std::string token;
@@ -75,6 +79,9 @@ class Client {
   [[nodiscard]] std::string last_replica() const;
   // Attempts that got UNAVAILABLE and were tried again, since creation.
   [[nodiscard]] std::int64_t retried_calls() const { return retried_calls_.load(); }
+  // Calls asked again after the delay a RESOURCE_EXHAUSTED named, since
+  // creation (ClientOptions::max_retry_after).
+  [[nodiscard]] std::int64_t paced_calls() const { return paced_calls_.load(); }
 
  private:
   // A request id unique to this client process.
@@ -92,6 +99,7 @@ class Client {
   std::string id_prefix_;
   std::atomic<std::int64_t> next_id_{1};
   std::atomic<std::int64_t> retried_calls_{0};
+  std::atomic<std::int64_t> paced_calls_{0};
   mutable absl::Mutex replica_mu_;
   std::string last_replica_ ABSL_GUARDED_BY(replica_mu_);
 };

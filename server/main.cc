@@ -91,10 +91,11 @@ ABSL_FLAG(double, plan_latency_s, 0.0,
           "path so far; stats.queued_s says how long it waited); 0: no bound. With a bound, "
           "--shed_above=0 is the better setting");
 ABSL_FLAG(int, max_take_off_plans, 0,
-          "take-off pacing: take-off plans (mission time 0, at rest) queued or running at once; "
-          "one more is refused with RESOURCE_EXHAUSTED and a retry delay in the trailing "
-          "metadata x-oaipp-retry-after-ms, so a fleet taking off together leaves over a few "
-          "seconds with whole first plans; 0: no pacing");
+          "take-off pacing: take-off plans (mission time 0, at rest) queued or running at once, "
+          "none admitted while as many plans wait as there are planning threads; another is "
+          "refused with RESOURCE_EXHAUSTED and a retry delay in the trailing metadata "
+          "x-oaipp-retry-after-ms, so a fleet taking off together leaves over several seconds "
+          "with whole first plans; 0: no pacing");
 ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, 0,
           "memory all missions together may need (admission control, estimated from each spec "

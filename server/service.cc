@@ -301,8 +301,11 @@ void MissionServiceImpl::NotePlanQueued(absl::Time arrived) {
 }
 
 std::optional<absl::Duration> MissionServiceImpl::AdmitTakeOff() {
+  // UAVs in the air hover while they wait for a path: a take-off also
+  // waits while more plans queue than there are planning threads.
+  const bool short_queue = planners_->waiting() < planners_->threads();
   absl::MutexLock lock(&quota_mu_);
-  if (take_offs_ < limits_.max_take_off_plans) {
+  if (take_offs_ < limits_.max_take_off_plans && short_queue) {
     ++take_offs_;
     return std::nullopt;
   }

@@ -69,13 +69,15 @@ struct ServiceLimits {
   absl::Duration plan_latency = absl::ZeroDuration();
   // Take-off pacing: at most this many take-off plans (asked for at mission
   // time 0 from rest, by a UAV that has not flown yet and can wait on the
-  // ground) queued or running at once. One more is refused at once with
-  // RESOURCE_EXHAUSTED and a retry delay (trailing metadata
-  // api::kRetryAfterHeader): the refused callers are told to come back one
-  // after another, a take-off plan's recent planning time over the threads
-  // apart. A fleet that takes off together then leaves over a few seconds
-  // with whole first plans, instead of every first plan searching a share
-  // of the bound. Replans are never paced. 0: no pacing.
+  // ground) queued or running at once, and none admitted while as many
+  // plans wait as there are planning threads (UAVs in the air hover while
+  // they wait). Another is refused at once with RESOURCE_EXHAUSTED and a
+  // retry delay (trailing metadata api::kRetryAfterHeader): the refused
+  // callers are told to come back one after another, a take-off plan's
+  // recent planning time over the threads apart. A fleet that takes off
+  // together then leaves over several seconds with whole first plans,
+  // instead of every first plan searching a share of the bound. Replans
+  // are never paced. 0: no pacing.
   int max_take_off_plans = 0;
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of

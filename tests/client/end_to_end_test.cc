@@ -1,5 +1,8 @@
 // A short mission end to end: the real service in-process, the client over
 // its channel, the E1 world with a 30 s budget. RSE must fall; no collision.
+#include <thread>
+
+#include "absl/synchronization/notification.h"
 #include "client/cli/mission_runner.h"
 #include "gtest/gtest.h"
 #include "server/service.h"
@@ -32,6 +35,60 @@ TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
   EXPECT_GT(result->steps.back().path_length_m, 10.0);
   EXPECT_EQ(result->final_map_png.substr(1, 3), "PNG");
   EXPECT_EQ(registry.size(), 0u);  // the mission was deleted afterwards
+  server->Shutdown();
+}
+
+// Take-off pacing: with the server's one take-off slot held, the client's
+// take-off plan is refused with a retry delay; the client waits as told and
+// asks again (not a failed attempt), and gets its path once the slot is free.
+TEST(EndToEndTest, APacedTakeOffWaitsAndThenFlies) {
+  server::MissionRegistry registry({});
+  server::PlanningPool planners(1, 8);
+  server::MissionServiceImpl service(&registry, &planners, nullptr, nullptr,
+                                     {.max_take_off_plans = 1});
+  grpc::ServerBuilder builder;
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  Client first(server->InProcessChannel(grpc::ChannelArguments()), {});
+  Client second(server->InProcessChannel(grpc::ChannelArguments()), {});
+
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  v1::MissionSpec spec = scenario->mission();
+  spec.mutable_planner()->set_generations(2);
+  absl::StatusOr<v1::Mission> created = first.CreateMission(spec, "first");
+  ASSERT_TRUE(created.ok()) << created.status();
+  ASSERT_TRUE(second.CreateMission(spec, "second").ok());
+  auto take_off = [&](Client& client, const std::string& id) {
+    v1::PlanPathRequest request;
+    request.set_name("missions/" + id);
+    *request.mutable_state() = created->spec().start();  // at rest, mission time 0
+    return client.PlanPath(request);
+  };
+  // Polls `done` for up to 10 s.
+  auto eventually = [](auto done) {
+    for (int i = 0; i < 1000 && !done(); ++i) absl::SleepFor(absl::Milliseconds(10));
+    return done();
+  };
+  absl::Notification release;
+  ASSERT_TRUE(planners.Submit("blocker", [&] { release.WaitForNotification(); }).ok());
+  ASSERT_TRUE(eventually([&] { return planners.running() == 1; }));
+  absl::StatusOr<v1::PlanPathResponse> a, b;
+  std::thread one([&] { a = take_off(first, "first"); });
+  const bool queued = eventually([&] { return planners.waiting() == 1; });
+  std::thread two([&] { b = take_off(second, "second"); });
+  const bool paced = eventually([&] { return second.paced_calls() >= 1; });
+  release.Notify();
+  one.join();
+  two.join();
+  EXPECT_TRUE(queued);
+  EXPECT_TRUE(paced);
+  ASSERT_TRUE(a.ok()) << a.status();
+  ASSERT_TRUE(b.ok()) << b.status();
+  EXPECT_GT(b->trajectory().segments_size(), 0);
+  EXPECT_EQ(first.paced_calls(), 0);
+  EXPECT_GE(second.paced_calls(), 1);
+  EXPECT_EQ(second.retried_calls(), 0);
   server->Shutdown();
 }
 

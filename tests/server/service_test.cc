@@ -579,64 +579,94 @@ TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) 
   EXPECT_TRUE(free.collision_free());
 }
 
-// Take-off pacing: with one take-off plan queued, the next UAV at rest at
-// mission time 0 is refused at once with a retry delay; a replan (mission
-// time > 0) and a moving start are never paced, and once the take-off plan
-// has ended the next one is admitted.
+// Take-off pacing, with `max_take_off_plans` = 1 and one planning thread.
+struct PacingAnswer {
+  grpc::Status status;
+  std::string retry_after;
+};
+
+PacingAnswer PlanAt(InProcessService& s, const std::string& id, double mission_time_s, double vx,
+                    double budget_s = 0.0) {
+  v1::PlanPathRequest request;
+  request.set_name("missions/" + id);
+  *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
+  request.mutable_state()->mutable_velocity_m_s()->set_x(vx);
+  request.mutable_state()->set_mission_time_s(mission_time_s);
+  if (budget_s > 0.0) request.set_planning_budget_s(budget_s);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+  v1::PlanPathResponse path;
+  PacingAnswer answer{s.stub().PlanPath(&context, request, &path), ""};
+  const auto& trailers = context.GetServerTrailingMetadata();
+  if (auto it = trailers.find(api::kRetryAfterHeader); it != trailers.end()) {
+    answer.retry_after.assign(it->second.data(), it->second.size());
+  }
+  return answer;
+}
+
+void ExpectPaced(const PacingAnswer& refused) {
+  EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.status.error_message(), HasSubstr("take-off"));
+  int ms = 0;
+  EXPECT_TRUE(absl::SimpleAtoi(refused.retry_after, &ms)) << refused.retry_after;
+  EXPECT_GE(ms, 1);
+}
+
+// While one take-off plan runs, the next UAV at rest at mission time 0 is
+// refused at once with a retry delay; a moving start is not paced, and once
+// the take-off plan has ended the next one is admitted.
 TEST(ServiceTest, TakeOffPlansBeyondTheLimitAreRefusedWithARetryDelay) {
   InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
                      /*planning_queue=*/8, nullptr, nullptr, {.max_take_off_plans = 1});
-  for (const char* id : {"a", "b", "c", "d"}) CreateSmall(s.stub(), id);
-  struct Answer {
-    grpc::Status status;
-    std::string retry_after;
-  };
-  auto plan = [&](const std::string& id, double mission_time_s, double vx) {
-    v1::PlanPathRequest request;
-    request.set_name("missions/" + id);
-    *request.mutable_state()->mutable_position_m() = api::ToProto(Vec3(-4, 4, 8));
-    request.mutable_state()->mutable_velocity_m_s()->set_x(vx);
-    request.mutable_state()->set_mission_time_s(mission_time_s);
+  for (const char* id : {"a", "b", "c"}) {
     grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
-    v1::PlanPathResponse path;
-    Answer answer{s.stub().PlanPath(&context, request, &path), ""};
-    const auto& trailers = context.GetServerTrailingMetadata();
-    if (auto it = trailers.find(api::kRetryAfterHeader); it != trailers.end()) {
-      answer.retry_after.assign(it->second.data(), it->second.size());
-    }
-    return answer;
-  };
-  absl::Notification release;
-  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
-  Answer a, replan, moving;
-  std::thread take_off([&] { a = plan("a", 0.0, 0.0); });
-  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 1; }));
-
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    const Answer refused = plan("b", 0.0, 0.0);
-    EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED) << attempt;
-    EXPECT_THAT(refused.status.error_message(), HasSubstr("take-off"));
-    int ms = 0;
-    EXPECT_TRUE(absl::SimpleAtoi(refused.retry_after, &ms)) << refused.retry_after;
-    EXPECT_GE(ms, 1);
+    v1::CreateMissionRequest create;
+    create.set_mission_id(id);
+    *create.mutable_spec() = SmallSpec();
+    create.mutable_spec()->mutable_planner()->set_generations(50000);
+    v1::Mission mission;
+    ASSERT_TRUE(s.stub().CreateMission(&context, create, &mission).ok());
   }
-  std::thread later([&] { replan = plan("c", 5.0, 0.0); });
-  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 2; }));
-  std::thread flying([&] { moving = plan("b", 0.0, 0.5); });
-  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 3; }));
-  release.Notify();
+  // "a" plans for 2 s on the only thread, with nothing waiting.
+  PacingAnswer a, moving;
+  std::thread take_off([&] { a = PlanAt(s, "a", 0.0, 0.0, /*budget_s=*/2.0); });
+  ASSERT_TRUE(
+      Eventually([&] { return s.planners().running() == 1 && s.planners().waiting() == 0; }));
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    SCOPED_TRACE(attempt);
+    ExpectPaced(PlanAt(s, "b", 0.0, 0.0));
+  }
+  std::thread flying([&] { moving = PlanAt(s, "b", 0.0, 0.5, /*budget_s=*/0.2); });
   take_off.join();
-  later.join();
   flying.join();
   EXPECT_TRUE(a.status.ok()) << a.status.error_message();
-  EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
   EXPECT_TRUE(moving.retry_after.empty());
   EXPECT_NE(moving.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
       << moving.status.error_message();
-  const Answer admitted = plan("d", 0.0, 0.0);
+  const PacingAnswer admitted = PlanAt(s, "c", 0.0, 0.0, /*budget_s=*/0.2);
   EXPECT_TRUE(admitted.status.ok()) << admitted.status.error_message();
   EXPECT_TRUE(admitted.retry_after.empty());
+}
+
+// A replan waiting for the only thread keeps take-offs on the ground even
+// below the take-off limit; the replan itself is never paced.
+TEST(ServiceTest, TakeOffsWaitWhileReplansQueue) {
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
+                     /*planning_queue=*/8, nullptr, nullptr, {.max_take_off_plans = 2});
+  for (const char* id : {"flying", "grounded"}) CreateSmall(s.stub(), id);
+  absl::Notification release;
+  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
+  ASSERT_TRUE(Eventually([&] { return s.planners().running() == 1; }));
+  PacingAnswer replan;
+  std::thread later([&] { replan = PlanAt(s, "flying", 5.0, 0.0); });
+  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 1; }));
+  ExpectPaced(PlanAt(s, "grounded", 0.0, 0.0));
+  release.Notify();
+  later.join();
+  EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
+  EXPECT_TRUE(replan.retry_after.empty());
+  const PacingAnswer admitted = PlanAt(s, "grounded", 0.0, 0.0);
+  EXPECT_TRUE(admitted.status.ok()) << admitted.status.error_message();
 }
 
 // Plans queued together share the time until the newest one's bound: the
