@@ -18,7 +18,8 @@
 # detector (--detector_noise) and oaipp_confirm with the phase, at
 # confirmation weights 100 and 1000: E1 and E4, E5 under a 12 m ceiling
 # with N = 4 and E5 with the paper's settings at 100 trials; at weight 1000
-# also E5 under the ceiling on seeds 101-200
+# also E5 under the ceiling on seeds 101-200, and E5 with the paper's
+# settings and the phase's weight 30000 (oaipp_confirm only)
 # (out/eval/detector-noise-w<weight>-<experiment>).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -73,7 +74,12 @@ for e in $experiments; do
       "${client[@]}" eval E5 --trials=100 --first_trial=101 --detector_noise \
         --confirmation_weight=1000 --confirmation_phase_s=45 \
         --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
-        --out=out/eval/detector-noise-w1000-E5-ceiling12-n4-seeds101-200 ;;
+        --out=out/eval/detector-noise-w1000-E5-ceiling12-n4-seeds101-200
+      # The phase's weight scaled with the confirmation weight (30 x, as
+      # 3000 at 100), on the paper's settings: oaipp_confirm only.
+      "${client[@]}" eval E5 --trials=100 --detector_noise --confirmation_weight=1000 \
+        --confirmation_phase_s=45 --confirmation_phase_weight=30000 --variants=oaipp_confirm \
+        --out=out/eval/detector-noise-w1000-pw30000-E5 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
