@@ -104,11 +104,11 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
       // Asked to come back later (take-off pacing): wait as long as the
       // server says, within max_retry_after; this is not a failed attempt.
       const auto& trailers = context.GetServerTrailingMetadata();
-      int ms = 0;
+      std::int64_t ms = 0;
       if (auto it = trailers.find(api::kRetryAfterHeader);
           it != trailers.end() &&
           absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms) &&
-          ms > 0 && paced + absl::Milliseconds(ms) <= options_.max_retry_after) {
+          ms > 0 && absl::Milliseconds(ms) <= options_.max_retry_after - paced) {
         std::this_thread::sleep_for(std::chrono::milliseconds(ms));
         paced += absl::Milliseconds(ms);
         ++paced_calls_;

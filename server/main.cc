@@ -257,7 +257,8 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_keep_idle) <= absl::ZeroDuration() ||
       absl::GetFlag(FLAGS_prior_cache) < 0 || absl::GetFlag(FLAGS_max_streams) < 1 ||
       absl::GetFlag(FLAGS_max_streams_per_client) < 1 ||
-      absl::GetFlag(FLAGS_max_plans_per_tenant) < 0 || absl::GetFlag(FLAGS_max_take_off_plans) < 0 ||
+      absl::GetFlag(FLAGS_max_plans_per_tenant) < 0 ||
+      absl::GetFlag(FLAGS_max_take_off_plans) < 0 ||
       !(absl::GetFlag(FLAGS_max_planning_s) > 0 && absl::GetFlag(FLAGS_max_planning_s) < 1e6) ||
       absl::GetFlag(FLAGS_max_missions_per_tenant) < 0 || absl::GetFlag(FLAGS_max_memory_mb) < 0 ||
       absl::GetFlag(FLAGS_max_mission_memory_mb) < 0 ||
@@ -271,8 +272,8 @@ int main(int argc, char** argv) {
         "prior_cache >= 0, "
         "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0, "
         "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas, "
-        "max_take_off_plans and memory limits >= 0, 0 <= shed_above < 1e6, 0 < min_search_fraction <= 1, "
-        "0 <= plan_latency_s < 1e6");
+        "max_take_off_plans and memory limits >= 0, 0 <= shed_above < 1e6, "
+        "0 < min_search_fraction <= 1, 0 <= plan_latency_s < 1e6");
     return 2;
   }
   absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials();

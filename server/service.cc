@@ -300,20 +300,29 @@ void MissionServiceImpl::NotePlanQueued(absl::Time arrived) {
   newest_plan_ = std::max(newest_plan_, arrived);
 }
 
-std::optional<absl::Duration> MissionServiceImpl::AdmitTakeOff() {
+std::optional<MissionServiceImpl::TakeOffRefusal> MissionServiceImpl::AdmitTakeOff() {
   // UAVs in the air hover while they wait for a path: a take-off also
-  // waits while more plans queue than there are planning threads.
-  const bool short_queue = planners_->waiting() < planners_->threads();
+  // waits while as many plans queue as there are planning threads.
+  const int waiting = planners_->waiting();
+  const int threads = planners_->threads();
   absl::MutexLock lock(&quota_mu_);
-  if (take_offs_ < limits_.max_take_off_plans && short_queue) {
+  const int limit = limits_.max_take_off_plans;
+  if (take_offs_ < limit && waiting < threads) {
     ++take_offs_;
     return std::nullopt;
   }
   // Refused callers queue up virtually: each is told to come back one
-  // take-off plan's share of the threads after the one before.
+  // take-off plan's share of the threads it may use after the one before,
+  // never more than kMaxTakeOffDelay ahead (callers that ignore the delay
+  // cannot push everyone else's further).
   const absl::Time now = absl::Now();
-  take_off_slot_ = std::max(take_off_slot_, now) + take_off_cost_ / planners_->threads();
-  return take_off_slot_ - now;
+  take_off_slot_ = std::min(std::max(take_off_slot_, now) + take_off_cost_ / std::min(limit, threads),
+                            now + kMaxTakeOffDelay);
+  return TakeOffRefusal{
+      .retry_after = take_off_slot_ - now,
+      .reason = take_offs_ >= limit
+                    ? absl::StrCat(take_offs_, " take-off plans (the limit) are being planned")
+                    : absl::StrCat(waiting, " plans wait for ", threads, " planning threads")};
 }
 
 void MissionServiceImpl::TakeOffEnded(absl::Duration planned) {
@@ -606,13 +615,14 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     // ground for its first path.
     if (service_->limits_.max_take_off_plans > 0 && state_.mission_time_s == 0.0 &&
         state_.velocity_W_m_s.isZero() && state_.accel_W_m_s2.isZero()) {
-      if (const std::optional<absl::Duration> wait = service_->AdmitTakeOff(); wait.has_value()) {
-        const std::int64_t ms = std::max<std::int64_t>(1, absl::ToInt64Milliseconds(*wait));
+      if (std::optional<TakeOffRefusal> refused = service_->AdmitTakeOff(); refused.has_value()) {
+        const std::int64_t ms =
+            std::max<std::int64_t>(1, absl::ToInt64Milliseconds(refused->retry_after));
         context_->AddTrailingMetadata(api::kRetryAfterHeader, absl::StrCat(ms));
         return absl::ResourceExhaustedError(absl::StrCat(
-            "PlanPath: ", service_->limits_.max_take_off_plans,
-            " take-off plans are being planned; this UAV is at rest at mission time 0: retry in ",
-            ms, " ms (", api::kRetryAfterHeader, ")"));
+            "PlanPath: take-off paced (", refused->reason,
+            "); this UAV is at rest at mission time 0: retry in ", ms, " ms (",
+            api::kRetryAfterHeader, ")"));
       }
       take_off_ = true;
     }

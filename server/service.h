@@ -77,7 +77,9 @@ struct ServiceLimits {
   // recent planning time over the threads apart. A fleet that takes off
   // together then leaves over several seconds with whole first plans,
   // instead of every first plan searching a share of the bound. Replans
-  // are never paced. 0: no pacing.
+  // are never paced, but a repeated take-off request (same request_id) is
+  // paced like a new one before its stored answer is looked up. 0: no
+  // pacing.
   int max_take_off_plans = 0;
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of
@@ -133,8 +135,14 @@ class MissionServiceImpl final : public MissionServiceBase {
   void NotePlanQueued(absl::Time arrived);
   // Take-off pacing (ServiceLimits::max_take_off_plans): nullopt, and the
   // plan is counted, when a take-off plan may be queued now; else how long
-  // its caller should wait before asking again.
-  [[nodiscard]] std::optional<absl::Duration> AdmitTakeOff();
+  // its caller should wait before asking again (at most kMaxTakeOffDelay)
+  // and why.
+  struct TakeOffRefusal {
+    absl::Duration retry_after;
+    std::string reason;
+  };
+  static constexpr absl::Duration kMaxTakeOffDelay = absl::Seconds(10);
+  [[nodiscard]] std::optional<TakeOffRefusal> AdmitTakeOff();
   // A take-off plan admitted by AdmitTakeOff ended, after planning for
   // `planned` (zero when it did not run).
   void TakeOffEnded(absl::Duration planned);

@@ -72,17 +72,25 @@ TEST(EndToEndTest, APacedTakeOffWaitsAndThenFlies) {
   };
   absl::Notification release;
   ASSERT_TRUE(planners.Submit("blocker", [&] { release.WaitForNotification(); }).ok());
-  ASSERT_TRUE(eventually([&] { return planners.running() == 1; }));
+  const bool held = eventually([&] { return planners.running() == 1; });
   absl::StatusOr<v1::PlanPathResponse> a, b;
   std::thread one([&] { a = take_off(first, "first"); });
-  const bool queued = eventually([&] { return planners.waiting() == 1; });
+  const bool queued = held && eventually([&] { return planners.waiting() == 1; });
+  // A client that will not wait gets the refusal itself.
+  ClientOptions impatient_options;
+  impatient_options.max_retry_after = absl::ZeroDuration();
+  Client impatient(server->InProcessChannel(grpc::ChannelArguments()), impatient_options);
+  const absl::StatusOr<v1::PlanPathResponse> refused = take_off(impatient, "second");
   std::thread two([&] { b = take_off(second, "second"); });
   const bool paced = eventually([&] { return second.paced_calls() >= 1; });
   release.Notify();
   one.join();
   two.join();
-  EXPECT_TRUE(queued);
+  ASSERT_TRUE(held);
+  ASSERT_TRUE(queued);
   EXPECT_TRUE(paced);
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted) << refused.status();
+  EXPECT_EQ(impatient.paced_calls(), 0);
   ASSERT_TRUE(a.ok()) << a.status();
   ASSERT_TRUE(b.ok()) << b.status();
   EXPECT_GT(b->trajectory().segments_size(), 0);

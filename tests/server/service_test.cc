@@ -612,38 +612,41 @@ void ExpectPaced(const PacingAnswer& refused) {
   EXPECT_GE(ms, 1);
 }
 
-// While one take-off plan runs, the next UAV at rest at mission time 0 is
-// refused at once with a retry delay; a moving start is not paced, and once
-// the take-off plan has ended the next one is admitted.
+// With one take-off plan queued (two planning threads held, so the queue is
+// short), the next UAV at rest at mission time 0 is refused at once with a
+// retry delay; a moving start is not paced, and once the take-off plan has
+// ended the next one is admitted.
 TEST(ServiceTest, TakeOffPlansBeyondTheLimitAreRefusedWithARetryDelay) {
-  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/2,
                      /*planning_queue=*/8, nullptr, nullptr, {.max_take_off_plans = 1});
-  for (const char* id : {"a", "b", "c"}) {
-    grpc::ClientContext context;
-    v1::CreateMissionRequest create;
-    create.set_mission_id(id);
-    *create.mutable_spec() = SmallSpec();
-    create.mutable_spec()->mutable_planner()->set_generations(50000);
-    v1::Mission mission;
-    ASSERT_TRUE(s.stub().CreateMission(&context, create, &mission).ok());
+  for (const char* id : {"a", "b", "c"}) CreateSmall(s.stub(), id);
+  absl::Notification release;
+  for (const char* blocker : {"blocker1", "blocker2"}) {
+    ASSERT_TRUE(s.planners().Submit(blocker, [&] { release.WaitForNotification(); }).ok());
   }
-  // "a" plans for 2 s on the only thread, with nothing waiting.
+  const bool held = Eventually([&] { return s.planners().running() == 2; });
   PacingAnswer a, moving;
-  std::thread take_off([&] { a = PlanAt(s, "a", 0.0, 0.0, /*budget_s=*/2.0); });
-  ASSERT_TRUE(
-      Eventually([&] { return s.planners().running() == 1 && s.planners().waiting() == 0; }));
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    SCOPED_TRACE(attempt);
-    ExpectPaced(PlanAt(s, "b", 0.0, 0.0));
+  std::thread take_off([&] { a = PlanAt(s, "a", 0.0, 0.0); });
+  const bool queued = held && Eventually([&] { return s.planners().waiting() == 1; });
+  std::vector<PacingAnswer> refused;
+  if (queued) {
+    for (int attempt = 0; attempt < 2; ++attempt) refused.push_back(PlanAt(s, "b", 0.0, 0.0));
   }
   std::thread flying([&] { moving = PlanAt(s, "b", 0.0, 0.5, /*budget_s=*/0.2); });
+  release.Notify();
   take_off.join();
   flying.join();
+  ASSERT_TRUE(held);
+  ASSERT_TRUE(queued);
+  for (const PacingAnswer& r : refused) {
+    ExpectPaced(r);
+    EXPECT_THAT(r.status.error_message(), HasSubstr("(the limit)"));
+  }
   EXPECT_TRUE(a.status.ok()) << a.status.error_message();
   EXPECT_TRUE(moving.retry_after.empty());
   EXPECT_NE(moving.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
       << moving.status.error_message();
-  const PacingAnswer admitted = PlanAt(s, "c", 0.0, 0.0, /*budget_s=*/0.2);
+  const PacingAnswer admitted = PlanAt(s, "c", 0.0, 0.0);
   EXPECT_TRUE(admitted.status.ok()) << admitted.status.error_message();
   EXPECT_TRUE(admitted.retry_after.empty());
 }
@@ -656,13 +659,17 @@ TEST(ServiceTest, TakeOffsWaitWhileReplansQueue) {
   for (const char* id : {"flying", "grounded"}) CreateSmall(s.stub(), id);
   absl::Notification release;
   ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
-  ASSERT_TRUE(Eventually([&] { return s.planners().running() == 1; }));
+  const bool held = Eventually([&] { return s.planners().running() == 1; });
   PacingAnswer replan;
   std::thread later([&] { replan = PlanAt(s, "flying", 5.0, 0.0); });
-  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 1; }));
-  ExpectPaced(PlanAt(s, "grounded", 0.0, 0.0));
+  const bool queued = held && Eventually([&] { return s.planners().waiting() == 1; });
+  const PacingAnswer refused = queued ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
   release.Notify();
   later.join();
+  ASSERT_TRUE(held);
+  ASSERT_TRUE(queued);
+  ExpectPaced(refused);
+  EXPECT_THAT(refused.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
   EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
   EXPECT_TRUE(replan.retry_after.empty());
   const PacingAnswer admitted = PlanAt(s, "grounded", 0.0, 0.0);
