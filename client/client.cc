@@ -82,7 +82,7 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
                                       absl::Duration timeout, const std::string& route) {
   absl::Duration backoff = options_.first_backoff;
   absl::Duration paced = absl::ZeroDuration();  // waited as the server asked
-  bool waited = false;                           // the wait was the server's
+  bool waited = false;                          // the wait was the server's
   grpc::Status status;
   for (int attempt = 1; attempt <= options_.max_attempts; ++attempt) {
     if (const bool after_wait = std::exchange(waited, false); attempt > 1 && !after_wait) {

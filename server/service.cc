@@ -316,8 +316,9 @@ std::optional<MissionServiceImpl::TakeOffRefusal> MissionServiceImpl::AdmitTakeO
   // never more than kMaxTakeOffDelay ahead (callers that ignore the delay
   // cannot push everyone else's further).
   const absl::Time now = absl::Now();
-  take_off_slot_ = std::min(std::max(take_off_slot_, now) + take_off_cost_ / std::min(limit, threads),
-                            now + kMaxTakeOffDelay);
+  take_off_slot_ =
+      std::min(std::max(take_off_slot_, now) + take_off_cost_ / std::min(limit, threads),
+               now + kMaxTakeOffDelay);
   return TakeOffRefusal{
       .retry_after = take_off_slot_ - now,
       .reason = take_offs_ >= limit
@@ -619,10 +620,10 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
         const std::int64_t ms =
             std::max<std::int64_t>(1, absl::ToInt64Milliseconds(refused->retry_after));
         context_->AddTrailingMetadata(api::kRetryAfterHeader, absl::StrCat(ms));
-        return absl::ResourceExhaustedError(absl::StrCat(
-            "PlanPath: take-off paced (", refused->reason,
-            "); this UAV is at rest at mission time 0: retry in ", ms, " ms (",
-            api::kRetryAfterHeader, ")"));
+        return absl::ResourceExhaustedError(
+            absl::StrCat("PlanPath: take-off paced (", refused->reason,
+                         "); this UAV is at rest at mission time 0: retry in ", ms, " ms (",
+                         api::kRetryAfterHeader, ")"));
       }
       take_off_ = true;
     }

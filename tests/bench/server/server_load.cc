@@ -107,8 +107,8 @@ struct MissionResult {
   double rse = 0.0;
   int found = 0;
   int plans = 0;
-  int cut_replans = 0;  // cut plans left early (--replan_cut_within_s)
-  int take_off_refusals = 0;  // first plans refused by take-off pacing
+  int cut_replans = 0;           // cut plans left early (--replan_cut_within_s)
+  int take_off_refusals = 0;     // first plans refused by take-off pacing
   double take_off_wait_s = 0.0;  // from creation to the first path's answer
   double wall_s = 0.0;
   // Each plan: when it was asked for (s since the load started), the
