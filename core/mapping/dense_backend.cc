@@ -33,6 +33,8 @@ using Dtrsm = void (*)(int order, int side, int uplo, int trans, int diag, int m
 using Dpotrf = void (*)(const char* uplo, const int* n, double* a, const int* lda, int* info,
                         std::size_t uplo_length);
 using Dpotri = Dpotrf;  // the same arguments
+using Dtrtri = void (*)(const char* uplo, const char* diag, const int* n, double* a, const int* lda,
+                        int* info, std::size_t uplo_length, std::size_t diag_length);
 using SetThreads = void (*)(int);
 using CoreName = char* (*)();
 using GetParallel = int (*)();
@@ -42,6 +44,7 @@ struct OpenBlas {
   Dtrsm dtrsm = nullptr;
   Dpotrf dpotrf = nullptr;
   Dpotri dpotri = nullptr;
+  Dtrtri dtrtri = nullptr;
   std::string kernel;
 };
 
@@ -118,11 +121,13 @@ absl::Status UseOpenBlas() {
     blas.dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
     blas.dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
     blas.dpotri = reinterpret_cast<Dpotri>(dlsym(library, "dpotri_"));
+    blas.dtrtri = reinterpret_cast<Dtrtri>(dlsym(library, "dtrtri_"));
     if (blas.dsyrk == nullptr || blas.dtrsm == nullptr || blas.dpotrf == nullptr ||
-        blas.dpotri == nullptr) {
+        blas.dpotri == nullptr || blas.dtrtri == nullptr) {
       dlclose(library);
       return absl::FailedPreconditionError(
-          "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_ or dpotri_; the Kalman "
+          "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_, dpotri_ or dtrtri_; the "
+          "Kalman "
           "update runs on Eigen");
     }
     // A copy loaded with the program sized its pool before the variable was
@@ -241,6 +246,23 @@ void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
   const int lda = static_cast<int>(lower.outerStride());
   int info = 0;
   blas->dpotri("L", &n, lower.data(), &lda, &info, 1);
+}
+
+void InverseLowerInPlace(Eigen::MatrixXd& lower) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  const Eigen::Index m = lower.rows();
+  if (m == 0) return;
+  if (blas == nullptr || m > kMaxInt) {
+    Eigen::MatrixXd inv = Eigen::MatrixXd::Identity(m, m);
+    lower.triangularView<Eigen::Lower>().solveInPlace(inv);
+    lower.triangularView<Eigen::Lower>() = inv;
+    return;
+  }
+  const int n = static_cast<int>(m);
+  const int lda = static_cast<int>(lower.outerStride());
+  int info = 0;
+  blas->dtrtri("L", "N", &n, lower.data(), &lda, &info, 1, 1);
 }
 
 }  // namespace oaipp

@@ -92,4 +92,9 @@ void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
 // Precondition: L's diagonal is positive.
 void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower);
 
+// L^-1 for the lower-triangular L in the lower triangle of `lower` (m x m),
+// written over that triangle (LAPACK's trtri); what lies above the diagonal
+// is unspecified. Precondition: L's diagonal is nonzero.
+void InverseLowerInPlace(Eigen::MatrixXd& lower);
+
 }  // namespace oaipp

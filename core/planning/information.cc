@@ -28,6 +28,13 @@ class MergedCells {
   }
   [[nodiscard]] bool empty() const { return cells_.empty(); }
   [[nodiscard]] const std::vector<int>& cells() const { return cells_; }
+  // The cell's index in cells(), or -1 when it is not among them.
+  [[nodiscard]] int Slot(int cell) const {
+    const auto it = slot_.find(cell);
+    return it == slot_.end() ? -1 : it->second;
+  }
+  // The merged noise variance of cells()[slot].
+  [[nodiscard]] double Noise(int slot) const { return 1.0 / precision_[slot]; }
 
   // Lower Cholesky factor of P_KK + diag(1 / precision).
   [[nodiscard]] Eigen::LLT<Eigen::MatrixXd> Factor(const Eigen::MatrixXd& cov) const {
@@ -51,6 +58,21 @@ class MergedCells {
     }
     // Positive definite by construction (a covariance plus positive noise);
     // like Factor's, a failure is not reported.
+    (void)CholeskyLowerInPlace(s);
+    return s;
+  }
+
+  // The same factor with the cells taken in `order` (slots, a permutation
+  // of 0 .. size - 1).
+  [[nodiscard]] Eigen::MatrixXd FactorLower(const Eigen::MatrixXd& cov,
+                                            const std::vector<int>& order) const {
+    const auto m = static_cast<Eigen::Index>(order.size());
+    Eigen::MatrixXd s(m, m);
+    for (Eigen::Index b = 0; b < m; ++b) {
+      const int cb = cells_[order[b]];
+      for (Eigen::Index a = b; a < m; ++a) s(a, b) = cov(cells_[order[a]], cb);
+      s(b, b) += 1.0 / precision_[order[b]];
+    }
     (void)CholeskyLowerInPlace(s);
     return s;
   }
@@ -232,6 +254,9 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
                                       const Eigen::MatrixXd& base) const {
   double total = 0.0;
   MergedCells fused;
+  std::vector<Eigen::Index> seen, unseen;  // positions in the pose's cells
+  std::vector<int> order;                  // slots of `fused`, seen cells last
+  std::vector<char> is_seen;
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const PoseObservation& pose = poses[i];
     const double reward = pose.scored ? params_.AltitudeReward(pose.altitude_m) : 0.0;
@@ -240,14 +265,53 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
       Eigen::VectorXd var(m);
       for (Eigen::Index j = 0; j < m; ++j) var[j] = base(pose.cells[j], pose.cells[j]);
       if (!fused.empty()) {
-        const std::vector<int>& k = fused.cells();
-        const auto mk = static_cast<Eigen::Index>(k.size());
-        Eigen::MatrixXd cross(mk, m);  // B_K,J
+        // With K the fused cells, S = B_KK + R = L L^T and a cell j of the
+        // pose: var_j = B_jj - |L^-1 B_Kj|^2. For j in K, B_Kj = (S - R) e_j
+        // gives var_j = r_j - r_j^2 (S^-1)_jj instead, and with K ordered so
+        // that the pose's seen cells O come last, (S^-1)_OO = (L_OO
+        // L_OO^T)^-1: a triangular inverse of |O| rows rather than a solve
+        // of |K| rows per seen cell. Consecutive shots overlap, so most cells
+        // are seen ones.
+        seen.clear();
+        unseen.clear();
+        const auto k = static_cast<Eigen::Index>(fused.cells().size());
+        is_seen.assign(static_cast<std::size_t>(k), 0);
         for (Eigen::Index j = 0; j < m; ++j) {
-          for (Eigen::Index a = 0; a < mk; ++a) cross(a, j) = base(k[a], pose.cells[j]);
+          const int slot = fused.Slot(pose.cells[j]);
+          if (slot < 0) {
+            unseen.push_back(j);
+          } else {
+            seen.push_back(j);
+            is_seen[static_cast<std::size_t>(slot)] = 1;
+          }
         }
-        SolveLeftLower(fused.FactorLower(base), cross);
-        var -= cross.colwise().squaredNorm().transpose();
+        order.clear();
+        for (int slot = 0; slot < k; ++slot) {
+          if (!is_seen[static_cast<std::size_t>(slot)]) order.push_back(slot);
+        }
+        for (Eigen::Index j : seen) order.push_back(fused.Slot(pose.cells[j]));
+        const Eigen::MatrixXd lower = fused.FactorLower(base, order);
+        if (!unseen.empty()) {
+          const auto u = static_cast<Eigen::Index>(unseen.size());
+          Eigen::MatrixXd cross(k, u);  // B_K,J for the unseen cells
+          for (Eigen::Index b = 0; b < u; ++b) {
+            const int cell = pose.cells[unseen[b]];
+            for (Eigen::Index a = 0; a < k; ++a) cross(a, b) = base(fused.cells()[order[a]], cell);
+          }
+          SolveLeftLower(lower, cross);
+          for (Eigen::Index b = 0; b < u; ++b) var[unseen[b]] -= cross.col(b).squaredNorm();
+        }
+        if (!seen.empty()) {
+          const auto o = static_cast<Eigen::Index>(seen.size());
+          Eigen::MatrixXd inv = lower.bottomRightCorner(o, o);
+          InverseLowerInPlace(inv);
+          for (Eigen::Index b = 0; b < o; ++b) {
+            // (S^-1)_jj: column b of L_OO^-1, which is zero above row b.
+            const double s_inv = inv.col(b).tail(o - b).squaredNorm();
+            const double r = fused.Noise(order[k - o + b]);
+            var[seen[b]] = r - r * r * s_inv;
+          }
+        }
       }
       double av = 0.0;
       for (Eigen::Index j = 0; j < m; ++j) {

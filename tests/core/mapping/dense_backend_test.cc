@@ -111,6 +111,33 @@ TEST_F(DenseBackendTest, OpenBlasCholeskyEqualsEigensAndRefusesWhatIsNotPositive
   EXPECT_FALSE(CholeskyLowerInPlace(indefinite));
 }
 
+// L^-1 on both backends: L times it is the identity, and garbage above the
+// diagonal is ignored (only the lower triangle is written and read).
+TEST_F(DenseBackendTest, TriangularInverseTimesTheFactorIsTheIdentityOnBothBackends) {
+  std::mt19937 rng(8);
+  std::normal_distribution<double> normal;
+  for (const int m : {1, 40, 350}) {
+    Eigen::MatrixXd a(m, m);
+    for (double& v : a.reshaped()) v = normal(rng);
+    const Eigen::MatrixXd s = a * a.transpose() + m * Eigen::MatrixXd::Identity(m, m);
+    Eigen::MatrixXd lower = Eigen::LLT<Eigen::MatrixXd>(s).matrixLLT();
+    lower.triangularView<Eigen::StrictlyUpper>().setConstant(1e300);
+    const Eigen::MatrixXd l = lower.triangularView<Eigen::Lower>();
+    for (const bool open_blas : {true, false}) {
+      if (open_blas) {
+        ASSERT_TRUE(UseOpenBlas().ok());
+      } else {
+        UseEigen();
+      }
+      Eigen::MatrixXd inv = lower;
+      InverseLowerInPlace(inv);
+      const Eigen::MatrixXd inv_lower = inv.triangularView<Eigen::Lower>();
+      EXPECT_LT((l * inv_lower - Eigen::MatrixXd::Identity(m, m)).cwiseAbs().maxCoeff(), 1e-12)
+          << "m " << m << (open_blas ? " on OpenBLAS" : " on Eigen");
+    }
+  }
+}
+
 TEST_F(DenseBackendTest, AMapFusedThroughOpenBlasMatchesEigenToRoundOff) {
   const FieldGrid grid = *FieldGrid::FromBounds(Vec2(-15, -15), Vec2(15, 15), 0.75);
   GpMap on_eigen = *GpMap::Create(grid, GpParams::PaperPreset(0.75));
