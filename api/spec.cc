@@ -19,6 +19,7 @@ using internal::CheckAtLeast;
 using internal::CheckIntRange;
 using internal::CheckNonNegative;
 using internal::CheckOpenInterval;
+using internal::CheckUnitInterval;
 using internal::Describe;
 using internal::OrDefault;
 using internal::Prefixed;
@@ -178,6 +179,10 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       OrDefault(p.has_num_waypoints(), p.num_waypoints(), oaipp.num_waypoints);
   c.planner.oaipp.population = OrDefault(p.has_population(), p.population(), oaipp.population);
   c.planner.oaipp.generations = OrDefault(p.has_generations(), p.generations(), oaipp.generations);
+  c.planner.oaipp.stall_generations =
+      OrDefault(p.has_stall_generations(), p.stall_generations(), oaipp.stall_generations);
+  c.planner.oaipp.stall_tolerance =
+      OrDefault(p.has_stall_tolerance(), p.stall_tolerance(), oaipp.stall_tolerance);
   c.planner.lawnmower.altitude_m =
       OrDefault(p.has_lawnmower_altitude_m(), p.lawnmower_altitude_m(), lawnmower.altitude_m);
   c.planner.lawnmower.start_corner =
@@ -189,6 +194,10 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       CheckIntRange("spec.planner.population", c.planner.oaipp.population, 5, kMaxPopulation));
   OAIPP_RETURN_IF_ERROR(
       CheckIntRange("spec.planner.generations", c.planner.oaipp.generations, 0, kMaxGenerations));
+  OAIPP_RETURN_IF_ERROR(CheckIntRange("spec.planner.stall_generations",
+                                      c.planner.oaipp.stall_generations, 0, kMaxGenerations));
+  OAIPP_RETURN_IF_ERROR(
+      CheckUnitInterval("spec.planner.stall_tolerance", c.planner.oaipp.stall_tolerance));
   OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.kappa", common.information.kappa));
   OAIPP_RETURN_IF_ERROR(CheckFinite("spec.planner.h_opt_m", common.information.h_opt_m));
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.planner.sigma1_m", common.information.sigma1_m));
@@ -375,6 +384,8 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   p.set_num_waypoints(c.planner.oaipp.num_waypoints);
   p.set_population(c.planner.oaipp.population);
   p.set_generations(c.planner.oaipp.generations);
+  p.set_stall_generations(c.planner.oaipp.stall_generations);
+  p.set_stall_tolerance(c.planner.oaipp.stall_tolerance);
   p.set_kappa(common.information.kappa);
   p.set_h_opt_m(common.information.h_opt_m);
   p.set_sigma1_m(common.information.sigma1_m);

@@ -4,6 +4,7 @@
 #include <limits>
 #include <memory>
 #include <utility>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "pagmo/algorithms/cmaes.hpp"
@@ -85,6 +86,8 @@ std::string StopReasonName(StopReason reason) {
       return "cancelled";
     case StopReason::kGaveUp:
       return "gave_up";
+    case StopReason::kStalled:
+      return "stalled";
   }
   return "unknown";
 }
@@ -117,6 +120,12 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
   if (options.max_evaluations < 1) {
     return absl::InvalidArgumentError("max_evaluations: must be positive");
   }
+  if (options.stall_generations < 0) {
+    return absl::InvalidArgumentError("stall_generations: must be >= 0");
+  }
+  if (!(options.stall_tolerance >= 0.0 && options.stall_tolerance <= 1.0)) {
+    return absl::InvalidArgumentError("stall_tolerance: must be in [0, 1]");
+  }
 
   auto shared = std::make_shared<Shared>();
   shared->f = f;
@@ -143,6 +152,9 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
                        /*ftol=*/-1.0, /*xtol=*/-1.0, /*memory=*/true, /*force_bounds=*/false,
                        options.seed);
     result.stop_reason = StopReason::kEvaluationBudget;
+    // best_after[g]: the best value after g completed generations (the
+    // stall rule compares the newest with the one stall_generations ago).
+    std::vector<double> best_after = {shared->best_f};
     while (shared->evaluations + options.population <= options.max_evaluations) {
       if (absl::Now() >= deadline) {
         result.stop_reason = StopReason::kDeadline;
@@ -163,6 +175,15 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
         break;
       }
       ++result.generations;
+      best_after.push_back(shared->best_f);
+      const int g = options.stall_generations;
+      if (g > 0 && result.generations >= g) {
+        const double before = best_after[best_after.size() - 1 - static_cast<std::size_t>(g)];
+        if (shared->best_f >= before - options.stall_tolerance * std::abs(before)) {
+          result.stop_reason = StopReason::kStalled;
+          break;
+        }
+      }
     }
   } catch (const std::exception& e) {
     return absl::InternalError(absl::StrCat("cmaes: ", e.what()));

@@ -58,6 +58,12 @@ absl::Status OaIppConfig::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat("population: must be >= 5, got ", population));
   }
   if (generations < 0) return absl::InvalidArgumentError("generations: must be >= 0");
+  if (stall_generations < 0) {
+    return absl::InvalidArgumentError("stall_generations: must be >= 0");
+  }
+  if (!(stall_tolerance >= 0.0 && stall_tolerance <= 1.0)) {
+    return absl::InvalidArgumentError("stall_tolerance: must be in [0, 1]");
+  }
   for (int a = 0; a < 3; ++a) OAIPP_RETURN_IF_ERROR(CheckPositive("step_m", step_m[a]));
   if (exact_check_candidates < 1) {
     return absl::InvalidArgumentError("exact_check_candidates: must be >= 1");
@@ -186,7 +192,9 @@ absl::StatusOr<PlannedPath> OaIppPlanner::Plan(const PlanningContext& mission,
         // single trajectory: the start state is the obstacle, not the
         // waypoints, and more generations only burn the budget (a stop
         // first, core/planning/stop_first.h, can still plan).
-        .give_up = [&] { return flyable == 0 && scored > config_.population; }};
+        .give_up = [&] { return flyable == 0 && scored > config_.population; },
+        .stall_generations = config_.stall_generations,
+        .stall_tolerance = config_.stall_tolerance};
     OAIPP_ASSIGN_OR_RETURN(CmaesResult result,
                            MinimizeCmaes(objective, x0, steps, lower, upper, options, deadline));
     stats.evaluations += result.evaluations - 1;  // x0 was scored above already

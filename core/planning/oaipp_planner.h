@@ -39,6 +39,11 @@ struct OaIppConfig {
   // coordinate (x, y, z) in metres. lambda x generations = evaluation budget.
   int population = 12;
   int generations = 45;
+  // Stop the search early once the best score has improved by no more than
+  // stall_tolerance (relative) over the last stall_generations generations
+  // (CmaesOptions; 0: always run every generation, the paper's setting).
+  int stall_generations = 0;
+  double stall_tolerance = 1e-3;
   Vec3 step_m = Vec3(4.0, 4.0, 3.0);
   // When false the greedy path is returned as it is.
   bool refine = true;

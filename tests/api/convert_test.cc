@@ -261,6 +261,8 @@ TEST(MissionSpecTest, FullyCustomSpecConvertsEveryFieldAndRoundTrips) {
   EXPECT_EQ(c->planner.oaipp.num_waypoints, 5);
   EXPECT_EQ(c->planner.oaipp.population, 20);
   EXPECT_EQ(c->planner.oaipp.generations, 10);
+  EXPECT_EQ(c->planner.oaipp.stall_generations, 6);
+  EXPECT_EQ(c->planner.oaipp.stall_tolerance, 0.002);
   EXPECT_EQ(c->planner.common.information.kappa, 2);
   EXPECT_EQ(c->planner.common.information.h_opt_m, 12);
   EXPECT_EQ(c->planner.common.information.sigma1_m, 5);
@@ -735,6 +737,12 @@ std::vector<BadCase> BadCases() {
       {"negative generations",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_generations(-1); }); }, kInvalid,
        "spec.planner.generations: "},
+      {"negative stall generations",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_stall_generations(-1); }); },
+       kInvalid, "spec.planner.stall_generations: "},
+      {"stall tolerance above 1",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_stall_tolerance(1.5); }); },
+       kInvalid, "spec.planner.stall_tolerance: "},
       {"negative kappa",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_kappa(-0.5); }); }, kInvalid,
        "spec.planner.kappa: "},

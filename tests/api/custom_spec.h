@@ -48,6 +48,8 @@ inline v1::MissionSpec CustomSpec() {
   p.set_num_waypoints(5);
   p.set_population(20);
   p.set_generations(10);
+  p.set_stall_generations(6);
+  p.set_stall_tolerance(0.002);
   p.set_kappa(2);
   p.set_confirmation_weight(0);  // the only value the trace objective takes
   p.set_decision_threshold(0.4);

@@ -55,6 +55,10 @@ ABSL_FLAG(std::string, pace, "real_time",
           "real_time: each path is flown in wall-clock time; as_fast: the next plan is asked for "
           "as soon as the last one is answered");
 ABSL_FLAG(int, generations, 45, "CMA-ES generations per plan");
+ABSL_FLAG(int, stall_generations, 0,
+          "spec.planner.stall_generations: a plan's search stops once its best score improved "
+          "by no more than --stall_tolerance over this many generations (0: never)");
+ABSL_FLAG(double, stall_tolerance, 1e-3, "spec.planner.stall_tolerance");
 ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
 ABSL_FLAG(int, planning_queue, -1, "server planning queue (-1: 4 x missions)");
 ABSL_FLAG(int, planning_nice, 10, "oaipp-server --planning_nice");
@@ -190,6 +194,9 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
     r.set_mission_id(id);
     *r.mutable_spec() = oaipp::bench::E1Spec(absl::GetFlag(FLAGS_generations));
     r.mutable_spec()->mutable_planner()->set_seed(static_cast<std::uint32_t>(m + 1));
+    r.mutable_spec()->mutable_planner()->set_stall_generations(
+        absl::GetFlag(FLAGS_stall_generations));
+    r.mutable_spec()->mutable_planner()->set_stall_tolerance(absl::GetFlag(FLAGS_stall_tolerance));
     r.mutable_spec()->set_budget_s(budget);
     return stub.CreateMission(&c, r, &created);
   });
@@ -594,6 +601,8 @@ int main(int argc, char** argv) {
     j["first_plan_budget_s"] = absl::GetFlag(FLAGS_first_plan_budget_s);
     j["replan_cut_within_s"] = absl::GetFlag(FLAGS_replan_cut_within_s);
     j["generations"] = absl::GetFlag(FLAGS_generations);
+    j["stall_generations"] = absl::GetFlag(FLAGS_stall_generations);
+    j["stall_tolerance"] = absl::GetFlag(FLAGS_stall_tolerance);
     j["dense_backend"] = oaipp::DenseBackendName();
     nlohmann::json list = nlohmann::json::array();
     for (auto& run : runs) list.push_back(ToJson(*run, pace));

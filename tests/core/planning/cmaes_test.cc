@@ -147,6 +147,52 @@ TEST(CmaesTest, GiveUpEndsTheRunBetweenGenerations) {
   EXPECT_EQ(r->generations, 2);
 }
 
+// A flat objective never improves on x0: with a stall rule of 3
+// generations the run ends after exactly 3, whatever the budget.
+TEST(CmaesTest, AFlatObjectiveStallsAfterTheStallGenerations) {
+  int evaluated = 0;
+  auto flat = [&](const Eigen::VectorXd&) {
+    ++evaluated;
+    return 2.0;
+  };
+  const Eigen::VectorXd one = Eigen::VectorXd::Ones(3);
+  auto r = MinimizeCmaes(flat, one, one, -5 * one, 5 * one,
+                         {.population = 6,
+                          .max_evaluations = 600,
+                          .seed = 2,
+                          .stall_generations = 3,
+                          .stall_tolerance = 0.0});
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->stop_reason, StopReason::kStalled);
+  EXPECT_EQ(StopReasonName(r->stop_reason), "stalled");
+  EXPECT_EQ(r->generations, 3);
+  EXPECT_EQ(evaluated, 1 + 3 * 6);
+}
+
+// While the search improves by more than the tolerance it goes on: the
+// sphere from afar improves by far more than 1e-3 of its value per few
+// generations, so a 5-generation rule ends the run only near the optimum,
+// and with the rule off the budget decides.
+TEST(CmaesTest, AnImprovingSearchIsNotStoppedByTheStallRule) {
+  const Eigen::VectorXd x0 = Eigen::VectorXd::Constant(4, 3.0);
+  const Eigen::VectorXd box = Eigen::VectorXd::Constant(4, 10.0);
+  auto stalled = MinimizeCmaes(Sphere, x0, Eigen::VectorXd::Ones(4), -box, box,
+                               {.population = 8,
+                                .max_evaluations = 4000,
+                                .seed = 5,
+                                .stall_generations = 5,
+                                .stall_tolerance = 1e-3});
+  auto full = MinimizeCmaes(Sphere, x0, Eigen::VectorXd::Ones(4), -box, box,
+                            {.population = 8, .max_evaluations = 4000, .seed = 5});
+  ASSERT_TRUE(stalled.ok());
+  ASSERT_TRUE(full.ok());
+  EXPECT_EQ(full->stop_reason, StopReason::kEvaluationBudget);
+  EXPECT_EQ(full->generations, 499);  // (4000 - 1) / 8
+  // Sphere(x0) = 36: the rule ends the run only within 1e-6 of the optimum.
+  EXPECT_LT(stalled->best_f, 1e-6);
+  EXPECT_GT(stalled->generations, 5);
+}
+
 TEST(CmaesTest, BadInputIsRefused) {
   const Eigen::VectorXd one = Eigen::VectorXd::Ones(2);
   EXPECT_FALSE(MinimizeCmaes(Sphere, one, -one, -one, one, {}).ok());
@@ -154,6 +200,9 @@ TEST(CmaesTest, BadInputIsRefused) {
   EXPECT_FALSE(MinimizeCmaes(Sphere, one, one, -one, one, {.population = 3}).ok());
   EXPECT_FALSE(MinimizeCmaes(Sphere, Eigen::Vector2d(NAN, 0), one, -one, one, {}).ok());
   EXPECT_FALSE(MinimizeCmaes(Sphere, Eigen::VectorXd(), one, -one, one, {}).ok());
+  EXPECT_FALSE(MinimizeCmaes(Sphere, one, one, -one, one, {.stall_generations = -1}).ok());
+  EXPECT_FALSE(MinimizeCmaes(Sphere, one, one, -one, one, {.stall_tolerance = 1.5}).ok());
+  EXPECT_FALSE(MinimizeCmaes(Sphere, one, one, -one, one, {.stall_tolerance = NAN}).ok());
 }
 
 }  // namespace

@@ -154,6 +154,38 @@ TEST(OaIppTest, RefinementNeverWorseThanGreedy) {
   }
 }
 
+// The stall rule only ends the search early: the path is checked like any
+// other and is never worse than its greedy start; with the rule off (the
+// default) every generation runs.
+TEST(OaIppTest, AStalledSearchStopsEarlyWithASafePath) {
+  const Scene& scene = CachedScene("E1");
+  OaIppConfig full_config;
+  OaIppConfig stall_config;
+  stall_config.stall_generations = 3;
+  stall_config.stall_tolerance = 0.05;
+  int stalled = 0;
+  for (std::uint32_t seed = 1; seed <= 4; ++seed) {
+    OaIppPlanner full(PlannerCommon{.seed = seed}, full_config);
+    OaIppPlanner early(PlannerCommon{.seed = seed}, stall_config);
+    absl::StatusOr<PlannedPath> a = full.Plan(scene.View(), scene.start, absl::InfiniteFuture());
+    absl::StatusOr<PlannedPath> b = early.Plan(scene.View(), scene.start, absl::InfiniteFuture());
+    ASSERT_TRUE(a.ok()) << a.status();
+    ASSERT_TRUE(b.ok()) << b.status();
+    EXPECT_EQ(a->stats.generations, 45);
+    EXPECT_EQ(a->stats.stop_reason, "evaluation_budget");
+    ExpectSafeAndFeasible(*b, scene, scene.start, PlannerLimits{});
+    EXPECT_GE(b->objective, b->stats.initial_objective) << "seed " << seed;
+    if (b->stats.stop_reason == "stalled") {
+      ++stalled;
+      EXPECT_LT(b->stats.generations, 45);
+      EXPECT_GE(b->stats.generations, 3);
+      EXPECT_LT(b->stats.evaluations, a->stats.evaluations);
+    }
+  }
+  // A 5 % improvement every 3 generations is more than most plans keep up.
+  EXPECT_GE(stalled, 1);
+}
+
 TEST(OaIppTest, DeadlineGivesAnAnytimeResult) {
   const Scene& scene = CachedScene("E1");
   OaIppPlanner planner(PlannerCommon{}, OaIppConfig{});
