@@ -2,6 +2,13 @@
 // proto/oaipp/v1/mission_service.proto and docs/cluster.md).
 #pragma once
 
+#include <cstdint>
+#include <optional>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/string_view.h"
+#include "grpcpp/client_context.h"
+
 namespace oaipp::api {
 
 // Request header: the mission a call is about, the mission id
@@ -18,5 +25,19 @@ inline constexpr char kReplicaHeader[] = "x-oaipp-replica";
 // later retry can help: how long to wait first, whole milliseconds. Sent on
 // a take-off plan refused by take-off pacing (docs/capacity.md).
 inline constexpr char kRetryAfterHeader[] = "x-oaipp-retry-after-ms";
+
+// The delay the trailing metadata of a finished call names
+// (kRetryAfterHeader), in milliseconds; nullopt when the header is absent or
+// not a positive whole number.
+[[nodiscard]] inline std::optional<std::int64_t> RetryAfterMs(const grpc::ClientContext& context) {
+  const auto& trailers = context.GetServerTrailingMetadata();
+  const auto it = trailers.find(kRetryAfterHeader);
+  std::int64_t ms = 0;
+  if (it == trailers.end() ||
+      !absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms) || ms <= 0) {
+    return std::nullopt;
+  }
+  return ms;
+}
 
 }  // namespace oaipp::api

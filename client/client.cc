@@ -1,6 +1,7 @@
 #include "client/client.h"
 
 #include <fstream>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -103,14 +104,10 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
     if (status.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED) {
       // Asked to come back later (take-off pacing): wait as long as the
       // server says, within max_retry_after; this is not a failed attempt.
-      const auto& trailers = context.GetServerTrailingMetadata();
-      std::int64_t ms = 0;
-      if (auto it = trailers.find(api::kRetryAfterHeader);
-          it != trailers.end() &&
-          absl::SimpleAtoi(absl::string_view(it->second.data(), it->second.size()), &ms) &&
-          ms > 0 && absl::Milliseconds(ms) <= options_.max_retry_after - paced) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(ms));
-        paced += absl::Milliseconds(ms);
+      const std::optional<std::int64_t> ms = api::RetryAfterMs(context);
+      if (ms.has_value() && absl::Milliseconds(*ms) <= options_.max_retry_after - paced) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(*ms));
+        paced += absl::Milliseconds(*ms);
         ++paced_calls_;
         --attempt;
         waited = true;

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -582,7 +583,7 @@ TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) 
 // Take-off pacing, with `max_take_off_plans` = 1 and one planning thread.
 struct PacingAnswer {
   grpc::Status status;
-  std::string retry_after;
+  std::optional<std::int64_t> retry_after_ms;
 };
 
 PacingAnswer PlanAt(InProcessService& s, const std::string& id, double mission_time_s, double vx,
@@ -596,20 +597,15 @@ PacingAnswer PlanAt(InProcessService& s, const std::string& id, double mission_t
   grpc::ClientContext context;
   context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
   v1::PlanPathResponse path;
-  PacingAnswer answer{s.stub().PlanPath(&context, request, &path), ""};
-  const auto& trailers = context.GetServerTrailingMetadata();
-  if (auto it = trailers.find(api::kRetryAfterHeader); it != trailers.end()) {
-    answer.retry_after.assign(it->second.data(), it->second.size());
-  }
-  return answer;
+  const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+  return {status, api::RetryAfterMs(context)};
 }
 
 void ExpectPaced(const PacingAnswer& refused) {
   EXPECT_EQ(refused.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(refused.status.error_message(), HasSubstr("take-off"));
-  int ms = 0;
-  EXPECT_TRUE(absl::SimpleAtoi(refused.retry_after, &ms)) << refused.retry_after;
-  EXPECT_GE(ms, 1);
+  ASSERT_TRUE(refused.retry_after_ms.has_value());
+  EXPECT_GE(*refused.retry_after_ms, 1);
 }
 
 // With one take-off plan queued (two planning threads held, so the queue is
@@ -643,12 +639,12 @@ TEST(ServiceTest, TakeOffPlansBeyondTheLimitAreRefusedWithARetryDelay) {
     EXPECT_THAT(r.status.error_message(), HasSubstr("(the limit)"));
   }
   EXPECT_TRUE(a.status.ok()) << a.status.error_message();
-  EXPECT_TRUE(moving.retry_after.empty());
+  EXPECT_TRUE(!moving.retry_after_ms.has_value());
   EXPECT_NE(moving.status.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
       << moving.status.error_message();
   const PacingAnswer admitted = PlanAt(s, "c", 0.0, 0.0);
   EXPECT_TRUE(admitted.status.ok()) << admitted.status.error_message();
-  EXPECT_TRUE(admitted.retry_after.empty());
+  EXPECT_TRUE(!admitted.retry_after_ms.has_value());
 }
 
 // A replan waiting for the only thread keeps take-offs on the ground even
@@ -671,7 +667,7 @@ TEST(ServiceTest, TakeOffsWaitWhileReplansQueue) {
   ExpectPaced(refused);
   EXPECT_THAT(refused.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
   EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
-  EXPECT_TRUE(replan.retry_after.empty());
+  EXPECT_TRUE(!replan.retry_after_ms.has_value());
   const PacingAnswer admitted = PlanAt(s, "grounded", 0.0, 0.0);
   EXPECT_TRUE(admitted.status.ok()) << admitted.status.error_message();
 }

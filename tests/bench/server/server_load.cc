@@ -31,6 +31,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "absl/flags/flag.h"
@@ -207,7 +208,7 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
   while (state.mission_time_s() < budget) {
     v1::PlanPathResponse path;
     double asked_s = Seconds(Clock::now() - t0);
-    std::string retry_after;
+    std::optional<std::int64_t> retry_after_ms;
     auto plan = [&] {
       grpc::ClientContext c;
       c.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
@@ -217,11 +218,7 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
       r.set_request_id(absl::StrCat("plan-", result.plans));
       if (first_budget > 0.0 && result.plans == 0) r.set_planning_budget_s(first_budget);
       const grpc::Status status = stub.PlanPath(&c, r, &path);
-      retry_after.clear();
-      const auto& trailers = c.GetServerTrailingMetadata();
-      if (auto it = trailers.find(oaipp::api::kRetryAfterHeader); it != trailers.end()) {
-        retry_after.assign(it->second.data(), it->second.size());
-      }
+      retry_after_ms = oaipp::api::RetryAfterMs(c);
       return status;
     };
     grpc::Status planned;
@@ -229,13 +226,12 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
       const auto start = Clock::now();
       planned = plan();
       const double ms = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-      int wait_ms = 0;
       // Take-off pacing: wait on the ground as long as the server says.
       if (planned.error_code() == grpc::StatusCode::RESOURCE_EXHAUSTED && result.plans == 0 &&
-          absl::SimpleAtoi(retry_after, &wait_ms) && wait_ms > 0 && wait_ms <= 60'000) {
+          retry_after_ms.has_value() && *retry_after_ms <= 60'000) {
         latencies.Add("PlanPath (take-off refused)", ms, true, Seconds(start - t0));
         ++result.take_off_refusals;
-        std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
+        std::this_thread::sleep_for(std::chrono::milliseconds(*retry_after_ms));
         asked_s = Seconds(Clock::now() - t0);
         continue;
       }
