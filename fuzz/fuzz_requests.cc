@@ -163,6 +163,8 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(planner.oaipp.greedy_candidates_per_layer);
   OAIPP_FUZZ_SAME(planner.oaipp.population);
   OAIPP_FUZZ_SAME(planner.oaipp.generations);
+  OAIPP_FUZZ_SAME(planner.oaipp.stall_generations);
+  OAIPP_FUZZ_SAME(planner.oaipp.stall_tolerance);
   OAIPP_FUZZ_SAME(planner.oaipp.step_m);
   OAIPP_FUZZ_SAME(planner.oaipp.refine);
   OAIPP_FUZZ_SAME(planner.oaipp.exact_check_candidates);

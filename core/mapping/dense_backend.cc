@@ -127,8 +127,7 @@ absl::Status UseOpenBlas() {
       dlclose(library);
       return absl::FailedPreconditionError(
           "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_, dpotri_ or dtrtri_; the "
-          "Kalman "
-          "update runs on Eigen");
+          "Kalman update and the objective run on Eigen");
     }
     // A copy loaded with the program sized its pool before the variable was
     // set (when no restart set it): one thread per call in both copies.

@@ -1,10 +1,10 @@
 #include "core/planning/cmaes_optimizer.h"
 
 #include <cmath>
+#include <deque>
 #include <limits>
 #include <memory>
 #include <utility>
-#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "pagmo/algorithms/cmaes.hpp"
@@ -152,9 +152,11 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
                        /*ftol=*/-1.0, /*xtol=*/-1.0, /*memory=*/true, /*force_bounds=*/false,
                        options.seed);
     result.stop_reason = StopReason::kEvaluationBudget;
-    // best_after[g]: the best value after g completed generations (the
-    // stall rule compares the newest with the one stall_generations ago).
-    std::vector<double> best_after = {shared->best_f};
+    // The best value after each of the last stall_generations + 1 completed
+    // generations (the start counts as generation 0), oldest first: the
+    // stall rule compares the newest with the oldest.
+    std::deque<double> best_after;
+    if (options.stall_generations > 0) best_after.push_back(shared->best_f);
     while (shared->evaluations + options.population <= options.max_evaluations) {
       if (absl::Now() >= deadline) {
         result.stop_reason = StopReason::kDeadline;
@@ -175,11 +177,13 @@ absl::StatusOr<CmaesResult> MinimizeCmaes(const std::function<double(const Eigen
         break;
       }
       ++result.generations;
-      best_after.push_back(shared->best_f);
-      const int g = options.stall_generations;
-      if (g > 0 && result.generations >= g) {
-        const double before = best_after[best_after.size() - 1 - static_cast<std::size_t>(g)];
-        if (shared->best_f >= before - options.stall_tolerance * std::abs(before)) {
+      const auto g = static_cast<std::size_t>(options.stall_generations);
+      if (g > 0) {
+        best_after.push_back(shared->best_f);
+        if (best_after.size() > g + 1) best_after.pop_front();
+        const double before = best_after.front();
+        if (best_after.size() == g + 1 &&
+            shared->best_f >= before - options.stall_tolerance * std::abs(before)) {
           result.stop_reason = StopReason::kStalled;
           break;
         }

@@ -38,9 +38,9 @@ struct CmaesOptions {
   // Asked between generations; true ends the run as not worth continuing
   // (e.g. no candidate so far could be evaluated at all).
   std::function<bool()> give_up = nullptr;
-  // Stop once the best value found has not improved by more than
-  // stall_tolerance x |that value| over the last stall_generations
-  // generations (0: never; the budget and the deadline decide). Valid:
+  // Stop once the best value found is no better than the best value
+  // stall_generations generations before by more than stall_tolerance x
+  // |that earlier value| (0: never; the budget and the deadline decide). Valid:
   // stall_generations >= 0, 0 <= stall_tolerance <= 1.
   int stall_generations = 0;
   double stall_tolerance = 0.0;

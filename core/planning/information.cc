@@ -83,6 +83,11 @@ class MergedCells {
   std::unordered_map<int, int> slot_;
 };
 
+// The adaptive objective takes a seen cell's variance from its merged noise
+// r only while r is at most this many times the cell's variance before the
+// path (InformationEvaluator::Adaptive).
+constexpr double kSeenNoiseRatio = 100.0;
+
 // L^-1 B_K: for the fused cells K, L the factor of B_KK + R: the rows whose
 // column norms are the variance reductions and whose Frobenius norm is the
 // trace reduction.
@@ -270,19 +275,23 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
         // gives var_j = r_j - r_j^2 (S^-1)_jj instead, and with K ordered so
         // that the pose's seen cells O come last, (S^-1)_OO = (L_OO
         // L_OO^T)^-1: a triangular inverse of |O| rows rather than a solve
-        // of |K| rows per seen cell. Consecutive shots overlap, so most cells
-        // are seen ones.
+        // against all |K| rows per seen cell. Consecutive shots overlap, so
+        // most cells are seen ones. A cell whose merged noise r_j is far
+        // above its variance (a detector at its worst altitude) takes the
+        // solve: r_j - r_j^2 (S^-1)_jj would cancel there. So does a cell
+        // listed twice.
         seen.clear();
         unseen.clear();
         const auto k = static_cast<Eigen::Index>(fused.cells().size());
         is_seen.assign(static_cast<std::size_t>(k), 0);
         for (Eigen::Index j = 0; j < m; ++j) {
           const int slot = fused.Slot(pose.cells[j]);
-          if (slot < 0) {
-            unseen.push_back(j);
-          } else {
+          if (slot >= 0 && !is_seen[static_cast<std::size_t>(slot)] &&
+              fused.Noise(slot) <= kSeenNoiseRatio * var[j]) {
             seen.push_back(j);
             is_seen[static_cast<std::size_t>(slot)] = 1;
+          } else {
+            unseen.push_back(j);
           }
         }
         order.clear();

@@ -39,8 +39,9 @@ struct OaIppConfig {
   // coordinate (x, y, z) in metres. lambda x generations = evaluation budget.
   int population = 12;
   int generations = 45;
-  // Stop the search early once the best score has improved by no more than
-  // stall_tolerance (relative) over the last stall_generations generations
+  // Stop the search early once the best score beats the best of
+  // stall_generations generations before by no more than stall_tolerance
+  // times that earlier score
   // (CmaesOptions; 0: always run every generation, the paper's setting).
   int stall_generations = 0;
   double stall_tolerance = 1e-3;

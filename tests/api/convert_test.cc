@@ -135,6 +135,8 @@ void ExpectConfigsEqual(const MissionConfig& a, const MissionConfig& b) {
   EXPECT_EQ(p.oaipp.greedy_candidates_per_layer, q.oaipp.greedy_candidates_per_layer);
   EXPECT_EQ(p.oaipp.population, q.oaipp.population);
   EXPECT_EQ(p.oaipp.generations, q.oaipp.generations);
+  EXPECT_EQ(p.oaipp.stall_generations, q.oaipp.stall_generations);
+  EXPECT_EQ(p.oaipp.stall_tolerance, q.oaipp.stall_tolerance);
   EXPECT_EQ(p.oaipp.step_m, q.oaipp.step_m);
   EXPECT_EQ(p.oaipp.refine, q.oaipp.refine);
   EXPECT_EQ(p.oaipp.exact_check_candidates, q.oaipp.exact_check_candidates);
