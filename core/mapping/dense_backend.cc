@@ -227,6 +227,17 @@ bool CholeskyLowerInPlace(Eigen::MatrixXd& s) {
   return info == 0;
 }
 
+namespace {
+
+// L^-1 on Eigen, for L in the lower triangle of `lower`.
+Eigen::MatrixXd LowerInverseOnEigen(const Eigen::MatrixXd& lower) {
+  Eigen::MatrixXd inv = Eigen::MatrixXd::Identity(lower.rows(), lower.rows());
+  lower.triangularView<Eigen::Lower>().solveInPlace(inv);
+  return inv;
+}
+
+}  // namespace
+
 void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
   const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
@@ -234,8 +245,7 @@ void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
   if (m == 0) return;
   if (blas == nullptr || m > kMaxInt) {
     // L^-1, then its lower triangle of L^-T L^-1.
-    Eigen::MatrixXd inv = Eigen::MatrixXd::Identity(m, m);
-    lower.triangularView<Eigen::Lower>().solveInPlace(inv);
+    const Eigen::MatrixXd inv = LowerInverseOnEigen(lower);
     Eigen::MatrixXd s = Eigen::MatrixXd::Zero(m, m);
     s.selfadjointView<Eigen::Lower>().rankUpdate(inv.transpose());
     lower.triangularView<Eigen::Lower>() = s;
@@ -253,9 +263,7 @@ void InverseLowerInPlace(Eigen::MatrixXd& lower) {
   const Eigen::Index m = lower.rows();
   if (m == 0) return;
   if (blas == nullptr || m > kMaxInt) {
-    Eigen::MatrixXd inv = Eigen::MatrixXd::Identity(m, m);
-    lower.triangularView<Eigen::Lower>().solveInPlace(inv);
-    lower.triangularView<Eigen::Lower>() = inv;
+    lower.triangularView<Eigen::Lower>() = LowerInverseOnEigen(lower);
     return;
   }
   const int n = static_cast<int>(m);
