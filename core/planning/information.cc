@@ -1,6 +1,7 @@
 #include "core/planning/information.h"
 
 #include <cmath>
+#include <numeric>
 #include <unordered_map>
 
 #include "Eigen/Cholesky"
@@ -50,16 +51,9 @@ class MergedCells {
   // The same factor as a matrix (L in its lower triangle), computed by the
   // dense backend (core/mapping/dense_backend.h; Eigen's bits by default).
   [[nodiscard]] Eigen::MatrixXd FactorLower(const Eigen::MatrixXd& cov) const {
-    const auto m = static_cast<Eigen::Index>(cells_.size());
-    Eigen::MatrixXd s(m, m);
-    for (Eigen::Index b = 0; b < m; ++b) {
-      for (Eigen::Index a = b; a < m; ++a) s(a, b) = cov(cells_[a], cells_[b]);
-      s(b, b) += 1.0 / precision_[b];
-    }
-    // Positive definite by construction (a covariance plus positive noise);
-    // like Factor's, a failure is not reported.
-    (void)CholeskyLowerInPlace(s);
-    return s;
+    std::vector<int> order(cells_.size());
+    std::iota(order.begin(), order.end(), 0);
+    return FactorLower(cov, order);
   }
 
   // The same factor with the cells taken in `order` (slots, a permutation
@@ -73,6 +67,8 @@ class MergedCells {
       for (Eigen::Index a = b; a < m; ++a) s(a, b) = cov(cells_[order[a]], cb);
       s(b, b) += 1.0 / precision_[order[b]];
     }
+    // Positive definite by construction (a covariance plus positive noise);
+    // like Factor's, a failure is not reported.
     (void)CholeskyLowerInPlace(s);
     return s;
   }
@@ -260,6 +256,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
   double total = 0.0;
   MergedCells fused;
   std::vector<Eigen::Index> seen, unseen;  // positions in the pose's cells
+  std::vector<int> seen_slots;             // the seen cells' slots in `fused`
   std::vector<int> order;                  // slots of `fused`, seen cells last
   std::vector<char> is_seen;
   for (std::size_t i = 0; i < poses.size(); ++i) {
@@ -281,6 +278,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
         // solve: r_j - r_j^2 (S^-1)_jj would cancel there. So does a cell
         // listed twice.
         seen.clear();
+        seen_slots.clear();
         unseen.clear();
         const auto k = static_cast<Eigen::Index>(fused.cells().size());
         is_seen.assign(static_cast<std::size_t>(k), 0);
@@ -289,6 +287,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
           if (slot >= 0 && !is_seen[static_cast<std::size_t>(slot)] &&
               fused.Noise(slot) <= kSeenNoiseRatio * var[j]) {
             seen.push_back(j);
+            seen_slots.push_back(slot);
             is_seen[static_cast<std::size_t>(slot)] = 1;
           } else {
             unseen.push_back(j);
@@ -298,7 +297,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
         for (int slot = 0; slot < k; ++slot) {
           if (!is_seen[static_cast<std::size_t>(slot)]) order.push_back(slot);
         }
-        for (Eigen::Index j : seen) order.push_back(fused.Slot(pose.cells[j]));
+        order.insert(order.end(), seen_slots.begin(), seen_slots.end());
         const Eigen::MatrixXd lower = fused.FactorLower(base, order);
         if (!unseen.empty()) {
           const auto u = static_cast<Eigen::Index>(unseen.size());
@@ -317,7 +316,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
           for (Eigen::Index b = 0; b < o; ++b) {
             // (S^-1)_jj: column b of L_OO^-1, which is zero above row b.
             const double s_inv = inv.col(b).tail(o - b).squaredNorm();
-            const double r = fused.Noise(order[k - o + b]);
+            const double r = fused.Noise(seen_slots[b]);
             var[seen[b]] = r - r * r * s_inv;
           }
         }

@@ -57,8 +57,9 @@ ABSL_FLAG(std::string, pace, "real_time",
           "as soon as the last one is answered");
 ABSL_FLAG(int, generations, 45, "CMA-ES generations per plan");
 ABSL_FLAG(int, stall_generations, 0,
-          "spec.planner.stall_generations: a plan's search stops once its best score improved "
-          "by no more than --stall_tolerance over this many generations (0: never)");
+          "spec.planner.stall_generations: a plan's search stops once its best score beats the "
+          "best of this many generations before by no more than --stall_tolerance times it "
+          "(0: never)");
 ABSL_FLAG(double, stall_tolerance, 1e-3, "spec.planner.stall_tolerance");
 ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
 ABSL_FLAG(int, planning_queue, -1, "server planning queue (-1: 4 x missions)");
