@@ -96,6 +96,12 @@ ABSL_FLAG(int, max_take_off_plans, 0,
           "refused with RESOURCE_EXHAUSTED and a retry delay in the trailing metadata "
           "x-oaipp-retry-after-ms, so a fleet taking off together leaves over several seconds "
           "with whole first plans; 0: no pacing");
+ABSL_FLAG(double, take_off_patience_s, 5.0,
+          "take-off pacing: a UAV whose first take-off request was refused this many seconds "
+          "ago is no longer held back by the queue rule (as many plans waiting as planning "
+          "threads; --max_take_off_plans still holds), so that a steady replan load cannot keep "
+          "the last of a fleet on the ground; "
+          ">= 0, 0: the queue rule holds only the first request");
 ABSL_FLAG(int, max_missions_per_tenant, 0, "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, 0,
           "memory all missions together may need (admission control, estimated from each spec "
@@ -259,6 +265,8 @@ int main(int argc, char** argv) {
       absl::GetFlag(FLAGS_max_streams_per_client) < 1 ||
       absl::GetFlag(FLAGS_max_plans_per_tenant) < 0 ||
       absl::GetFlag(FLAGS_max_take_off_plans) < 0 ||
+      !(absl::GetFlag(FLAGS_take_off_patience_s) >= 0 &&
+        absl::GetFlag(FLAGS_take_off_patience_s) < 1e6) ||
       !(absl::GetFlag(FLAGS_max_planning_s) > 0 && absl::GetFlag(FLAGS_max_planning_s) < 1e6) ||
       absl::GetFlag(FLAGS_max_missions_per_tenant) < 0 || absl::GetFlag(FLAGS_max_memory_mb) < 0 ||
       absl::GetFlag(FLAGS_max_mission_memory_mb) < 0 ||
@@ -273,7 +281,8 @@ int main(int argc, char** argv) {
         "snapshot_every >= 0, recovery_threads >= 1, keep_finished > 0, keep_idle > 0, "
         "max_streams >= 1, max_streams_per_client >= 1, 0 < max_planning_s < 1e6, and the quotas, "
         "max_take_off_plans and memory limits >= 0, 0 <= shed_above < 1e6, "
-        "0 < min_search_fraction <= 1, 0 <= plan_latency_s < 1e6");
+        "0 < min_search_fraction <= 1, 0 <= plan_latency_s < 1e6, "
+        "0 <= take_off_patience_s < 1e6");
     return 2;
   }
   absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = ServerCredentials();
@@ -378,6 +387,7 @@ int main(int argc, char** argv) {
        .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
        .plan_latency = absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s)),
        .max_take_off_plans = absl::GetFlag(FLAGS_max_take_off_plans),
+       .take_off_patience = absl::Seconds(absl::GetFlag(FLAGS_take_off_patience_s)),
        .replica_id = absl::GetFlag(FLAGS_replica_id)});
 
   grpc::EnableDefaultHealthCheckService(true);

@@ -365,6 +365,21 @@ class Mission {
   // every record it writes states it.
   [[nodiscard]] std::int64_t epoch() const { return epoch_.load(); }
   void set_epoch(std::int64_t epoch) { epoch_.store(epoch); }
+  // Take-off pacing (ServiceLimits::take_off_patience): when this mission's
+  // take-off was first refused; nullopt if it was not, or a take-off plan
+  // has since been answered OK. In memory only: a restart, a reload or
+  // another server taking the mission over starts the wait afresh. (A
+  // refusal racing an admitted take-off of the same mission may leave it
+  // set; that mission's next take-off then skips the queue rule.)
+  [[nodiscard]] std::optional<absl::Time> grounded_since() const {
+    const std::int64_t ns = grounded_since_ns_.load();
+    return ns == kNotGrounded ? std::nullopt : std::optional(absl::FromUnixNanos(ns));
+  }
+  void NoteTakeOffRefused(absl::Time now) {
+    std::int64_t expected = kNotGrounded;
+    grounded_since_ns_.compare_exchange_strong(expected, absl::ToUnixNanos(now));
+  }
+  void NoteTookOff() { grounded_since_ns_.store(kNotGrounded); }
 
  private:
   Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
@@ -460,6 +475,8 @@ class Mission {
   std::atomic<bool> snapshot_pending_{false};
   std::atomic<std::int64_t> last_change_unix_us_{0};
   std::atomic<std::int64_t> epoch_{1};
+  static constexpr std::int64_t kNotGrounded = std::numeric_limits<std::int64_t>::min();
+  std::atomic<std::int64_t> grounded_since_ns_{kNotGrounded};
 
   mutable absl::Mutex events_mu_;
   std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;

@@ -300,14 +300,19 @@ void MissionServiceImpl::NotePlanQueued(absl::Time arrived) {
   newest_plan_ = std::max(newest_plan_, arrived);
 }
 
-std::optional<MissionServiceImpl::TakeOffRefusal> MissionServiceImpl::AdmitTakeOff() {
+std::optional<MissionServiceImpl::TakeOffRefusal> MissionServiceImpl::AdmitTakeOff(
+    std::optional<absl::Time> grounded_since) {
   // UAVs in the air hover while they wait for a path: a take-off also
-  // waits while as many plans queue as there are planning threads.
+  // waits while as many plans queue as there are planning threads, unless
+  // it has waited the patience since its first refusal.
   const int waiting = planners_->waiting();
   const int threads = planners_->threads();
+  const absl::Time now = absl::Now();
+  const bool patience_over =
+      grounded_since.has_value() && now - *grounded_since >= limits_.take_off_patience;
   absl::MutexLock lock(&quota_mu_);
   const int limit = limits_.max_take_off_plans;
-  if (take_offs_ < limit && waiting < threads) {
+  if (take_offs_ < limit && (waiting < threads || patience_over)) {
     ++take_offs_;
     return std::nullopt;
   }
@@ -315,7 +320,6 @@ std::optional<MissionServiceImpl::TakeOffRefusal> MissionServiceImpl::AdmitTakeO
   // take-off plan's share of the threads it may use after the one before,
   // never more than kMaxTakeOffDelay ahead (callers that ignore the delay
   // cannot push everyone else's further).
-  const absl::Time now = absl::Now();
   take_off_slot_ =
       std::min(std::max(take_off_slot_, now) + take_off_cost_ / std::min(limit, threads),
                now + kMaxTakeOffDelay);
@@ -616,7 +620,9 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     // ground for its first path.
     if (service_->limits_.max_take_off_plans > 0 && state_.mission_time_s == 0.0 &&
         state_.velocity_W_m_s.isZero() && state_.accel_W_m_s2.isZero()) {
-      if (std::optional<TakeOffRefusal> refused = service_->AdmitTakeOff(); refused.has_value()) {
+      std::optional<TakeOffRefusal> refused = service_->AdmitTakeOff(mission_->grounded_since());
+      if (refused.has_value()) {
+        mission_->NoteTakeOffRefused(absl::Now());
         const std::int64_t ms =
             std::max<std::int64_t>(1, absl::ToInt64Milliseconds(refused->retry_after));
         context_->AddTrailingMetadata(api::kRetryAfterHeader, absl::StrCat(ms));
@@ -687,7 +693,10 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   // The last thing either path does: after Finish the reactor may be gone.
   void End(const absl::Status& status) {
     if (holds_plan_) service_->ReleasePlan(tenant_);
-    if (take_off_) service_->TakeOffEnded(planned_);
+    if (take_off_) {
+      service_->TakeOffEnded(planned_);
+      if (status.ok()) mission_->NoteTookOff();  // a failed one waits on
+    }
     Finish(ToGrpcStatus(status));
   }
 

@@ -81,6 +81,13 @@ struct ServiceLimits {
   // paced like a new one before its stored answer is looked up. 0: no
   // pacing.
   int max_take_off_plans = 0;
+  // Take-off pacing's patience: a UAV whose first take-off request was
+  // refused this long ago is no longer held back by the queue rule (as
+  // many plans waiting as threads; the max_take_off_plans limit still
+  // holds), so that under a steady replan load the last of a fleet do not
+  // stay on the ground indefinitely. InfiniteDuration: the rule always
+  // holds.
+  absl::Duration take_off_patience = absl::Seconds(5);
   // Sent back on every call as the initial-metadata header
   // api::kReplicaHeader (which server answered: for operators and tests of
   // a cluster); empty: not sent.
@@ -142,7 +149,10 @@ class MissionServiceImpl final : public MissionServiceBase {
     std::string reason;
   };
   static constexpr absl::Duration kMaxTakeOffDelay = absl::Seconds(10);
-  [[nodiscard]] std::optional<TakeOffRefusal> AdmitTakeOff();
+  // `grounded_since`: when the asking mission's take-off was first refused
+  // (nullopt: it was not).
+  [[nodiscard]] std::optional<TakeOffRefusal> AdmitTakeOff(
+      std::optional<absl::Time> grounded_since);
   // A take-off plan admitted by AdmitTakeOff ended, after planning for
   // `planned` (zero when it did not run).
   void TakeOffEnded(absl::Duration planned);

@@ -674,6 +674,59 @@ TEST(ServiceTest, TakeOffsWaitWhileReplansQueue) {
   EXPECT_TRUE(admitted.status.ok()) << admitted.status.error_message();
 }
 
+// Past the patience since its first refusal, a take-off is no longer held
+// back by a waiting replan (before it, it is), but the take-off limit still
+// holds; once it has flown, a new take-off waits afresh.
+TEST(ServiceTest, TakeOffsWaitForReplansOnlyUntilThePatience) {
+  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
+                     /*planning_queue=*/8, nullptr, nullptr,
+                     {.max_take_off_plans = 1, .take_off_patience = absl::Seconds(1)});
+  for (const char* id : {"flying", "grounded", "other"}) CreateSmall(s.stub(), id);
+  absl::Notification release;
+  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
+  const bool held = Eventually([&] { return s.planners().running() == 1; });
+  PacingAnswer replan, patient;
+  std::thread later([&] { replan = PlanAt(s, "flying", 5.0, 0.0); });
+  const bool queued = held && Eventually([&] { return s.planners().waiting() == 1; });
+  const PacingAnswer first = queued ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
+  const PacingAnswer again = queued ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
+  absl::SleepFor(absl::Milliseconds(1200));
+  std::thread grounded([&] { patient = PlanAt(s, "grounded", 0.0, 0.0); });
+  const bool admitted = queued && Eventually([&] { return s.planners().waiting() == 2; });
+  const PacingAnswer other = admitted ? PlanAt(s, "other", 0.0, 0.0) : PacingAnswer{};
+  release.Notify();
+  later.join();
+  grounded.join();
+  ASSERT_TRUE(held);
+  ASSERT_TRUE(queued);
+  ExpectPaced(first);
+  EXPECT_THAT(first.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
+  ExpectPaced(again);
+  EXPECT_THAT(again.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
+  ASSERT_TRUE(admitted);
+  EXPECT_TRUE(patient.status.ok()) << patient.status.error_message();
+  EXPECT_TRUE(!patient.retry_header);
+  ExpectPaced(other);
+  EXPECT_THAT(other.status.error_message(), HasSubstr("(the limit)"));
+  EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
+
+  // Flown: its wait is over, so a new take-off behind a waiting replan is
+  // held back again.
+  absl::Notification release2;
+  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release2.WaitForNotification(); }).ok());
+  const bool held2 = Eventually([&] { return s.planners().running() == 1; });
+  PacingAnswer replan2;
+  std::thread later2([&] { replan2 = PlanAt(s, "flying", 10.0, 0.0); });
+  const bool queued2 = held2 && Eventually([&] { return s.planners().waiting() == 1; });
+  const PacingAnswer anew = queued2 ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
+  release2.Notify();
+  later2.join();
+  ASSERT_TRUE(queued2);
+  ExpectPaced(anew);
+  EXPECT_THAT(anew.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
+  EXPECT_TRUE(replan2.status.ok()) << replan2.status.error_message();
+}
+
 // Plans queued together share the time until the newest one's bound: the
 // first to start does not search for all of its own bound while the others
 // wait, and every plan is answered within the bound (each search would run

@@ -86,6 +86,7 @@ ABSL_FLAG(int, take_off_plans, 0,
           "oaipp-server --max_take_off_plans (take-off pacing; not in the one-at-a-time run): "
           "a refused first plan is asked for again after the server's x-oaipp-retry-after-ms, "
           "the UAV waiting on the ground; 0: no pacing");
+ABSL_FLAG(double, take_off_patience_s, 5.0, "oaipp-server --take_off_patience_s");
 ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
@@ -117,6 +118,9 @@ struct MissionResult {
   int take_off_refusals = 0;     // first plans refused by take-off pacing
   double take_off_wait_s = 0.0;  // from creation to the first path's answer
   double wall_s = 0.0;
+  // In the air between paths, waiting for the next (real time): each path
+  // ends where its last shot is taken, so a replan cannot be asked sooner.
+  double hover_s = 0.0;
   // Each plan: when it was asked for (s since the load started), the
   // planner's wall time (s), evaluations, generations, search share, the
   // wait for a planner (s), and 1 when the deadline ended its search.
@@ -208,7 +212,8 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
   const double first_budget = absl::GetFlag(FLAGS_first_plan_budget_s);
   while (state.mission_time_s() < budget) {
     v1::PlanPathResponse path;
-    double asked_s = Seconds(Clock::now() - t0);
+    const auto asked = Clock::now();
+    double asked_s = Seconds(asked - t0);
     std::optional<std::int64_t> retry_after_ms;
     auto plan = [&] {
       grpc::ClientContext c;
@@ -241,6 +246,7 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
     }
     if (!planned.ok()) return result;
     if (result.plans == 0) result.take_off_wait_s = Seconds(Clock::now() - mission_start);
+    if (result.plans > 0 && paced) result.hover_s += Seconds(Clock::now() - asked);
     ++result.plans;
     result.plan_stats.push_back(
         {asked_s, path.stats().wall_time_s(), static_cast<double>(path.stats().evaluations()),
@@ -335,7 +341,8 @@ void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
        .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
        .plan_latency =
            alone ? absl::ZeroDuration() : absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s)),
-       .max_take_off_plans = alone ? 0 : absl::GetFlag(FLAGS_take_off_plans)});
+       .max_take_off_plans = alone ? 0 : absl::GetFlag(FLAGS_take_off_plans),
+       .take_off_patience = absl::Seconds(absl::GetFlag(FLAGS_take_off_patience_s))});
   grpc::ServerBuilder builder;
   int port = 0;
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
@@ -429,6 +436,14 @@ void Print(LoadResult& r, int missions, double budget, const std::string& pace) 
       "%d first plans refused by take-off pacing\n",
       oaipp::bench::Quantile(waits, 0.5), oaipp::bench::Quantile(waits, 0.99),
       oaipp::bench::Quantile(waits, 1.0), refusals);
+  if (pace == "real_time") {
+    std::vector<double> hovers;
+    for (const MissionResult& m : r.missions) {
+      if (m.finished) hovers.push_back(m.hover_s);
+    }
+    std::printf("in the air waiting for the next path, per mission: mean %.2f s, max %.2f s\n",
+                Mean(hovers), oaipp::bench::Quantile(hovers, 1.0));
+  }
   if (absl::GetFlag(FLAGS_replan_cut_within_s) > 0.0) {
     int left = 0;
     for (const MissionResult& m : r.missions) left += m.finished ? m.cut_replans : 0;
@@ -474,6 +489,7 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
                         {"plan_stats", m.plan_stats},
                         {"take_off_wait_s", m.take_off_wait_s},
                         {"take_off_refusals", m.take_off_refusals},
+                        {"hover_s", m.hover_s},
                         {"wall_s", m.wall_s}});
   }
   j["missions"] = missions;
@@ -513,10 +529,12 @@ int main(int argc, char** argv) {
   const double budget = absl::GetFlag(FLAGS_budget_s);
   if (missions < 1 || !(budget > 0) || !(absl::GetFlag(FLAGS_first_plan_budget_s) >= 0.0) ||
       !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0) || absl::GetFlag(FLAGS_take_off_plans) < 0 ||
-      !(absl::GetFlag(FLAGS_replan_cut_within_s) >= 0.0)) {
+      !(absl::GetFlag(FLAGS_replan_cut_within_s) >= 0.0) ||
+      !(absl::GetFlag(FLAGS_take_off_patience_s) >= 0.0)) {
     std::fprintf(stderr,
                  "--missions must be >= 1, --budget_s > 0, --first_plan_budget_s >= 0, "
-                 "--launch_spread_s >= 0, --take_off_plans >= 0 and --replan_cut_within_s >= 0\n");
+                 "--launch_spread_s >= 0, --take_off_plans >= 0, --replan_cut_within_s >= 0 "
+                 "and --take_off_patience_s >= 0\n");
     return 2;
   }
   std::vector<std::unique_ptr<LoadResult>> runs;
@@ -595,6 +613,7 @@ int main(int argc, char** argv) {
     j["plan_latency_s"] = absl::GetFlag(FLAGS_plan_latency_s);
     j["launch_spread_s"] = absl::GetFlag(FLAGS_launch_spread_s);
     j["take_off_plans"] = absl::GetFlag(FLAGS_take_off_plans);
+    j["take_off_patience_s"] = absl::GetFlag(FLAGS_take_off_patience_s);
     j["first_plan_budget_s"] = absl::GetFlag(FLAGS_first_plan_budget_s);
     j["replan_cut_within_s"] = absl::GetFlag(FLAGS_replan_cut_within_s);
     j["generations"] = absl::GetFlag(FLAGS_generations);
