@@ -649,23 +649,47 @@ TEST(ServiceTest, TakeOffPlansBeyondTheLimitAreRefusedWithARetryDelay) {
   EXPECT_TRUE(!admitted.retry_header);
 }
 
+// With one planning thread: a blocker holds it and a replan of `flying` at
+// `mission_time_s` waits behind it, until Release().
+class ReplanWaiting {
+ public:
+  ReplanWaiting(InProcessService& s, const std::string& flying, double mission_time_s) {
+    held_ = s.planners().Submit("blocker", [this] { release_.WaitForNotification(); }).ok() &&
+            Eventually([&] { return s.planners().running() == 1; });
+    if (!held_) return;
+    replan_thread_ = std::thread(
+        [&s, this, flying, mission_time_s] { replan_ = PlanAt(s, flying, mission_time_s, 0.0); });
+    queued_ = Eventually([&] { return s.planners().waiting() == 1; });
+  }
+  ~ReplanWaiting() { (void)Release(); }
+  [[nodiscard]] bool queued() const { return queued_; }
+  // Lets the blocker and the replan run; the replan's answer.
+  const PacingAnswer& Release() {
+    if (!released_) {
+      released_ = true;
+      release_.Notify();
+      if (replan_thread_.joinable()) replan_thread_.join();
+    }
+    return replan_;
+  }
+
+ private:
+  absl::Notification release_;
+  bool held_ = false, queued_ = false, released_ = false;
+  std::thread replan_thread_;
+  PacingAnswer replan_;
+};
+
 // A replan waiting for the only thread keeps take-offs on the ground even
 // below the take-off limit; the replan itself is never paced.
 TEST(ServiceTest, TakeOffsWaitWhileReplansQueue) {
   InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
                      /*planning_queue=*/8, nullptr, nullptr, {.max_take_off_plans = 2});
   for (const char* id : {"flying", "grounded"}) CreateSmall(s.stub(), id);
-  absl::Notification release;
-  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
-  const bool held = Eventually([&] { return s.planners().running() == 1; });
-  PacingAnswer replan;
-  std::thread later([&] { replan = PlanAt(s, "flying", 5.0, 0.0); });
-  const bool queued = held && Eventually([&] { return s.planners().waiting() == 1; });
-  const PacingAnswer refused = queued ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
-  release.Notify();
-  later.join();
-  ASSERT_TRUE(held);
-  ASSERT_TRUE(queued);
+  ReplanWaiting waiting(s, "flying", 5.0);
+  ASSERT_TRUE(waiting.queued());
+  const PacingAnswer refused = PlanAt(s, "grounded", 0.0, 0.0);
+  const PacingAnswer& replan = waiting.Release();
   ExpectPaced(refused);
   EXPECT_THAT(refused.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
   EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
@@ -682,49 +706,38 @@ TEST(ServiceTest, TakeOffsWaitForReplansOnlyUntilThePatience) {
                      /*planning_queue=*/8, nullptr, nullptr,
                      {.max_take_off_plans = 1, .take_off_patience = absl::Seconds(1)});
   for (const char* id : {"flying", "grounded", "other"}) CreateSmall(s.stub(), id);
-  absl::Notification release;
-  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release.WaitForNotification(); }).ok());
-  const bool held = Eventually([&] { return s.planners().running() == 1; });
-  PacingAnswer replan, patient;
-  std::thread later([&] { replan = PlanAt(s, "flying", 5.0, 0.0); });
-  const bool queued = held && Eventually([&] { return s.planners().waiting() == 1; });
-  const PacingAnswer first = queued ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
-  const PacingAnswer again = queued ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
-  absl::SleepFor(absl::Milliseconds(1200));
-  std::thread grounded([&] { patient = PlanAt(s, "grounded", 0.0, 0.0); });
-  const bool admitted = queued && Eventually([&] { return s.planners().waiting() == 2; });
-  const PacingAnswer other = admitted ? PlanAt(s, "other", 0.0, 0.0) : PacingAnswer{};
-  release.Notify();
-  later.join();
-  grounded.join();
-  ASSERT_TRUE(held);
-  ASSERT_TRUE(queued);
-  ExpectPaced(first);
-  EXPECT_THAT(first.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
-  ExpectPaced(again);
-  EXPECT_THAT(again.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
-  ASSERT_TRUE(admitted);
-  EXPECT_TRUE(patient.status.ok()) << patient.status.error_message();
-  EXPECT_TRUE(!patient.retry_header);
-  ExpectPaced(other);
-  EXPECT_THAT(other.status.error_message(), HasSubstr("(the limit)"));
-  EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
-
+  {
+    ReplanWaiting waiting(s, "flying", 5.0);
+    ASSERT_TRUE(waiting.queued());
+    const PacingAnswer first = PlanAt(s, "grounded", 0.0, 0.0);
+    const PacingAnswer again = PlanAt(s, "grounded", 0.0, 0.0);
+    absl::SleepFor(absl::Milliseconds(1200));
+    PacingAnswer patient;
+    std::thread grounded([&] { patient = PlanAt(s, "grounded", 0.0, 0.0); });
+    const bool admitted = Eventually([&] { return s.planners().waiting() == 2; });
+    const PacingAnswer other = admitted ? PlanAt(s, "other", 0.0, 0.0) : PacingAnswer{};
+    const PacingAnswer& replan = waiting.Release();
+    grounded.join();
+    for (const PacingAnswer* held : {&first, &again}) {
+      ExpectPaced(*held);
+      EXPECT_THAT(held->status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
+    }
+    ASSERT_TRUE(admitted);
+    EXPECT_TRUE(patient.status.ok()) << patient.status.error_message();
+    EXPECT_TRUE(!patient.retry_header);
+    ExpectPaced(other);
+    EXPECT_THAT(other.status.error_message(), HasSubstr("(the limit)"));
+    EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
+  }
   // Flown: its wait is over, so a new take-off behind a waiting replan is
   // held back again.
-  absl::Notification release2;
-  ASSERT_TRUE(s.planners().Submit("blocker", [&] { release2.WaitForNotification(); }).ok());
-  const bool held2 = Eventually([&] { return s.planners().running() == 1; });
-  PacingAnswer replan2;
-  std::thread later2([&] { replan2 = PlanAt(s, "flying", 10.0, 0.0); });
-  const bool queued2 = held2 && Eventually([&] { return s.planners().waiting() == 1; });
-  const PacingAnswer anew = queued2 ? PlanAt(s, "grounded", 0.0, 0.0) : PacingAnswer{};
-  release2.Notify();
-  later2.join();
-  ASSERT_TRUE(queued2);
+  ReplanWaiting waiting(s, "flying", 10.0);
+  ASSERT_TRUE(waiting.queued());
+  const PacingAnswer anew = PlanAt(s, "grounded", 0.0, 0.0);
+  const PacingAnswer& replan = waiting.Release();
   ExpectPaced(anew);
   EXPECT_THAT(anew.status.error_message(), HasSubstr("1 plans wait for 1 planning threads"));
-  EXPECT_TRUE(replan2.status.ok()) << replan2.status.error_message();
+  EXPECT_TRUE(replan.status.ok()) << replan.status.error_message();
 }
 
 // Plans queued together share the time until the newest one's bound: the
