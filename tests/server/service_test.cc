@@ -650,12 +650,20 @@ TEST(ServiceTest, TakeOffPlansBeyondTheLimitAreRefusedWithARetryDelay) {
 }
 
 // With one planning thread: a blocker holds it and a replan of `flying` at
-// `mission_time_s` waits behind it, until Release().
+// `mission_time_s` waits behind it, until Release(). The blocker says when it
+// runs: an earlier plan may still count as running, or the blocker as
+// waiting, for a moment after its caller has its answer.
 class ReplanWaiting {
  public:
   ReplanWaiting(InProcessService& s, const std::string& flying, double mission_time_s) {
-    held_ = s.planners().Submit("blocker", [this] { release_.WaitForNotification(); }).ok() &&
-            Eventually([&] { return s.planners().running() == 1; });
+    held_ = s.planners()
+                .Submit("blocker",
+                        [this] {
+                          running_.Notify();
+                          release_.WaitForNotification();
+                        })
+                .ok() &&
+            running_.WaitForNotificationWithTimeout(absl::Seconds(30));
     if (!held_) return;
     replan_thread_ = std::thread(
         [&s, this, flying, mission_time_s] { replan_ = PlanAt(s, flying, mission_time_s, 0.0); });
@@ -674,7 +682,7 @@ class ReplanWaiting {
   }
 
  private:
-  absl::Notification release_;
+  absl::Notification running_, release_;
   bool held_ = false, queued_ = false, released_ = false;
   std::thread replan_thread_;
   PacingAnswer replan_;
