@@ -30,6 +30,7 @@
 #include "absl/synchronization/notification.h"
 #include "api/limits.h"
 #include "core/mapping/dense_backend.h"
+#include "core/planning/information.h"
 #include "google/protobuf/stubs/logging.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/grpcpp.h"
@@ -83,6 +84,9 @@ ABSL_FLAG(double, shed_above, 2.0,
 ABSL_FLAG(std::string, dense_backend, "openblas",
           "where the Kalman update's rank-m product runs: openblas (Debian's libopenblas0-pthread, "
           "loaded at start; Eigen when it is missing or another build) or eigen");
+ABSL_FLAG(std::string, objective_precision, "double",
+          "the adaptive objective's solves: double, or single (about twice as fast on OpenBLAS; "
+          "plans differ from double's, docs/capacity.md)");
 ABSL_FLAG(double, min_search_fraction, 0.1, "the least share of its search a shed plan runs");
 ABSL_FLAG(double, plan_latency_s, 0.0,
           "overload: a plan's search ends this many seconds after its call arrived, the wait "
@@ -240,7 +244,15 @@ int main(int argc, char** argv) {
     spdlog::error("bad flags: dense_backend must be openblas or eigen");
     return 2;
   }
-  spdlog::info("Kalman update on {}", oaipp::DenseBackendName());
+  if (const std::string precision = absl::GetFlag(FLAGS_objective_precision);
+      precision == "single" || precision == "double") {
+    oaipp::SetSinglePrecisionObjective(precision == "single");
+  } else {
+    spdlog::error("bad flags: objective_precision must be double or single");
+    return 2;
+  }
+  spdlog::info("Kalman update on {}; adaptive objective's solves in {} precision",
+               oaipp::DenseBackendName(), absl::GetFlag(FLAGS_objective_precision));
 
   // Signals are taken by a thread of ours, not by whichever thread runs:
   // blocked before any thread starts (gRPC starts its own as soon as it is

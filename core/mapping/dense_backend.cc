@@ -35,6 +35,12 @@ using Dpotrf = void (*)(const char* uplo, const int* n, double* a, const int* ld
 using Dpotri = Dpotrf;  // the same arguments
 using Dtrtri = void (*)(const char* uplo, const char* diag, const int* n, double* a, const int* lda,
                         int* info, std::size_t uplo_length, std::size_t diag_length);
+using Strsm = void (*)(int order, int side, int uplo, int trans, int diag, int m, int n,
+                       float alpha, const float* a, int lda, float* b, int ldb);
+using Spotrf = void (*)(const char* uplo, const int* n, float* a, const int* lda, int* info,
+                        std::size_t uplo_length);
+using Strtri = void (*)(const char* uplo, const char* diag, const int* n, float* a, const int* lda,
+                        int* info, std::size_t uplo_length, std::size_t diag_length);
 using SetThreads = void (*)(int);
 using CoreName = char* (*)();
 using GetParallel = int (*)();
@@ -45,6 +51,9 @@ struct OpenBlas {
   Dpotrf dpotrf = nullptr;
   Dpotri dpotri = nullptr;
   Dtrtri dtrtri = nullptr;
+  Strsm strsm = nullptr;
+  Spotrf spotrf = nullptr;
+  Strtri strtri = nullptr;
   std::string kernel;
 };
 
@@ -122,12 +131,16 @@ absl::Status UseOpenBlas() {
     blas.dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
     blas.dpotri = reinterpret_cast<Dpotri>(dlsym(library, "dpotri_"));
     blas.dtrtri = reinterpret_cast<Dtrtri>(dlsym(library, "dtrtri_"));
+    blas.strsm = reinterpret_cast<Strsm>(dlsym(library, "cblas_strsm"));
+    blas.spotrf = reinterpret_cast<Spotrf>(dlsym(library, "spotrf_"));
+    blas.strtri = reinterpret_cast<Strtri>(dlsym(library, "strtri_"));
     if (blas.dsyrk == nullptr || blas.dtrsm == nullptr || blas.dpotrf == nullptr ||
-        blas.dpotri == nullptr || blas.dtrtri == nullptr) {
+        blas.dpotri == nullptr || blas.dtrtri == nullptr || blas.strsm == nullptr ||
+        blas.spotrf == nullptr || blas.strtri == nullptr) {
       dlclose(library);
       return absl::FailedPreconditionError(
-          "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_, dpotri_ or dtrtri_; the "
-          "Kalman update and the objective run on Eigen");
+          "the OpenBLAS found lacks one of cblas_dsyrk, cblas_dtrsm, dpotrf_, dpotri_, dtrtri_, "
+          "cblas_strsm, spotrf_ or strtri_; the Kalman update and the objective run on Eigen");
     }
     // A copy loaded with the program sized its pool before the variable was
     // set (when no restart set it): one thread per call in both copies.
@@ -230,9 +243,10 @@ bool CholeskyLowerInPlace(Eigen::MatrixXd& s) {
 namespace {
 
 // L^-1 on Eigen, for L in the lower triangle of `lower`.
-Eigen::MatrixXd LowerInverseOnEigen(const Eigen::MatrixXd& lower) {
-  Eigen::MatrixXd inv = Eigen::MatrixXd::Identity(lower.rows(), lower.rows());
-  lower.triangularView<Eigen::Lower>().solveInPlace(inv);
+template <typename Matrix>
+Matrix LowerInverseOnEigen(const Matrix& lower) {
+  Matrix inv = Matrix::Identity(lower.rows(), lower.rows());
+  lower.template triangularView<Eigen::Lower>().solveInPlace(inv);
   return inv;
 }
 
@@ -270,6 +284,50 @@ void InverseLowerInPlace(Eigen::MatrixXd& lower) {
   const int lda = static_cast<int>(lower.outerStride());
   int info = 0;
   blas->dtrtri("L", "N", &n, lower.data(), &lda, &info, 1, 1);
+}
+
+void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b) {
+  if (b.size() == 0) return;
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
+    lower.triangularView<Eigen::Lower>().solveInPlace(b);
+    return;
+  }
+  blas->strsm(kColMajor, kLeft, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
+              static_cast<int>(b.cols()), 1.0F, lower.data(), static_cast<int>(lower.outerStride()),
+              b.data(), static_cast<int>(b.outerStride()));
+}
+
+bool CholeskyLowerInPlace(Eigen::MatrixXf& s) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (blas == nullptr || s.rows() > kMaxInt || s.rows() == 0) {
+    const Eigen::LLT<Eigen::MatrixXf> llt(s);
+    if (llt.info() != Eigen::Success) return false;
+    s = llt.matrixLLT();
+    return true;
+  }
+  const int n = static_cast<int>(s.rows());
+  const int lda = static_cast<int>(s.outerStride());
+  int info = 0;
+  blas->spotrf("L", &n, s.data(), &lda, &info, 1);
+  return info == 0;
+}
+
+void InverseLowerInPlace(Eigen::MatrixXf& lower) {
+  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  const Eigen::Index m = lower.rows();
+  if (m == 0) return;
+  if (blas == nullptr || m > kMaxInt) {
+    lower.triangularView<Eigen::Lower>() = LowerInverseOnEigen(lower);
+    return;
+  }
+  const int n = static_cast<int>(m);
+  const int lda = static_cast<int>(lower.outerStride());
+  int info = 0;
+  blas->strtri("L", "N", &n, lower.data(), &lda, &info, 1, 1);
 }
 
 }  // namespace oaipp

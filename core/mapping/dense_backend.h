@@ -97,4 +97,11 @@ void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower);
 // is unspecified. Precondition: L's diagonal is nonzero.
 void InverseLowerInPlace(Eigen::MatrixXd& lower);
 
+// The same three in single precision (OpenBLAS's strsm, spotrf and strtri,
+// or Eigen's), for the planner's objective when it runs in single
+// precision (core/planning/information.h).
+void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b);
+[[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXf& s);
+void InverseLowerInPlace(Eigen::MatrixXf& lower);
+
 }  // namespace oaipp

@@ -1,5 +1,6 @@
 #include "core/planning/information.h"
 
+#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
@@ -57,15 +58,18 @@ class MergedCells {
   }
 
   // The same factor with the cells taken in `order` (slots, a permutation
-  // of 0 .. size - 1).
-  [[nodiscard]] Eigen::MatrixXd FactorLower(const Eigen::MatrixXd& cov,
-                                            const std::vector<int>& order) const {
+  // of 0 .. size - 1), in double or single precision.
+  template <typename Scalar = double>
+  [[nodiscard]] Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> FactorLower(
+      const Eigen::MatrixXd& cov, const std::vector<int>& order) const {
     const auto m = static_cast<Eigen::Index>(order.size());
-    Eigen::MatrixXd s(m, m);
+    Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> s(m, m);
     for (Eigen::Index b = 0; b < m; ++b) {
       const int cb = cells_[order[b]];
-      for (Eigen::Index a = b; a < m; ++a) s(a, b) = cov(cells_[order[a]], cb);
-      s(b, b) += 1.0 / precision_[order[b]];
+      for (Eigen::Index a = b; a < m; ++a) {
+        s(a, b) = static_cast<Scalar>(cov(cells_[order[a]], cb));
+      }
+      s(b, b) += static_cast<Scalar>(1.0 / precision_[order[b]]);
     }
     // Positive definite by construction (a covariance plus positive noise);
     // like Factor's, a failure is not reported.
@@ -81,8 +85,15 @@ class MergedCells {
 
 // The adaptive objective takes a seen cell's variance from its merged noise
 // r only while r is at most this many times the cell's variance before the
-// path (InformationEvaluator::Adaptive).
+// path (InformationEvaluator::Adaptive): r - r^2 (S^-1)_jj loses about
+// log10 of the ratio in digits. Single precision keeps 7 digits, so it
+// takes the solve sooner.
+template <typename Scalar>
 constexpr double kSeenNoiseRatio = 100.0;
+template <>
+constexpr double kSeenNoiseRatio<float> = 10.0;
+
+std::atomic<bool> g_single_precision{false};
 
 // L^-1 B_K: for the fused cells K, L the factor of B_KK + R: the rows whose
 // column norms are the variance reductions and whose Frobenius norm is the
@@ -238,6 +249,21 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
   if (fused.empty()) return var;
+  if (SinglePrecisionObjective()) {
+    // As WhitenedRows, in single precision.
+    std::vector<int> order(fused.cells().size());
+    std::iota(order.begin(), order.end(), 0);
+    const Eigen::MatrixXf lower = fused.FactorLower<float>(base, order);
+    Eigen::MatrixXf rows(lower.rows(), base.cols());
+    for (Eigen::Index a = 0; a < rows.rows(); ++a) {
+      rows.row(a) = base.col(fused.cells()[a]).transpose().cast<float>();
+    }
+    SolveLeftLower(lower, rows);
+    for (Eigen::Index c = 0; c < rows.cols(); ++c) {
+      var[c] -= rows.col(c).cast<double>().squaredNorm();
+    }
+    return var;
+  }
   var -= WhitenedRows(fused, base, fused.FactorLower(base)).colwise().squaredNorm().transpose();
   return var;
 }
@@ -251,8 +277,20 @@ double InformationEvaluator::PoseValue(const PoseObservation& pose,
   return av * reward;
 }
 
+void SetSinglePrecisionObjective(bool single) { g_single_precision.store(single); }
+
+bool SinglePrecisionObjective() { return g_single_precision.load(std::memory_order_relaxed); }
+
 double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
                                       const Eigen::MatrixXd& base) const {
+  return SinglePrecisionObjective() ? AdaptiveIn<float>(poses, base)
+                                    : AdaptiveIn<double>(poses, base);
+}
+
+template <typename Scalar>
+double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
+                                        const Eigen::MatrixXd& base) const {
+  using Matrix = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
   double total = 0.0;
   MergedCells fused;
   std::vector<Eigen::Index> seen, unseen;  // positions in the pose's cells
@@ -285,7 +323,7 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
         for (Eigen::Index j = 0; j < m; ++j) {
           const int slot = fused.Slot(pose.cells[j]);
           if (slot >= 0 && !is_seen[static_cast<std::size_t>(slot)] &&
-              fused.Noise(slot) <= kSeenNoiseRatio * var[j]) {
+              fused.Noise(slot) <= kSeenNoiseRatio<Scalar> * var[j]) {
             seen.push_back(j);
             seen_slots.push_back(slot);
             is_seen[static_cast<std::size_t>(slot)] = 1;
@@ -298,24 +336,28 @@ double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
           if (!is_seen[static_cast<std::size_t>(slot)]) order.push_back(slot);
         }
         order.insert(order.end(), seen_slots.begin(), seen_slots.end());
-        const Eigen::MatrixXd lower = fused.FactorLower(base, order);
+        const Matrix lower = fused.template FactorLower<Scalar>(base, order);
         if (!unseen.empty()) {
           const auto u = static_cast<Eigen::Index>(unseen.size());
-          Eigen::MatrixXd cross(k, u);  // B_K,J for the unseen cells
+          Matrix cross(k, u);  // B_K,J for the unseen cells
           for (Eigen::Index b = 0; b < u; ++b) {
             const int cell = pose.cells[unseen[b]];
-            for (Eigen::Index a = 0; a < k; ++a) cross(a, b) = base(fused.cells()[order[a]], cell);
+            for (Eigen::Index a = 0; a < k; ++a) {
+              cross(a, b) = static_cast<Scalar>(base(fused.cells()[order[a]], cell));
+            }
           }
           SolveLeftLower(lower, cross);
-          for (Eigen::Index b = 0; b < u; ++b) var[unseen[b]] -= cross.col(b).squaredNorm();
+          for (Eigen::Index b = 0; b < u; ++b) {
+            var[unseen[b]] -= cross.col(b).template cast<double>().squaredNorm();
+          }
         }
         if (!seen.empty()) {
           const auto o = static_cast<Eigen::Index>(seen.size());
-          Eigen::MatrixXd inv = lower.bottomRightCorner(o, o);
+          Matrix inv = lower.bottomRightCorner(o, o);
           InverseLowerInPlace(inv);
           for (Eigen::Index b = 0; b < o; ++b) {
             // (S^-1)_jj: column b of L_OO^-1, which is zero above row b.
-            const double s_inv = inv.col(b).tail(o - b).squaredNorm();
+            const double s_inv = inv.col(b).tail(o - b).template cast<double>().squaredNorm();
             const double r = fused.Noise(seen_slots[b]);
             var[seen[b]] = r - r * r * s_inv;
           }

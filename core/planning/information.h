@@ -142,6 +142,20 @@ struct PrefixKey {
 // shot, and compute it once (a copy and a rank-k update of n^2 doubles).
 using ConditionedCache = SingleFlightCache<PrefixKey, Eigen::MatrixXd>;
 
+// Process-wide, off by default: the adaptive objective's solves (the
+// Cholesky factor of the fused cells, the triangular solve of a shot's new
+// cells against it, the inverse of its seen cells' block) and those of
+// PosteriorVariances (the greedy start's) run in single precision, on the
+// covariance's values rounded to floats; the map, its updates and every
+// other computation stay double. OpenBLAS's single-precision kernels take
+// about half the time. Scores then differ from double precision's by about
+// 1e-8 relative (information_test.cc), so a search may rank two
+// candidates the other way and take another step; as reproducible, but not
+// bit for bit double's. docs/capacity.md measures what it saves and costs.
+// Set before plans run (a server flag).
+void SetSinglePrecisionObjective(bool single);
+[[nodiscard]] bool SinglePrecisionObjective();
+
 class InformationEvaluator {
  public:
   // Holds references: mean (n) and covariance (n x n, symmetric) must
@@ -185,6 +199,9 @@ class InformationEvaluator {
   [[nodiscard]] std::size_t PrefixLength(std::span<const PoseObservation> poses) const;
   [[nodiscard]] double Adaptive(std::span<const PoseObservation> poses,
                                 const Eigen::MatrixXd& base) const;
+  template <typename Scalar>
+  [[nodiscard]] double AdaptiveIn(std::span<const PoseObservation> poses,
+                                  const Eigen::MatrixXd& base) const;
   [[nodiscard]] double NonAdaptive(std::span<const PoseObservation> poses,
                                    const Eigen::MatrixXd& base, bool base_is_cached) const;
 

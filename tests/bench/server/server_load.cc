@@ -41,6 +41,7 @@
 #include "api/metadata.h"
 #include "api/plan.h"
 #include "core/mapping/dense_backend.h"
+#include "core/planning/information.h"
 #include "grpcpp/grpcpp.h"
 #include "nlohmann/json.hpp"
 #include "server/service.h"
@@ -99,6 +100,9 @@ ABSL_FLAG(bool, compare_alone, false,
           "nothing shed) and compare the mean RSE");
 ABSL_FLAG(std::string, dense_backend, "openblas",
           "the Kalman update's backend, as oaipp-server --dense_backend: openblas or eigen");
+ABSL_FLAG(std::string, objective_precision, "double",
+          "the adaptive objective's solves: double, or single (about twice as fast on OpenBLAS; "
+          "plans differ from double's, docs/capacity.md)");
 ABSL_FLAG(std::string, json, "", "write the figures and every call to this file");
 
 namespace {
@@ -524,6 +528,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--dense_backend: openblas or eigen\n");
     return 2;
   }
+  if (const std::string precision = absl::GetFlag(FLAGS_objective_precision);
+      precision == "single" || precision == "double") {
+    oaipp::SetSinglePrecisionObjective(precision == "single");
+  } else {
+    std::fprintf(stderr, "--objective_precision: double or single\n");
+    return 2;
+  }
   std::printf("Kalman update on %s\n", oaipp::DenseBackendName().c_str());
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
@@ -620,6 +631,7 @@ int main(int argc, char** argv) {
     j["stall_generations"] = absl::GetFlag(FLAGS_stall_generations);
     j["stall_tolerance"] = absl::GetFlag(FLAGS_stall_tolerance);
     j["dense_backend"] = oaipp::DenseBackendName();
+    j["objective_precision"] = absl::GetFlag(FLAGS_objective_precision);
     nlohmann::json list = nlohmann::json::array();
     for (auto& run : runs) list.push_back(ToJson(*run, pace));
     j["runs"] = list;

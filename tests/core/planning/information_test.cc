@@ -5,6 +5,7 @@
 #include <random>
 #include <string>
 
+#include "absl/strings/str_cat.h"
 #include "core/mapping/camera.h"
 #include "core/mapping/dense_backend.h"
 #include "core/mapping/gp_map.h"
@@ -123,6 +124,57 @@ TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
       EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference))
           << "path " << path << (open_blas ? " on OpenBLAS" : " on Eigen");
     }
+  }
+  UseEigen();
+}
+
+// The adaptive objective in single precision (SetSinglePrecisionObjective)
+// against the double-precision oracle, on both dense backends: within
+// single precision's accuracy (1e-6 relative; 3e-8 was the worst seen, and a
+// wrong variance or cell would be off by far more), and not bit for bit
+// double's (the switch took effect).
+TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
+  const GpMap map = RandomPosterior(24, 13);
+  const InformationParams params{.kappa = 1.2};
+  const DownwardCamera camera;
+  const SensorNoise noise;
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<double> xy(2, 16), h(3, 24), step(-3.0, 3.0);
+  std::vector<std::vector<PoseObservation>> paths;
+  std::vector<double> references;
+  for (int path = 0; path < 8; ++path) {
+    Vec3 p(xy(rng), xy(rng), h(rng));
+    std::vector<PoseObservation> poses;
+    for (int shot = 0; shot < 4; ++shot) {
+      p += Vec3(step(rng), step(rng), step(rng));
+      p.z() = std::clamp(p.z(), 3.0, 24.0);
+      poses.push_back({camera.FootprintCells(map.grid(), p), noise.Variance(p.z()), p.z(), true});
+    }
+    references.push_back(ReferenceInformation(map.Mean(), map.Covariance(), params, poses));
+    ASSERT_GT(references.back(), 0.0);
+    paths.push_back(std::move(poses));
+  }
+  const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
+  for (const bool open_blas : {false, true}) {
+    if (open_blas) {
+      ASSERT_TRUE(UseOpenBlas().ok());
+    } else {
+      UseEigen();
+    }
+    double worst = 0.0;
+    int differs = 0;
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+      SetSinglePrecisionObjective(true);
+      const double single = fast.Evaluate(paths[i]);
+      SetSinglePrecisionObjective(false);
+      const double twice = fast.Evaluate(paths[i]);
+      worst = std::max(worst, std::abs(single - references[i]) / references[i]);
+      differs += single != twice;
+    }
+    EXPECT_LT(worst, 1e-6) << (open_blas ? "OpenBLAS" : "Eigen");
+    EXPECT_GT(differs, 0) << (open_blas ? "OpenBLAS" : "Eigen");
+    RecordProperty(open_blas ? "worst_relative_openblas" : "worst_relative_eigen",
+                   absl::StrCat(worst));
   }
   UseEigen();
 }
