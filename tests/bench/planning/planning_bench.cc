@@ -18,6 +18,10 @@
 // - BM_ConfirmationAgainstPaper: the BM_ReplanE1 replans with the paper's
 //   objective and with the confirmation term (weight 100), alternating;
 //   `confirm_over_paper` is the ratio of the medians.
+// - BM_SinglePrecisionAgainstDouble: the BM_ReplanE1 replans on OpenBLAS
+//   with the objective's solves in double and in single precision,
+//   alternating; `single_over_double` is the ratio of the medians,
+//   `same_paths` the share of plans identical bit for bit.
 // - BM_LawnmowerFromRest: the lawnmower at rest from 6 places (where clear)
 //   in E3's worlds of 5, 10 and 15 low- and high-rise buildings, seeds 1 to
 //   60; counts the starts, the answers and those flown stop and go (the
@@ -33,6 +37,7 @@
 #include <chrono>
 #include <random>
 
+#include "core/mapping/dense_backend.h"
 #include "core/planning/planners.h"
 #include "tests/core/planning/scenes.h"
 
@@ -206,6 +211,55 @@ void BM_ConfirmationAgainstPaper(benchmark::State& state) {
   state.counters["confirm_over_paper"] = Median(confirm_s) / Median(paper_s);
 }
 BENCHMARK(BM_ConfirmationAgainstPaper)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// Single-precision objective solves (SetSinglePrecisionObjective) against
+// double, on OpenBLAS as the server runs them: the BM_ReplanE1 replans,
+// alternating; `single_over_double` is the ratio of the medians and
+// `same_paths` the share of plans whose waypoints came out bit for bit
+// those of double precision.
+void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
+  if (!UseOpenBlas().ok()) {
+    state.SkipWithError("OpenBLAS (libopenblas0-pthread) is not installed");
+    return;
+  }
+  const std::string backend = DenseBackendName();
+  const World& w = E1();
+  const std::vector<Vec3> starts = {{10, 0, 7},    {-10, 8, 10}, {5, 10, 12},  {-12, -12, 8},
+                                    {12, -10, 15}, {0, 6, 5},    {-6, -5, 18}, {8, 8, 20}};
+  std::vector<double> double_s, single_s;
+  int same = 0, plans = 0;
+  for (auto _ : state) {
+    for (const Vec3& p : starts) {
+      std::vector<Vec3> waypoints[2];
+      for (const bool single : {false, true}) {
+        SetSinglePrecisionObjective(single);
+        OaIppPlanner planner(PlannerCommon{}, OaIppConfig{});
+        UavState start;
+        start.position_W = p;
+        const auto t0 = std::chrono::steady_clock::now();
+        auto path = planner.Plan(w.View(), start, absl::InfiniteFuture());
+        (single ? single_s : double_s)
+            .push_back(
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+        if (!path.ok()) {
+          state.SkipWithError(std::string(path.status().message()).c_str());
+          break;
+        }
+        waypoints[single ? 1 : 0] = path->control_waypoints_W;
+      }
+      same += waypoints[0] == waypoints[1] ? 1 : 0;
+      ++plans;
+    }
+  }
+  SetSinglePrecisionObjective(false);
+  UseEigen();
+  state.counters["double_median_ms"] = 1e3 * Median(double_s);
+  state.counters["single_median_ms"] = 1e3 * Median(single_s);
+  state.counters["single_over_double"] = Median(single_s) / Median(double_s);
+  state.counters["same_paths"] = static_cast<double>(same) / plans;
+  state.SetLabel(backend);
+}
+BENCHMARK(BM_SinglePrecisionAgainstDouble)->Unit(benchmark::kMillisecond)->Iterations(2);
 
 void BM_LawnmowerFromRest(benchmark::State& state) {
   const std::vector<Vec3> places = {{-5.193, -10.852, 8}, {-5.193, -10.852, 15},
