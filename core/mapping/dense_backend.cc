@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdlib>
+#include <type_traits>
 #include <utility>
 
 #include "Eigen/Cholesky"
@@ -134,13 +135,14 @@ absl::Status UseOpenBlas() {
     blas.strsm = reinterpret_cast<Strsm>(dlsym(library, "cblas_strsm"));
     blas.spotrf = reinterpret_cast<Spotrf>(dlsym(library, "spotrf_"));
     blas.strtri = reinterpret_cast<Strtri>(dlsym(library, "strtri_"));
+    // The single-precision three are optional: without them the
+    // single-precision objective's solves run on Eigen.
     if (blas.dsyrk == nullptr || blas.dtrsm == nullptr || blas.dpotrf == nullptr ||
-        blas.dpotri == nullptr || blas.dtrtri == nullptr || blas.strsm == nullptr ||
-        blas.spotrf == nullptr || blas.strtri == nullptr) {
+        blas.dpotri == nullptr || blas.dtrtri == nullptr) {
       dlclose(library);
       return absl::FailedPreconditionError(
-          "the OpenBLAS found lacks one of cblas_dsyrk, cblas_dtrsm, dpotrf_, dpotri_, dtrtri_, "
-          "cblas_strsm, spotrf_ or strtri_; the Kalman update and the objective run on Eigen");
+          "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_, dpotri_ or dtrtri_; the "
+          "Kalman update and the objective run on Eigen");
     }
     // A copy loaded with the program sized its pool before the variable was
     // set (when no restart set it): one thread per call in both copies.
@@ -210,25 +212,54 @@ void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
               b.data(), static_cast<int>(b.outerStride()));
 }
 
-void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
-  if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
-    lower.triangularView<Eigen::Lower>().solveInPlace(b);
-    return;
-  }
-  blas->dtrsm(kColMajor, kLeft, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
-              static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
-              b.data(), static_cast<int>(b.outerStride()));
+namespace {
+
+template <typename Scalar>
+using MatrixOf = Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>;
+
+// L^-1 on Eigen, for L in the lower triangle of `lower`.
+template <typename Scalar>
+MatrixOf<Scalar> LowerInverseOnEigen(const MatrixOf<Scalar>& lower) {
+  MatrixOf<Scalar> inv = MatrixOf<Scalar>::Identity(lower.rows(), lower.rows());
+  lower.template triangularView<Eigen::Lower>().solveInPlace(inv);
+  return inv;
 }
 
-bool CholeskyLowerInPlace(Eigen::MatrixXd& s) {
+// OpenBLAS's kernel for Scalar (`d` for double, `s` for float), or nullptr
+// on Eigen or where the library lacks it.
+template <typename Scalar, typename D, typename S>
+auto KernelOf(D OpenBlas::*d, S OpenBlas::*s) {
   const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  if constexpr (std::is_same_v<Scalar, double>) {
+    return blas == nullptr ? D{nullptr} : blas->*d;
+  } else {
+    return blas == nullptr ? S{nullptr} : blas->*s;
+  }
+}
+
+// The double- and single-precision versions of the three below share one
+// body; only OpenBLAS's entry point differs (d... or s...).
+template <typename Scalar>
+void SolveLeftLowerIn(const MatrixOf<Scalar>& lower, MatrixOf<Scalar>& b) {
+  if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
+  const auto trsm = KernelOf<Scalar>(&OpenBlas::dtrsm, &OpenBlas::strsm);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || s.rows() > kMaxInt || s.rows() == 0) {
-    // As Eigen::LLT<MatrixXd>(s) computes it, bit for bit.
-    const Eigen::LLT<Eigen::MatrixXd> llt(s);
+  if (trsm == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
+    lower.template triangularView<Eigen::Lower>().solveInPlace(b);
+    return;
+  }
+  trsm(kColMajor, kLeft, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
+       static_cast<int>(b.cols()), Scalar{1}, lower.data(), static_cast<int>(lower.outerStride()),
+       b.data(), static_cast<int>(b.outerStride()));
+}
+
+template <typename Scalar>
+bool CholeskyLowerInPlaceIn(MatrixOf<Scalar>& s) {
+  const auto potrf = KernelOf<Scalar>(&OpenBlas::dpotrf, &OpenBlas::spotrf);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  if (potrf == nullptr || s.rows() > kMaxInt || s.rows() == 0) {
+    // As Eigen::LLT(s) computes it, bit for bit.
+    const Eigen::LLT<MatrixOf<Scalar>> llt(s);
     if (llt.info() != Eigen::Success) return false;
     s = llt.matrixLLT();
     return true;
@@ -236,21 +267,38 @@ bool CholeskyLowerInPlace(Eigen::MatrixXd& s) {
   const int n = static_cast<int>(s.rows());
   const int lda = static_cast<int>(s.outerStride());
   int info = 0;
-  blas->dpotrf("L", &n, s.data(), &lda, &info, 1);
+  potrf("L", &n, s.data(), &lda, &info, 1);
   return info == 0;
 }
 
-namespace {
-
-// L^-1 on Eigen, for L in the lower triangle of `lower`.
-template <typename Matrix>
-Matrix LowerInverseOnEigen(const Matrix& lower) {
-  Matrix inv = Matrix::Identity(lower.rows(), lower.rows());
-  lower.template triangularView<Eigen::Lower>().solveInPlace(inv);
-  return inv;
+template <typename Scalar>
+void InverseLowerInPlaceIn(MatrixOf<Scalar>& lower) {
+  const auto trtri = KernelOf<Scalar>(&OpenBlas::dtrtri, &OpenBlas::strtri);
+  constexpr Eigen::Index kMaxInt = 0x7fffffff;
+  const Eigen::Index m = lower.rows();
+  if (m == 0) return;
+  if (trtri == nullptr || m > kMaxInt) {
+    lower.template triangularView<Eigen::Lower>() = LowerInverseOnEigen<Scalar>(lower);
+    return;
+  }
+  const int n = static_cast<int>(m);
+  const int lda = static_cast<int>(lower.outerStride());
+  int info = 0;
+  trtri("L", "N", &n, lower.data(), &lda, &info, 1, 1);
 }
 
 }  // namespace
+
+void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+  SolveLeftLowerIn<double>(lower, b);
+}
+void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b) {
+  SolveLeftLowerIn<float>(lower, b);
+}
+bool CholeskyLowerInPlace(Eigen::MatrixXd& s) { return CholeskyLowerInPlaceIn<double>(s); }
+bool CholeskyLowerInPlace(Eigen::MatrixXf& s) { return CholeskyLowerInPlaceIn<float>(s); }
+void InverseLowerInPlace(Eigen::MatrixXd& lower) { InverseLowerInPlaceIn<double>(lower); }
+void InverseLowerInPlace(Eigen::MatrixXf& lower) { InverseLowerInPlaceIn<float>(lower); }
 
 void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
   const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
@@ -259,7 +307,7 @@ void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
   if (m == 0) return;
   if (blas == nullptr || m > kMaxInt) {
     // L^-1, then its lower triangle of L^-T L^-1.
-    const Eigen::MatrixXd inv = LowerInverseOnEigen(lower);
+    const Eigen::MatrixXd inv = LowerInverseOnEigen<double>(lower);
     Eigen::MatrixXd s = Eigen::MatrixXd::Zero(m, m);
     s.selfadjointView<Eigen::Lower>().rankUpdate(inv.transpose());
     lower.triangularView<Eigen::Lower>() = s;
@@ -269,65 +317,6 @@ void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
   const int lda = static_cast<int>(lower.outerStride());
   int info = 0;
   blas->dpotri("L", &n, lower.data(), &lda, &info, 1);
-}
-
-void InverseLowerInPlace(Eigen::MatrixXd& lower) {
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  const Eigen::Index m = lower.rows();
-  if (m == 0) return;
-  if (blas == nullptr || m > kMaxInt) {
-    lower.triangularView<Eigen::Lower>() = LowerInverseOnEigen(lower);
-    return;
-  }
-  const int n = static_cast<int>(m);
-  const int lda = static_cast<int>(lower.outerStride());
-  int info = 0;
-  blas->dtrtri("L", "N", &n, lower.data(), &lda, &info, 1, 1);
-}
-
-void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b) {
-  if (b.size() == 0) return;
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
-    lower.triangularView<Eigen::Lower>().solveInPlace(b);
-    return;
-  }
-  blas->strsm(kColMajor, kLeft, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
-              static_cast<int>(b.cols()), 1.0F, lower.data(), static_cast<int>(lower.outerStride()),
-              b.data(), static_cast<int>(b.outerStride()));
-}
-
-bool CholeskyLowerInPlace(Eigen::MatrixXf& s) {
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || s.rows() > kMaxInt || s.rows() == 0) {
-    const Eigen::LLT<Eigen::MatrixXf> llt(s);
-    if (llt.info() != Eigen::Success) return false;
-    s = llt.matrixLLT();
-    return true;
-  }
-  const int n = static_cast<int>(s.rows());
-  const int lda = static_cast<int>(s.outerStride());
-  int info = 0;
-  blas->spotrf("L", &n, s.data(), &lda, &info, 1);
-  return info == 0;
-}
-
-void InverseLowerInPlace(Eigen::MatrixXf& lower) {
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  const Eigen::Index m = lower.rows();
-  if (m == 0) return;
-  if (blas == nullptr || m > kMaxInt) {
-    lower.triangularView<Eigen::Lower>() = LowerInverseOnEigen(lower);
-    return;
-  }
-  const int n = static_cast<int>(m);
-  const int lda = static_cast<int>(lower.outerStride());
-  int info = 0;
-  blas->strtri("L", "N", &n, lower.data(), &lda, &info, 1, 1);
 }
 
 }  // namespace oaipp

@@ -3,6 +3,7 @@
 #include <atomic>
 #include <cmath>
 #include <numeric>
+#include <type_traits>
 #include <unordered_map>
 
 #include "Eigen/Cholesky"
@@ -59,9 +60,10 @@ class MergedCells {
 
   // The same factor with the cells taken in `order` (slots, a permutation
   // of 0 .. size - 1), in double or single precision.
+  // With `ok`, whether the factorisation succeeded.
   template <typename Scalar = double>
   [[nodiscard]] Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> FactorLower(
-      const Eigen::MatrixXd& cov, const std::vector<int>& order) const {
+      const Eigen::MatrixXd& cov, const std::vector<int>& order, bool* ok = nullptr) const {
     const auto m = static_cast<Eigen::Index>(order.size());
     Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> s(m, m);
     for (Eigen::Index b = 0; b < m; ++b) {
@@ -72,8 +74,9 @@ class MergedCells {
       s(b, b) += static_cast<Scalar>(1.0 / precision_[order[b]]);
     }
     // Positive definite by construction (a covariance plus positive noise);
-    // like Factor's, a failure is not reported.
-    (void)CholeskyLowerInPlace(s);
+    // like Factor's, a failure is not reported unless asked for.
+    const bool factored = CholeskyLowerInPlace(s);
+    if (ok != nullptr) *ok = factored;
     return s;
   }
 
@@ -249,11 +252,15 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
   if (fused.empty()) return var;
-  if (SinglePrecisionObjective()) {
-    // As WhitenedRows, in single precision.
-    std::vector<int> order(fused.cells().size());
-    std::iota(order.begin(), order.end(), 0);
-    const Eigen::MatrixXf lower = fused.FactorLower<float>(base, order);
+  std::vector<int> order(fused.cells().size());
+  std::iota(order.begin(), order.end(), 0);
+  bool factored = false;
+  const Eigen::MatrixXf lower = SinglePrecisionObjective()
+                                    ? fused.FactorLower<float>(base, order, &factored)
+                                    : Eigen::MatrixXf();
+  if (factored) {
+    // As WhitenedRows, in single precision (a factor that fails in single
+    // precision, which a covariance plus noise should not, takes double's).
     Eigen::MatrixXf rows(lower.rows(), base.cols());
     for (Eigen::Index a = 0; a < rows.rows(); ++a) {
       rows.row(a) = base.col(fused.cells()[a]).transpose().cast<float>();
@@ -336,7 +343,13 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
           if (!is_seen[static_cast<std::size_t>(slot)]) order.push_back(slot);
         }
         order.insert(order.end(), seen_slots.begin(), seen_slots.end());
-        const Matrix lower = fused.template FactorLower<Scalar>(base, order);
+        bool factored = true;
+        const Matrix lower = fused.template FactorLower<Scalar>(base, order, &factored);
+        if constexpr (!std::is_same_v<Scalar, double>) {
+          // A covariance plus noise should factor in single precision too;
+          // where it does not, the whole value is taken in double.
+          if (!factored) return AdaptiveIn<double>(poses, base);
+        }
         if (!unseen.empty()) {
           const auto u = static_cast<Eigen::Index>(unseen.size());
           Matrix cross(k, u);  // B_K,J for the unseen cells

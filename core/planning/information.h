@@ -148,11 +148,13 @@ using ConditionedCache = SingleFlightCache<PrefixKey, Eigen::MatrixXd>;
 // PosteriorVariances (the greedy start's) run in single precision, on the
 // covariance's values rounded to floats; the map, its updates and every
 // other computation stay double. OpenBLAS's single-precision kernels take
-// about half the time. Scores then differ from double precision's by about
-// 1e-8 relative (information_test.cc), so a search may rank two
-// candidates the other way and take another step; as reproducible, but not
-// bit for bit double's. docs/capacity.md measures what it saves and costs.
-// Set before plans run (a server flag).
+// about half the time. Against the double-precision oracle, scores agree to
+// about 3e-8 relative and PosteriorVariances to about 3e-7 of the prior's
+// variance (information_test.cc), so a search may rank two candidates the
+// other way and take another step; as reproducible, but not bit for bit
+// double's. A factor that fails in single precision is taken in double.
+// docs/capacity.md measures what it saves and costs. Set before plans run
+// (a server flag).
 void SetSinglePrecisionObjective(bool single);
 [[nodiscard]] bool SinglePrecisionObjective();
 

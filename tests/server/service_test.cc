@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -652,18 +653,21 @@ TEST(ServiceTest, TakeOffPlansBeyondTheLimitAreRefusedWithARetryDelay) {
 // With one planning thread: a blocker holds it and a replan of `flying` at
 // `mission_time_s` waits behind it, until Release(). The blocker says when it
 // runs: an earlier plan may still count as running, or the blocker as
-// waiting, for a moment after its caller has its answer.
+// waiting, for a moment after its caller has its answer. Its notifications
+// are shared with it, so that a blocker still queued or running when the
+// helper goes (after a failed check) touches nothing freed.
 class ReplanWaiting {
  public:
-  ReplanWaiting(InProcessService& s, const std::string& flying, double mission_time_s) {
+  ReplanWaiting(InProcessService& s, const std::string& flying, double mission_time_s)
+      : blocker_(std::make_shared<Blocker>()) {
     held_ = s.planners()
                 .Submit("blocker",
-                        [this] {
-                          running_.Notify();
-                          release_.WaitForNotification();
+                        [blocker = blocker_] {
+                          blocker->running.Notify();
+                          blocker->release.WaitForNotification();
                         })
                 .ok() &&
-            running_.WaitForNotificationWithTimeout(absl::Seconds(30));
+            blocker_->running.WaitForNotificationWithTimeout(absl::Seconds(30));
     if (!held_) return;
     replan_thread_ = std::thread(
         [&s, this, flying, mission_time_s] { replan_ = PlanAt(s, flying, mission_time_s, 0.0); });
@@ -675,14 +679,17 @@ class ReplanWaiting {
   const PacingAnswer& Release() {
     if (!released_) {
       released_ = true;
-      release_.Notify();
+      if (!blocker_->release.HasBeenNotified()) blocker_->release.Notify();
       if (replan_thread_.joinable()) replan_thread_.join();
     }
     return replan_;
   }
 
  private:
-  absl::Notification running_, release_;
+  struct Blocker {
+    absl::Notification running, release;
+  };
+  std::shared_ptr<Blocker> blocker_;
   bool held_ = false, queued_ = false, released_ = false;
   std::thread replan_thread_;
   PacingAnswer replan_;

@@ -36,6 +36,8 @@
 #include <algorithm>
 #include <chrono>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "core/mapping/dense_backend.h"
 #include "core/planning/planners.h"
@@ -242,8 +244,10 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
             .push_back(
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         if (!path.ok()) {
+          SetSinglePrecisionObjective(false);
+          UseEigen();
           state.SkipWithError(std::string(path.status().message()).c_str());
-          break;
+          return;
         }
         waypoints[single ? 1 : 0] = path->control_waypoints_W;
       }
@@ -253,6 +257,7 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
   }
   SetSinglePrecisionObjective(false);
   UseEigen();
+  if (plans == 0) return;
   state.counters["double_median_ms"] = 1e3 * Median(double_s);
   state.counters["single_median_ms"] = 1e3 * Median(single_s);
   state.counters["single_over_double"] = Median(single_s) / Median(double_s);

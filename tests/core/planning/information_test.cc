@@ -123,6 +123,13 @@ TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
       const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
       EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference))
           << "path " << path << (open_blas ? " on OpenBLAS" : " on Eigen");
+      // In single precision (SetSinglePrecisionObjective), where seen cells
+      // take the solve above 10 times their variance: to its accuracy.
+      SetSinglePrecisionObjective(true);
+      const double single = fast.Evaluate(poses);
+      SetSinglePrecisionObjective(false);
+      EXPECT_NEAR(single, reference, 1e-6 * std::abs(reference))
+          << "path " << path << (open_blas ? " on OpenBLAS" : " on Eigen") << ", single";
     }
   }
   UseEigen();
@@ -260,6 +267,7 @@ TEST(InformationTest, PosteriorVariancesMatchFullUpdates) {
   InformationEvaluator plain(map.Mean(), map.Covariance(), params);
   InformationEvaluator conditioned(map.Mean(), map.Covariance(), params);
   ASSERT_TRUE(conditioned.Condition(prefix).ok());
+  double worst_single = 0.0;
   for (int trial = 0; trial < 20; ++trial) {
     std::vector<PoseObservation> history = prefix;
     for (PoseObservation pose : RandomPoses(map.grid(), rng)) {
@@ -274,6 +282,14 @@ TEST(InformationTest, PosteriorVariancesMatchFullUpdates) {
     }
     const Eigen::VectorXd expected = p.diagonal();
     for (const InformationEvaluator* e : {&plain, &conditioned}) {
+      // Single precision (SetSinglePrecisionObjective) first: each variance
+      // to 2e-6 of the prior's largest (3e-7 seen).
+      SetSinglePrecisionObjective(true);
+      const Eigen::VectorXd single = e->PosteriorVariances(history);
+      SetSinglePrecisionObjective(false);
+      ASSERT_EQ(single.size(), expected.size());
+      const double scale = map.Covariance().diagonal().maxCoeff();
+      worst_single = std::max(worst_single, (single - expected).cwiseAbs().maxCoeff() / scale);
       const Eigen::VectorXd var = e->PosteriorVariances(history);
       ASSERT_EQ(var.size(), expected.size());
       for (Eigen::Index c = 0; c < var.size(); ++c) EXPECT_NEAR(var[c], expected[c], 1e-12);
@@ -286,6 +302,8 @@ TEST(InformationTest, PosteriorVariancesMatchFullUpdates) {
       EXPECT_NEAR(e->PoseValue(shot, var), reference, 1e-9 * std::abs(reference));
     }
   }
+  EXPECT_LT(worst_single, 2e-6);
+  RecordProperty("worst_single_relative_to_prior", absl::StrCat(worst_single));
 }
 
 TEST(InformationTest, ConditionRejectsAScoredPrefix) {
