@@ -11,6 +11,7 @@
 
 #include "Eigen/Cholesky"
 #include "absl/status/statusor.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 
 namespace oaipp {
@@ -71,6 +72,15 @@ const char* CoreTypeForThisCpu() {
   }
   if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "Haswell";
   return nullptr;
+}
+
+// Kernel families (openblas_get_corename) whose strsm, spotrf and strtri
+// were run for every size from 1 to 700 on one thread without a fault.
+bool SingleKernelsChecked(const std::string& kernel) {
+  for (const char* checked : {"SkylakeX", "Haswell", "Zen", "Sandybridge"}) {
+    if (absl::EqualsIgnoreCase(kernel, checked)) return true;
+  }
+  return false;
 }
 
 // Sets OPENBLAS_CORETYPE for this CPU unless it is set (an operator's choice
@@ -154,6 +164,15 @@ absl::Status UseOpenBlas() {
     }
     auto core_name = reinterpret_cast<CoreName>(dlsym(library, "openblas_get_corename"));
     blas.kernel = core_name != nullptr ? core_name() : "unknown";
+    // The single-precision kernels only where they were checked: with
+    // OpenBLAS 0.3.21's Prescott kernels (what it picks for a CPU it does not
+    // know, without OPENBLAS_CORETYPE) strtri_ crashes from n = 133 on one
+    // thread. Elsewhere the single-precision solves run on Eigen.
+    if (!SingleKernelsChecked(blas.kernel)) {
+      blas.strsm = nullptr;
+      blas.spotrf = nullptr;
+      blas.strtri = nullptr;
+    }
     return new OpenBlas(std::move(blas));
   }();
   if (!loaded.ok()) return loaded.status();
