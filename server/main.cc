@@ -245,12 +245,9 @@ int main(int argc, char** argv) {
     spdlog::error("bad flags: dense_backend must be openblas or eigen");
     return 2;
   }
-  if (const std::string precision = absl::GetFlag(FLAGS_objective_precision);
-      precision == "single" || precision == "double") {
-    oaipp::SetSinglePrecisionObjective(precision == "single");
-  } else {
-    spdlog::error("bad flags: objective_precision must be double or single, got {}",
-                  absl::GetFlag(FLAGS_objective_precision).substr(0, 64));
+  if (absl::Status set = oaipp::SetObjectivePrecision(absl::GetFlag(FLAGS_objective_precision));
+      !set.ok()) {
+    spdlog::error("bad flags: {}", std::string(set.message()));
     return 2;
   }
   spdlog::info("Kalman update on {}; adaptive objective's solves in {} precision",

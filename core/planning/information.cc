@@ -52,10 +52,13 @@ class MergedCells {
 
   // The same factor as a matrix (L in its lower triangle), computed by the
   // dense backend (core/mapping/dense_backend.h; Eigen's bits by default).
-  [[nodiscard]] Eigen::MatrixXd FactorLower(const Eigen::MatrixXd& cov) const {
+  // In double or single precision; with `ok`, whether it succeeded.
+  template <typename Scalar = double>
+  [[nodiscard]] Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> FactorLower(
+      const Eigen::MatrixXd& cov, bool* ok = nullptr) const {
     std::vector<int> order(cells_.size());
     std::iota(order.begin(), order.end(), 0);
-    return FactorLower(cov, order);
+    return FactorLower<Scalar>(cov, order, ok);
   }
 
   // The same factor with the cells taken in `order` (slots, a permutation
@@ -101,11 +104,17 @@ std::atomic<bool> g_single_precision{false};
 // L^-1 B_K: for the fused cells K, L the factor of B_KK + R: the rows whose
 // column norms are the variance reductions and whose Frobenius norm is the
 // trace reduction.
-Eigen::MatrixXd WhitenedRows(const MergedCells& fused, const Eigen::MatrixXd& base,
-                             const Eigen::MatrixXd& lower) {
+// In the precision of `lower` (B rounded to it).
+template <typename Scalar>
+Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> WhitenedRows(
+    const MergedCells& fused, const Eigen::MatrixXd& base,
+    const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& lower) {
   const std::vector<int>& k = fused.cells();
-  Eigen::MatrixXd rows(static_cast<Eigen::Index>(k.size()), base.cols());
-  for (Eigen::Index a = 0; a < rows.rows(); ++a) rows.row(a) = base.col(k[a]).transpose();
+  Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> rows(static_cast<Eigen::Index>(k.size()),
+                                                             base.cols());
+  for (Eigen::Index a = 0; a < rows.rows(); ++a) {
+    rows.row(a) = base.col(k[a]).transpose().template cast<Scalar>();
+  }
   SolveLeftLower(lower, rows);
   return rows;
 }
@@ -252,24 +261,18 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
   if (fused.empty()) return var;
-  std::vector<int> order(fused.cells().size());
-  std::iota(order.begin(), order.end(), 0);
-  bool factored = false;
-  const Eigen::MatrixXf lower = SinglePrecisionObjective()
-                                    ? fused.FactorLower<float>(base, order, &factored)
-                                    : Eigen::MatrixXf();
-  if (factored) {
-    // As WhitenedRows, in single precision (a factor that fails in single
-    // precision, which a covariance plus noise should not, takes double's).
-    Eigen::MatrixXf rows(lower.rows(), base.cols());
-    for (Eigen::Index a = 0; a < rows.rows(); ++a) {
-      rows.row(a) = base.col(fused.cells()[a]).transpose().cast<float>();
+  if (SinglePrecisionObjective()) {
+    // A factor that fails in single precision (a covariance plus noise
+    // should not) takes double's below.
+    bool factored = false;
+    const Eigen::MatrixXf lower = fused.FactorLower<float>(base, &factored);
+    if (factored) {
+      const Eigen::MatrixXf rows = WhitenedRows(fused, base, lower);
+      for (Eigen::Index c = 0; c < rows.cols(); ++c) {
+        var[c] -= rows.col(c).cast<double>().squaredNorm();
+      }
+      return var;
     }
-    SolveLeftLower(lower, rows);
-    for (Eigen::Index c = 0; c < rows.cols(); ++c) {
-      var[c] -= rows.col(c).cast<double>().squaredNorm();
-    }
-    return var;
   }
   var -= WhitenedRows(fused, base, fused.FactorLower(base)).colwise().squaredNorm().transpose();
   return var;
@@ -287,6 +290,15 @@ double InformationEvaluator::PoseValue(const PoseObservation& pose,
 void SetSinglePrecisionObjective(bool single) { g_single_precision.store(single); }
 
 bool SinglePrecisionObjective() { return g_single_precision.load(std::memory_order_relaxed); }
+
+absl::Status SetObjectivePrecision(absl::string_view name) {
+  if (name != "double" && name != "single") {
+    return absl::InvalidArgumentError(
+        absl::StrCat("objective_precision: must be double or single, got ", name.substr(0, 64)));
+  }
+  SetSinglePrecisionObjective(name == "single");
+  return absl::OkStatus();
+}
 
 double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
                                       const Eigen::MatrixXd& base) const {

@@ -46,6 +46,7 @@
 
 #include "Eigen/Core"
 #include "absl/status/status.h"
+#include "absl/strings/string_view.h"
 #include "core/common/single_flight_cache.h"
 
 namespace oaipp {
@@ -157,6 +158,10 @@ using ConditionedCache = SingleFlightCache<PrefixKey, Eigen::MatrixXd>;
 // (a server flag).
 void SetSinglePrecisionObjective(bool single);
 [[nodiscard]] bool SinglePrecisionObjective();
+// The same by name, as the flags give it: "double" or "single";
+// InvalidArgument naming objective_precision (and what it got, cut to 64
+// characters) otherwise, leaving the switch as it was.
+[[nodiscard]] absl::Status SetObjectivePrecision(absl::string_view name);
 
 class InformationEvaluator {
  public:

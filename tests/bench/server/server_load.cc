@@ -529,12 +529,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--dense_backend: openblas or eigen\n");
     return 2;
   }
-  if (const std::string precision = absl::GetFlag(FLAGS_objective_precision);
-      precision == "single" || precision == "double") {
-    oaipp::SetSinglePrecisionObjective(precision == "single");
-  } else {
-    std::fprintf(stderr, "--objective_precision: double or single, got %s\n",
-                 absl::GetFlag(FLAGS_objective_precision).substr(0, 64).c_str());
+  if (absl::Status set = oaipp::SetObjectivePrecision(absl::GetFlag(FLAGS_objective_precision));
+      !set.ok()) {
+    std::fprintf(stderr, "--%s\n", std::string(set.message()).c_str());
     return 2;
   }
   std::printf("Kalman update on %s; objective's solves in %s precision\n",

@@ -186,6 +186,21 @@ TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
   UseEigen();
 }
 
+// The flags' spelling of the switch: "double" or "single"; anything else is
+// refused by name and leaves the switch as it was.
+TEST(InformationTest, ObjectivePrecisionIsSetByName) {
+  ASSERT_TRUE(SetObjectivePrecision("single").ok());
+  EXPECT_TRUE(SinglePrecisionObjective());
+  const absl::Status half = SetObjectivePrecision("half");
+  EXPECT_EQ(half.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(half.message().find("objective_precision: must be double or single, got half"),
+            absl::string_view::npos)
+      << half.message();
+  EXPECT_TRUE(SinglePrecisionObjective());
+  ASSERT_TRUE(SetObjectivePrecision("double").ok());
+  EXPECT_FALSE(SinglePrecisionObjective());
+}
+
 // Conditioned on a shared unscored prefix (as every replan is, on the shot
 // due at the start): paths that begin with the prefix take the conditioned
 // path, others the plain one; both agree with the oracle to 1e-9 relative.
