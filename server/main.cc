@@ -84,10 +84,11 @@ ABSL_FLAG(double, shed_above, 2.0,
 ABSL_FLAG(std::string, dense_backend, "openblas",
           "where the Kalman update's rank-m product runs: openblas (Debian's libopenblas0-pthread, "
           "loaded at start; Eigen when it is missing or another build) or eigen");
-ABSL_FLAG(std::string, objective_precision, "double",
-          "the adaptive objective's solves: double, or single (OpenBLAS's kernels about twice as "
-          "fast, a plan 0.76-0.93 of double's CPU; a plan may differ from double's where two "
-          "candidates tie, docs/capacity.md)");
+ABSL_FLAG(
+    std::string, objective_precision, "double",
+    "the adaptive objective's solves: double, or single (OpenBLAS's kernels about twice as "
+    "fast; 0.76-0.88 of double's CPU for 100 missions; a plan may differ from double's where two "
+    "candidates tie, docs/capacity.md)");
 ABSL_FLAG(double, min_search_fraction, 0.1, "the least share of its search a shed plan runs");
 ABSL_FLAG(double, plan_latency_s, 0.0,
           "overload: a plan's search ends this many seconds after its call arrived, the wait "

@@ -100,10 +100,11 @@ ABSL_FLAG(bool, compare_alone, false,
           "nothing shed) and compare the mean RSE");
 ABSL_FLAG(std::string, dense_backend, "openblas",
           "the Kalman update's backend, as oaipp-server --dense_backend: openblas or eigen");
-ABSL_FLAG(std::string, objective_precision, "double",
-          "the adaptive objective's solves: double, or single (OpenBLAS's kernels about twice as "
-          "fast, a plan 0.76-0.93 of double's CPU; a plan may differ from double's where two "
-          "candidates tie, docs/capacity.md)");
+ABSL_FLAG(
+    std::string, objective_precision, "double",
+    "the adaptive objective's solves: double, or single (OpenBLAS's kernels about twice as "
+    "fast; 0.76-0.88 of double's CPU for 100 missions; a plan may differ from double's where two "
+    "candidates tie, docs/capacity.md)");
 ABSL_FLAG(std::string, json, "", "write the figures and every call to this file");
 
 namespace {
