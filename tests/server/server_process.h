@@ -19,10 +19,14 @@
 
 namespace oaipp::server::testing {
 
-// Starts argv[0] with `args` as a child process and waits (up to ~20 s)
+// How long Start waits for the port by default.
+inline constexpr std::chrono::seconds kDefaultStartWait{20};
+
+// Starts argv[0] with `args` as a child process and waits (up to `wait`)
 // until `port` on 127.0.0.1 accepts connections. Returns the pid, or -1 when
 // it could not be started or died first.
-inline pid_t SpawnAndWaitForPort(const std::vector<std::string>& args, int port) {
+inline pid_t SpawnAndWaitForPort(const std::vector<std::string>& args, int port,
+                                 std::chrono::milliseconds wait = kDefaultStartWait) {
   const pid_t pid = fork();
   if (pid < 0) return -1;
   if (pid == 0) {
@@ -33,7 +37,8 @@ inline pid_t SpawnAndWaitForPort(const std::vector<std::string>& args, int port)
     execv(argv[0], argv.data());
     _exit(127);
   }
-  for (int attempt = 0; attempt < 400; ++attempt) {
+  const auto deadline = std::chrono::steady_clock::now() + wait;
+  while (std::chrono::steady_clock::now() < deadline) {
     const int fd = socket(AF_INET, SOCK_STREAM, 0);
     sockaddr_in sa{};
     sa.sin_family = AF_INET;
@@ -63,10 +68,11 @@ class ChildProcess {
   [[nodiscard]] std::string address() const { return "127.0.0.1:" + std::to_string(port_); }
   [[nodiscard]] bool running() const { return pid_ > 0; }
 
-  // False when it could not be started (or is running already).
-  bool Start() {
+  // False when it could not be started within `wait` (or is running
+  // already).
+  bool Start(std::chrono::milliseconds wait = kDefaultStartWait) {
     if (pid_ > 0) return false;
-    pid_ = SpawnAndWaitForPort(args_, port_);
+    pid_ = SpawnAndWaitForPort(args_, port_, wait);
     return pid_ > 0;
   }
 
