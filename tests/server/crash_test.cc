@@ -136,23 +136,23 @@ TEST_P(CrashTest, KilledServerLosesNothingAcknowledgedAndAppliesNothingTwice) {
   std::vector<int> measurements(kMissions, 0);
   // Set when a restart fails: the drivers stop instead of waiting for it.
   std::atomic<bool> server_gone{false};
+  const auto ack = [&](const char* what, auto call) {
+    UntilAcknowledged(what, call, &server_gone);
+  };
   auto drive = [&](int m) {
     const std::string id = absl::StrCat("crash-", m);
     const std::string name = "missions/" + id;
-    UntilAcknowledged(
-        "CreateMission",
-        [&](grpc::ClientContext& c) {
-          v1::CreateMissionRequest r;
-          r.set_mission_id(id);
-          r.set_request_id(absl::StrCat("create-", m));
-          *r.mutable_spec() = testing::SmallSpec();
-          r.mutable_spec()->mutable_planner()->set_kind(KindOf(m));
-          r.mutable_spec()->mutable_planner()->set_seed(static_cast<std::uint32_t>(m + 1));
-          r.mutable_spec()->set_budget_s(1000);
-          v1::Mission out;
-          return stub->CreateMission(&c, r, &out);
-        },
-        &server_gone);
+    ack("CreateMission", [&](grpc::ClientContext& c) {
+      v1::CreateMissionRequest r;
+      r.set_mission_id(id);
+      r.set_request_id(absl::StrCat("create-", m));
+      *r.mutable_spec() = testing::SmallSpec();
+      r.mutable_spec()->mutable_planner()->set_kind(KindOf(m));
+      r.mutable_spec()->mutable_planner()->set_seed(static_cast<std::uint32_t>(m + 1));
+      r.mutable_spec()->set_budget_s(1000);
+      v1::Mission out;
+      return stub->CreateMission(&c, r, &out);
+    });
     ++acknowledged;
     for (int k = 0; k < kStepsPerMission && !server_gone; ++k) {
       const std::string request_id = absl::StrCat(m, "-", k);
@@ -173,38 +173,29 @@ TEST_P(CrashTest, KilledServerLosesNothingAcknowledgedAndAppliesNothingTwice) {
         } else {
           r.add_remove(post);
         }
-        UntilAcknowledged(
-            "UpdateObstacles",
-            [&](grpc::ClientContext& c) {
-              v1::UpdateObstaclesResponse out;
-              return stub->UpdateObstacles(&c, r, &out);
-            },
-            &server_gone);
+        ack("UpdateObstacles", [&](grpc::ClientContext& c) {
+          v1::UpdateObstaclesResponse out;
+          return stub->UpdateObstacles(&c, r, &out);
+        });
         changes[m].push_back(r);
       } else if (k % 5 == 1) {
-        UntilAcknowledged(
-            "PlanPath",
-            [&](grpc::ClientContext& c) {
-              v1::PlanPathRequest r;
-              r.set_name(name);
-              r.set_request_id(request_id);
-              *r.mutable_state() = testing::SmallSpec().start();
-              r.mutable_state()->set_mission_time_s(2.0 * k);
-              v1::PlanPathResponse out;
-              return stub->PlanPath(&c, r, &out);
-            },
-            &server_gone);
+        ack("PlanPath", [&](grpc::ClientContext& c) {
+          v1::PlanPathRequest r;
+          r.set_name(name);
+          r.set_request_id(request_id);
+          *r.mutable_state() = testing::SmallSpec().start();
+          r.mutable_state()->set_mission_time_s(2.0 * k);
+          v1::PlanPathResponse out;
+          return stub->PlanPath(&c, r, &out);
+        });
       } else {
         v1::AddMeasurementRequest r = testing::LabelMeasurement(
             name, -6.0 + 0.41 * k, 6.0 - 0.37 * k, 6.0 + (k % 4), 2.0 * k, (k + m) % 3 == 0);
         r.set_request_id(request_id);
-        UntilAcknowledged(
-            "AddMeasurement",
-            [&](grpc::ClientContext& c) {
-              v1::AddMeasurementResponse out;
-              return stub->AddMeasurement(&c, r, &out);
-            },
-            &server_gone);
+        ack("AddMeasurement", [&](grpc::ClientContext& c) {
+          v1::AddMeasurementResponse out;
+          return stub->AddMeasurement(&c, r, &out);
+        });
         changes[m].push_back(r);
         ++measurements[m];
       }
