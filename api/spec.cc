@@ -101,7 +101,11 @@ absl::Status FillSensor(const v1::SensorSpec& s, MissionConfig& c) {
     c.noise.detector =
         DetectorAccuracy{.p_max = OrDefault(d.has_p_max(), d.p_max(), defaults.p_max),
                          .h_best_m = OrDefault(d.has_h_best_m(), d.h_best_m(), defaults.h_best_m),
-                         .width_m = OrDefault(d.has_width_m(), d.width_m(), defaults.width_m)};
+                         .width_m = OrDefault(d.has_width_m(), d.width_m(), defaults.width_m),
+                         .false_positive_rate = std::nullopt};
+    if (d.has_false_positive_rate()) {
+      c.noise.detector->false_positive_rate = d.false_positive_rate();
+    }
     OAIPP_RETURN_IF_ERROR(Prefixed("spec.sensor.detector_noise.", c.noise.detector->Validate()));
   }
   OAIPP_RETURN_IF_ERROR(Prefixed("spec.sensor.", c.camera.Validate()));
@@ -363,6 +367,9 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
     d.set_p_max(c.noise.detector->p_max);
     d.set_h_best_m(c.noise.detector->h_best_m);
     d.set_width_m(c.noise.detector->width_m);
+    if (c.noise.detector->false_positive_rate.has_value()) {
+      d.set_false_positive_rate(*c.noise.detector->false_positive_rate);
+    }
   } else {
     s.set_noise_a_var(c.noise.a_var);
     s.set_noise_b_per_m(c.noise.b_per_m);

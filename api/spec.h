@@ -44,7 +44,8 @@ namespace oaipp::api {
 
 // The effective spec of `config`: every optional field set explicitly (of
 // the sensor noise, noise_a_var and noise_b_per_m or detector_noise, the
-// model in use) and the start always present, so that
+// model in use; detector_noise.false_positive_rate only when given, unset
+// being its own model) and the start always present, so that
 // MissionSpecToConfig(ConfigToMissionSpec(c)) == c field for field for any c
 // that MissionSpecToConfig returned
 // (angles pass through degrees, so yaws agree to a few ulps).

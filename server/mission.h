@@ -118,9 +118,6 @@ class EventQueue {
   std::size_t capacity_;
 };
 
-// A cell counts as seen by a measurement when its label is at least this.
-inline constexpr double kDetectedLabel = 0.5;
-
 // What the live view draws besides the map (server/web_view.h): kept in
 // memory only, bounded, and rebuilt from what a restart replays.
 struct MissionTrack {

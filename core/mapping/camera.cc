@@ -52,10 +52,15 @@ absl::StatusOr<std::vector<CellObservation>> LabelsToObservations(const FieldGri
     return absl::InvalidArgumentError(
         absl::StrCat("labels: ", labels.size(), " labels for ", cells.size(), " cells"));
   }
-  const double variance = noise.Variance(altitude_m);
-  if (!(variance > 0.0)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("altitude_m: var(", altitude_m, ") = ", variance, " is not positive"));
+  // A detector with a false-positive rate weighs its two labels differently
+  // (DetectorAccuracy::LabelVariance); otherwise both are the same.
+  const double miss_variance = noise.LabelVariance(altitude_m, 0.0);
+  const double detection_variance = noise.LabelVariance(altitude_m, 1.0);
+  for (const double variance : {miss_variance, detection_variance}) {
+    if (!(variance > 0.0)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("altitude_m: var(", altitude_m, ") = ", variance, " is not positive"));
+    }
   }
   std::vector<CellObservation> obs;
   obs.reserve(cells.size());
@@ -68,7 +73,9 @@ absl::StatusOr<std::vector<CellObservation>> LabelsToObservations(const FieldGri
       return absl::InvalidArgumentError(
           absl::StrCat("labels[", i, "]: must be in [0, 1], got ", labels[i]));
     }
-    obs.push_back({.cell = cells[i], .value = labels[i], .variance = variance});
+    obs.push_back({.cell = cells[i],
+                   .value = labels[i],
+                   .variance = labels[i] >= kDetectedLabel ? detection_variance : miss_variance});
   }
   return obs;
 }

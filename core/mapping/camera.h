@@ -69,8 +69,9 @@ struct DownwardCamera {
                                                        double yaw_rad = 0.0) const;
 };
 
-// One measurement's observations: labels[i] of cells[i], all with variance
-// noise.Variance(altitude_m) (docs/method.md §3). InvalidArgument naming the
+// One measurement's observations: labels[i] of cells[i], each with variance
+// noise.LabelVariance(altitude_m, labels[i]), the same for every label
+// except with a detector's false-positive rate (docs/method.md §3). InvalidArgument naming the
 // field when altitude_m is not positive and finite, noise is invalid, the
 // spans differ in size, a cell is out of range or a label is not in [0, 1].
 // Which cells to pass (typically VisibleFootprintCells) is the caller's
@@ -80,7 +81,8 @@ struct DownwardCamera {
     std::span<const double> labels);
 
 // Hypothetical observations of `cells` from altitude_m, for planning (the
-// covariance update ignores values, so they are 0). Preconditions as
+// covariance update ignores values, so they are 0), with
+// noise.Variance(altitude_m), a miss's variance when labels differ. Preconditions as
 // LabelsToObservations; no validation (planning hot path).
 [[nodiscard]] std::vector<CellObservation> PredictedObservations(const SensorNoise& noise,
                                                                  double altitude_m,

@@ -1,5 +1,7 @@
 #include "core/mapping/gp_params.h"
 
+#include <cmath>
+
 #include "absl/strings/str_cat.h"
 #include "core/common/geometry.h"
 #include "core/common/status_macros.h"
@@ -29,7 +31,30 @@ absl::Status DetectorAccuracy::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("h_best_m: must be >= 0 and finite, got ", h_best_m));
   }
-  return CheckPositive("width_m", width_m);
+  OAIPP_RETURN_IF_ERROR(CheckPositive("width_m", width_m));
+  if (false_positive_rate.has_value() &&
+      !(*false_positive_rate > 0.0 && *false_positive_rate < 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("false_positive_rate: must lie in (0, 1), got ", *false_positive_rate));
+  }
+  return absl::OkStatus();
+}
+
+double DetectorAccuracy::LabelVariance(double altitude_m, double label) const {
+  const double p = DetectionProbability(altitude_m);
+  if (std::isnan(p)) return p;
+  // A shift of the log-odds by s is a variance of 1 / (2 s); shifts below
+  // 1 / (2 kMaxVariance) give the cap.
+  const auto from_shift = [](double shift) {
+    return shift * 2.0 * kMaxVariance > 1.0 ? 1.0 / (2.0 * shift) : kMaxVariance;
+  };
+  if (!false_positive_rate.has_value()) {
+    return p * kMaxVariance > 1.0 - p ? (1.0 - p) / p : kMaxVariance;
+  }
+  const double q = *false_positive_rate;
+  if (!(p > q)) return kMaxVariance;
+  return label >= kDetectedLabel ? from_shift(std::log(p / q))
+                                 : from_shift(std::log1p(-q) - std::log1p(-p));
 }
 
 absl::Status SensorNoise::Validate() const {

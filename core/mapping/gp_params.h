@@ -60,6 +60,10 @@ struct GpParams {
   [[nodiscard]] absl::Status Validate() const;
 };
 
+// A label at least this counts as a detection: the server's record of seen
+// cells and, with a false-positive rate, the variance a label gets.
+inline constexpr double kDetectedLabel = 0.5;
+
 // Noise from the detector's own accuracy (docs/method.md §3.4): a person in
 // view from altitude h is detected with probability
 // p(h) = p_max exp(-((h - h_best) / width)^2 / 2). A label from there gets
@@ -71,6 +75,23 @@ struct GpParams {
 //   DetectorAccuracy d;                  // 0.95 at 10 m, width 7 m
 //   double v = d.Variance(10.0);         // 0.05 / 0.95 = 0.0526
 //   double w = d.Variance(17.0);         // p = 0.95 e^-0.5 = 0.5762: 0.7355
+//
+// With a false-positive rate q (the probability that a cell in view holding
+// no person is labelled as one), the two labels get different variances
+// instead: those under which a label moves a cell's log-odds of holding a
+// person as much as the detector's hit and miss rates say. A Gaussian label
+// y fused with variance v shifts that log-odds by (2 y - 1) / (2 v); the
+// detector's likelihood ratios shift it by ln(p / q) for a detection and
+// ln((1 - p) / (1 - q)) for a miss, so
+//   v_detection = 1 / (2 ln(p / q)),  v_miss = 1 / (2 ln((1 - q) / (1 - p))).
+// Where false positives are rarer than misses (q < 1 - p, for p > 1/2), a
+// miss weighs less than a detection: one detection and one miss of a cell
+// give the detection 62 % of the weight at 11.5 m with the simulated
+// detector (q = 0.0129), where equal variances give each half.
+//
+//   d.false_positive_rate = 0.01;
+//   double v_det = d.LabelVariance(10.0, 1.0);   // 1 / (2 ln 95) = 0.1098
+//   double v_miss = d.LabelVariance(10.0, 0.0);  // 1 / (2 ln(0.99 / 0.05)) = 0.1675
 struct DetectorAccuracy {
   // Detection probability at h_best_m. Valid: (0, 1).
   double p_max = 0.95;
@@ -78,6 +99,9 @@ struct DetectorAccuracy {
   double h_best_m = 10.0;
   // Width of the accuracy curve, metres. Valid: > 0, finite.
   double width_m = 7.0;
+  // Probability that a cell in view holding no person is labelled as one.
+  // Unset: both labels get Variance(h). Valid: (0, 1).
+  std::optional<double> false_positive_rate;
 
   // Largest variance returned, where p(h) all but vanishes: a label from
   // there changes nothing.
@@ -87,12 +111,17 @@ struct DetectorAccuracy {
     const double z = (altitude_m - h_best_m) / width_m;
     return p_max * std::exp(-0.5 * z * z);
   }
-  // NaN for a NaN altitude, as the paper's model gives.
-  [[nodiscard]] double Variance(double altitude_m) const {
-    const double p = DetectionProbability(altitude_m);
-    if (std::isnan(p)) return p;
-    return p * kMaxVariance > 1.0 - p ? (1.0 - p) / p : kMaxVariance;
-  }
+  // The variance of a shot whose labels are not known yet (a planned one):
+  // (1 - p) / p, or with a false-positive rate the variance of a miss, the
+  // label nearly every cell in view gets. NaN for a NaN altitude, as the
+  // paper's model gives.
+  [[nodiscard]] double Variance(double altitude_m) const { return LabelVariance(altitude_m, 0.0); }
+  // The variance a label in [0, 1] is fused with: Variance(h) without a
+  // false-positive rate; with one, v_detection for a label >= kDetectedLabel
+  // and v_miss below. At most kMaxVariance, which is also what both labels get where
+  // p(h) <= q: such a label tells a person from empty ground no better than
+  // chance.
+  [[nodiscard]] double LabelVariance(double altitude_m, double label) const;
 
   // InvalidArgument naming the first bad field.
   [[nodiscard]] absl::Status Validate() const;
@@ -117,6 +146,12 @@ struct SensorNoise {
   [[nodiscard]] double Variance(double altitude_m) const {
     if (detector.has_value()) return detector->Variance(altitude_m);
     return a_var * (1.0 - std::exp(-b_per_m * altitude_m));
+  }
+  // The variance a measured label is fused with: Variance(h), except for a
+  // detector with a false-positive rate (DetectorAccuracy::LabelVariance).
+  [[nodiscard]] double LabelVariance(double altitude_m, double label) const {
+    if (detector.has_value()) return detector->LabelVariance(altitude_m, label);
+    return Variance(altitude_m);
   }
 
   // InvalidArgument naming the first bad field.

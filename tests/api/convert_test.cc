@@ -119,6 +119,7 @@ void ExpectConfigsEqual(const MissionConfig& a, const MissionConfig& b) {
     EXPECT_EQ(a.noise.detector->p_max, b.noise.detector->p_max);
     EXPECT_EQ(a.noise.detector->h_best_m, b.noise.detector->h_best_m);
     EXPECT_EQ(a.noise.detector->width_m, b.noise.detector->width_m);
+    EXPECT_EQ(a.noise.detector->false_positive_rate, b.noise.detector->false_positive_rate);
   }
   EXPECT_EQ(a.min_altitude_m, b.min_altitude_m);
   EXPECT_EQ(a.max_altitude_m, b.max_altitude_m);
@@ -315,6 +316,19 @@ TEST(MissionSpecTest, DetectorNoiseTakesItsDocumentedDefaultsAndRoundTrips) {
   ExpectRoundTrip(spec);
   EXPECT_TRUE(MessageDifferencer::ApproximatelyEquals(
       ConfigToMissionSpec(*c).sensor().detector_noise(), d));
+  EXPECT_FALSE(c->noise.detector->false_positive_rate.has_value());
+  EXPECT_FALSE(ConfigToMissionSpec(*c).sensor().detector_noise().has_false_positive_rate());
+
+  d.set_false_positive_rate(0.02);
+  c = MissionSpecToConfig(spec);
+  ASSERT_TRUE(c.ok()) << c.status();
+  EXPECT_EQ(c->noise.detector->false_positive_rate, 0.02);
+  ExpectRoundTrip(spec);
+  EXPECT_EQ(ConfigToMissionSpec(*c).sensor().detector_noise().false_positive_rate(), 0.02);
+  d.set_false_positive_rate(1.0);
+  EXPECT_THAT(
+      MissionSpecToConfig(spec).status().message(),
+      HasSubstr("spec.sensor.detector_noise.false_positive_rate: must lie in (0, 1), got 1"));
 }
 
 TEST(MissionSpecTest, EveryPlannerKindRoundTripsThroughASpec) {

@@ -322,6 +322,10 @@ void AddNonFiniteSpecCases(std::vector<BadCase>& cases) {
        [](auto& s, double v) { s.mutable_sensor()->mutable_detector_noise()->set_h_best_m(v); }},
       {"spec.sensor.detector_noise.width_m",
        [](auto& s, double v) { s.mutable_sensor()->mutable_detector_noise()->set_width_m(v); }},
+      {"spec.sensor.detector_noise.false_positive_rate",
+       [](auto& s, double v) {
+         s.mutable_sensor()->mutable_detector_noise()->set_false_positive_rate(v);
+       }},
       {"spec.flight.max_altitude_m",
        [](auto& s, double v) { s.mutable_flight()->set_max_altitude_m(v); }},
       {"spec.flight.max_speed_m_s",

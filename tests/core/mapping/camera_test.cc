@@ -110,5 +110,27 @@ TEST(LabelsToObservationsTest, UsesAltitudeVarianceAndValidates) {
   EXPECT_EQ(predicted[1].cell, 5);
 }
 
+// A detector with a false-positive rate: a detection and a miss get the
+// variances of their likelihood ratios (p(10 m) = 0.95, q = 0.01:
+// 1 / (2 ln 95) and 1 / (2 ln(0.99 / 0.05)), computed independently); a
+// planned shot gets the miss's.
+TEST(LabelsToObservationsTest, DetectionsAndMissesGetTheirOwnVarianceWithFalsePositives) {
+  const FieldGrid grid = PaperGrid();
+  SensorNoise noise;
+  noise.detector = DetectorAccuracy{.false_positive_rate = 0.01};
+  const std::vector<int> cells = {4, 5, 6};
+  const std::vector<double> labels = {1.0, 0.0, 1.0};
+  auto obs = LabelsToObservations(grid, noise, 10.0, cells, labels);
+  ASSERT_TRUE(obs.ok()) << obs.status();
+  ASSERT_EQ(obs->size(), 3u);
+  EXPECT_NEAR((*obs)[0].variance, 0.1097965562, 1e-10);
+  EXPECT_NEAR((*obs)[1].variance, 0.1674659292, 1e-10);
+  EXPECT_EQ((*obs)[2].variance, (*obs)[0].variance);
+  EXPECT_EQ((*obs)[1].value, 0.0);
+  const std::vector<CellObservation> predicted = PredictedObservations(noise, 10.0, cells);
+  ASSERT_EQ(predicted.size(), 3u);
+  EXPECT_EQ(predicted[0].variance, (*obs)[1].variance);
+}
+
 }  // namespace
 }  // namespace oaipp

@@ -125,6 +125,50 @@ TEST(SensorNoiseTest, DetectorNoiseFollowsTheDetectorsAccuracyCurve) {
   EXPECT_THAT(with([](auto& d) { d.h_best_m = -1; }), HasSubstr("detector.h_best_m: must be >= 0"));
   EXPECT_TRUE(std::isnan(noise.Variance(NAN)));
   EXPECT_THAT(with([](auto& d) { d.width_m = -1; }), HasSubstr("detector.width_m"));
+  for (const double q : {0.0, 1.0, -0.1, double{NAN}}) {
+    EXPECT_THAT(with([q](auto& d) { d.false_positive_rate = q; }),
+                HasSubstr("detector.false_positive_rate: must lie in (0, 1)"))
+        << q;
+  }
+  // Without a false-positive rate both labels get (1 - p) / p.
+  ExpectRel(noise.LabelVariance(10.0, 1.0), 0.052631578947368474, 1e-13);
+  ExpectRel(noise.LabelVariance(17.0, 0.0), 0.7354960744211876, 1e-13);
+}
+
+// With a false-positive rate q each label moves a cell's log-odds by the
+// detector's likelihood ratio: v_detection = 1 / (2 ln(p / q)), v_miss =
+// 1 / (2 ln((1 - q) / (1 - p))). Reference values computed independently.
+TEST(SensorNoiseTest, FalsePositiveRateWeighsDetectionsAndMissesByTheirLikelihoodRatios) {
+  SensorNoise noise;
+  noise.detector = DetectorAccuracy{.false_positive_rate = 0.01};
+  ASSERT_TRUE(noise.Validate().ok());
+  ExpectRel(noise.LabelVariance(10.0, 1.0), 0.10979655618759297, 1e-13);  // p = 0.95
+  ExpectRel(noise.LabelVariance(10.0, 0.0), 0.16746592920245543, 1e-13);
+  ExpectRel(noise.LabelVariance(17.0, 1.0), 0.12333872324440305, 1e-13);  // p = 0.5762
+  ExpectRel(noise.LabelVariance(17.0, 0.0), 0.58930781021799, 1e-13);
+  // A label >= 0.5 counts as a detection; a planned shot is a miss.
+  EXPECT_EQ(noise.LabelVariance(10.0, 0.5), noise.LabelVariance(10.0, 1.0));
+  EXPECT_EQ(noise.LabelVariance(10.0, 0.49), noise.LabelVariance(10.0, 0.0));
+  EXPECT_EQ(noise.Variance(10.0), noise.LabelVariance(10.0, 0.0));
+  // A frequent false positive makes a detection weigh less than a miss.
+  noise.detector->false_positive_rate = 0.6;
+  ExpectRel(noise.LabelVariance(10.0, 1.0), 1.0880627282008561, 1e-13);
+  ExpectRel(noise.LabelVariance(10.0, 0.0), 0.24044917348149397, 1e-13);
+  // Where p(h) <= q (p(26 m) = 0.0697 < 0.1) a label tells nothing.
+  noise.detector->false_positive_rate = 0.1;
+  EXPECT_EQ(noise.LabelVariance(26.0, 1.0), DetectorAccuracy::kMaxVariance);
+  EXPECT_EQ(noise.LabelVariance(26.0, 0.0), DetectorAccuracy::kMaxVariance);
+  EXPECT_EQ(noise.LabelVariance(500.0, 1.0), DetectorAccuracy::kMaxVariance);
+  EXPECT_TRUE(std::isnan(noise.LabelVariance(NAN, 1.0)));
+  // q just below p: ln(p / q) = 1e-7 would give 5e6, above the cap; the
+  // miss's 1 / (2 ln(1 + 1.9e-6)) = 2.6e5 is not.
+  noise.detector->false_positive_rate = 0.95 * (1 - 1e-7);
+  EXPECT_EQ(noise.LabelVariance(10.0, 1.0), DetectorAccuracy::kMaxVariance);
+  ExpectRel(noise.LabelVariance(10.0, 0.0), 1.0 / (2 * std::log1p(0.95e-7 / 0.05)), 1e-6);
+  // The paper's model has one variance for both labels: 1 - e^-0.5.
+  const SensorNoise paper;
+  ExpectRel(paper.LabelVariance(10.0, 1.0), 0.393469340, 1e-8);
+  ExpectRel(paper.LabelVariance(10.0, 0.0), 0.393469340, 1e-8);
 }
 
 // docs/reference-values.md §3 (1-D GP): kernel 2.0 * Matern32(l = 1.5), noise 0.1, X = [0, 1, 3],
