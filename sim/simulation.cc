@@ -11,6 +11,10 @@
 namespace oaipp::sim {
 namespace {
 
+// A person's (and a false positive's) size on the ground, metres.
+constexpr double kPersonWidth_m = 0.75;
+constexpr double kPersonLength_m = 2.0;
+
 // Projects a ground point into a downward camera at p (yaw 0) with pinhole
 // intrinsics K; false when behind the camera.
 bool Project(const CameraIntrinsics& k, const Vec3& camera_W, const Vec3& point_W, Vec2* px) {
@@ -130,7 +134,8 @@ std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng,
       std::min(detector_.FalsePositiveRate(h), static_cast<double>(api::kMaxBoxes)));
   const int n = false_positives(rng);
   // A person's size in pixels at this altitude.
-  const double w = intrinsics_.fx_px * 0.75 / h, l = intrinsics_.fy_px * 2.0 / h;
+  const double w = intrinsics_.fx_px * kPersonWidth_m / h,
+               l = intrinsics_.fy_px * kPersonLength_m / h;
   for (int i = 0; i < n; ++i) {
     const double x = unit(rng) * std::max(1.0, intrinsics_.width_px - w),
                  y = unit(rng) * std::max(1.0, intrinsics_.height_px - l);
@@ -203,7 +208,19 @@ bool Simulation::Collides(const Vec3& p_W) const {
          env_->SignedDistance(p_W) < 0.5 * config_.planner.common.limits.uav_radius_m;
 }
 
-absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario) {
+double FalsePositivesPerCell(const DetectorParams& detector, const DownwardCamera& camera,
+                             double resolution_m) {
+  const double s = resolution_m;
+  const Vec2 footprint_m = camera.FootprintSize(10.0);
+  const double cells_per_box = (1.0 + kPersonWidth_m / s) * (1.0 + kPersonLength_m / s);
+  const double cells_in_view = footprint_m.x() * footprint_m.y() / (s * s);
+  // Box confidences are uniform on [0.5, 1]; those below min_confidence
+  // are dropped.
+  const double kept = std::clamp(2.0 * (1.0 - detector.min_confidence), 0.0, 1.0);
+  return detector.fp_per_image_at_10m * kept * cells_per_box / cells_in_view;
+}
+
+absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario, bool with_false_positives) {
   const v1::DetectorModel& d = scenario.detector();
   const DetectorParams defaults;
   if (d.has_p_max() && !(d.p_max() > 0.0 && d.p_max() < 1.0)) {
@@ -217,6 +234,29 @@ absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario) {
   noise.set_p_max(d.has_p_max() ? d.p_max() : defaults.p_max);
   noise.set_h_best_m(d.has_h_best_m() ? d.h_best_m() : defaults.h_best_m);
   noise.set_width_m(d.has_width_m() ? d.width_m() : defaults.width_m);
+  noise.clear_false_positive_rate();
+  if (!with_false_positives) return scenario;
+  DetectorParams params;
+  if (d.has_fp_per_image_at_10m()) params.fp_per_image_at_10m = d.fp_per_image_at_10m();
+  if (d.has_min_confidence()) params.min_confidence = d.min_confidence();
+  if (!(params.fp_per_image_at_10m > 0.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("detector.fp_per_image_at_10m: a false-positive rate needs it positive, got ",
+                     params.fp_per_image_at_10m));
+  }
+  if (!(params.min_confidence < 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("detector.min_confidence: a false-positive rate needs it below 1, got ",
+                     params.min_confidence));
+  }
+  OAIPP_ASSIGN_OR_RETURN(const api::MissionConfig config,
+                         api::MissionSpecToConfig(scenario.mission()));
+  const double q = FalsePositivesPerCell(params, config.camera, config.resolution_m);
+  if (!(q < 1.0)) {
+    return absl::InvalidArgumentError(absl::StrCat("detector.fp_per_image_at_10m: gives ", q,
+                                                   " false positives a cell, must be below 1"));
+  }
+  noise.set_false_positive_rate(q);
   return scenario;
 }
 

@@ -105,6 +105,28 @@ class Simulation {
 // detector's accuracy curve tells the server. InvalidArgument naming
 // detector.p_max when it is 0 or 1 (a scenario may have them; the noise
 // needs p_max in (0, 1)).
-[[nodiscard]] absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario);
+//
+// With with_false_positives, the mission also gets the detector's
+// false-positive rate per cell (DetectorNoise.false_positive_rate), so that
+// detections and misses are weighed by their likelihood ratios:
+// FalsePositivesPerCell. InvalidArgument naming detector.fp_per_image_at_10m
+// when it is 0, or detector.min_confidence when it is 1 (the rate must be
+// positive). Without it any rate the scenario's mission gives is cleared.
+[[nodiscard]] absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario,
+                                                             bool with_false_positives = false);
+
+// The probability that a cell in view holding no one is labelled as a
+// person: false positives per image times the cells one covers on average,
+// over the cells in view. Both counts grow as h^2 (boxes are a person's size
+// on the ground, 0.75 x 2 m, and overlap (1 + 0.75 / s)(1 + 2 / s) cells of
+// edge s on average), so the rate is the same at every altitude:
+// fp_per_image_at_10m k (1 + 0.75 / s)(1 + 2 / s) s^2 / (footprint area at 10 m),
+// k = min(1, 2 (1 - min_confidence)) the share of boxes confident enough
+// (confidences are uniform on [0.5, 1]). For the defaults (0.3 an image,
+// min_confidence 0.5, s = 0.75 m, 45 x 60 deg): 0.01294. It leaves out boxes
+// at the image's edge (which overlap cells out of view) and boxes
+// overlapping each other, a few per cent (tests/sim/detector_test.cc).
+[[nodiscard]] double FalsePositivesPerCell(const DetectorParams& detector,
+                                           const DownwardCamera& camera, double resolution_m);
 
 }  // namespace oaipp::sim

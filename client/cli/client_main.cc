@@ -65,6 +65,10 @@ ABSL_FLAG(std::string, variants, "",
 ABSL_FLAG(bool, detector_noise, false,
           "run, eval: missions fuse labels with the noise of the scenario's detector model "
           "(SensorSpec.detector_noise) instead of the paper's A (1 - exp(-B h))");
+ABSL_FLAG(bool, detector_false_positives, false,
+          "run, eval, with --detector_noise: missions also get the detector's false positives "
+          "per cell (DetectorNoise.false_positive_rate), so detections and misses are weighed "
+          "by their likelihood ratios");
 ABSL_FLAG(std::string, geo_origin, "",
           "export: LAT,LON,ALT (degrees, degrees, metres above mean sea level) of the local "
           "frame's origin, for a scenario without mission.geo_origin; best the launch point");
@@ -112,7 +116,10 @@ Commands:
                       --variants=a,b flies only the named variants
                       (e.g. oaipp_confirm). --detector_noise (run and
                       eval): every mission fuses labels with the noise of
-                      the scenario's detector (SensorSpec.detector_noise).
+                      the scenario's detector (SensorSpec.detector_noise);
+                      --detector_false_positives adds its false-positive
+                      rate per cell, weighing detections and misses by
+                      their likelihood ratios.
                       Writes trials.csv, targets.csv (how often each
                       target was in view and detected), summary.md, a
                       figure over time (rse.png, or trace.png for E3) and
@@ -123,7 +130,7 @@ Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --first_trial (1), --parallel (2),
        --plan_budget_s (0: none), --scenario, --e3_budget_s, --confirmation_weight,
        --confirmation_phase_s, --confirmation_phase_weight, --variants, --detector_noise,
-       --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
+       --detector_false_positives, --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -152,11 +159,19 @@ absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel() {
 // The scenario file at `path`, with --detector_noise applied.
 absl::StatusOr<oaipp::v1::Scenario> LoadScenario(const std::string& path) {
   absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
+  const bool false_positives = absl::GetFlag(FLAGS_detector_false_positives);
+  if (false_positives && !absl::GetFlag(FLAGS_detector_noise)) {
+    return absl::InvalidArgumentError("--detector_false_positives: needs --detector_noise");
+  }
   if (!scenario.ok() || !absl::GetFlag(FLAGS_detector_noise)) return scenario;
-  absl::StatusOr<oaipp::v1::Scenario> with = oaipp::sim::WithDetectorNoise(*std::move(scenario));
+  absl::StatusOr<oaipp::v1::Scenario> with =
+      oaipp::sim::WithDetectorNoise(*std::move(scenario), false_positives);
   if (!with.ok()) {
-    return absl::Status(with.status().code(),
-                        absl::StrCat(path, ": --detector_noise: ", with.status().message()));
+    return absl::Status(
+        with.status().code(),
+        absl::StrCat(path,
+                     false_positives ? ": --detector_false_positives: " : ": --detector_noise: ",
+                     with.status().message()));
   }
   return with;
 }

@@ -112,6 +112,53 @@ TEST(DetectorTest, SightingsCountViewsAndDetections) {
   EXPECT_EQ(away[0].detected, 0);
 }
 
+// The false-positive rate a mission is told (FalsePositivesPerCell) is the
+// share of cells in view over empty ground that the simulated detector
+// labels as a person, at low, middle and high altitude alike, to within
+// what it leaves out. The
+// defaults' value, 0.3 x 2 x (1 + 2 / 0.75) x 0.5625 / (8.2843 x 11.547), is
+// computed here independently.
+TEST(DetectorTest, FalsePositivesPerCellMatchLabelledEmptyGround) {
+  const Simulation defaults = OnePerson(0.3);
+  EXPECT_NEAR(FalsePositivesPerCell(DetectorParams{}, defaults.config().camera, 0.75),
+              0.012936641077651672, 1e-12);
+  // Confidences are uniform on [0.5, 1]: a threshold of 0.75 keeps half.
+  DetectorParams confident;
+  confident.min_confidence = 0.75;
+  EXPECT_NEAR(FalsePositivesPerCell(confident, defaults.config().camera, 0.75),
+              0.006468320538825836, 1e-12);
+  const Simulation sim = OnePerson(1.0);
+  DetectorParams params;
+  params.fp_per_image_at_10m = 1.0;
+  const double q = FalsePositivesPerCell(params, sim.config().camera, 0.75);
+  std::mt19937_64 rng(13);
+  for (double h : {6.0, 10.0, 14.0}) {
+    // Over (7.5-8.25, 6-6.75): the person at the origin stays out of the
+    // footprint (at most 11.6 x 16.2 m at 14 m), the footprint inside the field.
+    double labelled = 0, in_view = 0, boxes = 0;
+    std::uniform_real_distribution<double> within_a_cell(0.0, 0.75);
+    for (int i = 0; i < 4000; ++i) {
+      // Moved within a cell each time: how many cell centres a footprint
+      // holds depends on where its edges fall.
+      const Vec3 camera(7.5 + within_a_cell(rng), 6.0 + within_a_cell(rng), h);
+      const std::vector<PixelBox> detections = sim.Detect(camera, rng);
+      boxes += static_cast<double>(detections.size());
+      absl::StatusOr<CellLabels> labels = sim.Labels(camera, detections);
+      ASSERT_TRUE(labels.ok()) << labels.status();
+      in_view += static_cast<double>(labels->cells.size());
+      for (double l : labels->labels) labelled += l;
+    }
+    ASSERT_GT(boxes, 1000);
+    // The count of boxes is Poisson; a whole box covers 6 to 8 cells. The rate
+    // leaves out two things that only lower the share: a box at the image's
+    // edge overlaps some cells whose centres are out of view, and boxes may
+    // overlap each other. Together 4-6 % here (1 box an image at 10 m).
+    const double rate = labelled / in_view, four_se = 4 * q / std::sqrt(boxes);
+    EXPECT_LT(rate, q + four_se) << "h = " << h;
+    EXPECT_GT(rate, 0.92 * q - four_se) << "h = " << h;
+  }
+}
+
 // A sure detector over each E1 person, camera 10 m above it: the boxes,
 // projected back through the server's rule, mark exactly the cells the
 // ground truth marks, 48 in all (docs/method.md), so a map equal to those labels

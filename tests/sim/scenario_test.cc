@@ -46,6 +46,20 @@ TEST(ScenarioTest, WithDetectorNoiseTellsTheServerTheScenariosDetector) {
   EXPECT_EQ(s.mission().obstacles_size(), scenario->mission().obstacles_size());
   EXPECT_TRUE(Simulation::Create(s).ok());
 
+  EXPECT_FALSE(sensor.detector_noise().has_false_positive_rate());
+
+  // With false positives the mission is also told the detector's rate per
+  // cell: the default 0.3 an image at 10 m (FalsePositivesPerCell).
+  const absl::StatusOr<v1::Scenario> with_fp = WithDetectorNoise(*scenario, true);
+  ASSERT_TRUE(with_fp.ok()) << with_fp.status();
+  EXPECT_NEAR(with_fp->mission().sensor().detector_noise().false_positive_rate(),
+              0.012936641077651672, 1e-12);
+  EXPECT_TRUE(Simulation::Create(*with_fp).ok());
+  scenario->mutable_detector()->set_fp_per_image_at_10m(0.0);
+  EXPECT_THAT(WithDetectorNoise(*scenario, true).status().message(),
+              HasSubstr("detector.fp_per_image_at_10m: a false-positive rate needs it positive"));
+  scenario->mutable_detector()->clear_fp_per_image_at_10m();
+
   // A scenario's detector may be perfect; its noise would be zero.
   scenario->mutable_detector()->set_p_max(1.0);
   EXPECT_THAT(WithDetectorNoise(*scenario).status().message(),
