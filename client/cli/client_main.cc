@@ -59,6 +59,10 @@ ABSL_FLAG(double, confirmation_phase_s, 0.0,
 ABSL_FLAG(double, confirmation_phase_weight, -1.0,
           "eval: with --confirmation_phase_s, the phase's weight on undecided cells "
           "(PlannerSpec.confirmation_phase_weight, >= 0); -1: the planner's default");
+ABSL_FLAG(double, second_look_weight, 0.0,
+          "eval: with --confirmation_phase_s, the phase's weight on every other cell's "
+          "variance, a second look at ground seen once (PlannerSpec.second_look_weight, >= 0); "
+          "0: none");
 ABSL_FLAG(std::string, variants, "",
           "eval: comma-separated variants to fly (e.g. oaipp_confirm); empty: all of the "
           "experiment's");
@@ -112,7 +116,8 @@ Commands:
                       objective at weight W, same seeds;
                       --confirmation_phase_s=S adds a confirmation phase
                       over its last S seconds, at
-                      --confirmation_phase_weight (default 3000).
+                      --confirmation_phase_weight (default 3000), and
+                      --second_look_weight on every other cell.
                       --variants=a,b flies only the named variants
                       (e.g. oaipp_confirm). --detector_noise (run and
                       eval): every mission fuses labels with the noise of
@@ -129,8 +134,9 @@ Commands:
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --first_trial (1), --parallel (2),
        --plan_budget_s (0: none), --scenario, --e3_budget_s, --confirmation_weight,
-       --confirmation_phase_s, --confirmation_phase_weight, --variants, --detector_noise,
-       --detector_false_positives, --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
+       --confirmation_phase_s, --confirmation_phase_weight, --second_look_weight, --variants,
+       --detector_noise, --detector_false_positives, --geo_origin, --setpoint_rate_hz (20),
+       --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -432,13 +438,21 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
     }
     phase_weight_set = phase_weight;
   }
+  const double second_look = absl::GetFlag(FLAGS_second_look_weight);
+  if (!(second_look >= 0.0) || !std::isfinite(second_look)) {
+    return absl::InvalidArgumentError("--second_look_weight: must be >= 0 and finite");
+  }
+  if (second_look > 0.0 && phase == 0.0) {
+    return absl::InvalidArgumentError(
+        "--second_look_weight: weighs the confirmation phase; set --confirmation_phase_s");
+  }
   if (confirmation > 0.0) {
     if (name != "E1" && name != "E4" && name != "E5") {
       return absl::InvalidArgumentError(
           "--confirmation_weight: adds a variant to E1, E4 and E5 only");
     }
-    e.variants.push_back(
-        oaipp::client::ConfirmationVariant(scenario, confirmation, phase, phase_weight_set));
+    e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirmation, phase,
+                                                            phase_weight_set, second_look));
   }
   const std::string wanted = absl::GetFlag(FLAGS_variants);
   std::vector<std::string> labels;

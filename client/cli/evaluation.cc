@@ -63,11 +63,11 @@ std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
 }
 
 Variant ConfirmationVariant(const v1::Scenario& scenario, double weight, double phase_s,
-                            std::optional<double> phase_weight) {
+                            std::optional<double> phase_weight, double second_look_weight) {
   Variant v = PlannerVariants(scenario, {PlannerKind::kOaIpp}).front();
   v.label = "oaipp_confirm";
-  v.scenario = [oaipp = v.scenario, weight, phase_s,
-                phase_weight](int trial) -> absl::StatusOr<v1::Scenario> {
+  v.scenario = [oaipp = v.scenario, weight, phase_s, phase_weight,
+                second_look_weight](int trial) -> absl::StatusOr<v1::Scenario> {
     absl::StatusOr<v1::Scenario> s = oaipp(trial);
     if (s.ok()) {
       v1::PlannerSpec& planner = *s->mutable_mission()->mutable_planner();
@@ -75,6 +75,7 @@ Variant ConfirmationVariant(const v1::Scenario& scenario, double weight, double 
       if (phase_s > 0.0) {
         planner.set_confirmation_phase_s(phase_s);
         if (phase_weight.has_value()) planner.set_confirmation_phase_weight(*phase_weight);
+        if (second_look_weight > 0.0) planner.set_second_look_weight(second_look_weight);
       }
     }
     return s;

@@ -51,12 +51,14 @@ struct Variant {
 // OA-IPP with the confirmation objective (docs/method.md §6.4) at `weight`
 // and, when phase_s > 0, a confirmation phase over the last phase_s seconds
 // of the budget (at `phase_weight` when given, else the scenario's weight;
-// the scenario's margin), labelled "oaipp_confirm"; otherwise as
+// the scenario's margin; with second_look_weight > 0 as its second-look
+// weight), labelled "oaipp_confirm"; otherwise as
 // PlannerVariants' OA-IPP, so that trial k of both flies the same world,
 // people and seeds.
 [[nodiscard]] Variant ConfirmationVariant(const v1::Scenario& scenario, double weight,
                                           double phase_s = 0.0,
-                                          std::optional<double> phase_weight = std::nullopt);
+                                          std::optional<double> phase_weight = std::nullopt,
+                                          double second_look_weight = 0.0);
 
 // The variants of `all` whose labels `labels` names, in the order of `all`
 // (every one when `labels` is empty). InvalidArgument naming `flag` when a

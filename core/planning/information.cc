@@ -149,6 +149,10 @@ absl::Status InformationParams::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "confirmation_phase_weight: must be >= 0 and finite, got ", confirmation_phase_weight));
   }
+  if (!(second_look_weight >= 0.0) || !std::isfinite(second_look_weight)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("second_look_weight: must be >= 0 and finite, got ", second_look_weight));
+  }
   if (!(ambiguity_margin > 0.0 && ambiguity_margin <= 0.5)) {
     return absl::InvalidArgumentError(
         absl::StrCat("ambiguity_margin: must lie in (0, 0.5], got ", ambiguity_margin));

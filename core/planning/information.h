@@ -77,6 +77,10 @@ struct InformationParams {
   // predicted variance. Valid: weight >= 0 and finite; margin in (0, 0.5].
   double confirmation_phase_weight = 3000.0;
   double ambiguity_margin = 0.25;
+  // In the phase, each other cell earns second_look_weight times its
+  // predicted variance: a second look at ground seen once, where a person
+  // may have been missed. 0 (the default): none. Valid: >= 0, finite.
+  double second_look_weight = 0.0;
   // True when these are the phase's parameters (set by ForRemainingBudget).
   bool confirming = false;
 
@@ -92,7 +96,7 @@ struct InformationParams {
   // earns in a pose observed with noise variance `noise_variance` (before
   // the altitude reward): mu + kappa sigma, plus the confirmation term when
   // its weight is positive, plus in the confirmation phase the ambiguity
-  // term.
+  // term, or the second-look term for a cell outside the margin.
   [[nodiscard]] double CellValue(double mean, double variance, double noise_variance) const;
 };
 
@@ -113,6 +117,8 @@ inline double InformationParams::CellValue(double mean, double variance,
   }
   if (confirming && std::abs(mean - decision_threshold) < ambiguity_margin) {
     value += confirmation_phase_weight * std::max(variance, 0.0);
+  } else if (confirming) {
+    value += second_look_weight * std::max(variance, 0.0);
   }
   return value;
 }

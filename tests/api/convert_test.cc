@@ -93,6 +93,7 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
   EXPECT_EQ(a.information.confirmation_phase_weight, b.information.confirmation_phase_weight)
       << what;
   EXPECT_EQ(a.information.ambiguity_margin, b.information.ambiguity_margin) << what;
+  EXPECT_EQ(a.information.second_look_weight, b.information.second_look_weight) << what;
   EXPECT_EQ(a.weights.k1, b.weights.k1) << what;
   EXPECT_EQ(a.weights.k2, b.weights.k2) << what;
   EXPECT_EQ(a.weights.min_flight_time_s, b.weights.min_flight_time_s) << what;
@@ -787,6 +788,9 @@ std::vector<BadCase> BadCases() {
          });
        },
        kInvalid, "spec.planner.confirmation_phase_weight: "},
+      {"negative second-look weight",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_second_look_weight(-1); }); },
+       kInvalid, "spec.planner.second_look_weight: "},
       {"ambiguity margin above 0.5",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_ambiguity_margin(0.6); }); },
        kInvalid, "spec.planner.ambiguity_margin: "},

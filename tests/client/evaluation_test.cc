@@ -53,6 +53,14 @@ TEST(EvaluationTest, ConfirmationVariantSetsThePhaseWeightWhenGiven) {
   auto no_phase = ConfirmationVariant(*scenario, 1000.0, 0.0, 30000.0).scenario(2);
   ASSERT_TRUE(no_phase.ok());
   EXPECT_FALSE(no_phase->mission().planner().has_confirmation_phase_weight());
+  EXPECT_FALSE(weighted->mission().planner().has_second_look_weight());
+  auto looking = ConfirmationVariant(*scenario, 1000.0, 45.0, std::nullopt, 1000.0).scenario(2);
+  ASSERT_TRUE(looking.ok());
+  EXPECT_EQ(looking->mission().planner().second_look_weight(), 1000.0);
+  auto no_phase_look =
+      ConfirmationVariant(*scenario, 1000.0, 0.0, std::nullopt, 1000.0).scenario(2);
+  ASSERT_TRUE(no_phase_look.ok());
+  EXPECT_FALSE(no_phase_look->mission().planner().has_second_look_weight());
 }
 
 std::vector<std::string> Labels(const std::vector<Variant>& variants) {

@@ -376,6 +376,9 @@ TEST(InformationTest, ParamsValidateNamesTheField) {
   EXPECT_NE(message({.confirmation_phase_weight = NAN}).find("confirmation_phase_weight"),
             std::string::npos);
   EXPECT_NE(message({.ambiguity_margin = 0.0}).find("ambiguity_margin"), std::string::npos);
+  EXPECT_NE(message({.second_look_weight = -1}).find("second_look_weight"), std::string::npos);
+  EXPECT_NE(message({.second_look_weight = INFINITY}).find("second_look_weight"),
+            std::string::npos);
   EXPECT_NE(message({.ambiguity_margin = 0.51}).find("ambiguity_margin"), std::string::npos);
   EXPECT_NE(message({.kind = ObjectiveKind::kNonAdaptive, .confirmation_phase_s = 10})
                 .find("confirmation_phase_s"),
@@ -509,6 +512,18 @@ TEST(InformationTest, ConfirmationPhaseValuesUndecidedCellsInTheLastSeconds) {
   // The trace objective has no phase.
   const InformationParams trace{.kind = ObjectiveKind::kNonAdaptive};
   EXPECT_FALSE(trace.ForRemainingBudget(0.0).confirming);
+
+  // With a second-look weight, cells outside the margin earn it times their
+  // variance in the phase (and nothing before it); undecided cells keep the
+  // phase's weight.
+  InformationParams looking = params;
+  looking.second_look_weight = 1000.0;
+  const InformationParams look_phase = looking.ForRemainingBudget(45.0);
+  EXPECT_NEAR(look_phase.CellValue(0.1, 0.23, r), 0.1 + unseen + 1000.0 * 0.23, 1e-12);
+  EXPECT_NEAR(look_phase.CellValue(0.8, 0.05, r), 0.8 + sure + 1000.0 * 0.05, 1e-12);
+  EXPECT_NEAR(look_phase.CellValue(0.39, 0.06, r), 0.39 + tie + 3000.0 * 0.06, 1e-12);
+  EXPECT_NEAR(looking.ForRemainingBudget(45.5).CellValue(0.1, 0.23, r),
+              0.1 + std::sqrt(0.23) + unseen, 1e-12);
 }
 
 // In the phase the fast evaluator still equals the oracle, and earns more
