@@ -21,13 +21,19 @@
 # also E5 under the ceiling on seeds 101-200, and E5 with the paper's
 # settings and the phase's weight 30000 (oaipp_confirm only)
 # (out/eval/detector-noise-w<weight>-<experiment>).
+# false-positives adds the detector's false-positive rate
+# (--detector_false_positives) at weight 1000 with the phase: E1 and E4
+# (oaipp and oaipp_confirm), E5 under the 12 m ceiling with N = 4 on seeds
+# 1-200 (oaipp_confirm) (out/eval/false-positives-<experiment>); then the
+# same with a second look in the phase (--second_look_weight=1000,
+# oaipp_confirm only; out/eval/false-positives-second-look-<experiment>).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -80,6 +86,28 @@ for e in $experiments; do
       "${client[@]}" eval E5 --trials=100 --detector_noise --confirmation_weight=1000 \
         --confirmation_phase_s=45 --confirmation_phase_weight=30000 --variants=oaipp_confirm \
         --out=out/eval/detector-noise-w1000-pw30000-E5 ;;
+    false-positives)
+      # The detector's noise with its false-positive rate (detections and
+      # misses weighed by their likelihood ratios), weight 1000, the phase:
+      # E1 and E4 with the paper's objective and the confirmation option,
+      # E5 under the 12 m ceiling with N = 4 on seeds 1-200.
+      confirm=(--detector_noise --detector_false_positives --confirmation_weight=1000
+        --confirmation_phase_s=45)
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" --variants=oaipp,oaipp_confirm \
+          --out="out/eval/false-positives-$x"
+      done
+      "${client[@]}" eval E5 --trials=200 "${confirm[@]}" --variants=oaipp_confirm \
+        --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
+        --out=out/eval/false-positives-E5-ceiling12-n4
+      # The same with a second look at ground seen once in the phase.
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" --second_look_weight=1000 \
+          --variants=oaipp_confirm --out="out/eval/false-positives-second-look-$x"
+      done
+      "${client[@]}" eval E5 --trials=200 "${confirm[@]}" --second_look_weight=1000 \
+        --variants=oaipp_confirm --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
+        --out=out/eval/false-positives-second-look-E5-ceiling12-n4 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
