@@ -114,7 +114,15 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
         continue;
       }
     }
-    if (status.error_code() != grpc::StatusCode::UNAVAILABLE) break;
+    // This client never cancels its own attempts, so a CANCELLED came from
+    // the other end: a server stopping under it, or a proxy resetting the
+    // stream when its backend went away. Like UNAVAILABLE it is asked
+    // again; the request_id keeps a mutation that did land from landing
+    // twice.
+    if (status.error_code() != grpc::StatusCode::UNAVAILABLE &&
+        status.error_code() != grpc::StatusCode::CANCELLED) {
+      break;
+    }
     if (attempt < options_.max_attempts) ++retried_calls_;
   }
   return api::FromGrpcStatus(status, what);

@@ -1,6 +1,7 @@
 // A client library over the generated MissionService stub: a deadline on
-// every call, retries of UNAVAILABLE with the same request_id (so a retried
-// mutation is never applied twice), and absl::Status errors that keep the
+// every call, retries of UNAVAILABLE and of CANCELLED (which only the other
+// end can cause: the client never cancels its own calls) with the same
+// request_id (so a retried mutation is never applied twice), and absl::Status errors that keep the
 // server's message. Every call carries the routing header kRouteHeader
 // with the mission it is about, so that a proxy in front of several
 // servers sends one mission's calls to one of them (docs/cluster.md).
@@ -24,7 +25,7 @@ namespace oaipp::client {
 struct ClientOptions {
   absl::Duration call_timeout = absl::Seconds(30);  // every call but PlanPath
   absl::Duration plan_timeout = absl::Seconds(60);  // PlanPath (the planner is anytime)
-  // Attempts for UNAVAILABLE, waiting first_backoff, then twice as long
+  // Attempts for UNAVAILABLE or CANCELLED, waiting first_backoff, then twice as long
   // each time up to max_backoff: the defaults keep trying for about 9 s,
   // long enough for a proxy to notice a dead server and for another to
   // take its missions over.
@@ -77,7 +78,7 @@ class Client {
   // The server that answered the last call (api::kReplicaHeader), or ""
   // when it names none.
   [[nodiscard]] std::string last_replica() const;
-  // Attempts that got UNAVAILABLE and were tried again, since creation.
+  // Attempts that got UNAVAILABLE or CANCELLED and were tried again, since creation.
   [[nodiscard]] std::int64_t retried_calls() const { return retried_calls_.load(); }
   // Calls asked again after the delay a RESOURCE_EXHAUSTED named, since
   // creation (ClientOptions::max_retry_after).
