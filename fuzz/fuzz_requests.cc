@@ -154,6 +154,12 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(planner.common.information.h_opt_m);
   OAIPP_FUZZ_SAME(planner.common.information.sigma1_m);
   OAIPP_FUZZ_SAME(planner.common.information.h_sat_m);
+  OAIPP_FUZZ_SAME(planner.common.information.confirmation_weight);
+  OAIPP_FUZZ_SAME(planner.common.information.decision_threshold);
+  OAIPP_FUZZ_SAME(planner.common.information.confirmation_phase_s);
+  OAIPP_FUZZ_SAME(planner.common.information.confirmation_phase_weight);
+  OAIPP_FUZZ_SAME(planner.common.information.ambiguity_margin);
+  OAIPP_FUZZ_SAME(planner.common.information.second_look_weight);
   OAIPP_FUZZ_SAME(planner.common.weights.k1);
   OAIPP_FUZZ_SAME(planner.common.weights.k2);
   OAIPP_FUZZ_SAME(planner.common.weights.min_flight_time_s);

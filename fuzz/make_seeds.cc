@@ -98,6 +98,14 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
   create.set_mission_id("small-detector-noise");
   create.mutable_spec()->mutable_sensor()->mutable_detector_noise()->set_p_max(0.9);
   WriteSeed(dir, "create_mission-detector_noise", Kind::kCreateMission, create);
+  // The per-mission confirmation options over the detector's rates.
+  create.set_mission_id("small-confirmation");
+  create.mutable_spec()->mutable_sensor()->mutable_detector_noise()->set_false_positive_rate(0.013);
+  v1::PlannerSpec& confirm = *create.mutable_spec()->mutable_planner();
+  confirm.set_confirmation_weight(1000);
+  confirm.set_confirmation_phase_s(45);
+  confirm.set_second_look_weight(1000);
+  WriteSeed(dir, "create_mission-confirmation", Kind::kCreateMission, create);
 
   v1::GetMissionRequest get;
   get.set_name("missions/e1");
