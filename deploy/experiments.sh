@@ -27,13 +27,17 @@
 # 1-200 (oaipp_confirm) (out/eval/false-positives-<experiment>); then the
 # same with a second look in the phase (--second_look_weight=1000,
 # oaipp_confirm only; out/eval/false-positives-second-look-<experiment>).
+# second-look flies E5 with those options and the second look on fresh
+# seeds 201-400 at weights 1000 and 3000, on seeds 201-300 at 10000 and
+# with a 60 s phase, with the paper's flight settings at 1000, and E1 and
+# E4 at 3000 (out/eval/second-look-<weight>-<experiment>).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -108,6 +112,32 @@ for e in $experiments; do
       "${client[@]}" eval E5 --trials=200 "${confirm[@]}" --second_look_weight=1000 \
         --variants=oaipp_confirm --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
         --out=out/eval/false-positives-second-look-E5-ceiling12-n4 ;;
+    second-look)
+      # The false-positives options with the second look, on fresh seeds
+      # and at other weights, a longer phase and the paper's flight
+      # settings: oaipp_confirm only, E5 at 100 trials.
+      confirm=(--detector_noise --detector_false_positives --confirmation_weight=1000
+        --variants=oaipp_confirm)
+      ceiling=--scenario=client/scenarios/e5-settings/ceiling12-n4.json
+      for first in 201 301; do
+        for w in 1000 3000; do
+          "${client[@]}" eval E5 --trials=100 --first_trial="$first" "${confirm[@]}" \
+            --confirmation_phase_s=45 --second_look_weight="$w" "$ceiling" \
+            --out="out/eval/second-look-$w-E5-ceiling12-n4-seeds$first"
+        done
+      done
+      "${client[@]}" eval E5 --trials=100 --first_trial=201 "${confirm[@]}" \
+        --confirmation_phase_s=45 --second_look_weight=10000 "$ceiling" \
+        --out=out/eval/second-look-10000-E5-ceiling12-n4-seeds201
+      "${client[@]}" eval E5 --trials=100 --first_trial=201 "${confirm[@]}" \
+        --confirmation_phase_s=60 --second_look_weight=1000 "$ceiling" \
+        --out=out/eval/second-look-phase60-E5-ceiling12-n4-seeds201
+      "${client[@]}" eval E5 --trials=100 "${confirm[@]}" --confirmation_phase_s=45 \
+        --second_look_weight=1000 --out=out/eval/second-look-1000-E5-paper-settings
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" --confirmation_phase_s=45 \
+          --second_look_weight=3000 --out="out/eval/second-look-3000-$x"
+      done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
