@@ -1,10 +1,11 @@
 // A client library over the generated MissionService stub: a deadline on
 // every call, retries of UNAVAILABLE and of CANCELLED (which only the other
 // end can cause: the client never cancels its own calls) with the same
-// request_id (so a retried mutation is never applied twice), and absl::Status errors that keep the
-// server's message. Every call carries the routing header kRouteHeader
-// with the mission it is about, so that a proxy in front of several
-// servers sends one mission's calls to one of them (docs/cluster.md).
+// request_id (so a retried mutation is never applied twice), and
+// absl::Status errors that keep the server's message. Every call carries
+// the routing header kRouteHeader with the mission it is about, so that a
+// proxy in front of several servers sends one mission's calls to one of
+// them (docs/cluster.md).
 //
 //   OAIPP_ASSIGN_OR_RETURN(Client client, Client::Connect("127.0.0.1:50051"));
 //   OAIPP_ASSIGN_OR_RETURN(v1::Mission m, client.CreateMission(spec));

@@ -30,7 +30,8 @@
 # second-look flies E5 with those options and the second look on fresh
 # seeds 201-400 at weights 1000 and 3000, on seeds 201-300 at 10000 and
 # with a 60 s phase, with the paper's flight settings at 1000, and E1 and
-# E4 at 3000 (out/eval/second-look-<weight>-<experiment>).
+# E4 at 3000 (out/eval/second-look[-<weight>|-phase60]-<experiment>, as
+# in client/results/false-positives/).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -121,19 +122,20 @@ for e in $experiments; do
       ceiling=--scenario=client/scenarios/e5-settings/ceiling12-n4.json
       for first in 201 301; do
         for w in 1000 3000; do
+          name=second-look; [[ $w == 1000 ]] || name="second-look-$w"
           "${client[@]}" eval E5 --trials=100 --first_trial="$first" "${confirm[@]}" \
             --confirmation_phase_s=45 --second_look_weight="$w" "$ceiling" \
-            --out="out/eval/second-look-$w-E5-ceiling12-n4-seeds$first"
+            --out="out/eval/$name-E5-ceiling12-n4-seeds$first-$((first + 99))"
         done
       done
       "${client[@]}" eval E5 --trials=100 --first_trial=201 "${confirm[@]}" \
         --confirmation_phase_s=45 --second_look_weight=10000 "$ceiling" \
-        --out=out/eval/second-look-10000-E5-ceiling12-n4-seeds201
+        --out=out/eval/second-look-10000-E5-ceiling12-n4-seeds201-300
       "${client[@]}" eval E5 --trials=100 --first_trial=201 "${confirm[@]}" \
         --confirmation_phase_s=60 --second_look_weight=1000 "$ceiling" \
-        --out=out/eval/second-look-phase60-E5-ceiling12-n4-seeds201
+        --out=out/eval/second-look-phase60-E5-ceiling12-n4-seeds201-300
       "${client[@]}" eval E5 --trials=100 "${confirm[@]}" --confirmation_phase_s=45 \
-        --second_look_weight=1000 --out=out/eval/second-look-1000-E5-paper-settings
+        --second_look_weight=1000 --out=out/eval/second-look-E5-paper-settings
       for x in E1 E4; do
         "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" --confirmation_phase_s=45 \
           --second_look_weight=3000 --out="out/eval/second-look-3000-$x"

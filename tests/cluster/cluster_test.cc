@@ -4,10 +4,10 @@
 // the test. E1 missions fly through the proxy with the client library
 // while a replica is killed with SIGKILL at a seeded moment and restarted
 // later, or while all three are restarted one after the other. Every
-// mission must finish its 150 s with no call failing (UNAVAILABLE is
-// retried by the library with the same request_id), and each final map
-// must equal an independent in-process replay of the measurements the
-// service acknowledged: nothing lost, nothing fused twice.
+// mission must finish its 150 s with no call failing (UNAVAILABLE and
+// CANCELLED are retried by the library with the same request_id), and each
+// final map must equal an independent in-process replay of the
+// measurements the service acknowledged: nothing lost, nothing fused twice.
 #include <signal.h>
 #include <sys/wait.h>
 

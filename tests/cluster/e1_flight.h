@@ -47,8 +47,8 @@ auto Timed(E1Flight& flight, const char* method, Call call) {
 }
 
 // Client options patient enough for a replica to die, the proxy to notice
-// and another replica to take the mission over: UNAVAILABLE is retried for
-// about attempts x max_backoff.
+// and another replica to take the mission over: UNAVAILABLE and CANCELLED
+// are retried for about attempts x max_backoff.
 inline client::ClientOptions PatientClient(int attempts, absl::Duration first_backoff,
                                            absl::Duration max_backoff) {
   client::ClientOptions options;
@@ -68,7 +68,8 @@ inline v1::MissionSpec E1FlightSpec(std::uint32_t seed, double budget_s) {
 }
 
 // Flies mission `id` to the end of its budget; the first error any call
-// returns (after the library's retries of UNAVAILABLE) stops the flight.
+// returns (after the library's retries of UNAVAILABLE and CANCELLED) stops
+// the flight.
 inline absl::Status FlyE1(client::Client& client, const std::string& id, std::uint32_t seed,
                           double budget_s, E1Flight& flight) {
   flight.name = "missions/" + id;
