@@ -26,10 +26,10 @@ namespace oaipp::client {
 struct ClientOptions {
   absl::Duration call_timeout = absl::Seconds(30);  // every call but PlanPath
   absl::Duration plan_timeout = absl::Seconds(60);  // PlanPath (the planner is anytime)
-  // Attempts for UNAVAILABLE or CANCELLED, waiting first_backoff, then twice as long
-  // each time up to max_backoff: the defaults keep trying for about 9 s,
-  // long enough for a proxy to notice a dead server and for another to
-  // take its missions over.
+  // Attempts for UNAVAILABLE or CANCELLED, waiting first_backoff, then
+  // twice as long each time up to max_backoff: the defaults keep trying for
+  // about 9 s, long enough for a proxy to notice a dead server and for
+  // another to take its missions over.
   int max_attempts = 8;
   absl::Duration first_backoff = absl::Milliseconds(200);
   absl::Duration max_backoff = absl::Seconds(2);
@@ -79,7 +79,8 @@ class Client {
   // The server that answered the last call (api::kReplicaHeader), or ""
   // when it names none.
   [[nodiscard]] std::string last_replica() const;
-  // Attempts that got UNAVAILABLE or CANCELLED and were tried again, since creation.
+  // Attempts that got UNAVAILABLE or CANCELLED and were tried again, since
+  // creation.
   [[nodiscard]] std::int64_t retried_calls() const { return retried_calls_.load(); }
   // Calls asked again after the delay a RESOURCE_EXHAUSTED named, since
   // creation (ClientOptions::max_retry_after).
