@@ -181,6 +181,8 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       OrDefault(p.has_ambiguity_margin(), p.ambiguity_margin(), info.ambiguity_margin);
   common.information.second_look_weight =
       OrDefault(p.has_second_look_weight(), p.second_look_weight(), info.second_look_weight);
+  common.information.second_look_sharpness = OrDefault(
+      p.has_second_look_sharpness(), p.second_look_sharpness(), info.second_look_sharpness);
   c.planner.oaipp.num_waypoints =
       OrDefault(p.has_num_waypoints(), p.num_waypoints(), oaipp.num_waypoints);
   c.planner.oaipp.population = OrDefault(p.has_population(), p.population(), oaipp.population);
@@ -218,6 +220,8 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
                                          common.information.confirmation_phase_weight));
   OAIPP_RETURN_IF_ERROR(
       CheckNonNegative("spec.planner.second_look_weight", common.information.second_look_weight));
+  OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.second_look_sharpness",
+                                         common.information.second_look_sharpness));
   if (const double margin = common.information.ambiguity_margin; !(margin > 0.0 && margin <= 0.5)) {
     return absl::InvalidArgumentError(
         absl::StrCat("spec.planner.ambiguity_margin: must lie in (0, 0.5], got ", margin));
@@ -407,6 +411,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   p.set_confirmation_phase_weight(common.information.confirmation_phase_weight);
   p.set_ambiguity_margin(common.information.ambiguity_margin);
   p.set_second_look_weight(common.information.second_look_weight);
+  p.set_second_look_sharpness(common.information.second_look_sharpness);
   p.set_lawnmower_altitude_m(c.planner.lawnmower.altitude_m);
   p.set_lawnmower_start_corner(c.planner.lawnmower.start_corner);
 

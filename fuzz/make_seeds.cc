@@ -105,6 +105,7 @@ void WriteRequestSeeds(const fs::path& root, const fs::path& dir) {
   confirm.set_confirmation_weight(1000);
   confirm.set_confirmation_phase_s(45);
   confirm.set_second_look_weight(1000);
+  confirm.set_second_look_sharpness(0.31);
   WriteSeed(dir, "create_mission-confirmation", Kind::kCreateMission, create);
 
   v1::GetMissionRequest get;

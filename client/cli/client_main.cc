@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
-#include <optional>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
@@ -23,6 +22,7 @@
 #include "client/cli/evaluation.h"
 #include "client/cli/map_image.h"
 #include "client/cli/mission_runner.h"
+#include "core/common/status_macros.h"
 #include "sim/random_world.h"
 #include "sim/scenario.h"
 
@@ -63,6 +63,10 @@ ABSL_FLAG(double, second_look_weight, 0.0,
           "eval: with --confirmation_phase_s, the phase's weight on every other cell's "
           "variance, a second look at ground seen once (PlannerSpec.second_look_weight, >= 0); "
           "0: none");
+ABSL_FLAG(double, second_look_sharpness, 0.0,
+          "eval: with --second_look_weight, each cell earns it times exp(-this / variance) "
+          "instead of its variance, falling with each look as the chance of a missed person "
+          "does (PlannerSpec.second_look_sharpness, >= 0); 0: the variance");
 ABSL_FLAG(std::string, variants, "",
           "eval: comma-separated variants to fly (e.g. oaipp_confirm); empty: all of the "
           "experiment's");
@@ -117,7 +121,8 @@ Commands:
                       --confirmation_phase_s=S adds a confirmation phase
                       over its last S seconds, at
                       --confirmation_phase_weight (default 3000), and
-                      --second_look_weight on every other cell.
+                      --second_look_weight on every other cell (at
+                      --second_look_sharpness, when given).
                       --variants=a,b flies only the named variants
                       (e.g. oaipp_confirm). --detector_noise (run and
                       eval): every mission fuses labels with the noise of
@@ -134,9 +139,9 @@ Commands:
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --first_trial (1), --parallel (2),
        --plan_budget_s (0: none), --scenario, --e3_budget_s, --confirmation_weight,
-       --confirmation_phase_s, --confirmation_phase_weight, --second_look_weight, --variants,
-       --detector_noise, --detector_false_positives, --geo_origin, --setpoint_rate_hz (20),
-       --autopilot (px4).)";
+       --confirmation_phase_s, --confirmation_phase_weight, --second_look_weight,
+       --second_look_sharpness, --variants, --detector_noise, --detector_false_positives,
+       --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -370,6 +375,19 @@ struct Experiment {
   std::string column;  // plotted over time
 };
 
+// The value of flag `name` when it is >= 0 and finite.
+absl::StatusOr<double> NonNegativeFlag(absl::string_view name, double value) {
+  if (value >= 0.0 && std::isfinite(value)) return value;
+  return absl::InvalidArgumentError(absl::StrCat(name, ": must be >= 0 and finite"));
+}
+
+// Flag `name` weighs the confirmation phase: an error without one.
+absl::Status NeedsPhase(absl::string_view name, double phase_s) {
+  if (phase_s > 0.0) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat(name, ": weighs the confirmation phase; set --confirmation_phase_s"));
+}
+
 absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
                                           const oaipp::v1::Scenario& scenario) {
   using oaipp::PlannerKind;
@@ -412,47 +430,43 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
     return absl::InvalidArgumentError(
         absl::StrCat("eval: unknown experiment '", name, "' (E1, E2, E3, E4 or E5)"));
   }
-  const double confirmation = absl::GetFlag(FLAGS_confirmation_weight);
-  if (!(confirmation >= 0.0) || !std::isfinite(confirmation)) {
-    return absl::InvalidArgumentError("--confirmation_weight: must be >= 0 and finite");
-  }
-  const double phase = absl::GetFlag(FLAGS_confirmation_phase_s);
-  if (!(phase >= 0.0) || !std::isfinite(phase)) {
-    return absl::InvalidArgumentError("--confirmation_phase_s: must be >= 0 and finite");
-  }
-  if (phase > 0.0 && confirmation == 0.0) {
+  oaipp::client::ConfirmationOptions confirm;
+  OAIPP_ASSIGN_OR_RETURN(confirm.weight, NonNegativeFlag("--confirmation_weight",
+                                                         absl::GetFlag(FLAGS_confirmation_weight)));
+  OAIPP_ASSIGN_OR_RETURN(
+      confirm.phase_s,
+      NonNegativeFlag("--confirmation_phase_s", absl::GetFlag(FLAGS_confirmation_phase_s)));
+  if (confirm.phase_s > 0.0 && confirm.weight == 0.0) {
     return absl::InvalidArgumentError(
         "--confirmation_phase_s: applies to the oaipp_confirm variant; set --confirmation_weight");
   }
-  const double phase_weight = absl::GetFlag(FLAGS_confirmation_phase_weight);
-  std::optional<double> phase_weight_set;
-  if (phase_weight != -1.0) {
-    if (!(phase_weight >= 0.0) || !std::isfinite(phase_weight)) {
+  if (const double w = absl::GetFlag(FLAGS_confirmation_phase_weight); w != -1.0) {
+    if (!(w >= 0.0) || !std::isfinite(w)) {
       return absl::InvalidArgumentError(
           "--confirmation_phase_weight: must be >= 0 and finite, or -1 for the default");
     }
-    if (phase == 0.0) {
-      return absl::InvalidArgumentError(
-          "--confirmation_phase_weight: weighs the confirmation phase; set "
-          "--confirmation_phase_s");
-    }
-    phase_weight_set = phase_weight;
+    OAIPP_RETURN_IF_ERROR(NeedsPhase("--confirmation_phase_weight", confirm.phase_s));
+    confirm.phase_weight = w;
   }
-  const double second_look = absl::GetFlag(FLAGS_second_look_weight);
-  if (!(second_look >= 0.0) || !std::isfinite(second_look)) {
-    return absl::InvalidArgumentError("--second_look_weight: must be >= 0 and finite");
+  OAIPP_ASSIGN_OR_RETURN(
+      confirm.second_look_weight,
+      NonNegativeFlag("--second_look_weight", absl::GetFlag(FLAGS_second_look_weight)));
+  if (confirm.second_look_weight > 0.0) {
+    OAIPP_RETURN_IF_ERROR(NeedsPhase("--second_look_weight", confirm.phase_s));
   }
-  if (second_look > 0.0 && phase == 0.0) {
+  OAIPP_ASSIGN_OR_RETURN(
+      confirm.second_look_sharpness,
+      NonNegativeFlag("--second_look_sharpness", absl::GetFlag(FLAGS_second_look_sharpness)));
+  if (confirm.second_look_sharpness > 0.0 && confirm.second_look_weight == 0.0) {
     return absl::InvalidArgumentError(
-        "--second_look_weight: weighs the confirmation phase; set --confirmation_phase_s");
+        "--second_look_sharpness: shapes the second look; set --second_look_weight");
   }
-  if (confirmation > 0.0) {
+  if (confirm.weight > 0.0) {
     if (name != "E1" && name != "E4" && name != "E5") {
       return absl::InvalidArgumentError(
           "--confirmation_weight: adds a variant to E1, E4 and E5 only");
     }
-    e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirmation, phase,
-                                                            phase_weight_set, second_look));
+    e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirm));
   }
   const std::string wanted = absl::GetFlag(FLAGS_variants);
   std::vector<std::string> labels;

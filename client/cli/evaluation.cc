@@ -62,20 +62,25 @@ std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
   return variants;
 }
 
-Variant ConfirmationVariant(const v1::Scenario& scenario, double weight, double phase_s,
-                            std::optional<double> phase_weight, double second_look_weight) {
+Variant ConfirmationVariant(const v1::Scenario& scenario, const ConfirmationOptions& options) {
   Variant v = PlannerVariants(scenario, {PlannerKind::kOaIpp}).front();
   v.label = "oaipp_confirm";
-  v.scenario = [oaipp = v.scenario, weight, phase_s, phase_weight,
-                second_look_weight](int trial) -> absl::StatusOr<v1::Scenario> {
+  v.scenario = [oaipp = v.scenario, options](int trial) -> absl::StatusOr<v1::Scenario> {
     absl::StatusOr<v1::Scenario> s = oaipp(trial);
     if (s.ok()) {
       v1::PlannerSpec& planner = *s->mutable_mission()->mutable_planner();
-      planner.set_confirmation_weight(weight);
-      if (phase_s > 0.0) {
-        planner.set_confirmation_phase_s(phase_s);
-        if (phase_weight.has_value()) planner.set_confirmation_phase_weight(*phase_weight);
-        if (second_look_weight > 0.0) planner.set_second_look_weight(second_look_weight);
+      planner.set_confirmation_weight(options.weight);
+      if (options.phase_s > 0.0) {
+        planner.set_confirmation_phase_s(options.phase_s);
+        if (options.phase_weight.has_value()) {
+          planner.set_confirmation_phase_weight(*options.phase_weight);
+        }
+        if (options.second_look_weight > 0.0) {
+          planner.set_second_look_weight(options.second_look_weight);
+        }
+        if (options.second_look_sharpness > 0.0) {
+          planner.set_second_look_sharpness(options.second_look_sharpness);
+        }
       }
     }
     return s;

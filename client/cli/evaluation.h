@@ -48,17 +48,25 @@ struct Variant {
 [[nodiscard]] std::vector<Variant> PlannerVariants(const v1::Scenario& scenario,
                                                    const std::vector<PlannerKind>& planners);
 
-// OA-IPP with the confirmation objective (docs/method.md §6.4) at `weight`
-// and, when phase_s > 0, a confirmation phase over the last phase_s seconds
-// of the budget (at `phase_weight` when given, else the scenario's weight;
-// the scenario's margin; with second_look_weight > 0 as its second-look
-// weight), labelled "oaipp_confirm"; otherwise as
-// PlannerVariants' OA-IPP, so that trial k of both flies the same world,
-// people and seeds.
-[[nodiscard]] Variant ConfirmationVariant(const v1::Scenario& scenario, double weight,
-                                          double phase_s = 0.0,
-                                          std::optional<double> phase_weight = std::nullopt,
-                                          double second_look_weight = 0.0);
+// The confirmation settings an evaluation flies oaipp_confirm with
+// (docs/method.md §6.4; each is the PlannerSpec field of the same name).
+struct ConfirmationOptions {
+  double weight = 0.0;  // confirmation_weight
+  // The phase over the last phase_s seconds of the budget; 0: none, and
+  // then the fields below are not set either.
+  double phase_s = 0.0;
+  // The phase's weight on undecided cells; unset: the scenario's.
+  std::optional<double> phase_weight = std::nullopt;
+  // The second look and its sharpness; 0: not set (the planner's default).
+  double second_look_weight = 0.0;
+  double second_look_sharpness = 0.0;
+};
+
+// OA-IPP with the confirmation objective at `options`, labelled
+// "oaipp_confirm"; otherwise as PlannerVariants' OA-IPP, so that trial k of
+// both flies the same world, people and seeds.
+[[nodiscard]] Variant ConfirmationVariant(const v1::Scenario& scenario,
+                                          const ConfirmationOptions& options);
 
 // The variants of `all` whose labels `labels` names, in the order of `all`
 // (every one when `labels` is empty). InvalidArgument naming `flag` when a

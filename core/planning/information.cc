@@ -153,6 +153,10 @@ absl::Status InformationParams::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("second_look_weight: must be >= 0 and finite, got ", second_look_weight));
   }
+  if (!(second_look_sharpness >= 0.0) || !std::isfinite(second_look_sharpness)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "second_look_sharpness: must be >= 0 and finite, got ", second_look_sharpness));
+  }
   if (!(ambiguity_margin > 0.0 && ambiguity_margin <= 0.5)) {
     return absl::InvalidArgumentError(
         absl::StrCat("ambiguity_margin: must lie in (0, 0.5], got ", ambiguity_margin));

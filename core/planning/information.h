@@ -81,6 +81,13 @@ struct InformationParams {
   // predicted variance: a second look at ground seen once, where a person
   // may have been missed. 0 (the default): none. Valid: >= 0, finite.
   double second_look_weight = 0.0;
+  // With second_look_sharpness alpha > 0 such a cell earns second_look_weight
+  // times exp(-alpha / variance) instead: each look adds to 1/variance, so
+  // this falls by a large factor per look (most at the first), as the
+  // chance that a person there was missed every time does; the variance
+  // itself falls only about 1.5x. 0 (the default): the variance itself.
+  // Valid: >= 0, finite.
+  double second_look_sharpness = 0.0;
   // True when these are the phase's parameters (set by ForRemainingBudget).
   bool confirming = false;
 
@@ -98,6 +105,10 @@ struct InformationParams {
   // its weight is positive, plus in the confirmation phase the ambiguity
   // term, or the second-look term for a cell outside the margin.
   [[nodiscard]] double CellValue(double mean, double variance, double noise_variance) const;
+  // The second-look term of a cell with predicted variance `variance`,
+  // unweighted: the variance, or exp(-second_look_sharpness / variance); 0
+  // for a variance that is not positive.
+  [[nodiscard]] double SecondLook(double variance) const;
 };
 
 // Expected reduction of the misclassification probability of a cell with
@@ -108,6 +119,11 @@ struct InformationParams {
 [[nodiscard]] double MisclassificationReduction(double mean, double variance, double noise_variance,
                                                 double threshold);
 
+inline double InformationParams::SecondLook(double variance) const {
+  if (!(variance > 0.0)) return 0.0;
+  return second_look_sharpness > 0.0 ? std::exp(-second_look_sharpness / variance) : variance;
+}
+
 inline double InformationParams::CellValue(double mean, double variance,
                                            double noise_variance) const {
   double value = mean + kappa * std::sqrt(std::max(variance, 0.0));
@@ -117,8 +133,8 @@ inline double InformationParams::CellValue(double mean, double variance,
   }
   if (confirming && std::abs(mean - decision_threshold) < ambiguity_margin) {
     value += confirmation_phase_weight * std::max(variance, 0.0);
-  } else if (confirming) {
-    value += second_look_weight * std::max(variance, 0.0);
+  } else if (confirming && second_look_weight > 0.0) {
+    value += second_look_weight * SecondLook(variance);
   }
   return value;
 }

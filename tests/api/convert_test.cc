@@ -94,6 +94,7 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
       << what;
   EXPECT_EQ(a.information.ambiguity_margin, b.information.ambiguity_margin) << what;
   EXPECT_EQ(a.information.second_look_weight, b.information.second_look_weight) << what;
+  EXPECT_EQ(a.information.second_look_sharpness, b.information.second_look_sharpness) << what;
   EXPECT_EQ(a.weights.k1, b.weights.k1) << what;
   EXPECT_EQ(a.weights.k2, b.weights.k2) << what;
   EXPECT_EQ(a.weights.min_flight_time_s, b.weights.min_flight_time_s) << what;
@@ -791,6 +792,13 @@ std::vector<BadCase> BadCases() {
       {"negative second-look weight",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_second_look_weight(-1); }); },
        kInvalid, "spec.planner.second_look_weight: "},
+      {"infinite second-look sharpness",
+       [] {
+         return SpecWith([](auto& s) {
+           s.mutable_planner()->set_second_look_sharpness(std::numeric_limits<double>::infinity());
+         });
+       },
+       kInvalid, "spec.planner.second_look_sharpness: "},
       {"ambiguity margin above 0.5",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_ambiguity_margin(0.6); }); },
        kInvalid, "spec.planner.ambiguity_margin: "},

@@ -21,7 +21,7 @@ TEST(EvaluationTest, ConfirmationVariantSetsTheWeightAndThePhase) {
   auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
   ASSERT_TRUE(scenario.ok()) << scenario.status();
   const Variant plain = PlannerVariants(*scenario, {PlannerKind::kOaIpp}).front();
-  const Variant confirm = ConfirmationVariant(*scenario, 100.0, 45.0);
+  const Variant confirm = ConfirmationVariant(*scenario, {.weight = 100.0, .phase_s = 45.0});
   EXPECT_EQ(confirm.label, "oaipp_confirm");
   auto a = plain.scenario(3);
   auto b = confirm.scenario(3);
@@ -33,7 +33,7 @@ TEST(EvaluationTest, ConfirmationVariantSetsTheWeightAndThePhase) {
   same.mutable_mission()->mutable_planner()->clear_confirmation_weight();
   same.mutable_mission()->mutable_planner()->clear_confirmation_phase_s();
   EXPECT_EQ(same.SerializeAsString(), a->SerializeAsString());
-  EXPECT_FALSE(ConfirmationVariant(*scenario, 100.0)
+  EXPECT_FALSE(ConfirmationVariant(*scenario, {.weight = 100.0})
                    .scenario(3)
                    ->mission()
                    .planner()
@@ -44,23 +44,34 @@ TEST(EvaluationTest, ConfirmationVariantSetsTheWeightAndThePhase) {
 TEST(EvaluationTest, ConfirmationVariantSetsThePhaseWeightWhenGiven) {
   auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
   ASSERT_TRUE(scenario.ok()) << scenario.status();
-  auto weighted = ConfirmationVariant(*scenario, 1000.0, 45.0, 30000.0).scenario(2);
+  auto weighted =
+      ConfirmationVariant(*scenario, {.weight = 1000.0, .phase_s = 45.0, .phase_weight = 30000.0})
+          .scenario(2);
   ASSERT_TRUE(weighted.ok());
   EXPECT_EQ(weighted->mission().planner().confirmation_phase_weight(), 30000.0);
-  auto unweighted = ConfirmationVariant(*scenario, 1000.0, 45.0).scenario(2);
+  auto unweighted = ConfirmationVariant(*scenario, {.weight = 1000.0, .phase_s = 45.0}).scenario(2);
   ASSERT_TRUE(unweighted.ok());
   EXPECT_FALSE(unweighted->mission().planner().has_confirmation_phase_weight());
-  auto no_phase = ConfirmationVariant(*scenario, 1000.0, 0.0, 30000.0).scenario(2);
+  auto no_phase =
+      ConfirmationVariant(*scenario, {.weight = 1000.0, .phase_weight = 30000.0}).scenario(2);
   ASSERT_TRUE(no_phase.ok());
   EXPECT_FALSE(no_phase->mission().planner().has_confirmation_phase_weight());
   EXPECT_FALSE(weighted->mission().planner().has_second_look_weight());
-  auto looking = ConfirmationVariant(*scenario, 1000.0, 45.0, std::nullopt, 1000.0).scenario(2);
+  auto looking = ConfirmationVariant(*scenario, {.weight = 1000.0,
+                                                 .phase_s = 45.0,
+                                                 .second_look_weight = 1000.0,
+                                                 .second_look_sharpness = 0.31})
+                     .scenario(2);
   ASSERT_TRUE(looking.ok());
   EXPECT_EQ(looking->mission().planner().second_look_weight(), 1000.0);
-  auto no_phase_look =
-      ConfirmationVariant(*scenario, 1000.0, 0.0, std::nullopt, 1000.0).scenario(2);
+  EXPECT_EQ(looking->mission().planner().second_look_sharpness(), 0.31);
+  auto no_phase_look = ConfirmationVariant(*scenario, {.weight = 1000.0,
+                                                       .second_look_weight = 1000.0,
+                                                       .second_look_sharpness = 0.31})
+                           .scenario(2);
   ASSERT_TRUE(no_phase_look.ok());
   EXPECT_FALSE(no_phase_look->mission().planner().has_second_look_weight());
+  EXPECT_FALSE(no_phase_look->mission().planner().has_second_look_sharpness());
 }
 
 std::vector<std::string> Labels(const std::vector<Variant>& variants) {

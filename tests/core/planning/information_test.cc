@@ -379,6 +379,10 @@ TEST(InformationTest, ParamsValidateNamesTheField) {
   EXPECT_NE(message({.second_look_weight = -1}).find("second_look_weight"), std::string::npos);
   EXPECT_NE(message({.second_look_weight = INFINITY}).find("second_look_weight"),
             std::string::npos);
+  EXPECT_NE(message({.second_look_sharpness = -0.1}).find("second_look_sharpness"),
+            std::string::npos);
+  EXPECT_NE(message({.second_look_sharpness = NAN}).find("second_look_sharpness"),
+            std::string::npos);
   EXPECT_NE(message({.ambiguity_margin = 0.51}).find("ambiguity_margin"), std::string::npos);
   EXPECT_NE(message({.kind = ObjectiveKind::kNonAdaptive, .confirmation_phase_s = 10})
                 .find("confirmation_phase_s"),
@@ -524,6 +528,30 @@ TEST(InformationTest, ConfirmationPhaseValuesUndecidedCellsInTheLastSeconds) {
   EXPECT_NEAR(look_phase.CellValue(0.39, 0.06, r), 0.39 + tie + 3000.0 * 0.06, 1e-12);
   EXPECT_NEAR(looking.ForRemainingBudget(45.5).CellValue(0.1, 0.23, r),
               0.1 + std::sqrt(0.23) + unseen, 1e-12);
+
+  // With a sharpness alpha = 0.31 a cell outside the margin earns
+  // w2 exp(-alpha / variance) instead. Values computed apart (Python's
+  // math.exp) for w2 = 11440 at the paper map's prior variance 0.2315 and
+  // after one and two "no person" looks from 11.5 m (0.057, 0.038): the
+  // looks divide the term by about 60 and 15, where the second divides the
+  // variance itself by only 1.5.
+  InformationParams sharp = params;
+  sharp.second_look_weight = 11440.0;
+  sharp.second_look_sharpness = 0.31;
+  const InformationParams sharp_phase = sharp.ForRemainingBudget(45.0);
+  const auto second_look = [&](double variance) {
+    return sharp_phase.CellValue(0.1, variance, r) -
+           (0.1 + 100.0 * MisclassificationReduction(0.1, variance, r, 0.5));
+  };
+  EXPECT_NEAR(second_look(0.2315), 2998.232994729077, 1e-9);
+  EXPECT_NEAR(second_look(0.057), 49.71341288756529, 1e-10);
+  EXPECT_NEAR(second_look(0.038), 3.27715781879501, 1e-11);
+  EXPECT_EQ(second_look(0.0), 0.0);
+  // Undecided cells keep the phase's variance weight; before the phase the
+  // second look earns nothing.
+  EXPECT_NEAR(sharp_phase.CellValue(0.39, 0.06, r), 0.39 + tie + 3000.0 * 0.06, 1e-12);
+  EXPECT_NEAR(sharp.ForRemainingBudget(45.5).CellValue(0.1, 0.23, r),
+              0.1 + std::sqrt(0.23) + unseen, 1e-12);
 }
 
 // In the phase the fast evaluator still equals the oracle, and earns more
@@ -537,6 +565,20 @@ TEST(InformationTest, ConfirmationPhaseFastEqualsReference) {
   ASSERT_TRUE(params.confirming);
   // The bonus is >= 0 and adds where a pose sees undecided cells.
   EXPECT_GT(CheckFastAgainstReference(map, params, InformationParams{.kappa = 0.0}, 43), 100);
+}
+
+// With a sharp second look the fast evaluator still equals the oracle, and
+// earns more than the phase without it wherever a pose sees decided cells.
+TEST(InformationTest, SharpSecondLookFastEqualsReference) {
+  const GpMap map = RandomPosterior(16, 12);
+  const InformationParams phase =
+      InformationParams{.kappa = 1.0, .confirmation_phase_s = 30.0, .ambiguity_margin = 0.3}
+          .ForRemainingBudget(10.0);
+  InformationParams sharp = phase;
+  sharp.second_look_weight = 500.0;
+  sharp.second_look_sharpness = 0.05;
+  ASSERT_TRUE(sharp.Validate().ok());
+  EXPECT_GT(CheckFastAgainstReference(map, sharp, phase, 44), 100);
 }
 
 }  // namespace
