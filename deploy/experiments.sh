@@ -32,13 +32,19 @@
 # with a 60 s phase, with the paper's flight settings at 1000, and E1 and
 # E4 at 3000 (out/eval/second-look[-<weight>|-phase60]-<experiment>, as
 # in client/results/false-positives/).
+# sharp-second-look flies the same options with the sharper second look
+# (--second_look_weight=11440 --second_look_sharpness=0.31): E5 under the
+# ceiling on fresh seeds 201-400, E5 with the paper's flight settings on
+# seeds 1-100 (oaipp_confirm only), E1 and E4 with oaipp beside it, and E5
+# under the ceiling on seeds 401-600
+# (out/eval/sharp-second-look-<experiment>[-seeds<first>-<last>]).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look sharp-second-look}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -140,6 +146,21 @@ for e in $experiments; do
         "${client[@]}" eval "$x" --trials="$trials" "${confirm[@]}" --confirmation_phase_s=45 \
           --second_look_weight=3000 --out="out/eval/second-look-3000-$x"
       done ;;
+    sharp-second-look)
+      sharp=(--detector_noise --detector_false_positives --confirmation_weight=1000
+        --confirmation_phase_s=45 --second_look_weight=11440 --second_look_sharpness=0.31)
+      e5() {  # first trial, trials, output name, more flags
+        "${client[@]}" eval E5 --first_trial="$1" --trials="$2" "${sharp[@]}" \
+          --variants=oaipp_confirm --out="out/eval/sharp-second-look-$3" "${@:4}"
+      }
+      ceiling=--scenario=client/scenarios/e5-settings/ceiling12-n4.json
+      e5 201 200 E5-ceiling12-n4-seeds201-400 "$ceiling"
+      e5 1 100 E5-paper-settings
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" "${sharp[@]}" --variants=oaipp,oaipp_confirm \
+          --out="out/eval/sharp-second-look-$x"
+      done
+      e5 401 200 E5-ceiling12-n4-seeds401-600 "$ceiling" ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
