@@ -59,6 +59,10 @@ ABSL_FLAG(double, confirmation_phase_s, 0.0,
 ABSL_FLAG(double, confirmation_phase_weight, -1.0,
           "eval: with --confirmation_phase_s, the phase's weight on undecided cells "
           "(PlannerSpec.confirmation_phase_weight, >= 0); -1: the planner's default");
+ABSL_FLAG(double, ambiguity_margin, -1.0,
+          "eval: with --confirmation_phase_s, the margin around the decision threshold within "
+          "which a cell counts as undecided (PlannerSpec.ambiguity_margin, in (0, 0.5]); -1: the "
+          "planner's default");
 ABSL_FLAG(double, second_look_weight, 0.0,
           "eval: with --confirmation_phase_s, the phase's weight on every other cell's "
           "variance, a second look at ground seen once (PlannerSpec.second_look_weight, >= 0); "
@@ -120,9 +124,10 @@ Commands:
                       objective at weight W, same seeds;
                       --confirmation_phase_s=S adds a confirmation phase
                       over its last S seconds, at
-                      --confirmation_phase_weight (default 3000), and
-                      --second_look_weight on every other cell (at
-                      --second_look_sharpness, when given).
+                      --confirmation_phase_weight (default 3000) on the
+                      cells within --ambiguity_margin (0.25) of the
+                      threshold, and --second_look_weight on every other
+                      cell (at --second_look_sharpness, when given).
                       --variants=a,b flies only the named variants
                       (e.g. oaipp_confirm). --detector_noise (run and
                       eval): every mission fuses labels with the noise of
@@ -139,9 +144,9 @@ Commands:
 Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --frames (run), --trials (25), --first_trial (1), --parallel (2),
        --plan_budget_s (0: none), --scenario, --e3_budget_s, --confirmation_weight,
-       --confirmation_phase_s, --confirmation_phase_weight, --second_look_weight,
-       --second_look_sharpness, --variants, --detector_noise, --detector_false_positives,
-       --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
+       --confirmation_phase_s, --confirmation_phase_weight, --ambiguity_margin,
+       --second_look_weight, --second_look_sharpness, --variants, --detector_noise,
+       --detector_false_positives, --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -381,11 +386,11 @@ absl::StatusOr<double> NonNegativeFlag(absl::string_view name, double value) {
   return absl::InvalidArgumentError(absl::StrCat(name, ": must be >= 0 and finite"));
 }
 
-// Flag `name` weighs the confirmation phase: an error without one.
+// Flag `name` applies to the confirmation phase: an error without one.
 absl::Status NeedsPhase(absl::string_view name, double phase_s) {
   if (phase_s > 0.0) return absl::OkStatus();
   return absl::InvalidArgumentError(
-      absl::StrCat(name, ": weighs the confirmation phase; set --confirmation_phase_s"));
+      absl::StrCat(name, ": applies to the confirmation phase; set --confirmation_phase_s"));
 }
 
 absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
@@ -447,6 +452,14 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
     }
     OAIPP_RETURN_IF_ERROR(NeedsPhase("--confirmation_phase_weight", confirm.phase_s));
     confirm.phase_weight = w;
+  }
+  if (const double m = absl::GetFlag(FLAGS_ambiguity_margin); m != -1.0) {
+    if (!(m > 0.0 && m <= 0.5)) {
+      return absl::InvalidArgumentError(
+          "--ambiguity_margin: must lie in (0, 0.5], or be -1 for the default");
+    }
+    OAIPP_RETURN_IF_ERROR(NeedsPhase("--ambiguity_margin", confirm.phase_s));
+    confirm.ambiguity_margin = m;
   }
   OAIPP_ASSIGN_OR_RETURN(
       confirm.second_look_weight,

@@ -75,6 +75,9 @@ Variant ConfirmationVariant(const v1::Scenario& scenario, const ConfirmationOpti
         if (options.phase_weight.has_value()) {
           planner.set_confirmation_phase_weight(*options.phase_weight);
         }
+        if (options.ambiguity_margin.has_value()) {
+          planner.set_ambiguity_margin(*options.ambiguity_margin);
+        }
         if (options.second_look_weight > 0.0) {
           planner.set_second_look_weight(options.second_look_weight);
         }

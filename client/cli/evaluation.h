@@ -57,6 +57,8 @@ struct ConfirmationOptions {
   double phase_s = 0.0;
   // The phase's weight on undecided cells; unset: the scenario's.
   std::optional<double> phase_weight = std::nullopt;
+  // The phase's margin around the threshold; unset: the scenario's.
+  std::optional<double> ambiguity_margin = std::nullopt;
   // The second look and its sharpness; 0: not set (the planner's default).
   double second_look_weight = 0.0;
   double second_look_sharpness = 0.0;

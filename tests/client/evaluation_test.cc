@@ -40,7 +40,8 @@ TEST(EvaluationTest, ConfirmationVariantSetsTheWeightAndThePhase) {
                    .has_confirmation_phase_s());
 }
 
-// The phase's weight reaches the spec only with a phase, and only when given.
+// The phase's weight, margin and second look reach the spec only with a
+// phase, and only when given.
 TEST(EvaluationTest, ConfirmationVariantSetsThePhaseWeightWhenGiven) {
   auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
   ASSERT_TRUE(scenario.ok()) << scenario.status();
@@ -57,21 +58,26 @@ TEST(EvaluationTest, ConfirmationVariantSetsThePhaseWeightWhenGiven) {
   ASSERT_TRUE(no_phase.ok());
   EXPECT_FALSE(no_phase->mission().planner().has_confirmation_phase_weight());
   EXPECT_FALSE(weighted->mission().planner().has_second_look_weight());
+  EXPECT_FALSE(weighted->mission().planner().has_ambiguity_margin());
   auto looking = ConfirmationVariant(*scenario, {.weight = 1000.0,
                                                  .phase_s = 45.0,
+                                                 .ambiguity_margin = 0.35,
                                                  .second_look_weight = 1000.0,
                                                  .second_look_sharpness = 0.31})
                      .scenario(2);
   ASSERT_TRUE(looking.ok());
   EXPECT_EQ(looking->mission().planner().second_look_weight(), 1000.0);
   EXPECT_EQ(looking->mission().planner().second_look_sharpness(), 0.31);
+  EXPECT_EQ(looking->mission().planner().ambiguity_margin(), 0.35);
   auto no_phase_look = ConfirmationVariant(*scenario, {.weight = 1000.0,
+                                                       .ambiguity_margin = 0.35,
                                                        .second_look_weight = 1000.0,
                                                        .second_look_sharpness = 0.31})
                            .scenario(2);
   ASSERT_TRUE(no_phase_look.ok());
   EXPECT_FALSE(no_phase_look->mission().planner().has_second_look_weight());
   EXPECT_FALSE(no_phase_look->mission().planner().has_second_look_sharpness());
+  EXPECT_FALSE(no_phase_look->mission().planner().has_ambiguity_margin());
 }
 
 std::vector<std::string> Labels(const std::vector<Variant>& variants) {
