@@ -34,9 +34,9 @@
 # in client/results/false-positives/).
 # sharp-second-look flies the same options with the sharper second look
 # (--second_look_weight=11440 --second_look_sharpness=0.31): E5 under the
-# ceiling on fresh seeds 201-400, E5 with the paper's flight settings on
-# seeds 1-100 (oaipp_confirm only), E1 and E4 with oaipp beside it, and E5
-# under the ceiling on seeds 401-600
+# ceiling on fresh seeds 201-400 and on seeds 1-200, E5 with the paper's
+# flight settings on seeds 1-200 (oaipp_confirm only), E1 and E4 with
+# oaipp beside it, and E5 under the ceiling on seeds 401-600
 # (out/eval/sharp-second-look-<experiment>[-seeds<first>-<last>]).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -155,7 +155,9 @@ for e in $experiments; do
       }
       ceiling=--scenario=client/scenarios/e5-settings/ceiling12-n4.json
       e5 201 200 E5-ceiling12-n4-seeds201-400 "$ceiling"
+      e5 1 200 E5-ceiling12-n4-seeds1-200 "$ceiling"
       e5 1 100 E5-paper-settings
+      e5 101 100 E5-paper-settings-seeds101-200
       for x in E1 E4; do
         "${client[@]}" eval "$x" --trials="$trials" "${sharp[@]}" --variants=oaipp,oaipp_confirm \
           --out="out/eval/sharp-second-look-$x"
