@@ -38,13 +38,17 @@
 # flight settings on seeds 1-200 (oaipp_confirm only), E1 and E4 with
 # oaipp beside it, and E5 under the ceiling on seeds 401-600
 # (out/eval/sharp-second-look-<experiment>[-seeds<first>-<last>]).
+# sharp-second-look-phase60 flies the same with a 60 s phase: E5 with the
+# paper's flight settings on seeds 1-400, E5 under the ceiling on seeds
+# 401-600 (oaipp_confirm only), and E1 and E4
+# (out/eval/sharp-second-look-phase60-<experiment>[-seeds<first>-<last>]).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look sharp-second-look}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look sharp-second-look sharp-second-look-phase60}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -163,6 +167,21 @@ for e in $experiments; do
           --out="out/eval/sharp-second-look-$x"
       done
       e5 401 200 E5-ceiling12-n4-seeds401-600 "$ceiling" ;;
+    sharp-second-look-phase60)
+      sharp=(--detector_noise --detector_false_positives --confirmation_weight=1000
+        --confirmation_phase_s=60 --second_look_weight=11440 --second_look_sharpness=0.31
+        --variants=oaipp_confirm)
+      for first in 1 201; do
+        "${client[@]}" eval E5 --first_trial="$first" --trials=200 "${sharp[@]}" \
+          --out="out/eval/sharp-second-look-phase60-E5-paper-settings-seeds$first-$((first + 199))"
+      done
+      "${client[@]}" eval E5 --first_trial=401 --trials=200 "${sharp[@]}" \
+        --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
+        --out=out/eval/sharp-second-look-phase60-E5-ceiling12-n4-seeds401-600
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" "${sharp[@]}" \
+          --out="out/eval/sharp-second-look-phase60-$x"
+      done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
