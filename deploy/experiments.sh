@@ -53,6 +53,9 @@ experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation
 label=experiments
 source "$root/deploy/serve.sh"
 client=("$build/client/oaipp-client" --server="$address")
+# The options of the sharp-second-look cases, but for the phase's length.
+sharp_look=(--detector_noise --detector_false_positives --confirmation_weight=1000
+  --second_look_weight=11440 --second_look_sharpness=0.31)
 for e in $experiments; do
   echo "== $e"
   case "$e" in
@@ -151,8 +154,7 @@ for e in $experiments; do
           --second_look_weight=3000 --out="out/eval/second-look-3000-$x"
       done ;;
     sharp-second-look)
-      sharp=(--detector_noise --detector_false_positives --confirmation_weight=1000
-        --confirmation_phase_s=45 --second_look_weight=11440 --second_look_sharpness=0.31)
+      sharp=("${sharp_look[@]}" --confirmation_phase_s=45)
       e5() {  # first trial, trials, output name, more flags
         "${client[@]}" eval E5 --first_trial="$1" --trials="$2" "${sharp[@]}" \
           --variants=oaipp_confirm --out="out/eval/sharp-second-look-$3" "${@:4}"
@@ -168,9 +170,7 @@ for e in $experiments; do
       done
       e5 401 200 E5-ceiling12-n4-seeds401-600 "$ceiling" ;;
     sharp-second-look-phase60)
-      sharp=(--detector_noise --detector_false_positives --confirmation_weight=1000
-        --confirmation_phase_s=60 --second_look_weight=11440 --second_look_sharpness=0.31
-        --variants=oaipp_confirm)
+      sharp=("${sharp_look[@]}" --confirmation_phase_s=60 --variants=oaipp_confirm)
       for first in 1 201; do
         "${client[@]}" eval E5 --first_trial="$first" --trials=200 "${sharp[@]}" \
           --out="out/eval/sharp-second-look-phase60-E5-paper-settings-seeds$first-$((first + 199))"
