@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 #include "api/limits.h"
@@ -173,13 +174,22 @@ double Simulation::Rmse(const std::vector<double>& mean) const {
 
 std::vector<bool> Simulation::FoundEach(const std::vector<double>& mean) const {
   std::vector<bool> found;
-  found.reserve(target_cells_.size());
-  for (const std::vector<int>& cells : target_cells_) {
-    found.push_back(std::any_of(cells.begin(), cells.end(), [&](int c) {
-      return static_cast<std::size_t>(c) < mean.size() && mean[static_cast<std::size_t>(c)] > 0.5;
-    }));
-  }
+  for (double m : TargetMeans(mean)) found.push_back(m > 0.5);
   return found;
+}
+
+std::vector<double> Simulation::TargetMeans(const std::vector<double>& mean) const {
+  std::vector<double> out;
+  out.reserve(target_cells_.size());
+  for (const std::vector<int>& cells : target_cells_) {
+    double best = -std::numeric_limits<double>::infinity();
+    for (int c : cells) {
+      if (static_cast<std::size_t>(c) < mean.size())
+        best = std::max(best, mean[static_cast<std::size_t>(c)]);
+    }
+    out.push_back(best);
+  }
+  return out;
 }
 
 int Simulation::TargetsFound(const std::vector<double>& mean) const {

@@ -136,7 +136,9 @@ Commands:
                       rate per cell, weighing detections and misses by
                       their likelihood ratios.
                       Writes trials.csv, targets.csv (how often each
-                      target was in view and detected), summary.md, a
+                      target was in view and detected), sightings.csv
+                      (each time one was in view: altitude, detected or
+                      not, the map mean on it after), summary.md, a
                       figure over time (rse.png, or trace.png for E3) and
                       map_<variant>.png (the first trial) to --out (default
                       out/eval/<experiment>).
@@ -550,11 +552,12 @@ int Eval(const std::string& experiment) {
   std::filesystem::create_directories(out);
   std::ofstream(out + "/trials.csv") << oaipp::client::TrialsCsv(*result);
   std::ofstream(out + "/targets.csv") << oaipp::client::TargetsCsv(*result);
+  std::ofstream(out + "/sightings.csv") << oaipp::client::SightingsCsv(*result);
   const double budget = result->grid_s.empty() ? 0.0 : result->grid_s.back();
   const std::string summary = oaipp::client::SummaryMarkdown(*result, budget);
   std::ofstream(out + "/summary.md") << summary;
   std::printf("%s\n", summary.c_str());
-  std::vector<std::string> written = {"trials.csv", "summary.md"};
+  std::vector<std::string> written = {"trials.csv", "targets.csv", "sightings.csv", "summary.md"};
   // The final map of the first trial of each variant, with its flown path.
   for (const oaipp::client::TrialResult& t : result->trials) {
     if (t.map_png.empty()) continue;

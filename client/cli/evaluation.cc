@@ -174,6 +174,7 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
         out.target_ids = sim->TargetIds();
         out.found_at_end = run->found_at_end;
         out.sightings = run->sightings;
+        out.sighting_log = std::move(run->sighting_log);
         out.steps = Resample(run->steps, result.grid_s);
         out.plans = run->plans;
         out.planning_time_s = run->planning_time_s;
@@ -213,6 +214,19 @@ std::string TargetsCsv(const EvalResult& result) {
       absl::StrAppendFormat(&csv, "%s,%d,%s,%d,%d,%d\n", t.variant, t.trial, t.target_ids[i],
                             t.sightings[i].in_view, t.sightings[i].detected,
                             t.found_at_end[i] ? 1 : 0);
+    }
+  }
+  return csv;
+}
+
+std::string SightingsCsv(const EvalResult& result) {
+  std::string csv = "variant,trial,target,time_s,altitude_m,detected,mean_after\n";
+  for (const TrialResult& t : result.trials) {
+    for (const SightingRecord& r : t.sighting_log) {
+      if (r.target < 0 || static_cast<std::size_t>(r.target) >= t.target_ids.size()) continue;
+      absl::StrAppendFormat(&csv, "%s,%d,%s,%.1f,%.2f,%d,%.4f\n", t.variant, t.trial,
+                            t.target_ids[static_cast<std::size_t>(r.target)], r.mission_time_s,
+                            r.altitude_m, r.detected ? 1 : 0, r.mean_after);
     }
   }
   return csv;

@@ -87,6 +87,7 @@ struct TrialResult {
   std::vector<std::string> target_ids;
   std::vector<bool> found_at_end;               // per target id
   std::vector<sim::TargetSightings> sightings;  // per target id
+  std::vector<SightingRecord> sighting_log;     // RunResult::sighting_log
   std::string error;                            // non-empty when the trial failed
 };
 
@@ -113,6 +114,11 @@ struct EvalResult {
 // finished trial: how often the camera had it in view, how often the
 // detector reported it, and whether the final map finds it (1) or not (0).
 [[nodiscard]] std::string TargetsCsv(const EvalResult& result);
+// "variant,trial,target,time_s,altitude_m,detected,mean_after" and a row per
+// time a target of a finished trial was in view (RunResult::sighting_log):
+// when, from how high, whether the detector reported it (1) or not (0), and
+// the highest map mean on its cells after that shot.
+[[nodiscard]] std::string SightingsCsv(const EvalResult& result);
 // A Markdown table, a row per variant in the order first seen: trials,
 // failures, RSE at the start and the end (mean +- std, standard error),
 // Tr(P) at the end (mean +- std), targets found (mean), trials that found

@@ -29,9 +29,10 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   std::mt19937_64 rng(scenario.seed());
   StepRecord record;
   record.mission_time_s = t0;
+  std::vector<double> mean;  // the map's mean at the last record
   auto measure_record = [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map, client.GetMap(result.mission_name, true, false));
-    const std::vector<double> mean(map.mean().begin(), map.mean().end());
+    mean.assign(map.mean().begin(), map.mean().end());
     record.trace = map.trace();
     record.rse = sim.Rse(mean);
     record.rmse = sim.Rmse(mean);
@@ -76,6 +77,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
              path.measurement_poses(next_shot).t_s() <= t + 1e-9) {
         const v1::MeasurementPose& shot = path.measurement_poses(next_shot++);
         const Vec3 camera = api::FromProto(shot.position_m());
+        const std::vector<sim::TargetSightings> before = result.sightings;
         const std::vector<PixelBox> boxes = sim.Detect(camera, rng, &result.sightings);
         api::MeasurementInput input{.mission_time_s = shot.mission_time_s(),
                                     .pose = CameraPose{camera, 0.0}};
@@ -94,6 +96,16 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
         record.mission_time_s = shot.mission_time_s();
         record_flight();
         OAIPP_RETURN_IF_ERROR(measure_record());
+        const std::vector<double> target_means = sim.TargetMeans(mean);
+        for (std::size_t i = 0; i < before.size(); ++i) {
+          if (result.sightings[i].in_view == before[i].in_view) continue;
+          result.sighting_log.push_back(
+              {.target = static_cast<int>(i),
+               .mission_time_s = shot.mission_time_s(),
+               .altitude_m = camera.z(),
+               .detected = result.sightings[i].detected > before[i].detected,
+               .mean_after = target_means[i]});
+        }
       }
       return absl::OkStatus();
     }));

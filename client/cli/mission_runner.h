@@ -27,6 +27,18 @@ struct StepRecord {
   int collisions = 0;  // samples closer than r_uav / 2 (exact geometry); must stay 0
 };
 
+// One time a target was in view (sim::TargetSightings counts them): when,
+// from how high, whether the detector reported it, and the highest map mean
+// on its cells once that shot was fused (Simulation::TargetMeans): how a
+// person came to be found, or to be cleared by later misses.
+struct SightingRecord {
+  int target = 0;  // index in the scenario's order
+  double mission_time_s = 0.0;
+  double altitude_m = 0.0;
+  bool detected = false;
+  double mean_after = 0.0;
+};
+
 struct RunResult {
   std::string mission_name;
   std::vector<StepRecord> steps;
@@ -36,6 +48,7 @@ struct RunResult {
   std::string final_map_png;       // map mean | std with obstacles, targets and the flown path
   std::vector<bool> found_at_end;  // per target, Simulation::FoundEach of the final map
   std::vector<sim::TargetSightings> sightings;  // per target, over the whole flight
+  std::vector<SightingRecord> sighting_log;     // in flight order
 };
 
 // progress: called with the metrics after each measurement. frame: when

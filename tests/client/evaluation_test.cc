@@ -179,5 +179,36 @@ TEST(EvaluationTest, SummaryReportsMeanStdAndStandardError) {
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 7) << csv;  // header + 2 x 3
 }
 
+TEST(EvaluationTest, SightingsCsvHasARowPerTimeATargetWasInView) {
+  EvalResult result;
+  TrialResult t;
+  t.variant = "oaipp";
+  t.trial = 3;
+  t.target_ids = {"p1", "p2"};
+  // p2 detected from 11.25 m, then missed from 13 m; an index past the
+  // targets (a log that does not match them) is left out.
+  t.sighting_log = {{.target = 1,
+                     .mission_time_s = 6.7,
+                     .altitude_m = 11.25,
+                     .detected = true,
+                     .mean_after = 0.8765},
+                    {.target = 1,
+                     .mission_time_s = 20.0,
+                     .altitude_m = 13.0,
+                     .detected = false,
+                     .mean_after = 0.59444},
+                    {.target = 2, .mission_time_s = 26.7, .altitude_m = 10.0}};
+  result.trials.push_back(t);
+  TrialResult failed;
+  failed.variant = "oaipp";
+  failed.trial = 4;
+  failed.error = "server gone";
+  result.trials.push_back(failed);
+  EXPECT_EQ(SightingsCsv(result),
+            "variant,trial,target,time_s,altitude_m,detected,mean_after\n"
+            "oaipp,3,p2,6.7,11.25,1,0.8765\n"
+            "oaipp,3,p2,20.0,13.00,0,0.5944\n");
+}
+
 }  // namespace
 }  // namespace oaipp::client

@@ -2,6 +2,7 @@
 // over many seeded draws.
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 
 #include "absl/strings/str_cat.h"
@@ -206,6 +207,12 @@ TEST(DetectorTest, SureDetectionsOfE1PeopleMarkTheTruthCells) {
   EXPECT_EQ(sim->TargetIds(), (std::vector<std::string>{"p1", "p2", "p3", "p4", "p5", "p6", "p7"}));
   EXPECT_EQ(sim->FoundEach(one),
             (std::vector<bool>{false, false, true, false, false, false, false}));
+  // The highest mean on each person's cells, which FoundEach compares with
+  // 0.5; a map too short to reach any of them has none.
+  EXPECT_EQ(sim->TargetMeans(one), (std::vector<double>{0, 0, 0.6, 0, 0, 0, 0}));
+  const std::vector<double> none = sim->TargetMeans({});
+  ASSERT_EQ(none.size(), 7u);
+  for (double m : none) EXPECT_EQ(m, -std::numeric_limits<double>::infinity());
 }
 
 // A perfect detector's labels: the visible footprint, 1 exactly on the cells
