@@ -42,13 +42,17 @@
 # paper's flight settings on seeds 1-400, E5 under the ceiling on seeds
 # 401-600 (oaipp_confirm only), and E1 and E4
 # (out/eval/sharp-second-look-phase60-<experiment>[-seeds<first>-<last>]).
+# sharp-second-look-paper flies E5 with the paper's flight settings and the
+# sharp-second-look options (oaipp_confirm only) on fresh seeds 201-300 and
+# 301-400, and on seeds 1-100 with the phase's weight raised to 30000 and
+# 100000 (out/eval/sharp-second-look-paper-seeds<first>-<last>[-w<weight>]).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look sharp-second-look sharp-second-look-phase60}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look sharp-second-look sharp-second-look-phase60 sharp-second-look-paper}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -181,6 +185,16 @@ for e in $experiments; do
       for x in E1 E4; do
         "${client[@]}" eval "$x" --trials="$trials" "${sharp[@]}" \
           --out="out/eval/sharp-second-look-phase60-$x"
+      done ;;
+    sharp-second-look-paper)
+      sharp=("${sharp_look[@]}" --confirmation_phase_s=45 --variants=oaipp_confirm)
+      for first in 201 301; do
+        "${client[@]}" eval E5 --first_trial="$first" --trials=100 "${sharp[@]}" \
+          --out="out/eval/sharp-second-look-paper-seeds$first-$((first + 99))"
+      done
+      for w in 30000 100000; do
+        "${client[@]}" eval E5 --trials=100 "${sharp[@]}" --confirmation_phase_weight="$w" \
+          --out="out/eval/sharp-second-look-paper-seeds1-100-w$w"
       done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
