@@ -184,8 +184,9 @@ std::vector<double> Simulation::TargetMeans(const std::vector<double>& mean) con
   for (const std::vector<int>& cells : target_cells_) {
     double best = -std::numeric_limits<double>::infinity();
     for (int c : cells) {
-      if (static_cast<std::size_t>(c) < mean.size())
-        best = std::max(best, mean[static_cast<std::size_t>(c)]);
+      // NaN compares false: such a cell is left out.
+      if (static_cast<std::size_t>(c) < mean.size() && mean[static_cast<std::size_t>(c)] > best)
+        best = mean[static_cast<std::size_t>(c)];
     }
     out.push_back(best);
   }

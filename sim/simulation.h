@@ -72,8 +72,8 @@ class Simulation {
   [[nodiscard]] int TargetsFound(const std::vector<double>& mean) const;
   [[nodiscard]] std::vector<bool> FoundEach(const std::vector<double>& mean) const;
   // Per target (the scenario's order), the highest map mean over its cells:
-  // what FoundEach compares with 0.5. Cells past the end of `mean` are left
-  // out; -infinity for a target with none.
+  // what FoundEach compares with 0.5. Cells past the end of `mean` and NaN
+  // means are left out; -infinity for a target with none left.
   [[nodiscard]] std::vector<double> TargetMeans(const std::vector<double>& mean) const;
   // The targets' ids in the scenario's order ("target <i>" when unnamed,
   // 1-based).

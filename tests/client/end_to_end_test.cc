@@ -34,6 +34,26 @@ TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
   EXPECT_NEAR(result->steps.back().mission_time_s, 30.0, 1e-6);
   EXPECT_GT(result->steps.back().path_length_m, 10.0);
   EXPECT_EQ(result->final_map_png.substr(1, 3), "PNG");
+  // The per-shot log holds every sighting the counts hold, in flight order,
+  // with the mean read back after that shot.
+  ASSERT_EQ(result->sightings.size(), 7u);
+  std::vector<int> in_view(7, 0), detected(7, 0);
+  double last_t = 0.0;
+  for (const SightingRecord& r : result->sighting_log) {
+    ASSERT_GE(r.target, 0);
+    ASSERT_LT(r.target, 7);
+    ++in_view[static_cast<std::size_t>(r.target)];
+    detected[static_cast<std::size_t>(r.target)] += r.detected ? 1 : 0;
+    EXPECT_GE(r.mission_time_s, last_t);
+    EXPECT_LE(r.mission_time_s, 30.0 + 1e-6);
+    last_t = r.mission_time_s;
+    EXPECT_TRUE(std::isfinite(r.mean_after));
+  }
+  for (std::size_t i = 0; i < 7; ++i) {
+    EXPECT_EQ(in_view[i], result->sightings[i].in_view) << i;
+    EXPECT_EQ(detected[i], result->sightings[i].detected) << i;
+  }
+  EXPECT_FALSE(result->sighting_log.empty());
   EXPECT_EQ(registry.size(), 0u);  // the mission was deleted afterwards
   server->Shutdown();
 }

@@ -210,6 +210,29 @@ TEST(DetectorTest, SureDetectionsOfE1PeopleMarkTheTruthCells) {
   // The highest mean on each person's cells, which FoundEach compares with
   // 0.5; a map too short to reach any of them has none.
   EXPECT_EQ(sim->TargetMeans(one), (std::vector<double>{0, 0, 0.6, 0, 0, 0, 0}));
+  // The highest of a person's cells counts, whichever it is, and a NaN cell
+  // is left out: p3's cells (the 0.75 m squares its rectangle overlaps) at
+  // NaN, 0.7, 0.4, 0.2, ...
+  std::vector<int> p3_cells;
+  for (int c = 0; c < 1600; ++c) {
+    const double x0 = -15 + 0.75 * (c % 40), y0 = -15 + 0.75 * (c / 40);
+    if (x0 < p3.x_max_m() && x0 + 0.75 > p3.x_min_m() && y0 < p3.y_max_m() &&
+        y0 + 0.75 > p3.y_min_m()) {
+      p3_cells.push_back(c);
+    }
+  }
+  ASSERT_GE(p3_cells.size(), 3u);
+  std::vector<double> mixed(1600, 0.0);
+  for (std::size_t k = 0; k < p3_cells.size(); ++k) {
+    mixed[static_cast<std::size_t>(p3_cells[k])] = 0.1 * static_cast<double>(k % 3 + 2);
+  }
+  mixed[static_cast<std::size_t>(p3_cells[1])] = 0.7;
+  mixed[static_cast<std::size_t>(p3_cells[0])] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(sim->TargetMeans(mixed)[2], 0.7);
+  mixed[static_cast<std::size_t>(p3_cells[1])] = 0.45;  // now no cell passes 0.5
+  EXPECT_EQ(sim->TargetMeans(mixed)[2], 0.45);
+  EXPECT_FALSE(sim->FoundEach(mixed)[2]);
+  // A map too short to reach any person has none.
   const std::vector<double> none = sim->TargetMeans({});
   ASSERT_EQ(none.size(), 7u);
   for (double m : none) EXPECT_EQ(m, -std::numeric_limits<double>::infinity());
