@@ -60,6 +60,12 @@ client=("$build/client/oaipp-client" --server="$address")
 # The options of the sharp-second-look cases, but for the phase's length.
 sharp_look=(--detector_noise --detector_false_positives --confirmation_weight=1000
   --second_look_weight=11440 --second_look_sharpness=0.31)
+# E5 with those options, oaipp_confirm only: the phase's length (s), first
+# trial, trials, output name under out/eval, more flags.
+sharp_e5() {
+  "${client[@]}" eval E5 --first_trial="$2" --trials="$3" "${sharp_look[@]}" \
+    --confirmation_phase_s="$1" --variants=oaipp_confirm --out="out/eval/$4" "${@:5}"
+}
 for e in $experiments; do
   echo "== $e"
   case "$e" in
@@ -158,43 +164,33 @@ for e in $experiments; do
           --second_look_weight=3000 --out="out/eval/second-look-3000-$x"
       done ;;
     sharp-second-look)
-      sharp=("${sharp_look[@]}" --confirmation_phase_s=45)
-      e5() {  # first trial, trials, output name, more flags
-        "${client[@]}" eval E5 --first_trial="$1" --trials="$2" "${sharp[@]}" \
-          --variants=oaipp_confirm --out="out/eval/sharp-second-look-$3" "${@:4}"
-      }
       ceiling=--scenario=client/scenarios/e5-settings/ceiling12-n4.json
-      e5 201 200 E5-ceiling12-n4-seeds201-400 "$ceiling"
-      e5 1 200 E5-ceiling12-n4-seeds1-200 "$ceiling"
-      e5 1 100 E5-paper-settings
-      e5 101 100 E5-paper-settings-seeds101-200
+      sharp_e5 45 201 200 sharp-second-look-E5-ceiling12-n4-seeds201-400 "$ceiling"
+      sharp_e5 45 1 200 sharp-second-look-E5-ceiling12-n4-seeds1-200 "$ceiling"
+      sharp_e5 45 1 100 sharp-second-look-E5-paper-settings
+      sharp_e5 45 101 100 sharp-second-look-E5-paper-settings-seeds101-200
       for x in E1 E4; do
-        "${client[@]}" eval "$x" --trials="$trials" "${sharp[@]}" --variants=oaipp,oaipp_confirm \
-          --out="out/eval/sharp-second-look-$x"
+        "${client[@]}" eval "$x" --trials="$trials" "${sharp_look[@]}" --confirmation_phase_s=45 \
+          --variants=oaipp,oaipp_confirm --out="out/eval/sharp-second-look-$x"
       done
-      e5 401 200 E5-ceiling12-n4-seeds401-600 "$ceiling" ;;
+      sharp_e5 45 401 200 sharp-second-look-E5-ceiling12-n4-seeds401-600 "$ceiling" ;;
     sharp-second-look-phase60)
-      sharp=("${sharp_look[@]}" --confirmation_phase_s=60 --variants=oaipp_confirm)
       for first in 1 201; do
-        "${client[@]}" eval E5 --first_trial="$first" --trials=200 "${sharp[@]}" \
-          --out="out/eval/sharp-second-look-phase60-E5-paper-settings-seeds$first-$((first + 199))"
+        sharp_e5 60 "$first" 200 \
+          "sharp-second-look-phase60-E5-paper-settings-seeds$first-$((first + 199))"
       done
-      "${client[@]}" eval E5 --first_trial=401 --trials=200 "${sharp[@]}" \
-        --scenario=client/scenarios/e5-settings/ceiling12-n4.json \
-        --out=out/eval/sharp-second-look-phase60-E5-ceiling12-n4-seeds401-600
+      sharp_e5 60 401 200 sharp-second-look-phase60-E5-ceiling12-n4-seeds401-600 \
+        --scenario=client/scenarios/e5-settings/ceiling12-n4.json
       for x in E1 E4; do
-        "${client[@]}" eval "$x" --trials="$trials" "${sharp[@]}" \
-          --out="out/eval/sharp-second-look-phase60-$x"
+        "${client[@]}" eval "$x" --trials="$trials" "${sharp_look[@]}" --confirmation_phase_s=60 \
+          --variants=oaipp_confirm --out="out/eval/sharp-second-look-phase60-$x"
       done ;;
     sharp-second-look-paper)
-      sharp=("${sharp_look[@]}" --confirmation_phase_s=45 --variants=oaipp_confirm)
       for first in 201 301; do
-        "${client[@]}" eval E5 --first_trial="$first" --trials=100 "${sharp[@]}" \
-          --out="out/eval/sharp-second-look-paper-seeds$first-$((first + 99))"
+        sharp_e5 45 "$first" 100 "sharp-second-look-paper-seeds$first-$((first + 99))"
       done
       for w in 30000 100000; do
-        "${client[@]}" eval E5 --trials=100 "${sharp[@]}" --confirmation_phase_weight="$w" \
-          --out="out/eval/sharp-second-look-paper-seeds1-100-w$w"
+        sharp_e5 45 1 100 "sharp-second-look-paper-seeds1-100-w$w" --confirmation_phase_weight="$w"
       done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac

@@ -1,6 +1,8 @@
 // A short mission end to end: the real service in-process, the client over
 // its channel, the E1 world with a 30 s budget. RSE must fall; no collision.
+#include <cmath>
 #include <thread>
+#include <vector>
 
 #include "absl/synchronization/notification.h"
 #include "client/cli/mission_runner.h"

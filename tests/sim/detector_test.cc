@@ -208,7 +208,7 @@ TEST(DetectorTest, SureDetectionsOfE1PeopleMarkTheTruthCells) {
   EXPECT_EQ(sim->FoundEach(one),
             (std::vector<bool>{false, false, true, false, false, false, false}));
   // The highest mean on each person's cells, which FoundEach compares with
-  // 0.5; a map too short to reach any of them has none.
+  // 0.5.
   EXPECT_EQ(sim->TargetMeans(one), (std::vector<double>{0, 0, 0.6, 0, 0, 0, 0}));
   // The highest of a person's cells counts, whichever it is, and a NaN cell
   // is left out: p3's cells (the 0.75 m squares its rectangle overlaps) at
