@@ -16,13 +16,14 @@ void Flight::MoveTo(const Vec3& p_W) {
   if ((p_W - trace_W_.back()).norm() > kTraceSpacing_m) trace_W_.push_back(p_W);
 }
 
-absl::Status Flight::Fly(const PolynomialTrajectory& trajectory, double until_s,
-                         const std::function<absl::Status(double t_s)>& after_step) {
+absl::StatusOr<double> Flight::Fly(
+    const PolynomialTrajectory& trajectory, double until_s,
+    const std::function<absl::StatusOr<bool>(double t_s)>& after_step) {
   const double end_s = std::clamp(until_s, 0.0, trajectory.Duration());
   for (double t = 0.0;; t = std::min(t + kStep_s, end_s)) {
     MoveTo(trajectory.Position(t));
-    OAIPP_RETURN_IF_ERROR(after_step(t));
-    if (t >= end_s) return absl::OkStatus();
+    OAIPP_ASSIGN_OR_RETURN(const bool fly_on, after_step(t));
+    if (!fly_on || t >= end_s) return t;
   }
 }
 

@@ -4,16 +4,17 @@
 // must pass), and a thinned trace of the flight for pictures.
 //
 //   Flight flight(simulation, start_W);
-//   OAIPP_RETURN_IF_ERROR(flight.Fly(trajectory, fly_s, [&](double t_s) {
-//     return TakeShotsDueBy(t_s);   // called after each step
-//   }));
+//   OAIPP_ASSIGN_OR_RETURN(double stopped_s, flight.Fly(trajectory, fly_s,
+//       [&](double t_s) -> absl::StatusOr<bool> {
+//         return TakeShotsDueBy(t_s);   // called after each step; false: stop here
+//       }));
 //   int collisions = flight.collisions();
 #pragma once
 
 #include <functional>
 #include <vector>
 
-#include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "core/trajectory/polynomial_trajectory.h"
 #include "sim/simulation.h"
 
@@ -31,10 +32,12 @@ class Flight {
 
   // Flies `trajectory` from t = 0 to until_s (clamped to its duration) in
   // steps of kStep_s, the last one ending at until_s exactly, calling
-  // `after_step(t_s)` after each; its first error stops the flight and is
-  // returned.
-  [[nodiscard]] absl::Status Fly(const PolynomialTrajectory& trajectory, double until_s,
-                                 const std::function<absl::Status(double t_s)>& after_step);
+  // `after_step(t_s)` after each. It returns whether to fly on: the first
+  // false stops the flight there (a replan from where the UAV is), the first
+  // error stops it and is returned. The time the flight stopped at otherwise.
+  [[nodiscard]] absl::StatusOr<double> Fly(
+      const PolynomialTrajectory& trajectory, double until_s,
+      const std::function<absl::StatusOr<bool>(double t_s)>& after_step);
 
   [[nodiscard]] double path_length_m() const { return path_length_m_; }
   [[nodiscard]] int collisions() const { return collisions_; }

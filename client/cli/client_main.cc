@@ -81,6 +81,9 @@ ABSL_FLAG(bool, detector_false_positives, false,
           "run, eval, with --detector_noise: missions also get the detector's false positives "
           "per cell (DetectorNoise.false_positive_rate), so detections and misses are weighed "
           "by their likelihood ratios");
+ABSL_FLAG(bool, replan_on_detection, false,
+          "run, eval: replan as soon as the detector reports anything, from where the UAV is "
+          "(Scenario.replan_on_detection), not only at the end of each path");
 ABSL_FLAG(std::string, geo_origin, "",
           "export: LAT,LON,ALT (degrees, degrees, metres above mean sea level) of the local "
           "frame's origin, for a scenario without mission.geo_origin; best the launch point");
@@ -134,7 +137,10 @@ Commands:
                       the scenario's detector (SensorSpec.detector_noise);
                       --detector_false_positives adds its false-positive
                       rate per cell, weighing detections and misses by
-                      their likelihood ratios.
+                      their likelihood ratios. --replan_on_detection (run
+                      and eval): replan from where the UAV is as soon as
+                      the detector reports anything, not only at the end
+                      of each path.
                       Writes trials.csv, targets.csv (how often each
                       target was in view and detected), sightings.csv
                       (each time one was in view: altitude, detected or
@@ -148,7 +154,8 @@ Flags: --server=HOST:PORT (default 127.0.0.1:50051), --out, --keep, --png,
        --plan_budget_s (0: none), --scenario, --e3_budget_s, --confirmation_weight,
        --confirmation_phase_s, --confirmation_phase_weight, --ambiguity_margin,
        --second_look_weight, --second_look_sharpness, --variants, --detector_noise,
-       --detector_false_positives, --geo_origin, --setpoint_rate_hz (20), --autopilot (px4).)";
+       --detector_false_positives, --replan_on_detection, --geo_origin, --setpoint_rate_hz (20),
+       --autopilot (px4).)";
 
 using oaipp::client::Client;
 
@@ -174,9 +181,13 @@ absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel() {
   return Client::OpenChannel(absl::GetFlag(FLAGS_server), Options());
 }
 
-// The scenario file at `path`, with --detector_noise applied.
+// The scenario file at `path`, with --replan_on_detection and --detector_noise
+// applied.
 absl::StatusOr<oaipp::v1::Scenario> LoadScenario(const std::string& path) {
   absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
+  if (scenario.ok() && absl::GetFlag(FLAGS_replan_on_detection)) {
+    scenario->set_replan_on_detection(true);
+  }
   const bool false_positives = absl::GetFlag(FLAGS_detector_false_positives);
   if (false_positives && !absl::GetFlag(FLAGS_detector_noise)) {
     return absl::InvalidArgumentError("--detector_false_positives: needs --detector_noise");

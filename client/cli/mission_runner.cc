@@ -1,7 +1,9 @@
 #include "client/cli/mission_runner.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -55,10 +57,51 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   };
   record_flight();
   OAIPP_RETURN_IF_ERROR(measure_record());
+  // Takes one planned shot: the detector's boxes there go to the server, the
+  // metrics and each person in view are recorded. True when anything was
+  // reported.
+  const auto take_shot = [&](const v1::MeasurementPose& shot) -> absl::StatusOr<bool> {
+    const Vec3 camera = api::FromProto(shot.position_m());
+    const std::vector<sim::TargetSightings> before = result.sightings;
+    const std::vector<PixelBox> boxes = sim.Detect(camera, rng, &result.sightings);
+    api::MeasurementInput input{.mission_time_s = shot.mission_time_s(),
+                                .pose = CameraPose{camera, 0.0}};
+    if (scenario.send_cell_labels()) {
+      OAIPP_ASSIGN_OR_RETURN(input.labels, sim.Labels(camera, boxes));
+    } else {
+      input.detections =
+          api::MeasurementInput::Detections{.intrinsics = sim.intrinsics(),
+                                            .boxes = boxes,
+                                            .min_confidence = sim.detector().min_confidence};
+    }
+    v1::AddMeasurementRequest m;
+    m.set_name(result.mission_name);
+    api::MeasurementToProto(input, &m);
+    OAIPP_RETURN_IF_ERROR(client.AddMeasurement(m).status());
+    record.mission_time_s = shot.mission_time_s();
+    record_flight();
+    OAIPP_RETURN_IF_ERROR(measure_record());
+    const std::vector<double> target_means = sim.TargetMeans(mean);
+    for (std::size_t i = 0; i < before.size(); ++i) {
+      if (result.sightings[i].in_view == before[i].in_view) continue;
+      result.sighting_log.push_back({.target = static_cast<int>(i),
+                                     .mission_time_s = shot.mission_time_s(),
+                                     .altitude_m = camera.z(),
+                                     .detected = result.sightings[i].detected > before[i].detected,
+                                     .mean_after = target_means[i]});
+    }
+    return std::any_of(boxes.begin(), boxes.end(), [&](const PixelBox& box) {
+      return box.confidence >= sim.detector().min_confidence;
+    });
+  };
+  // After a path cut short at a shot: the shot after it, so that the camera
+  // keeps its clock (unset, the server would fire again where the UAV is).
+  std::optional<double> next_shot_s;
   while (state.mission_time_s() - t0 < budget - 1e-9) {
     v1::PlanPathRequest request;
     request.set_name(result.mission_name);
     *request.mutable_state() = state;
+    if (next_shot_s.has_value()) request.set_next_shot_mission_s(*next_shot_s);
     if (scenario.has_planning_budget_s())
       request.set_planning_budget_s(scenario.planning_budget_s());
     const auto plan_start = std::chrono::steady_clock::now();
@@ -71,49 +114,31 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     const double fly = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
     // Fly, checking the exact clearance every step; the camera fires at the
     // planned shots.
+    // With replan_on_detection, a shot with any report ends the path there.
     int next_shot = 0;
-    OAIPP_RETURN_IF_ERROR(flight.Fly(traj, fly, [&](double t) -> absl::Status {
-      while (next_shot < path.measurement_poses_size() &&
-             path.measurement_poses(next_shot).t_s() <= t + 1e-9) {
-        const v1::MeasurementPose& shot = path.measurement_poses(next_shot++);
-        const Vec3 camera = api::FromProto(shot.position_m());
-        const std::vector<sim::TargetSightings> before = result.sightings;
-        const std::vector<PixelBox> boxes = sim.Detect(camera, rng, &result.sightings);
-        api::MeasurementInput input{.mission_time_s = shot.mission_time_s(),
-                                    .pose = CameraPose{camera, 0.0}};
-        if (scenario.send_cell_labels()) {
-          OAIPP_ASSIGN_OR_RETURN(input.labels, sim.Labels(camera, boxes));
-        } else {
-          input.detections =
-              api::MeasurementInput::Detections{.intrinsics = sim.intrinsics(),
-                                                .boxes = boxes,
-                                                .min_confidence = sim.detector().min_confidence};
-        }
-        v1::AddMeasurementRequest m;
-        m.set_name(result.mission_name);
-        api::MeasurementToProto(input, &m);
-        OAIPP_RETURN_IF_ERROR(client.AddMeasurement(m).status());
-        record.mission_time_s = shot.mission_time_s();
-        record_flight();
-        OAIPP_RETURN_IF_ERROR(measure_record());
-        const std::vector<double> target_means = sim.TargetMeans(mean);
-        for (std::size_t i = 0; i < before.size(); ++i) {
-          if (result.sightings[i].in_view == before[i].in_view) continue;
-          result.sighting_log.push_back(
-              {.target = static_cast<int>(i),
-               .mission_time_s = shot.mission_time_s(),
-               .altitude_m = camera.z(),
-               .detected = result.sightings[i].detected > before[i].detected,
-               .mean_after = target_means[i]});
-        }
-      }
-      return absl::OkStatus();
-    }));
+    OAIPP_ASSIGN_OR_RETURN(
+        const double flown, flight.Fly(traj, fly, [&](double t) -> absl::StatusOr<bool> {
+          bool reported = false;
+          while (next_shot < path.measurement_poses_size() &&
+                 path.measurement_poses(next_shot).t_s() <= t + 1e-9) {
+            OAIPP_ASSIGN_OR_RETURN(const bool any, take_shot(path.measurement_poses(next_shot++)));
+            reported |= any;
+          }
+          return !(reported && scenario.replan_on_detection());
+        }));
     record_flight();
-    *state.mutable_position_m() = api::ToProto(traj.Position(fly));
-    *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(fly));
-    state.clear_acceleration_m_s2();  // replans happen at the path's end, at rest
-    state.set_mission_time_s(state.mission_time_s() + fly);
+    *state.mutable_position_m() = api::ToProto(traj.Position(flown));
+    *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(flown));
+    next_shot_s.reset();
+    if (flown < fly) {
+      *state.mutable_acceleration_m_s2() = api::ToProto(traj.Acceleration(flown));
+      next_shot_s = next_shot < path.measurement_poses_size()
+                        ? path.measurement_poses(next_shot).mission_time_s()
+                        : path.next_shot_mission_s();
+    } else {
+      state.clear_acceleration_m_s2();  // at the path's end, at rest
+    }
+    state.set_mission_time_s(state.mission_time_s() + flown);
   }
   record.mission_time_s = state.mission_time_s();
   if (result.steps.back().mission_time_s < record.mission_time_s)

@@ -1,7 +1,9 @@
 // Flies one scenario against the server: create the mission, then plan, fly
 // the path in simulated time, let the camera fire at the planned shots,
-// send what the detector saw, replan at the path's end, until the flight
-// budget is spent (planning time is reported apart from flight time).
+// send what the detector saw, replan at the path's end (or, with the
+// scenario's replan_on_detection, right after a shot with any report, from
+// the moving state there), until the flight budget is spent (planning time
+// is reported apart from flight time).
 //
 //   OAIPP_ASSIGN_OR_RETURN(RunResult r, RunScenario(client, scenario, sim, print_progress));
 #pragma once

@@ -60,6 +60,50 @@ TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
   server->Shutdown();
 }
 
+// With replan_on_detection and a detector that reports something in every
+// image, each shot ends its path there: the client replans from the moving
+// state once per shot, the server answers every one, and the flight stays
+// clear. Without it the same mission replans only at the ends of paths.
+TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
+  server::MissionRegistry registry({});
+  server::PlanningPool planners(2, 8);
+  server::MissionServiceImpl service(&registry, &planners, nullptr);
+  grpc::ServerBuilder builder;
+  builder.RegisterService(&service);
+  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  Client client(server->InProcessChannel(grpc::ChannelArguments()), {});
+
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  scenario->mutable_mission()->set_budget_s(30);
+  scenario->mutable_mission()->mutable_planner()->set_generations(10);
+  // 100 false positives an image at 10 m (the most a scenario may ask for),
+  // 25 at 5 m: an image without a report is all but impossible at the
+  // altitudes these paths fly.
+  scenario->mutable_detector()->set_fp_per_image_at_10m(100);
+  auto simulation = sim::Simulation::Create(*scenario);
+  ASSERT_TRUE(simulation.ok());
+  auto at_ends = RunScenario(client, *scenario, *simulation);
+  ASSERT_TRUE(at_ends.ok()) << at_ends.status();
+  scenario->set_replan_on_detection(true);
+  auto on_detection = RunScenario(client, *scenario, *simulation);
+  ASSERT_TRUE(on_detection.ok()) << on_detection.status();
+
+  // Shots at 0, 6.7, 13.3, 20 and 26.7 s (0.15 Hz): five records after the
+  // start's, and one at the budget's end.
+  for (const RunResult* r : {&*at_ends, &*on_detection}) {
+    ASSERT_EQ(r->steps.size(), 7u);
+    EXPECT_EQ(r->steps[1].mission_time_s, 0.0);
+    EXPECT_NEAR(r->steps[5].mission_time_s, 80.0 / 3.0, 1e-6);
+    EXPECT_NEAR(r->steps.back().mission_time_s, 30.0, 1e-6);
+    EXPECT_EQ(r->steps.back().collisions, 0);
+  }
+  EXPECT_EQ(on_detection->plans, 6);  // the take-off and one after each shot
+  EXPECT_LT(at_ends->plans, 6);
+  EXPECT_EQ(registry.size(), 0u);
+  server->Shutdown();
+}
+
 // Take-off pacing: with the server's one take-off slot held, the client's
 // take-off plan is refused with a retry delay; the client waits as told and
 // asks again (not a failed attempt), and gets its path once the slot is free.

@@ -35,14 +35,14 @@ TEST(FlightTest, CountsTheStepsWithinHalfTheUavRadiusOfTheBuilding) {
   Flight flight(simulation, Vec3(-10.01, -1, 7));
   int steps = 0;
   double last_t = -1.0;
-  ASSERT_TRUE(flight
-                  .Fly(StraightLine(-10.01, 1.0, 20.02), 20.02,
-                       [&](double t_s) {
-                         ++steps;
-                         last_t = t_s;
-                         return absl::OkStatus();
-                       })
-                  .ok());
+  const absl::StatusOr<double> stopped =
+      flight.Fly(StraightLine(-10.01, 1.0, 20.02), 20.02, [&](double t_s) {
+        ++steps;
+        last_t = t_s;
+        return true;
+      });
+  ASSERT_TRUE(stopped.ok());
+  EXPECT_EQ(*stopped, 20.02);
   // t = 0, 0.02, ..., 20.02; the times are accumulated, so round-off may
   // leave one more, tiny, step before the end.
   EXPECT_GE(steps, 1002);
@@ -66,16 +66,31 @@ TEST(FlightTest, StopsAtTheFirstErrorOfTheCallback) {
   const Simulation simulation = E1();
   Flight flight(simulation, Vec3(10, -1, 7));
   int steps = 0;
-  const absl::Status status =
-      flight.Fly(StraightLine(10, -1.0, 2.0), 2.0, [&](double t_s) -> absl::Status {
+  const absl::StatusOr<double> stopped =
+      flight.Fly(StraightLine(10, -1.0, 2.0), 2.0, [&](double t_s) -> absl::StatusOr<bool> {
         ++steps;
         if (t_s >= 0.1 - 1e-12) return absl::UnavailableError("server gone");
-        return absl::OkStatus();
+        return true;
       });
-  EXPECT_EQ(status.code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(stopped.status().code(), absl::StatusCode::kUnavailable);
   EXPECT_EQ(steps, 6);  // t = 0 .. 0.1
   EXPECT_NEAR(flight.path_length_m(), 0.1, 1e-9);
   EXPECT_EQ(flight.collisions(), 0);
+}
+
+TEST(FlightTest, StopsWhereTheCallbackSaysNotToFlyOn) {
+  const Simulation simulation = E1();
+  Flight flight(simulation, Vec3(10, -1, 7));
+  int steps = 0;
+  const absl::StatusOr<double> stopped =
+      flight.Fly(StraightLine(10, -1.0, 2.0), 2.0, [&](double t_s) {
+        ++steps;
+        return t_s < 0.5 - 1e-12;
+      });
+  ASSERT_TRUE(stopped.ok());
+  EXPECT_NEAR(*stopped, 0.5, 1e-12);
+  EXPECT_EQ(steps, 26);  // t = 0 .. 0.5
+  EXPECT_NEAR(flight.path_length_m(), 0.5, 1e-9);
 }
 
 }  // namespace
