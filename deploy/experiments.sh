@@ -46,13 +46,19 @@
 # sharp-second-look options (oaipp_confirm only) on fresh seeds 201-300 and
 # 301-400, and on seeds 1-100 with the phase's weight raised to 30000 and
 # 100000 (out/eval/sharp-second-look-paper-seeds<first>-<last>[-w<weight>]).
+# replan-on-detection flies the sharp-second-look options (45 s phase,
+# oaipp_confirm only) with the client replanning as soon as the detector
+# reports anything (--replan_on_detection): E5 with the paper's flight
+# settings and under the 12 m ceiling with N = 4, each on seeds 1-400, and
+# E1 and E4
+# (out/eval/replan-on-detection-<experiment>[-seeds<first>-<last>]).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 address="127.0.0.1:${OAIPP_PORT:-50051}"
 trials="${TRIALS:-25}"
 e3_trials="${E3_TRIALS:-10}"
-experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look sharp-second-look sharp-second-look-phase60 sharp-second-look-paper}"
+experiments="${EXPERIMENTS:-E1 E2 E3 E4 E5 E5-settings confirmation confirmation-phase detector-noise false-positives second-look sharp-second-look sharp-second-look-phase60 sharp-second-look-paper replan-on-detection}"
 
 label=experiments
 source "$root/deploy/serve.sh"
@@ -191,6 +197,18 @@ for e in $experiments; do
       done
       for w in 30000 100000; do
         sharp_e5 45 1 100 "sharp-second-look-paper-seeds1-100-w$w" --confirmation_phase_weight="$w"
+      done ;;
+    replan-on-detection)
+      for first in 1 101 201 301; do
+        sharp_e5 45 "$first" 100 "replan-on-detection-E5-paper-seeds$first-$((first + 99))" \
+          --replan_on_detection
+        sharp_e5 45 "$first" 100 \
+          "replan-on-detection-E5-ceiling12-n4-seeds$first-$((first + 99))" --replan_on_detection \
+          --scenario=client/scenarios/e5-settings/ceiling12-n4.json
+      done
+      for x in E1 E4; do
+        "${client[@]}" eval "$x" --trials="$trials" "${sharp_look[@]}" --confirmation_phase_s=45 \
+          --variants=oaipp_confirm --replan_on_detection --out="out/eval/replan-on-detection-$x"
       done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
