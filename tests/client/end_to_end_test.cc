@@ -1,6 +1,7 @@
 // A short mission end to end: the real service in-process, the client over
 // its channel, the E1 world with a 30 s budget. RSE must fall; no collision.
 #include <cmath>
+#include <memory>
 #include <thread>
 #include <vector>
 
@@ -13,19 +14,38 @@
 namespace oaipp::client {
 namespace {
 
-TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
-  server::MissionRegistry registry({});
-  server::PlanningPool planners(2, 8);
-  server::MissionServiceImpl service(&registry, &planners, nullptr);
+std::unique_ptr<grpc::Server> Serve(grpc::Service* service) {
   grpc::ServerBuilder builder;
-  builder.RegisterService(&service);
-  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
-  Client client(server->InProcessChannel(grpc::ChannelArguments()), {});
+  builder.RegisterService(service);
+  return builder.BuildAndStart();
+}
 
-  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
-  ASSERT_TRUE(scenario.ok()) << scenario.status();
+// The real service in-process, with two planning threads, and a client over
+// its channel.
+struct LocalService {
+  ~LocalService() { server->Shutdown(); }
+
+  server::MissionRegistry registry{{}};
+  server::PlanningPool planners{2, 8};
+  server::MissionServiceImpl service{&registry, &planners, nullptr};
+  std::unique_ptr<grpc::Server> server = Serve(&service);
+  Client client{server->InProcessChannel(grpc::ChannelArguments()), {}};
+};
+
+// E1 with a 30 s budget and 10 CMA-ES generations a plan: a short mission.
+absl::StatusOr<v1::Scenario> ShortE1Scenario() {
+  absl::StatusOr<v1::Scenario> scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  if (!scenario.ok()) return scenario;
   scenario->mutable_mission()->set_budget_s(30);
   scenario->mutable_mission()->mutable_planner()->set_generations(10);
+  return scenario;
+}
+
+TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
+  LocalService local;
+  Client& client = local.client;
+  auto scenario = ShortE1Scenario();
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
   auto simulation = sim::Simulation::Create(*scenario);
   ASSERT_TRUE(simulation.ok());
   auto result = RunScenario(client, *scenario, *simulation);
@@ -56,8 +76,7 @@ TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
     EXPECT_EQ(detected[i], result->sightings[i].detected) << i;
   }
   EXPECT_FALSE(result->sighting_log.empty());
-  EXPECT_EQ(registry.size(), 0u);  // the mission was deleted afterwards
-  server->Shutdown();
+  EXPECT_EQ(local.registry.size(), 0u);  // the mission was deleted afterwards
 }
 
 // With replan_on_detection and a detector that reports something in every
@@ -65,18 +84,10 @@ TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
 // state once per shot, the server answers every one, and the flight stays
 // clear. Without it the same mission replans only at the ends of paths.
 TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
-  server::MissionRegistry registry({});
-  server::PlanningPool planners(2, 8);
-  server::MissionServiceImpl service(&registry, &planners, nullptr);
-  grpc::ServerBuilder builder;
-  builder.RegisterService(&service);
-  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
-  Client client(server->InProcessChannel(grpc::ChannelArguments()), {});
-
-  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  LocalService local;
+  Client& client = local.client;
+  auto scenario = ShortE1Scenario();
   ASSERT_TRUE(scenario.ok()) << scenario.status();
-  scenario->mutable_mission()->set_budget_s(30);
-  scenario->mutable_mission()->mutable_planner()->set_generations(10);
   // 100 false positives an image at 10 m (the most a scenario may ask for),
   // 25 at 5 m: an image without a report is all but impossible at the
   // altitudes these paths fly.
@@ -100,8 +111,7 @@ TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
   }
   EXPECT_EQ(on_detection->plans, 6);  // the take-off and one after each shot
   EXPECT_LT(at_ends->plans, 6);
-  EXPECT_EQ(registry.size(), 0u);
-  server->Shutdown();
+  EXPECT_EQ(local.registry.size(), 0u);
 }
 
 // Take-off pacing: with the server's one take-off slot held, the client's
