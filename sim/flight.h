@@ -32,9 +32,9 @@ class Flight {
 
   // Flies `trajectory` from t = 0 to until_s (clamped to its duration) in
   // steps of kStep_s, the last one ending at until_s exactly, calling
-  // `after_step(t_s)` after each. It returns whether to fly on: the first
-  // false stops the flight there (a replan from where the UAV is), the first
-  // error stops it and is returned. The time the flight stopped at otherwise.
+  // `after_step(t_s)` after each, which returns whether to fly on. Returns
+  // the time reached: until_s clamped, or the step whose callback returned
+  // false; or the callback's first error, which also stops the flight.
   [[nodiscard]] absl::StatusOr<double> Fly(
       const PolynomialTrajectory& trajectory, double until_s,
       const std::function<absl::StatusOr<bool>(double t_s)>& after_step);

@@ -94,8 +94,11 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
       return box.confidence >= sim.detector().min_confidence;
     });
   };
-  // After a path cut short at a shot: the shot after it, so that the camera
-  // keeps its clock (unset, the server would fire again where the UAV is).
+  // After a path cut short at a shot: the shot after it. Unset, the server
+  // takes the next multiple of the shot period at or after the state's time,
+  // which is the shot just taken when the cut falls on its very instant (the
+  // take-off shot at t = 0): the camera would fire again where it is.
+  const bool replan_on_detection = scenario.replan_on_detection();
   std::optional<double> next_shot_s;
   while (state.mission_time_s() - t0 < budget - 1e-9) {
     v1::PlanPathRequest request;
@@ -113,9 +116,18 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
                            api::TrajectoryFromProto(path.trajectory()));
     const double fly = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
     // Fly, checking the exact clearance every step; the camera fires at the
-    // planned shots.
-    // With replan_on_detection, a shot with any report ends the path there.
+    // planned shots. With replan_on_detection, a shot with any report ends
+    // the path there, unless the path ends there anyway or no shot can
+    // follow it within the budget.
     int next_shot = 0;
+    // The first shot not taken yet: the path's next pose, or the one after
+    // its end.
+    const auto following_shot_s = [&] {
+      return next_shot < path.measurement_poses_size()
+                 ? path.measurement_poses(next_shot).mission_time_s()
+                 : path.next_shot_mission_s();
+    };
+    bool cut = false;
     OAIPP_ASSIGN_OR_RETURN(
         const double flown, flight.Fly(traj, fly, [&](double t) -> absl::StatusOr<bool> {
           bool reported = false;
@@ -124,17 +136,20 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
             OAIPP_ASSIGN_OR_RETURN(const bool any, take_shot(path.measurement_poses(next_shot++)));
             reported |= any;
           }
-          return !(reported && scenario.replan_on_detection());
+          // t < fly: a report at the path's last step leaves it at its end,
+          // as without the option (Fly ends there at fly exactly).
+          cut =
+              reported && replan_on_detection && t < fly && following_shot_s() < t0 + budget - 1e-9;
+          return !cut;
         }));
     record_flight();
     *state.mutable_position_m() = api::ToProto(traj.Position(flown));
     *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(flown));
     next_shot_s.reset();
-    if (flown < fly) {
+    if (cut) {
+      ++result.paths_cut;
       *state.mutable_acceleration_m_s2() = api::ToProto(traj.Acceleration(flown));
-      next_shot_s = next_shot < path.measurement_poses_size()
-                        ? path.measurement_poses(next_shot).mission_time_s()
-                        : path.next_shot_mission_s();
+      next_shot_s = following_shot_s();
     } else {
       state.clear_acceleration_m_s2();  // at the path's end, at rest
     }

@@ -46,6 +46,7 @@ struct RunResult {
   std::vector<StepRecord> steps;
   std::vector<Vec3> flown_path_W;  // 10 Hz
   int plans = 0;
+  int paths_cut = 0;  // ended at a shot with a report (replan_on_detection)
   double planning_time_s = 0.0;
   std::string final_map_png;       // map mean | std with obstacles, targets and the flown path
   std::vector<bool> found_at_end;  // per target, Simulation::FoundEach of the final map

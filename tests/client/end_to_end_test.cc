@@ -80,9 +80,10 @@ TEST(EndToEndTest, ShortE1MissionReducesErrorWithoutCollisions) {
 }
 
 // With replan_on_detection and a detector that reports something in every
-// image, each shot ends its path there: the client replans from the moving
-// state once per shot, the server answers every one, and the flight stays
-// clear. Without it the same mission replans only at the ends of paths.
+// image, each shot that another can follow ends its path there: the client
+// replans from the moving state, the server answers every one, and the
+// flight stays clear. Without it the same mission replans only at the ends
+// of paths.
 TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
   LocalService local;
   Client& client = local.client;
@@ -109,8 +110,12 @@ TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
     EXPECT_NEAR(r->steps.back().mission_time_s, 30.0, 1e-6);
     EXPECT_EQ(r->steps.back().collisions, 0);
   }
-  EXPECT_EQ(on_detection->plans, 6);  // the take-off and one after each shot
-  EXPECT_LT(at_ends->plans, 6);
+  // Every shot but the last ends its path: after it no shot fits in the
+  // budget (the next would be at 33.3 s). Each cut is followed by a plan.
+  EXPECT_EQ(on_detection->paths_cut, 4);
+  EXPECT_GE(on_detection->plans, 1 + 4);
+  EXPECT_EQ(at_ends->paths_cut, 0);
+  EXPECT_LT(at_ends->plans, on_detection->plans);
   EXPECT_EQ(local.registry.size(), 0u);
 }
 
