@@ -39,7 +39,9 @@
 #include "grpcpp/impl/server_builder_plugin.h"
 #include "server/auth.h"
 #include "server/metrics_http.h"
+#include "server/openblas_kernels.h"
 #include "server/service.h"
+#include "server/stop_signals.h"
 #include "server/store/open_store.h"
 #include "server/web_view.h"
 #include "spdlog/spdlog.h"
@@ -224,7 +226,7 @@ ABSL_FLAG(std::string, web_address, "127.0.0.1",
 
 int main(int argc, char** argv) {
   // OpenBLAS picks its kernels when it is loaded, with the program.
-  oaipp::RestartWithOpenBlasKernels(argv);
+  oaipp::server::RestartWithOpenBlasKernels(argv);
   absl::SetProgramUsageMessage("OA-IPP planning service (oaipp.v1.MissionService)");
   absl::ParseCommandLine(argc, argv);
   spdlog::set_level(spdlog::level::from_str(absl::GetFlag(FLAGS_log_level)));
@@ -254,14 +256,13 @@ int main(int argc, char** argv) {
   spdlog::info("Kalman update on {}; adaptive objective's solves in {} precision",
                oaipp::DenseBackendName(), absl::GetFlag(FLAGS_objective_precision));
 
-  // Signals are taken by a thread of ours, not by whichever thread runs:
-  // blocked before any thread starts (gRPC starts its own as soon as it is
-  // first used), so that every thread inherits the mask.
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGTERM);
-  sigaddset(&signals, SIGINT);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  // SIGTERM and SIGINT drain the server from here on, whichever thread
+  // receives them (server/stop_signals.h says why a mask is not enough).
+  absl::StatusOr<oaipp::server::StopSignals> stop_signals = oaipp::server::StopSignals::Install();
+  if (!stop_signals.ok()) {
+    spdlog::error("{}", std::string(stop_signals.status().message()));
+    return 1;
+  }
 
   const int threads = absl::GetFlag(FLAGS_worker_threads);
   const int planning_threads = absl::GetFlag(FLAGS_planning_threads);
@@ -493,8 +494,7 @@ int main(int argc, char** argv) {
   });
 
   std::thread waiter([&] {
-    int signal = 0;
-    sigwait(&signals, &signal);
+    const int signal = stop_signals->Wait();
     spdlog::info("signal {}: no new calls; finishing the ones in flight", signal);
     stopping.Notify();
     server->GetHealthCheckService()->SetServingStatus(false);

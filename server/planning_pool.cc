@@ -1,5 +1,6 @@
 #include "server/planning_pool.h"
 
+#include <pthread.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -22,6 +23,8 @@ PlanningPool::PlanningPool(int threads, int queue, int nice)
         (void)setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()),
                           getpriority(PRIO_PROCESS, 0) + nice_);
       }
+      // Named for top -H, perf and the tests that watch a plan run.
+      (void)pthread_setname_np(pthread_self(), "oaipp-plan");
       Work();
     });
   }

@@ -1,7 +1,6 @@
 #include "core/mapping/dense_backend.h"
 
 #include <dlfcn.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <cstddef>
@@ -63,17 +62,6 @@ struct OpenBlas {
 // update; nullptr: Eigen.
 std::atomic<const OpenBlas*> g_open_blas{nullptr};
 
-// The kernel family for this CPU, for OpenBLAS releases that do not know it.
-const char* CoreTypeForThisCpu() {
-  __builtin_cpu_init();
-  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
-      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")) {
-    return "SkylakeX";
-  }
-  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "Haswell";
-  return nullptr;
-}
-
 // Kernel families (openblas_get_corename) whose strsm, spotrf and strtri
 // were run for every size from 1 to 700 on one thread without a fault.
 bool SingleKernelsChecked(const std::string& kernel) {
@@ -87,18 +75,20 @@ bool SingleKernelsChecked(const std::string& kernel) {
 // wins); true when it set it.
 bool SetCoreTypeIfUnset() {
   if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return false;
-  const char* core = CoreTypeForThisCpu();
+  const char* core = OpenBlasCoreTypeForThisCpu();
   return core != nullptr && setenv("OPENBLAS_CORETYPE", core, 0) == 0;
 }
 
 }  // namespace
 
-void RestartWithOpenBlasKernels(char** argv) {
-  if (!SetCoreTypeIfUnset()) return;
-  // Read when the library loads, like the kernels: no thread pool to start.
-  setenv("OPENBLAS_NUM_THREADS", "1", 0);
-  execv("/proc/self/exe", argv);
-  // Still here: the restart failed; go on with what OpenBLAS picked.
+const char* OpenBlasCoreTypeForThisCpu() {
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")) {
+    return "SkylakeX";
+  }
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return "Haswell";
+  return nullptr;
 }
 
 absl::Status UseOpenBlas() {

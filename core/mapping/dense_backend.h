@@ -24,10 +24,10 @@
 // OpenBLAS 0.3.21 (Debian 12) does not recognise CPUs newer than it and then
 // falls back to its oldest kernels. It reads OPENBLAS_CORETYPE once, when it
 // is loaded, and where it is the system's BLAS it is loaded with the program
-// (OpenCV and pagmo2 link LAPACK). So a program calls
-// RestartWithOpenBlasKernels(argv) first thing in main(): unless the variable
-// is set already, it sets it from the CPU's features (AVX-512: SkylakeX,
-// AVX2 + FMA: Haswell) and executes the program again with it.
+// (OpenCV and pagmo2 link LAPACK), before main() runs. Choosing kernels is
+// therefore a program's business, not this library's: the server's main()
+// sets the variable from OpenBlasCoreTypeForThisCpu() and executes itself
+// again (server/openblas_kernels.h).
 //
 // Results differ from Eigen's in the last bits (another summation order),
 // and between kernels; for one machine and backend they are deterministic.
@@ -44,11 +44,9 @@
 
 namespace oaipp {
 
-// Sets OPENBLAS_CORETYPE for this CPU and runs the program again (execv of
-// /proc/self/exe with the same arguments) when the variable is not set and
-// this CPU has AVX2 or AVX-512; returns when nothing needs to change, or
-// when the restart failed (then OpenBLAS keeps the kernels it picks).
-void RestartWithOpenBlasKernels(char** argv);
+// OpenBLAS's kernel family for this CPU ("SkylakeX" with AVX-512, "Haswell"
+// with AVX2 + FMA), or nullptr where OpenBLAS's own choice is right.
+[[nodiscard]] const char* OpenBlasCoreTypeForThisCpu();
 
 // Loads OpenBLAS (the pthreads build, one thread per call) and makes these
 // functions use it. Call once, from one thread, before other threads start

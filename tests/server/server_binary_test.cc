@@ -1,11 +1,20 @@
 // The real oaipp-server binary on loopback: start, health SERVING,
-// create / measure / plan / delete, SIGTERM, clean exit.
+// create / measure / plan / delete, SIGTERM, clean exit; and SIGTERM in the
+// middle of a plan, with the default flags, under each OpenBLAS kernel
+// family this CPU can run.
+#include <dirent.h>
+
 #include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "absl/strings/match.h"
+#include "absl/strings/str_split.h"
 #include "grpc/health/v1/health.grpc.pb.h"
 #include "grpcpp/grpcpp.h"
 #include "gtest/gtest.h"
@@ -101,6 +110,102 @@ TEST(ServerBinaryTest, ServesAndStopsCleanlyOnSigterm) {
   const int status = server.Stop(SIGTERM);
   EXPECT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), 0);
+}
+
+// CPU seconds (in clock ticks) the threads of `pid` named `name` have run
+// in user mode so far; -1 when the process is gone.
+long UserTicksOfThreads(pid_t pid, const std::string& name) {
+  const std::string tasks = "/proc/" + std::to_string(pid) + "/task";
+  DIR* dir = opendir(tasks.c_str());
+  if (dir == nullptr) return -1;
+  long ticks = 0;
+  while (const dirent* entry = readdir(dir)) {
+    if (entry->d_name[0] == '.') continue;
+    const std::string base = tasks + "/" + entry->d_name;
+    std::string comm;
+    std::getline(std::ifstream(base + "/comm"), comm);
+    if (comm != name) continue;
+    std::stringstream stat;
+    stat << std::ifstream(base + "/stat").rdbuf();
+    // The fields after the command's closing parenthesis: state, ppid, ...,
+    // utime is the 12th of them (proc(5)).
+    const std::string text = stat.str();
+    const std::size_t close = text.rfind(')');
+    if (close == std::string::npos) continue;
+    const std::vector<std::string> fields =
+        absl::StrSplit(text.substr(close + 2), ' ', absl::SkipEmpty());
+    if (fields.size() > 11) ticks += std::stol(fields[11]);
+  }
+  closedir(dir);
+  return ticks;
+}
+
+// The OpenBLAS kernel families the server takes as OPENBLAS_CORETYPE that
+// this CPU can run, and "" for the variable unset (the server then sets it
+// and executes itself again).
+std::vector<std::string> KernelFamiliesForThisCpu() {
+  __builtin_cpu_init();
+  std::vector<std::string> families = {""};
+  if (__builtin_cpu_supports("avx")) families.push_back("Sandybridge");
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+    families.push_back("Haswell");
+    families.push_back("Zen");
+  }
+  if (__builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+      __builtin_cpu_supports("avx512bw") && __builtin_cpu_supports("avx512vl")) {
+    families.push_back("SkylakeX");
+  }
+  return families;
+}
+
+// Kubernetes stops a pod with SIGTERM, and operators set OPENBLAS_CORETYPE:
+// with nothing but --listen and --data_dir (so OpenBLAS, the SQLite store
+// and metrics on their defaults), a SIGTERM that arrives while a plan runs
+// lets the plan finish and answer, and the server exits 0. One server at a
+// time: the default metrics port is fixed.
+TEST(ServerBinaryTest, SigtermDuringAPlanDrainsItWithTheDefaultFlags) {
+  for (const std::string& family : KernelFamiliesForThisCpu()) {
+    SCOPED_TRACE("OPENBLAS_CORETYPE=" + (family.empty() ? std::string("(unset)") : family));
+    const std::filesystem::path data =
+        std::filesystem::temp_directory_path() /
+        ("oaipp-drain-" + std::to_string(getpid()) + "-" + family);
+    std::filesystem::remove_all(data);
+    const int port = testing::FreePort();
+    testing::ChildProcess server({OAIPP_SERVER_BINARY, "--listen=127.0.0.1:" + std::to_string(port),
+                                  "--data_dir=" + data.string()},
+                                 port);
+    server.SetEnv("OPENBLAS_CORETYPE", family);
+    server.SetEnv("OPENBLAS_NUM_THREADS", "");
+    ASSERT_TRUE(server.Start()) << "oaipp-server did not start on " << server.address();
+    auto stub = v1::MissionService::NewStub(testing::QuickReconnectChannel(server.address()));
+    // Plans of this mission run until their 3 s budget stops them.
+    testing::CreateEndless(*stub, "drain");
+
+    std::atomic<bool> answered{false};
+    grpc::Status plan_status;
+    v1::PlanPathResponse path;
+    std::thread planner([&] {
+      grpc::ClientContext context;
+      context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+      plan_status = stub->PlanPath(&context, testing::PlanFromCorner("drain", 3.0), &path);
+      answered = true;
+    });
+    // The plan is running once a planning thread has used the CPU.
+    bool running = false;
+    for (int i = 0; i < 2000 && !running && !answered; ++i) {
+      running = UserTicksOfThreads(server.pid(), "oaipp-plan") > 0;
+      if (!running) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_TRUE(running) << "no planning thread ran within 20 s";
+    EXPECT_FALSE(answered) << "the plan was answered before SIGTERM could be sent";
+    const int status = server.Stop(SIGTERM);
+    planner.join();
+    EXPECT_TRUE(plan_status.ok()) << plan_status.error_code() << ": " << plan_status.error_message();
+    EXPECT_GT(path.trajectory().segments_size(), 0);
+    EXPECT_TRUE(WIFEXITED(status)) << "wait status " << status;
+    EXPECT_EQ(WEXITSTATUS(status), 0);
+    std::filesystem::remove_all(data);
+  }
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "grpcpp/grpcpp.h"
@@ -25,11 +26,22 @@ inline constexpr std::chrono::seconds kDefaultStartWait{20};
 // Starts argv[0] with `args` as a child process and waits (up to `wait`)
 // until `port` on 127.0.0.1 accepts connections. Returns the pid, or -1 when
 // it could not be started or died first.
-inline pid_t SpawnAndWaitForPort(const std::vector<std::string>& args, int port,
-                                 std::chrono::milliseconds wait = kDefaultStartWait) {
+// `env`: variables to set in the child ("NAME", "VALUE"), or to remove
+// from its environment where VALUE is empty.
+inline pid_t SpawnAndWaitForPort(
+    const std::vector<std::string>& args, int port,
+    std::chrono::milliseconds wait = kDefaultStartWait,
+    const std::vector<std::pair<std::string, std::string>>& env = {}) {
   const pid_t pid = fork();
   if (pid < 0) return -1;
   if (pid == 0) {
+    for (const auto& [name, value] : env) {
+      if (value.empty()) {
+        unsetenv(name.c_str());
+      } else {
+        setenv(name.c_str(), value.c_str(), 1);
+      }
+    }
     std::vector<std::string> copy = args;
     std::vector<char*> argv;
     for (std::string& a : copy) argv.push_back(a.data());
@@ -72,9 +84,15 @@ class ChildProcess {
   // already).
   bool Start(std::chrono::milliseconds wait = kDefaultStartWait) {
     if (pid_ > 0) return false;
-    pid_ = SpawnAndWaitForPort(args_, port_, wait);
+    pid_ = SpawnAndWaitForPort(args_, port_, wait, env_);
     return pid_ > 0;
   }
+  // Sets (or, with an empty value, removes) a variable in the environment
+  // of the next Start.
+  void SetEnv(std::string name, std::string value) {
+    env_.emplace_back(std::move(name), std::move(value));
+  }
+  [[nodiscard]] pid_t pid() const { return pid_; }
 
   // Sends `signal` and waits for the process; returns its wait status (-1
   // when none was running).
@@ -90,6 +108,7 @@ class ChildProcess {
  private:
   std::vector<std::string> args_;
   int port_;
+  std::vector<std::pair<std::string, std::string>> env_;
   pid_t pid_ = -1;
 };
 

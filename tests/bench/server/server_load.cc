@@ -44,6 +44,7 @@
 #include "core/planning/information.h"
 #include "grpcpp/grpcpp.h"
 #include "nlohmann/json.hpp"
+#include "server/openblas_kernels.h"
 #include "server/service.h"
 #include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
@@ -513,7 +514,7 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  oaipp::RestartWithOpenBlasKernels(argv);
+  oaipp::server::RestartWithOpenBlasKernels(argv);
   absl::ParseCommandLine(argc, argv);
   spdlog::set_level(spdlog::level::warn);
   const std::string pace = absl::GetFlag(FLAGS_pace);
