@@ -9,23 +9,19 @@
 // receives: segment durations and coefficients, control waypoints,
 // measurement poses, objective, information and the next shot time.
 //
-// Bits depend on the machine as well as on the code: on an AMD EPYC host
-// two of the plans (the moving OA-IPP start and the non-adaptive one) came
-// out differently from the machines they were recorded on, with the same
-// code and packages, starting from last-bit differences (the non-adaptive
-// objective differs in its last hex digits; glibc's libm picks code paths by
-// CPU features, and turning those off changes the plans again). Each plan
-// therefore lists the fingerprint of every machine kind it has been seen on;
-// a refactoring that changes a plan gives a value in none of them.
-//
-// A deliberate change can only be recorded on the machine at hand, so a
-// plan is checked strictly on the CPU models in kRecordedOn (where every
-// pin has its current fingerprint); elsewhere an unknown fingerprint skips
-// the test with the value to record instead of failing it.
+// Bits depend on the machine as well as on the code: glibc's libm picks
+// its exp, log, sin and pow by the CPU's features (FMA, AVX2, AVX-512), and
+// on two hosts that both call themselves "AMD EPYC" but differ in AVX-512
+// the same code and packages gave different plans, from last-bit
+// differences on. The CPU model's name says nothing about that; the
+// features those choices depend on do. A plan is therefore checked strictly
+// where the machine's features match those it was recorded with
+// (kRecordedWith); on other machines an unknown fingerprint skips the test
+// and prints the value to record, so that the suite passes on any machine of
+// the kind and still catches a refactoring wherever the pins were made.
 #include <algorithm>
 #include <bit>
 #include <cstdint>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -80,21 +76,25 @@ std::uint64_t Fingerprint(const PlannedPath& path) {
   return h.value();
 }
 
-// /proc/cpuinfo's first "model name", or "unknown".
-std::string CpuModel() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      const auto colon = line.find(':');
-      if (colon != std::string::npos && colon + 2 <= line.size()) return line.substr(colon + 2);
-    }
-  }
-  return "unknown";
+// The CPU features glibc's libm selects its code paths by, as one string
+// ("fma avx2 avx512f" on a machine with all three).
+std::string MathFeatures() {
+  __builtin_cpu_init();
+  std::string features;
+  const auto add = [&](bool has, const char* name) {
+    if (!has) return;
+    if (!features.empty()) features += ' ';
+    features += name;
+  };
+  add(__builtin_cpu_supports("fma"), "fma");
+  add(__builtin_cpu_supports("avx2"), "avx2");
+  add(__builtin_cpu_supports("avx512f"), "avx512f");
+  return features.empty() ? "none" : features;
 }
 
-// CPU models on which every pin below has its current fingerprint.
-const std::vector<std::string> kRecordedOn = {"AMD EPYC"};
+// Feature sets (MathFeatures) on which every pin below has its current
+// fingerprint.
+const std::vector<std::string> kRecordedWith = {"fma avx2 avx512f"};
 
 struct PinnedPlan {
   std::string name;
@@ -125,12 +125,13 @@ TEST_P(PinnedPlansTest, PlanIsBitIdenticalToTheRecordedOne) {
   auto path = (*planner)->Plan(context, state, absl::InfiniteFuture());
   ASSERT_TRUE(path.ok()) << path.status();
   const std::uint64_t actual = Fingerprint(*path);
-  const std::string cpu = CpuModel();
+  const std::string features = MathFeatures();
   if (std::find(pin.fingerprints.begin(), pin.fingerprints.end(), actual) ==
           pin.fingerprints.end() &&
-      std::find(kRecordedOn.begin(), kRecordedOn.end(), cpu) == kRecordedOn.end()) {
+      std::find(kRecordedWith.begin(), kRecordedWith.end(), features) == kRecordedWith.end()) {
     GTEST_SKIP() << absl::StrFormat(
-        "no fingerprint recorded on CPU model '%s'; this one gives 0x%016xULL", cpu, actual);
+        "no fingerprint recorded with CPU features '%s'; this machine gives 0x%016xULL", features,
+        actual);
   }
   EXPECT_THAT(pin.fingerprints, ::testing::Contains(actual))
       << absl::StrFormat("actual fingerprint 0x%016xULL, objective %a", actual, path->objective);
