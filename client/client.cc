@@ -13,18 +13,19 @@
 #include "absl/strings/str_format.h"
 #include "api/metadata.h"
 #include "api/status.h"
-#include "core/common/status_macros.h"
 
 namespace oaipp::client {
 
 namespace {
 
-absl::StatusOr<std::string> ReadPem(const char* what, const std::string& path) {
+// The whole file at `path` into *pem; `what` names the option.
+absl::Status ReadPem(const char* what, const std::string& path, std::string* pem) {
   std::ifstream in(path);
   if (!in) return absl::InvalidArgumentError(absl::StrCat(what, ": cannot read '", path, "'"));
   std::stringstream text;
   text << in.rdbuf();
-  return text.str();
+  *pem = text.str();
+  return absl::OkStatus();
 }
 
 }  // namespace
@@ -43,13 +44,15 @@ absl::StatusOr<std::shared_ptr<grpc::Channel>> Client::OpenChannel(const std::st
     return absl::InvalidArgumentError("tls_cert and tls_key go together");
   }
   grpc::SslCredentialsOptions ssl;
+  absl::Status read;
   if (!options.tls_ca_file.empty()) {
-    OAIPP_ASSIGN_OR_RETURN(ssl.pem_root_certs, ReadPem("tls_ca", options.tls_ca_file));
+    read.Update(ReadPem("tls_ca", options.tls_ca_file, &ssl.pem_root_certs));
   }
   if (!options.tls_cert_file.empty()) {
-    OAIPP_ASSIGN_OR_RETURN(ssl.pem_cert_chain, ReadPem("tls_cert", options.tls_cert_file));
-    OAIPP_ASSIGN_OR_RETURN(ssl.pem_private_key, ReadPem("tls_key", options.tls_key_file));
+    read.Update(ReadPem("tls_cert", options.tls_cert_file, &ssl.pem_cert_chain));
+    read.Update(ReadPem("tls_key", options.tls_key_file, &ssl.pem_private_key));
   }
+  if (!read.ok()) return read;
   return grpc::CreateChannel(address, grpc::SslCredentials(ssl));
 }
 
