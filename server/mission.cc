@@ -2,13 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iterator>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "api/limits.h"
-#include "api/spec.h"
-#include "api/status.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/camera.h"
 #include "core/trajectory/polynomial_trajectory.h"
@@ -16,26 +13,6 @@
 namespace oaipp::server {
 
 namespace {
-
-// Everything a mission's world is built from (MakeEnvironment): the field,
-// the flight settings (altitudes, ESDF voxel and truncation), the ESDF's
-// voxel limit and the obstacles, as bytes.
-std::string WorldKey(const MissionConfig& config) {
-  const v1::MissionSpec spec = api::ConfigToMissionSpec(config);
-  v1::MissionSpec world;
-  *world.mutable_field() = spec.field();
-  *world.mutable_flight() = spec.flight();
-  *world.mutable_obstacles() = spec.obstacles();
-  return absl::StrCat(world.SerializeAsString(), "|", config.esdf.max_voxels, "|",
-                      config.esdf.voxel_size_m, "|", config.esdf.truncation_m);
-}
-
-// The key of a site's StartMap: its world's key and the GP parameters,
-// exactly (hexadecimal floats).
-std::string StartMapKey(const std::string& world_key, const GpParams& gp) {
-  return absl::StrFormat("%s|%a|%a|%a|%a", world_key, gp.length_scale_m, gp.signal_var,
-                         gp.noise_var, gp.prior_mean);
-}
 
 // The field's cells whose ground is inside an obstacle, in the grid's order.
 std::vector<int> CellsUnder(const FieldGrid& grid, const Environment& env) {
@@ -73,92 +50,6 @@ std::int64_t LogEntryBytes(const LogEntry& entry) {
 }
 
 }  // namespace
-void EventQueue::Push(MissionEventData event) {
-  std::function<void()> listener;
-  {
-    absl::MutexLock lock(&mu_);
-    if (closed_) return;
-    if (events_.size() >= capacity_) {
-      events_.pop_front();
-      ++dropped_;
-    }
-    events_.push_back(std::move(event));
-    listener = listener_;
-  }
-  if (listener) listener();
-}
-
-std::optional<MissionEventData> EventQueue::TryPop() {
-  absl::MutexLock lock(&mu_);
-  if (events_.empty()) return std::nullopt;
-  MissionEventData event = std::move(events_.front());
-  events_.pop_front();
-  return event;
-}
-
-void EventQueue::SetListener(std::function<void()> listener) {
-  absl::MutexLock lock(&mu_);
-  listener_ = std::move(listener);
-}
-
-std::optional<MissionEventData> EventQueue::Pop(absl::Time until) {
-  absl::MutexLock lock(&mu_);
-  auto ready = [this]() ABSL_SHARED_LOCKS_REQUIRED(mu_) { return !events_.empty() || closed_; };
-  mu_.AwaitWithDeadline(absl::Condition(&ready), until);
-  if (events_.empty()) return std::nullopt;
-  MissionEventData event = std::move(events_.front());
-  events_.pop_front();
-  return event;
-}
-
-void EventQueue::Close(absl::Status reason) {
-  std::function<void()> listener;
-  {
-    absl::MutexLock lock(&mu_);
-    if (!closed_) close_reason_ = std::move(reason);
-    closed_ = true;
-    listener = listener_;
-  }
-  if (listener) listener();
-}
-
-bool EventQueue::closed() const {
-  absl::MutexLock lock(&mu_);
-  return closed_ && events_.empty();
-}
-
-absl::Status EventQueue::close_reason() const {
-  absl::MutexLock lock(&mu_);
-  return close_reason_;
-}
-
-std::int64_t EventQueue::dropped() const {
-  absl::MutexLock lock(&mu_);
-  return dropped_;
-}
-
-template <typename T>
-std::optional<absl::StatusOr<T>> Mission::Recall(const RequestKey& request) {
-  if (request.request_id.empty()) return std::nullopt;
-  absl::MutexLock lock(&idempotency_mu_);
-  const RememberedAnswer* done = done_.Find(request.request_id);
-  if (done == nullptr) return std::nullopt;
-  if (!request.fingerprint.empty() && !done->fingerprint.empty() &&
-      request.fingerprint != done->fingerprint) {
-    return absl::StatusOr<T>(absl::InvalidArgumentError(absl::StrCat(
-        "request_id: ", api::EchoInput(request.request_id),
-        " was first used for a different request; a retry must repeat the request exactly, "
-        "a new request needs a new request_id")));
-  }
-  if (const T* result = std::get_if<T>(&done->result)) return absl::StatusOr<T>(*result);
-  return absl::StatusOr<T>(absl::InvalidArgumentError(absl::StrCat(
-      "request_id: ", api::EchoInput(request.request_id), " was used by another kind of call")));
-}
-
-void Mission::Remember(const RequestKey& request, Result result) {
-  absl::MutexLock lock(&idempotency_mu_);
-  done_.Remember(request.request_id, {request.fingerprint, std::move(result)});
-}
 
 Mission::Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
                  std::unique_ptr<Planner> planner, const SiteCaches& caches)
@@ -242,69 +133,6 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   return mission;
 }
 
-absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, MissionConfig config,
-                                                          MissionState state,
-                                                          const SiteCaches& caches) {
-  OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
-  OAIPP_RETURN_IF_ERROR(env.Apply({.add = state.obstacles}));
-  OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
-  if (state.mean.size() != grid.num_cells() || state.covariance.rows() != grid.num_cells() ||
-      state.covariance.cols() != grid.num_cells()) {
-    return absl::InvalidArgumentError(absl::StrCat("state: a map of ", state.mean.size(),
-                                                   " cells does not fit the ", grid.num_cells(),
-                                                   "-cell field of the spec"));
-  }
-  for (int cell : state.covered_cells) {
-    if (!grid.IsValidCell(cell)) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("state: covered cell ", cell, " is outside the field"));
-    }
-  }
-  OAIPP_ASSIGN_OR_RETURN(
-      GpMap map, GpMap::FromPrior(grid, std::move(state.mean), std::move(state.covariance)));
-  OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
-  OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
-  std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::make_shared<GpMap>(std::move(map)),
-                                               std::move(planner), caches));
-  {
-    absl::MutexLock lock(&mission->mu_);
-    mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
-    mission->measurements_fused_ = state.measurements_fused;
-    mission->mission_time_s_ = state.mission_time_s;
-    mission->Publish();
-  }
-  {
-    absl::MutexLock lock(&mission->sequence_mu_);
-    mission->next_sequence_ = state.sequence + 1;
-  }
-  {
-    absl::MutexLock lock(&mission->idempotency_mu_);
-    for (auto& [request_id, answer] : state.answers) {
-      mission->done_.Remember(request_id, std::move(answer));
-    }
-  }
-  mission->paths_planned_ = state.paths_planned;
-  mission->snapshot_sequence_ = state.sequence;
-  mission->snapshot_measurements_ = state.measurements_fused;
-  return mission;
-}
-
-absl::StatusOr<std::shared_ptr<Mission>> Mission::Replay(std::string id, MissionConfig config,
-                                                         const std::vector<LogEntry>& log) {
-  OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
-                         Create(std::move(id), std::move(config)));
-  for (const LogEntry& entry : log) {
-    if (const auto* change = std::get_if<ObstacleChange>(&entry)) {
-      OAIPP_RETURN_IF_ERROR(mission->UpdateObstacles(*change, "").status());
-    } else {
-      OAIPP_RETURN_IF_ERROR(
-          mission->AddMeasurement(std::get<MeasurementInput>(entry), "").status());
-    }
-  }
-  return mission;
-}
-
 absl::Status Mission::FuseCoveredCells() {
   std::vector<int> fresh;
   for (int c : CellsUnder(map_->grid(), *env_)) {
@@ -365,7 +193,7 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
   ObstacleResult result;
   {
     absl::MutexLock order(&mutation_mu_);
-    if (auto done = Recall<ObstacleResult>(request)) return *std::move(done);
+    if (auto done = answers_.Recall<ObstacleResult>(request)) return *std::move(done);
     // Applied to a copy first, so that neither a refused change nor a failed
     // write touches the mission; the ESDF is recomputed while readers and
     // plans go on with the current world (only mutations change it, and
@@ -396,9 +224,9 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
     result.obstacle_count = static_cast<int>(env_->obstacles().size());
     result.esdf_voxels_recomputed = env_->esdf().last_recomputed_voxels();
     Publish();
-    Remember(request, result);
+    answers_.Remember(request, result);
   }
-  Emit(MissionEventData::ObstaclesChanged{result.obstacle_count});
+  events_.Emit(MissionEventData::ObstaclesChanged{result.obstacle_count});
   MaybeWantSnapshot();
   return result;
 }
@@ -448,7 +276,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
   std::vector<CellObservation> observations;
   {
     absl::MutexLock order(&mutation_mu_);
-    if (auto done = Recall<MeasurementResult>(request)) return *std::move(done);
+    if (auto done = answers_.Recall<MeasurementResult>(request)) return *std::move(done);
     {
       absl::ReaderMutexLock lock(&mu_);
       OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
@@ -467,7 +295,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     log_.push_back(input);
     log_bytes_ += entry_bytes;
     Publish(/*obstacles_changed=*/false);
-    Remember(request, result);
+    answers_.Remember(request, result);
   }
   std::vector<int> detected;
   for (const CellObservation& o : observations) {
@@ -475,9 +303,10 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
   }
   std::sort(detected.begin(), detected.end());
   detected.erase(std::unique(detected.begin(), detected.end()), detected.end());
-  AddToTrack(input.pose.p_WC, detected, nullptr);
-  Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused, result.trace,
-                                          input.pose.p_WC, std::move(detected)});
+  track_.Add(input.pose.p_WC, detected, nullptr);
+  events_.Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused,
+                                                  result.trace, input.pose.p_WC,
+                                                  std::move(detected)});
   MaybeWantSnapshot();
   return result;
 }
@@ -486,7 +315,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           std::optional<double> next_shot_mission_s,
                                           const RequestKey& request, const PlanCall& call) {
   absl::MutexLock planner_lock(&planner_mu_);
-  if (auto done = Recall<PlannedPath>(request)) return *std::move(done);
+  if (auto done = answers_.Recall<PlannedPath>(request)) return *std::move(done);
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
   if (elapsed >= config_.budget_s) {
     return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
@@ -562,7 +391,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     return written;
   }
   ++paths_planned_;
-  Remember(request, *path);
+  answers_.Remember(request, *path);
   {
     absl::MutexLock lock(&mu_);
     mission_time_s_ = std::max(mission_time_s_, state.mission_time_s);
@@ -573,9 +402,10 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
       samples.ok()) {
     for (const TimedPosition& s : *samples) planned.push_back(s.position_W);
   }
-  AddToTrack(state.position_W, {}, &planned);
-  Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
-                                     path->objective, path->control_waypoints_W, state.position_W});
+  track_.Add(state.position_W, {}, &planned);
+  events_.Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
+                                             path->objective, path->control_waypoints_W,
+                                             state.position_W});
   MaybeWantSnapshot();
   return path;
 }
@@ -606,43 +436,33 @@ MissionState Mission::CaptureState() const {
   state.mission_time_s = mission_time_s_;
   state.paths_planned = paths_planned_.load();
   state.planner_state = planner_->SaveState();
-  absl::MutexLock memo_lock(&idempotency_mu_);
-  done_.ForEach([&](const std::string& request_id, const RememberedAnswer& answer) {
+  answers_.ForEach([&](const std::string& request_id, const RememberedAnswer& answer) {
     state.answers.emplace_back(request_id, answer);
   });
   return state;
 }
 
 void Mission::SetSnapshotPolicy(int every, std::function<void()> wanted) {
-  snapshot_every_ = every;
-  snapshot_wanted_ = std::move(wanted);
+  snapshots_.Set(every, std::move(wanted));
 }
 
 void Mission::SnapshotDone(bool stored, std::int64_t sequence, std::int64_t measurements_fused) {
-  if (stored && sequence > snapshot_sequence_.load()) {
-    snapshot_sequence_ = sequence;
-    snapshot_measurements_ = measurements_fused;
-  }
-  snapshot_pending_ = false;
+  snapshots_.Done(stored, sequence, measurements_fused);
   // Changes made while it was written may already call for the next one
   // (after a failure, the next change asks again).
   if (stored) MaybeWantSnapshot();
 }
 
 void Mission::MaybeWantSnapshot() {
-  if (snapshot_every_ <= 0 || !snapshot_wanted_ || snapshot_pending_.load()) return;
-  std::int64_t measurements;
-  {
-    absl::MutexLock lock(&summary_mu_);
-    measurements = summary_.measurements_fused;
-  }
-  const std::int64_t records = next_sequence() - 1 - snapshot_sequence_.load();
-  if (measurements - snapshot_measurements_.load() < snapshot_every_ &&
-      records < 4 * static_cast<std::int64_t>(snapshot_every_)) {
-    return;
-  }
-  if (snapshot_pending_.exchange(true)) return;
-  snapshot_wanted_();
+  snapshots_.MaybeWant([this] {
+    SnapshotPolicy::Progress progress;
+    {
+      absl::MutexLock lock(&summary_mu_);
+      progress.measurements_fused = summary_.measurements_fused;
+    }
+    progress.last_sequence = next_sequence() - 1;
+    return progress;
+  });
 }
 
 absl::Time Mission::last_change_time() const {
@@ -663,16 +483,6 @@ absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPat
                                   const std::string& planner_state) {
   if (!persist) return Persist(nullptr);
   return Persist([&](std::int64_t sequence) { return persist(sequence, path, planner_state); });
-}
-
-absl::Status Mission::RestorePlan(const RequestKey& request, PlannedPath path,
-                                  const std::string& planner_state) {
-  absl::MutexLock planner_lock(&planner_mu_);
-  OAIPP_RETURN_IF_ERROR(planner_->RestoreState(planner_state));
-  OAIPP_RETURN_IF_ERROR(PersistPlan(nullptr, path, planner_state));
-  ++paths_planned_;
-  Remember(request, std::move(path));
-  return absl::OkStatus();
 }
 
 std::int64_t Mission::next_sequence() const {
@@ -735,78 +545,13 @@ std::vector<LogEntry> Mission::Log() const {
   return log_;
 }
 
-std::shared_ptr<EventQueue> Mission::Subscribe() {
-  auto queue = std::make_shared<EventQueue>(1024);
-  absl::MutexLock lock(&events_mu_);
-  watchers_.push_back(queue);
-  return queue;
-}
-
-void Mission::Unsubscribe(const std::shared_ptr<EventQueue>& queue) {
-  absl::MutexLock lock(&events_mu_);
-  std::erase(watchers_, queue);
-}
-
-void Mission::HandWatchersTo(Mission& successor) {
-  std::vector<std::shared_ptr<EventQueue>> watchers;
-  std::int64_t sequence;
-  {
-    absl::MutexLock lock(&events_mu_);
-    watchers.swap(watchers_);
-    sequence = sequence_;
-  }
-  absl::MutexLock lock(&successor.events_mu_);
-  successor.sequence_ = std::max(successor.sequence_, sequence);
-  for (auto& w : watchers) successor.watchers_.push_back(std::move(w));
-}
+void Mission::HandWatchersTo(Mission& successor) { events_.HandTo(successor.events_); }
 
 void Mission::MarkDeleted() {
-  Emit(MissionEventData::Deleted{});
-  absl::MutexLock lock(&events_mu_);
-  for (const auto& w : watchers_) w->Close();
-  watchers_.clear();
+  events_.Emit(MissionEventData::Deleted{});
+  events_.CloseAll(absl::OkStatus());
 }
 
-void Mission::MarkMoved(const absl::Status& reason) {
-  absl::MutexLock lock(&events_mu_);
-  for (const auto& w : watchers_) w->Close(reason);
-  watchers_.clear();
-}
-
-void Mission::AddToTrack(const Vec3& p_W, const std::vector<int>& detected,
-                         const std::vector<Vec3>* planned_W) {
-  absl::MutexLock lock(&track_mu_);
-  MissionTrack& t = track_;
-  if (t.flown_W.size() >= MissionTrack::kMaxFlown) {
-    t.flown_W.erase(t.flown_W.begin(), t.flown_W.begin() + MissionTrack::kMaxFlown / 4);
-  }
-  t.flown_W.push_back(p_W);
-  if (planned_W != nullptr) t.planned_W = *planned_W;
-  if (!detected.empty() && t.detected_cells.size() < MissionTrack::kMaxDetected) {
-    std::vector<int> merged;
-    std::set_union(t.detected_cells.begin(), t.detected_cells.end(), detected.begin(),
-                   detected.end(), std::back_inserter(merged));
-    if (merged.size() > MissionTrack::kMaxDetected) merged.resize(MissionTrack::kMaxDetected);
-    t.detected_cells = std::move(merged);
-  }
-}
-
-MissionTrack Mission::Track() const {
-  absl::MutexLock lock(&track_mu_);
-  return track_;
-}
-
-std::int64_t Mission::last_event_sequence() const {
-  absl::MutexLock lock(&events_mu_);
-  return sequence_;
-}
-
-void Mission::Emit(decltype(MissionEventData::event) event) {
-  absl::MutexLock lock(&events_mu_);
-  MissionEventData data{++sequence_, absl::Now(), std::move(event)};
-  // Streams that ended close their queue; they go here.
-  std::erase_if(watchers_, [](const std::shared_ptr<EventQueue>& w) { return w->closed(); });
-  for (const auto& w : watchers_) w->Push(data);
-}
+void Mission::MarkMoved(const absl::Status& reason) { events_.CloseAll(reason); }
 
 }  // namespace oaipp::server

@@ -13,13 +13,19 @@
 // (Snapshot(), for GetMission and ListMissions) never waits for a mutation
 // or a plan.
 //
+// Mission holds mutation and plan coordination; the parts it holds are in
+// files of their own: the watchers and their events (mission_events.h), the
+// live view's track (flight_track.h), the first answers to request_ids
+// (idempotency_memo.h), when to ask for a snapshot (snapshot_policy.h), what
+// a snapshot holds (mission_state.h) and what missions over one site share
+// (site_caches.h). mission_restore.cc brings a mission back from the store.
+//
 //   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> m, Mission::Create("m1", config));
 //   OAIPP_ASSIGN_OR_RETURN(MeasurementResult r, m->AddMeasurement(input, "req-17"));
 //   OAIPP_ASSIGN_OR_RETURN(PlannedPath path, m->Plan(state, std::nullopt, "req-18", {}));
 #pragma once
 
 #include <atomic>
-#include <deque>
 #include <functional>
 #include <limits>
 #include <map>
@@ -35,102 +41,25 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
 #include "api/mission_config.h"
-#include "core/common/single_flight_cache.h"
 #include "core/environment/environment.h"
 #include "core/environment/world_cache.h"
 #include "core/mapping/gp_map.h"
-#include "core/mapping/prior_cache.h"
 #include "core/planning/planners.h"
-#include "server/request_memo.h"
+#include "server/flight_track.h"
+#include "server/idempotency_memo.h"
+#include "server/mission_events.h"
+#include "server/mission_state.h"
+#include "server/site_caches.h"
+#include "server/snapshot_policy.h"
 
 namespace oaipp::server {
 
 using api::MeasurementInput;
 using api::MissionConfig;
 
-struct ObstacleResult {
-  int obstacle_count = 0;
-  std::int64_t esdf_voxels_recomputed = 0;
-};
-
-struct MeasurementResult {
-  int cells_fused = 0;
-  double trace = 0.0;
-  std::int64_t measurements_fused = 0;
-};
-
-// What happened to a mission, in order (for WatchMission).
-struct MissionEventData {
-  std::int64_t sequence = 0;
-  absl::Time time;
-  struct MeasurementFused {
-    double mission_time_s;
-    int cells_fused;
-    double trace;
-    Vec3 camera_position_W;
-    std::vector<int> detected_cells;  // labelled >= kDetectedLabel
-  };
-  struct ObstaclesChanged {
-    int obstacle_count;
-  };
-  struct PathPlanned {
-    double mission_time_s;
-    double duration_s;
-    double objective;
-    std::vector<Vec3> control_waypoints_W;
-    Vec3 start_W;
-  };
-  struct Deleted {};
-  std::variant<MeasurementFused, ObstaclesChanged, PathPlanned, Deleted> event;
-};
-
 // The ordered log: the spec is the mission's config; then every applied
 // obstacle change and measurement.
 using LogEntry = std::variant<ObstacleChange, MeasurementInput>;
-
-// A bounded queue of events for one watcher.
-class EventQueue {
- public:
-  explicit EventQueue(std::size_t capacity) : capacity_(capacity) {}
-  // Adds an event; when full the oldest is dropped and counted.
-  void Push(MissionEventData event);
-  // Waits until an event is there or `until`; nullopt on timeout.
-  std::optional<MissionEventData> Pop(absl::Time until);
-  // The oldest event, without waiting; nullopt when there is none.
-  std::optional<MissionEventData> TryPop();
-  // Called after every Push and Close, outside the queue's lock (a stream
-  // is woken this way instead of a thread waiting in Pop).
-  void SetListener(std::function<void()> listener);
-  // No more events; the watcher's stream ends with `reason` (OK: the
-  // mission was deleted and the watcher was told so by an event).
-  void Close(absl::Status reason = absl::OkStatus());
-  [[nodiscard]] bool closed() const;
-  [[nodiscard]] absl::Status close_reason() const;
-  [[nodiscard]] std::int64_t dropped() const;
-
- private:
-  mutable absl::Mutex mu_;
-  std::deque<MissionEventData> events_ ABSL_GUARDED_BY(mu_);
-  bool closed_ ABSL_GUARDED_BY(mu_) = false;
-  absl::Status close_reason_ ABSL_GUARDED_BY(mu_);
-  std::int64_t dropped_ ABSL_GUARDED_BY(mu_) = 0;
-  std::function<void()> listener_ ABSL_GUARDED_BY(mu_);
-  std::size_t capacity_;
-};
-
-// What the live view draws besides the map (server/web_view.h): kept in
-// memory only, bounded, and rebuilt from what a restart replays.
-struct MissionTrack {
-  static constexpr std::size_t kMaxFlown = 4096;
-  static constexpr std::size_t kMaxDetected = 4096;
-  // Where the UAV reported being (camera positions and plan starts), in
-  // arrival order; the oldest are dropped past kMaxFlown.
-  std::vector<Vec3> flown_W;
-  // The last planned trajectory, sampled at 10 Hz.
-  std::vector<Vec3> planned_W;
-  // Cells some measurement saw (label >= kDetectedLabel), sorted.
-  std::vector<int> detected_cells;
-};
 
 struct MissionSnapshot {
   std::string id;
@@ -142,77 +71,6 @@ struct MissionSnapshot {
   double mission_time_s = 0.0;
   std::int64_t memory_bytes = 0;
   absl::Time create_time;
-};
-
-// A map at the prior with the ground under a site's obstacles already fused
-// (what Mission::Create starts from), by everything it is computed from: the
-// field, the obstacles and the GP parameters. The fusion is a rank-m Kalman
-// update over every cell under a building (m in the hundreds for a town),
-// so a fleet over one site does it once. The missions hold the map itself
-// until their first measurement copies it (copy on write, as a plan holds
-// the map it started from), so creating one costs no copy of it either.
-struct StartMap {
-  std::shared_ptr<GpMap> map;      // never changed while shared
-  std::vector<int> covered_cells;  // the cells fused, in the order fused
-  // The map conditioned on a first shot, for the first plans of the
-  // missions still holding `map` (a fleet starting from one point conditions
-  // it on the same shot): two entries of 8 n^2 bytes, kept while the site's
-  // cache or such a mission holds this (a plan in progress keeps its own).
-  std::shared_ptr<ConditionedCache> conditioned = std::make_shared<ConditionedCache>(2);
-};
-using StartMapCache = SingleFlightCache<std::string, StartMap>;
-
-// What missions over the same site share instead of computing again; a null
-// pointer makes each mission compute its own. Sharing never changes a
-// mission's numbers: every cache hands out what the mission would compute.
-struct SiteCaches {
-  // The prior covariance, per grid shape and GP parameters.
-  PriorCache* priors = nullptr;
-  // One ESDF for missions over equal worlds (also after obstacle changes
-  // that make two worlds equal).
-  EsdfPool* esdfs = nullptr;
-  // Worlds already built for the same field, flight settings and
-  // obstacles, cloned instead of built again.
-  WorldCache* worlds = nullptr;
-  // Starting maps (StartMap), copied instead of fused again.
-  StartMapCache* start_maps = nullptr;
-};
-
-// The first answer to a request_id.
-using RequestResult = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
-
-// A mutation's request_id (empty: none) and the fingerprint of the request
-// behind it (empty: not checked). A retry (same id, same fingerprint) gets
-// the first answer; the same id with another fingerprint is refused.
-struct RequestKey {
-  RequestKey(const std::string& id) : request_id(id) {}  // NOLINT: a bare id converts
-  RequestKey(const char* id) : request_id(id) {}         // NOLINT
-  RequestKey(std::string id, std::string print)
-      : request_id(std::move(id)), fingerprint(std::move(print)) {}
-  std::string request_id;
-  std::string fingerprint;
-};
-
-// A remembered answer: the request's fingerprint and its first result.
-struct RememberedAnswer {
-  std::string fingerprint;
-  RequestResult result;
-};
-
-// Everything a mission holds after the record `sequence` of its log, but its
-// config: what a snapshot stores, and what Mission::Restore starts from.
-struct MissionState {
-  std::int64_t sequence = 0;
-  std::vector<Obstacle> obstacles = {};
-  std::vector<int> covered_cells = {};  // fused as near-certain zeros
-  Eigen::VectorXd mean = {};
-  Eigen::MatrixXd covariance = {};
-  std::int64_t measurements_fused = 0;
-  double mission_time_s = 0.0;
-  std::int64_t paths_planned = 0;
-  std::string planner_state = {};  // Planner::SaveState
-  // request_id -> fingerprint and first answer, oldest first.
-  std::vector<std::pair<std::string, RememberedAnswer>> answers = {};
 };
 
 // Writes the record of a change to durable storage, given its sequence
@@ -340,13 +198,13 @@ class Mission {
   [[nodiscard]] const MissionConfig& config() const { return config_; }
 
   // The live view's track (a copy).
-  [[nodiscard]] MissionTrack Track() const;
+  [[nodiscard]] MissionTrack Track() const { return track_.Copy(); }
   // The number of the last event (0 before the first).
-  [[nodiscard]] std::int64_t last_event_sequence() const;
+  [[nodiscard]] std::int64_t last_event_sequence() const { return events_.last_sequence(); }
 
   // Watchers get every event after they subscribe.
-  [[nodiscard]] std::shared_ptr<EventQueue> Subscribe();
-  void Unsubscribe(const std::shared_ptr<EventQueue>& queue);
+  [[nodiscard]] std::shared_ptr<EventQueue> Subscribe() { return events_.Subscribe(); }
+  void Unsubscribe(const std::shared_ptr<EventQueue>& queue) { events_.Unsubscribe(queue); }
   // Moves this mission's watchers to `successor` (the same mission read
   // back from the store).
   void HandWatchersTo(Mission& successor);
@@ -396,13 +254,6 @@ class Mission {
   absl::Status Persist(const PersistFn& persist);
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                            const std::string& planner_state);
-  void Emit(decltype(MissionEventData::event) event);
-  using Result = RequestResult;
-  // The first result of a request_id, if it was applied before. Callers
-  // hold the lock of the operation, so check and apply are one step.
-  template <typename T>
-  std::optional<absl::StatusOr<T>> Recall(const RequestKey& request);
-  void Remember(const RequestKey& request, Result result);
 
   const std::string id_;
   const MissionConfig config_;
@@ -417,7 +268,8 @@ class Mission {
   [[nodiscard]] absl::Status CheckLogRoom(std::int64_t bytes) const;
 
   // Locks, outermost first: planner_mu_, mutation_mu_, mu_, then the leaf
-  // locks (sequence_mu_, idempotency_mu_, summary_mu_, events_mu_).
+  // locks (sequence_mu_, summary_mu_, and those of answers_, events_ and
+  // track_).
   // mutation_mu_ orders mutations and is held for a whole one; mu_ guards
   // the state and is held for writing only while a change is put in place.
   mutable absl::Mutex mutation_mu_;
@@ -435,9 +287,9 @@ class Mission {
   std::atomic<std::int64_t> log_limit_{std::numeric_limits<std::int64_t>::max()};
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
-  // request_id -> first result (bounded, oldest forgotten first).
-  RequestMemo<RememberedAnswer> done_ ABSL_GUARDED_BY(idempotency_mu_);
-  mutable absl::Mutex idempotency_mu_;
+  // request_id -> first result. Read and written with the lock of the
+  // operation held, so that check and apply are one step.
+  IdempotencyMemo answers_;
 
   // The planner keeps state (lawnmower pattern): one plan at a time.
   mutable absl::Mutex planner_mu_;
@@ -463,28 +315,17 @@ class Mission {
   mutable absl::Mutex sequence_mu_;
   std::int64_t next_sequence_ ABSL_GUARDED_BY(sequence_mu_) = 1;
 
-  // Snapshots: what the last stored one covered, and whether one is asked
-  // for and not yet done.
-  int snapshot_every_ = 0;
-  std::function<void()> snapshot_wanted_;
-  std::atomic<std::int64_t> snapshot_sequence_{0};
-  std::atomic<std::int64_t> snapshot_measurements_{0};
-  std::atomic<bool> snapshot_pending_{false};
+  // When to ask for the next snapshot.
+  SnapshotPolicy snapshots_;
   std::atomic<std::int64_t> last_change_unix_us_{0};
   std::atomic<std::int64_t> epoch_{1};
   static constexpr std::int64_t kNotGrounded = std::numeric_limits<std::int64_t>::min();
   std::atomic<std::int64_t> grounded_since_ns_{kNotGrounded};
 
-  mutable absl::Mutex events_mu_;
-  std::int64_t sequence_ ABSL_GUARDED_BY(events_mu_) = 0;
-  // A leaf lock of its own: the live view reads the track without waiting
-  // for a change in progress.
-  mutable absl::Mutex track_mu_;
-  MissionTrack track_ ABSL_GUARDED_BY(track_mu_);
-  // Adds to the track; `detected` sorted.
-  void AddToTrack(const Vec3& p_W, const std::vector<int>& detected,
-                  const std::vector<Vec3>* planned_W);
-  std::vector<std::shared_ptr<EventQueue>> watchers_ ABSL_GUARDED_BY(events_mu_);
+  MissionEvents events_;
+  // The live view reads the track without waiting for a change in
+  // progress.
+  FlightTrack track_;
 };
 
 }  // namespace oaipp::server

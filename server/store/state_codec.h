@@ -10,7 +10,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
-#include "server/mission.h"
+#include "server/mission_state.h"
 
 namespace oaipp::server {
 

@@ -1,0 +1,33 @@
+// What a snapshot of a mission holds (server/store/state_codec.h) and what
+// Mission::Restore starts from. A header of its own, so that the store's
+// codec does not depend on the mission's code.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "Eigen/Core"
+#include "core/environment/obstacle.h"
+#include "server/idempotency_memo.h"
+
+namespace oaipp::server {
+
+// Everything a mission holds after the record `sequence` of its log, but its
+// config: what a snapshot stores, and what Mission::Restore starts from.
+struct MissionState {
+  std::int64_t sequence = 0;
+  std::vector<Obstacle> obstacles = {};
+  std::vector<int> covered_cells = {};  // fused as near-certain zeros
+  Eigen::VectorXd mean = {};
+  Eigen::MatrixXd covariance = {};
+  std::int64_t measurements_fused = 0;
+  double mission_time_s = 0.0;
+  std::int64_t paths_planned = 0;
+  std::string planner_state = {};  // Planner::SaveState
+  // request_id -> fingerprint and first answer, oldest first.
+  std::vector<std::pair<std::string, RememberedAnswer>> answers = {};
+};
+
+}  // namespace oaipp::server

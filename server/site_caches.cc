@@ -1,0 +1,24 @@
+#include "server/site_caches.h"
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "api/spec.h"
+
+namespace oaipp::server {
+
+std::string WorldKey(const api::MissionConfig& config) {
+  const v1::MissionSpec spec = api::ConfigToMissionSpec(config);
+  v1::MissionSpec world;
+  *world.mutable_field() = spec.field();
+  *world.mutable_flight() = spec.flight();
+  *world.mutable_obstacles() = spec.obstacles();
+  return absl::StrCat(world.SerializeAsString(), "|", config.esdf.max_voxels, "|",
+                      config.esdf.voxel_size_m, "|", config.esdf.truncation_m);
+}
+
+std::string StartMapKey(const std::string& world_key, const GpParams& gp) {
+  return absl::StrFormat("%s|%a|%a|%a|%a", world_key, gp.length_scale_m, gp.signal_var,
+                         gp.noise_var, gp.prior_mean);
+}
+
+}  // namespace oaipp::server
