@@ -45,17 +45,11 @@ MissionRegistry::MissionRegistry(RegistryLimits limits, MissionStore* store)
               .start_maps = start_maps_.get()},
       store_(store) {
   if (store_ != nullptr && limits_.snapshot_every > 0) {
-    snapshot_thread_ = std::thread([this] { SnapshotLoop(); });
+    snapshots_.Start([this](const std::string& mission_id) { TakeSnapshot(mission_id); });
   }
 }
 
-MissionRegistry::~MissionRegistry() {
-  {
-    absl::MutexLock lock(&snapshot_mu_);
-    stopping_ = true;
-  }
-  if (snapshot_thread_.joinable()) snapshot_thread_.join();
-}
+MissionRegistry::~MissionRegistry() { snapshots_.Stop(); }
 
 std::string MissionRegistry::Key(absl::string_view tenant, absl::string_view id) {
   return tenant.empty() ? std::string(id) : absl::StrCat(tenant, "/", id);
@@ -572,80 +566,6 @@ absl::Status MissionRegistry::Reload(const std::string& mission_id) {
   }
   old->HandWatchersTo(**mission);
   return absl::OkStatus();
-}
-
-void MissionRegistry::WatchForSnapshots(Mission& mission) {
-  if (snapshot_thread_.joinable()) {
-    mission.SetSnapshotPolicy(limits_.snapshot_every,
-                              [this, id = mission.id()] { QueueSnapshot(id); });
-  }
-}
-
-void MissionRegistry::QueueSnapshot(const std::string& mission_id) {
-  absl::MutexLock lock(&snapshot_mu_);
-  if (!stopping_) snapshot_queue_.push_back(mission_id);
-}
-
-void MissionRegistry::SnapshotLoop() {
-  while (true) {
-    std::string id;
-    {
-      absl::MutexLock lock(&snapshot_mu_);
-      const auto ready = [this]() ABSL_SHARED_LOCKS_REQUIRED(snapshot_mu_) {
-        return stopping_ || !snapshot_queue_.empty();
-      };
-      snapshot_mu_.Await(absl::Condition(&ready));
-      if (stopping_) return;
-      id = std::move(snapshot_queue_.front());
-      snapshot_queue_.pop_front();
-      snapshot_busy_ = true;
-    }
-    TakeSnapshot(id);
-    absl::MutexLock lock(&snapshot_mu_);
-    snapshot_busy_ = false;
-  }
-}
-
-void MissionRegistry::TakeSnapshot(const std::string& mission_id) {
-  absl::MutexLock write_lock(&snapshot_write_mu_);
-  std::shared_ptr<Mission> mission;
-  {
-    absl::MutexLock lock(&mu_);
-    auto it = missions_.find(mission_id);
-    if (it == missions_.end() || it->second == nullptr) return;  // deleted meanwhile
-    mission = it->second;
-  }
-  const MissionState state = mission->CaptureState();
-  const absl::Status stored = store_->PutSnapshot(
-      mission_id,
-      {.sequence = state.sequence, .state = EncodeMissionState(state), .epoch = mission->epoch()});
-  if (stored.GetPayload(kFenced).has_value()) {
-    Drop(mission_id, mission,
-         absl::UnavailableError(absl::StrCat("name: mission 'missions/", PublicId(mission_id),
-                                             "' moved to another server; watch it again")));
-    return;
-  }
-  if (!stored.ok()) {
-    spdlog::warn("store: snapshot of mission '{}' at record {}: {}", mission_id, state.sequence,
-                 stored.ToString());
-  } else {
-    absl::MutexLock lock(&snapshot_mu_);
-    ++snapshots_written_;
-  }
-  mission->SnapshotDone(stored.ok(), state.sequence, state.measurements_fused);
-}
-
-void MissionRegistry::FlushSnapshots() {
-  absl::MutexLock lock(&snapshot_mu_);
-  const auto idle = [this]() ABSL_SHARED_LOCKS_REQUIRED(snapshot_mu_) {
-    return stopping_ || (snapshot_queue_.empty() && !snapshot_busy_);
-  };
-  snapshot_mu_.Await(absl::Condition(&idle));
-}
-
-std::int64_t MissionRegistry::snapshots_written() const {
-  absl::MutexLock lock(&snapshot_mu_);
-  return snapshots_written_;
 }
 
 std::vector<std::string> MissionRegistry::Sweep(absl::Time now, absl::Duration keep_finished,

@@ -6,11 +6,9 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <map>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -20,6 +18,7 @@
 #include "core/mapping/prior_cache.h"
 #include "server/mission.h"
 #include "server/request_memo.h"
+#include "server/snapshot_writer.h"
 #include "server/store/mission_store.h"
 
 namespace oaipp::server {
@@ -216,8 +215,8 @@ class MissionRegistry {
             const absl::Status& reason);
   // Hooks a mission up to the snapshot thread.
   void WatchForSnapshots(Mission& mission);
-  void QueueSnapshot(const std::string& mission_id);
-  void SnapshotLoop();
+  // Captures and stores the snapshot of one mission (on the snapshot
+  // thread).
   void TakeSnapshot(const std::string& mission_id);
   // Deletes by key; request_key is the tenant's request_id as a key.
   absl::Status DeleteKey(const std::string& key, const std::string& request_key,
@@ -276,12 +275,8 @@ class MissionRegistry {
   // deleted (before mu_), so that a snapshot of a deleted mission never
   // lands on a new one of the same id.
   absl::Mutex snapshot_write_mu_ ABSL_ACQUIRED_BEFORE(mu_);
-  mutable absl::Mutex snapshot_mu_;
-  std::deque<std::string> snapshot_queue_ ABSL_GUARDED_BY(snapshot_mu_);
-  bool snapshot_busy_ ABSL_GUARDED_BY(snapshot_mu_) = false;
-  bool stopping_ ABSL_GUARDED_BY(snapshot_mu_) = false;
-  std::int64_t snapshots_written_ ABSL_GUARDED_BY(snapshot_mu_) = 0;
-  std::thread snapshot_thread_;
+  // The snapshot thread (running with a store and snapshot_every > 0).
+  SnapshotWriter snapshots_;
 };
 
 }  // namespace oaipp::server
