@@ -1,5 +1,10 @@
 // The server's missions by id, with the limits that protect the machine.
 //
+// registry.cc holds naming, create and delete, memory admission, listing,
+// recovery and retention; registry_ownership.cc what a server of a cluster
+// holds and takes over; snapshot_writer.cc the snapshots written in the
+// background.
+//
 //   MissionRegistry registry({.max_missions = 64});
 //   OAIPP_ASSIGN_OR_RETURN(auto mission, registry.Create("", config, request_id));
 //   OAIPP_ASSIGN_OR_RETURN(auto same, registry.Get("missions/" + mission->id()));
@@ -229,6 +234,9 @@ class MissionRegistry {
   // What a mission estimated at `estimate` bytes may keep in its log:
   // the rest of max_mission_memory_bytes (no limit without one).
   std::int64_t LogLimit(std::int64_t estimate) const;
+
+  // A mission's name is kPrefix followed by its id.
+  static constexpr absl::string_view kPrefix = "missions/";
 
   const RegistryLimits limits_;
   // Prior covariances shared by missions over the same kind of field: a

@@ -1,0 +1,156 @@
+// A mission's ownership when servers share a store (a cluster,
+// docs/cluster.md): whether this server still holds the copy it serves, the
+// takeover of a mission from another server, and the copies dropped when
+// another server took them over.
+#include "server/registry.h"
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/time/time.h"
+#include "core/common/status_macros.h"
+#include "spdlog/spdlog.h"
+
+namespace oaipp::server {
+
+absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Hold(const std::string& key,
+                                                               std::shared_ptr<Mission> held,
+                                                               absl::string_view name) {
+  if (held != nullptr) {
+    // One indexed read: whether another server has claimed the mission
+    // since this copy was read.
+    absl::StatusOr<std::int64_t> epoch = store_->Epoch(key);
+    if (epoch.ok() && *epoch == held->epoch()) return held;
+    if (!epoch.ok() && epoch.status().code() != absl::StatusCode::kNotFound) {
+      return epoch.status();
+    }
+    Drop(key, held,
+         absl::UnavailableError(
+             absl::StrCat("name: mission '", name, "' moved to another server; watch it again")));
+    if (!epoch.ok()) return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+  }
+  return TakeOver(key, name);
+}
+
+absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::string& key,
+                                                                   absl::string_view name) {
+  std::shared_ptr<Takeover> takeover;
+  bool first = false;
+  {
+    absl::MutexLock lock(&mu_);
+    std::shared_ptr<Takeover>& slot = takeovers_in_progress_[key];
+    if (slot == nullptr) {
+      slot = std::make_shared<Takeover>();
+      first = true;
+    }
+    takeover = slot;
+    // A takeover holds a mission like a create does: checked before the
+    // claim, so that a full server does not take a mission it cannot hold.
+    if (first && static_cast<int>(missions_.size()) >= limits_.max_missions &&
+        !missions_.contains(key)) {
+      takeovers_in_progress_.erase(key);
+      return absl::ResourceExhaustedError(
+          absl::StrCat("this server holds its limit of ", limits_.max_missions,
+                       " missions and cannot take over '", name, "'; retry later"));
+    }
+  }
+  if (!first) {
+    takeover->done.WaitForNotification();
+    return takeover->result;
+  }
+  const absl::Time started = absl::Now();
+  takeover->result = [&]() -> absl::StatusOr<std::shared_ptr<Mission>> {
+    absl::StatusOr<StoredMission> claimed = store_->Claim(key);
+    if (claimed.status().code() == absl::StatusCode::kNotFound) {
+      return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
+    }
+    OAIPP_RETURN_IF_ERROR(claimed.status());
+    absl::StatusOr<std::shared_ptr<Mission>> mission = Rebuild(*claimed);
+    if (!mission.ok()) {
+      return absl::Status(mission.status().code(), absl::StrCat("taking over mission '", name,
+                                                                "': ", mission.status().message()));
+    }
+    std::shared_ptr<Mission> replaced;
+    {
+      absl::MutexLock lock(&mu_);
+      if (auto it = missions_.find(key); it != missions_.end()) replaced = it->second;
+      Register(key, *mission);
+      created_by_request_.Remember(claimed->request_id, {key, claimed->fingerprint});
+      ++takeovers_;
+    }
+    if (replaced != nullptr) {
+      replaced->MarkMoved(absl::UnavailableError(
+          absl::StrCat("name: mission '", name, "' was read back; watch it again")));
+    }
+    spdlog::info("mission event=taken_over name={} epoch={} records={} ms={:.1f}",
+                 std::string(name), claimed->epoch, claimed->log.size(),
+                 absl::ToDoubleMilliseconds(absl::Now() - started));
+    return mission;
+  }();
+  {
+    absl::MutexLock lock(&mu_);
+    takeovers_in_progress_.erase(key);
+  }
+  takeover->done.Notify();
+  return takeover->result;
+}
+
+void MissionRegistry::Drop(const std::string& key, const std::shared_ptr<Mission>& mission,
+                           const absl::Status& reason) {
+  {
+    absl::MutexLock lock(&mu_);
+    auto it = missions_.find(key);
+    if (it == missions_.end() || it->second != mission) return;
+    missions_.erase(it);
+    order_.erase(number_of_[key]);
+    number_of_.erase(key);
+  }
+  spdlog::info(
+      "mission event=dropped name=missions/{} reason=\"another server took it over or deleted it\"",
+      std::string(PublicId(key)));
+  mission->MarkMoved(reason);
+}
+
+absl::Status MissionRegistry::AfterFailedWrite(const std::shared_ptr<Mission>& mission,
+                                               absl::Status status) {
+  if (status.ok()) return status;
+  const std::string name = absl::StrCat(kPrefix, PublicId(mission->id()));
+  if (status.GetPayload(kFenced).has_value()) {
+    absl::Status moved = absl::UnavailableError(absl::StrCat(
+        "name: mission '", name, "' is now served by another server; nothing was applied; retry"));
+    Drop(mission->id(), mission, moved);
+    return moved;
+  }
+  if (status.GetPayload(kInDoubt).has_value()) {
+    if (absl::Status reloaded = Reload(mission->id()); !reloaded.ok()) {
+      spdlog::warn("store: {}", reloaded.ToString());
+    } else {
+      spdlog::info("store: mission '{}' read back after a write in doubt", mission->id());
+    }
+  }
+  return status;
+}
+
+std::vector<std::string> MissionRegistry::DropMoved() {
+  std::vector<std::string> dropped;
+  if (!limits_.shared_store) return dropped;
+  for (const std::shared_ptr<Mission>& m : List(0, static_cast<std::size_t>(-1))) {
+    absl::StatusOr<std::int64_t> epoch = store_->Epoch(m->id());
+    if (epoch.ok() && *epoch == m->epoch()) continue;
+    if (!epoch.ok() && epoch.status().code() != absl::StatusCode::kNotFound) break;  // store down
+    Drop(m->id(), m,
+         absl::UnavailableError(absl::StrCat("name: mission 'missions/", PublicId(m->id()),
+                                             "' moved to another server; watch it again")));
+    dropped.push_back(m->id());
+  }
+  return dropped;
+}
+
+std::int64_t MissionRegistry::takeovers() const {
+  absl::MutexLock lock(&mu_);
+  return takeovers_;
+}
+
+}  // namespace oaipp::server
