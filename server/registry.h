@@ -1,9 +1,9 @@
 // The server's missions by id, with the limits that protect the machine.
 //
-// registry.cc holds naming, create and delete, memory admission, listing,
-// recovery and retention; registry_ownership.cc what a server of a cluster
-// holds and takes over; snapshot_writer.cc the snapshots written in the
-// background.
+// registry.cc holds naming, create and delete, memory admission, listing
+// and recovery; registry_ownership.cc what a server of a cluster holds and
+// takes over; snapshot_writer.cc the snapshots written in the background;
+// retention.cc the deletion of finished and idle missions.
 //
 //   MissionRegistry registry({.max_missions = 64});
 //   OAIPP_ASSIGN_OR_RETURN(auto mission, registry.Create("", config, request_id));
