@@ -55,10 +55,9 @@ struct ExportOptions {
 // current `obstacles`. Without config.geo_origin only the setpoints are
 // filled (NED from W's origin). InvalidArgument naming "path.trajectory..."
 // for a trajectory TrajectoryFromProto refuses, with more than 1000
-// segments or longer than config.budget_s, "path.measurement_poses[i].t_s" outside the trajectory, and
-// "setpoint_rate_hz" when the setpoints would exceed 200000;
-// FailedPrecondition ("max_items: ...") when even a 100 m tolerance needs
-// more than max_items items.
+// segments or longer than config.budget_s, "path.measurement_poses[i].t_s" outside the trajectory,
+// and "setpoint_rate_hz" when the setpoints would exceed 200000; FailedPrecondition ("max_items:
+// ...") when even a 100 m tolerance needs more than max_items items.
 [[nodiscard]] absl::StatusOr<v1::ExportPathResponse> ExportPath(
     const MissionConfig& config, const std::vector<Obstacle>& obstacles,
     const v1::PlanPathResponse& path, const ExportOptions& options);

@@ -49,9 +49,9 @@ absl::Status Resolve(const std::optional<GeoFrame>& frame, Parent* parent,
   OAIPP_ASSIGN_OR_RETURN(const GeoPoint point, GeoPointFromProto(geo, geo_field));
   const Vec3 p_W = frame->ToLocal(point);
   if (!(p_W.norm() <= kMaxDistance_m)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        geo_field, ": lies ", std::round(p_W.norm() / 1000.0), " km from geo_origin (at most ",
-        kMaxDistance_m / 1000.0, " km)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(geo_field, ": lies ", std::round(p_W.norm() / 1000.0),
+                     " km from geo_origin (at most ", kMaxDistance_m / 1000.0, " km)"));
   }
   v1::Vector3* local = (parent->*local_fn)();
   local->set_x(p_W.x());
@@ -141,8 +141,8 @@ GeoPoint GeoFrame::ToGeo(const Vec3& p_W) const {
 absl::Status ResolveGeoFields(v1::MissionSpec* spec, absl::string_view field) {
   std::optional<GeoPoint> origin;
   if (spec->has_geo_origin()) {
-    OAIPP_ASSIGN_OR_RETURN(origin,
-                           GeoPointFromProto(spec->geo_origin(), absl::StrCat(field, ".geo_origin")));
+    OAIPP_ASSIGN_OR_RETURN(
+        origin, GeoPointFromProto(spec->geo_origin(), absl::StrCat(field, ".geo_origin")));
   }
   OAIPP_ASSIGN_OR_RETURN(const std::optional<GeoFrame> frame, FrameOf(origin));
   for (int i = 0; i < spec->obstacles_size(); ++i) {

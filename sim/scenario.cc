@@ -55,18 +55,21 @@ absl::StatusOr<v1::Scenario> ParseScenario(absl::string_view json, absl::string_
           absl::StrCat(field, ": mission.geo_origin is not set, so give the x/y bounds"));
     }
     if (t.x_min_m() != 0 || t.x_max_m() != 0 || t.y_min_m() != 0 || t.y_max_m() != 0) {
-      return absl::InvalidArgumentError(absl::StrCat(field, ": give the bounds or centre_geo, not both"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ": give the bounds or centre_geo, not both"));
     }
     absl::StatusOr<api::GeoPoint> origin =
         api::GeoPointFromProto(scenario.mission().geo_origin(), "mission.geo_origin");
-    if (!origin.ok()) return absl::InvalidArgumentError(absl::StrCat(source, ": ", origin.status().message()));
+    if (!origin.ok())
+      return absl::InvalidArgumentError(absl::StrCat(source, ": ", origin.status().message()));
     absl::StatusOr<api::GeoPoint> centre = api::GeoPointFromProto(t.centre_geo(), field);
     if (!centre.ok()) return centre.status();
     const Vec3 c = api::GeoFrame::FromOrigin(*origin)->ToLocal(*centre);
     const double sx = t.has_size_x_m() ? t.size_x_m() : 0.75;
     const double sy = t.has_size_y_m() ? t.size_y_m() : 2.0;
     if (!(sx > 0 && sy > 0 && sx < 1e4 && sy < 1e4)) {
-      return absl::InvalidArgumentError(absl::StrCat(field, ": size_x_m and size_y_m must be in (0, 1e4)"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ": size_x_m and size_y_m must be in (0, 1e4)"));
     }
     t.set_x_min_m(c.x() - 0.5 * sx);
     t.set_x_max_m(c.x() + 0.5 * sx);

@@ -42,13 +42,13 @@ Vec3 Enu(const GeoPoint& o, const GeoPoint& p) {
 TEST(GeoFrameTest, MatchesTheEllipsoidFormulasNearTheOrigin) {
   // Zurich (PX4's simulated home), a point in the southern hemisphere and
   // one across the antimeridian from its origin.
-  for (const GeoPoint& origin : {GeoPoint{47.397742, 8.545594, 488.0},
-                                 GeoPoint{-33.8688, 151.2093, 20.0},
-                                 GeoPoint{10.0, 179.9995, 0.0}}) {
+  for (const GeoPoint& origin :
+       {GeoPoint{47.397742, 8.545594, 488.0}, GeoPoint{-33.8688, 151.2093, 20.0},
+        GeoPoint{10.0, 179.9995, 0.0}}) {
     const GeoFrame frame = *GeoFrame::FromOrigin(origin);
-    for (const auto& [dlat, dlon, dh] : {std::tuple{0.001, 0.002, 15.0},
-                                         std::tuple{-0.004, 0.001, 80.0},
-                                         std::tuple{0.0002, -0.003, -5.0}}) {
+    for (const auto& [dlat, dlon, dh] :
+         {std::tuple{0.001, 0.002, 15.0}, std::tuple{-0.004, 0.001, 80.0},
+          std::tuple{0.0002, -0.003, -5.0}}) {
       const GeoPoint p{origin.latitude_deg + dlat, origin.longitude_deg + dlon,
                        origin.altitude_m + dh};
       const Vec3 expected = Enu(origin, p);
@@ -71,8 +71,8 @@ TEST(GeoFrameTest, ADegreeHasItsPublishedLength) {
   struct Row {
     double lat_deg, per_deg_lat_m, per_deg_lon_m;
   };
-  for (const Row& r : {Row{0.0, 110574.0, 111320.0}, Row{45.0, 111132.0, 78847.0},
-                       Row{60.0, 111412.0, 55800.0}}) {
+  for (const Row& r :
+       {Row{0.0, 110574.0, 111320.0}, Row{45.0, 111132.0, 78847.0}, Row{60.0, 111412.0, 55800.0}}) {
     const GeoFrame frame = *GeoFrame::FromOrigin({r.lat_deg, 0.0, 0.0});
     const double north = frame.ToLocal({r.lat_deg + 1e-4, 0.0, 0.0}).y() * 1e4;
     const double east = frame.ToLocal({r.lat_deg, 1e-4, 0.0}).x() * 1e4;
@@ -115,13 +115,13 @@ TEST(ResolveGeoFieldsTest, ErrorsNameTheField) {
   // Both forms.
   request.mutable_camera_position_m()->set_z(10.0);
   s = ResolveGeoFields(GeoPoint{47.4, 8.5, 400.0}, &request);
-  EXPECT_TRUE(absl::StartsWith(s.message(), "camera_position_geo: give camera_position_m or"))
-      << s;
+  EXPECT_TRUE(absl::StartsWith(s.message(), "camera_position_geo: give camera_position_m or")) << s;
   // Out of range, and too far from the origin.
   v1::UavState state;
   state.mutable_position_geo()->set_latitude_deg(91.0);
   s = ResolveGeoFields(GeoPoint{47.4, 8.5, 400.0}, &state, "state");
-  EXPECT_TRUE(absl::StartsWith(s.message(), "state.position_geo.latitude_deg: must be in [-90, 90]"))
+  EXPECT_TRUE(
+      absl::StartsWith(s.message(), "state.position_geo.latitude_deg: must be in [-90, 90]"))
       << s;
   state.mutable_position_geo()->set_latitude_deg(-47.4);
   s = ResolveGeoFields(GeoPoint{47.4, 8.5, 400.0}, &state, "state");

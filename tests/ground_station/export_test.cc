@@ -66,8 +66,8 @@ double DistanceToPath(const v1::Trajectory& traj, const Vec3& p) {
   for (double t = 0.001; t < traj.duration_s() + 0.001; t += 0.001) {
     const Vec3 next = Eval(traj, std::min(t, traj.duration_s()), 0);
     const Vec3 d = next - prev;
-    const double s = d.squaredNorm() > 0 ? std::clamp((p - prev).dot(d) / d.squaredNorm(), 0.0, 1.0)
-                                         : 0.0;
+    const double s =
+        d.squaredNorm() > 0 ? std::clamp((p - prev).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0.0;
     best = std::min(best, (prev + s * d - p).norm());
     prev = next;
   }
@@ -78,8 +78,7 @@ bool InPolygon(const std::vector<Vec2>& poly, const Vec2& p) {
   bool inside = false;
   for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
     if ((poly[i].y() > p.y()) != (poly[j].y() > p.y()) &&
-        p.x() < (poly[j].x() - poly[i].x()) * (p.y() - poly[i].y()) /
-                        (poly[j].y() - poly[i].y()) +
+        p.x() < (poly[j].x() - poly[i].x()) * (p.y() - poly[i].y()) / (poly[j].y() - poly[i].y()) +
                     poly[i].x()) {
       inside = !inside;
     }
@@ -95,10 +94,12 @@ class GroundStationTest : public ::testing::Test {
     v1::CreateMissionRequest request;
     request.set_mission_id("zurich");
     v1::MissionSpec& spec = *request.mutable_spec();
-    *spec.mutable_geo_origin() = Geo(kOrigin.latitude_deg, kOrigin.longitude_deg, kOrigin.altitude_m);
+    *spec.mutable_geo_origin() =
+        Geo(kOrigin.latitude_deg, kOrigin.longitude_deg, kOrigin.altitude_m);
     v1::Obstacle* shed = spec.add_obstacles();
     shed->set_id("shed");
-    *shed->mutable_box()->mutable_centre_geo() = Geo(47.397742 + 0.00006, 8.545594 + 0.00008, 492.0);
+    *shed->mutable_box()->mutable_centre_geo() =
+        Geo(47.397742 + 0.00006, 8.545594 + 0.00008, 492.0);
     shed->mutable_box()->mutable_size_m()->set_x(4);
     shed->mutable_box()->mutable_size_m()->set_y(6);
     shed->mutable_box()->mutable_size_m()->set_z(8);
@@ -172,7 +173,8 @@ TEST_F(GroundStationTest, GeodeticInputBecomesLocalMetres) {
   grpc::ClientContext context2;
   grpc::Status status = service_.stub().AddMeasurement(&context2, m, &answer);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_TRUE(absl::StartsWith(status.error_message(), "camera_position_geo: give")) << status.error_message();
+  EXPECT_TRUE(absl::StartsWith(status.error_message(), "camera_position_geo: give"))
+      << status.error_message();
 
   v1::CreateMissionRequest local;
   local.set_mission_id("local");
@@ -267,8 +269,8 @@ TEST_F(GroundStationTest, ThePlanFileHasQGroundControlsFieldsAndFollowsThePath) 
     EXPECT_EQ(poly.at("version"), 1);
     std::vector<Vec2> corners;
     for (const json& c : poly.at("polygon")) {
-      corners.push_back(frame.ToLocal({c[0].get<double>(), c[1].get<double>(), kOrigin.altitude_m})
-                            .head<2>());
+      corners.push_back(
+          frame.ToLocal({c[0].get<double>(), c[1].get<double>(), kOrigin.altitude_m}).head<2>());
     }
     (poly.at("inclusion").get<bool>() ? inclusions : exclusions).push_back(corners);
   }

@@ -27,8 +27,8 @@ class WebViewTest : public ::testing::Test {
  protected:
   WebViewTest()
       : auth_(*Authenticator::FromText(absl::StrCat("alpha ", Authenticator::HashToken("token-a"),
-                                                    "\nbravo ",
-                                                    Authenticator::HashToken("token-b"), "\n"))),
+                                                    "\nbravo ", Authenticator::HashToken("token-b"),
+                                                    "\n"))),
         registry_({.max_missions = 8, .max_cells_per_mission = 1600}),
         view_(&registry_, &auth_) {
     const api::MissionConfig config = *api::MissionSpecToConfig(v1::MissionSpec());
