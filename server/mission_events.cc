@@ -1,3 +1,12 @@
+// GCC 12 reports -Wmaybe-uninitialized for the fields of an event moved
+// out of the queue into a std::optional (TryPop, Pop), although every
+// member has an initialiser: its analysis of std::variant loses track of
+// which alternative is live. It did not in the larger file these came from,
+// where the same code was inlined differently. Only this file is affected.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+
 #include "server/mission_events.h"
 
 #include <algorithm>

@@ -29,21 +29,21 @@ struct MissionEventData {
   std::int64_t sequence = 0;
   absl::Time time;
   struct MeasurementFused {
-    double mission_time_s;
-    int cells_fused;
-    double trace;
-    Vec3 camera_position_W;
+    double mission_time_s = 0.0;
+    int cells_fused = 0;
+    double trace = 0.0;
+    Vec3 camera_position_W = Vec3::Zero();
     std::vector<int> detected_cells;  // labelled >= kDetectedLabel
   };
   struct ObstaclesChanged {
-    int obstacle_count;
+    int obstacle_count = 0;
   };
   struct PathPlanned {
-    double mission_time_s;
-    double duration_s;
-    double objective;
+    double mission_time_s = 0.0;
+    double duration_s = 0.0;
+    double objective = 0.0;
     std::vector<Vec3> control_waypoints_W;
-    Vec3 start_W;
+    Vec3 start_W = Vec3::Zero();
   };
   struct Deleted {};
   std::variant<MeasurementFused, ObstaclesChanged, PathPlanned, Deleted> event;

@@ -166,9 +166,8 @@ std::vector<std::string> KernelFamiliesForThisCpu() {
 TEST(ServerBinaryTest, SigtermDuringAPlanDrainsItWithTheDefaultFlags) {
   for (const std::string& family : KernelFamiliesForThisCpu()) {
     SCOPED_TRACE("OPENBLAS_CORETYPE=" + (family.empty() ? std::string("(unset)") : family));
-    const std::filesystem::path data =
-        std::filesystem::temp_directory_path() /
-        ("oaipp-drain-" + std::to_string(getpid()) + "-" + family);
+    const std::filesystem::path data = std::filesystem::temp_directory_path() /
+                                       ("oaipp-drain-" + std::to_string(getpid()) + "-" + family);
     std::filesystem::remove_all(data);
     const int port = testing::FreePort();
     testing::ChildProcess server({OAIPP_SERVER_BINARY, "--listen=127.0.0.1:" + std::to_string(port),
@@ -200,7 +199,8 @@ TEST(ServerBinaryTest, SigtermDuringAPlanDrainsItWithTheDefaultFlags) {
     EXPECT_FALSE(answered) << "the plan was answered before SIGTERM could be sent";
     const int status = server.Stop(SIGTERM);
     planner.join();
-    EXPECT_TRUE(plan_status.ok()) << plan_status.error_code() << ": " << plan_status.error_message();
+    EXPECT_TRUE(plan_status.ok()) << plan_status.error_code() << ": "
+                                  << plan_status.error_message();
     EXPECT_GT(path.trajectory().segments_size(), 0);
     EXPECT_TRUE(WIFEXITED(status)) << "wait status " << status;
     EXPECT_EQ(WEXITSTATUS(status), 0);

@@ -28,10 +28,9 @@ inline constexpr std::chrono::seconds kDefaultStartWait{20};
 // it could not be started or died first.
 // `env`: variables to set in the child ("NAME", "VALUE"), or to remove
 // from its environment where VALUE is empty.
-inline pid_t SpawnAndWaitForPort(
-    const std::vector<std::string>& args, int port,
-    std::chrono::milliseconds wait = kDefaultStartWait,
-    const std::vector<std::pair<std::string, std::string>>& env = {}) {
+inline pid_t SpawnAndWaitForPort(const std::vector<std::string>& args, int port,
+                                 std::chrono::milliseconds wait = kDefaultStartWait,
+                                 const std::vector<std::pair<std::string, std::string>>& env = {}) {
   const pid_t pid = fork();
   if (pid < 0) return -1;
   if (pid == 0) {

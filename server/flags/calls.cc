@@ -1,0 +1,23 @@
+// oaipp-server's flags: calls: where the server listens and how many it serves.
+// Defaults are ServerOptions' (server/server_options.h); ServerOptionsFromFlags
+// (server/flags/flags.h) reads them.
+#include <cstdint>
+#include <string>
+
+#include "absl/flags/flag.h"
+#include "server/server_options.h"
+
+namespace {
+const oaipp::server::ServerOptions kDefaults;
+}  // namespace
+
+ABSL_FLAG(std::string, listen, kDefaults.listen, "gRPC listen address (host:port)");
+ABSL_FLAG(int, worker_threads, kDefaults.worker_threads, "most threads serving RPCs at once");
+ABSL_FLAG(bool, reflection, kDefaults.reflection,
+          "serve gRPC server reflection (for grpcurl and similar tools)");
+ABSL_FLAG(double, shutdown_grace_s, kDefaults.shutdown_grace_s,
+          "time in-flight calls get to finish on SIGTERM");
+ABSL_FLAG(int, max_streams, kDefaults.max_streams, "open WatchMission streams in all");
+ABSL_FLAG(int, max_streams_per_client, kDefaults.max_streams_per_client,
+          "open WatchMission streams per client (per tenant with --token_file, per connection "
+          "without)");

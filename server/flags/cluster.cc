@@ -1,0 +1,21 @@
+// oaipp-server's flags: a replica of a cluster (docs/cluster.md).
+// Defaults are ServerOptions' (server/server_options.h); ServerOptionsFromFlags
+// (server/flags/flags.h) reads them.
+#include <cstdint>
+#include <string>
+
+#include "absl/flags/flag.h"
+#include "server/server_options.h"
+
+namespace {
+const oaipp::server::ServerOptions kDefaults;
+}  // namespace
+
+ABSL_FLAG(std::string, replica_id, kDefaults.replica_id,
+          "a name for this server, sent back on every call as the x-oaipp-replica header "
+          "(which replica of a cluster answered); empty: not sent");
+ABSL_FLAG(bool, cluster, kDefaults.cluster,
+          "this server is one of several replicas sharing a PostgreSQL --store behind a proxy "
+          "that routes by the x-oaipp-mission header: it loads no mission at start, takes a "
+          "mission over from the store when a call for it arrives, and drops a mission another "
+          "replica has taken (docs/cluster.md)");

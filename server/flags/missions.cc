@@ -1,0 +1,27 @@
+// oaipp-server's flags: missions held and the memory they may take.
+// Defaults are ServerOptions' (server/server_options.h); ServerOptionsFromFlags
+// (server/flags/flags.h) reads them.
+#include <cstdint>
+#include <string>
+
+#include "absl/flags/flag.h"
+#include "server/server_options.h"
+
+namespace {
+const oaipp::server::ServerOptions kDefaults;
+}  // namespace
+
+ABSL_FLAG(int, max_missions, kDefaults.max_missions, "missions held at once");
+ABSL_FLAG(int64_t, max_cells, kDefaults.max_cells,
+          "cells per mission map (its covariance takes 8 n^2 bytes: 4096 cells = 134 MB)");
+ABSL_FLAG(int, prior_cache, kDefaults.prior_cache,
+          "prior covariances kept for missions over the same kind of field, and as many starting "
+          "maps (ground under buildings fused) for missions over the same site (8 n^2 bytes "
+          "each; 0: every mission computes its own)");
+ABSL_FLAG(int, max_missions_per_tenant, kDefaults.max_missions_per_tenant,
+          "missions one tenant may hold; 0: only --max_missions");
+ABSL_FLAG(int64_t, max_memory_mb, kDefaults.max_memory_mb,
+          "memory all missions together may need (admission control, estimated from each spec "
+          "before anything is allocated); 0: half of this machine's memory");
+ABSL_FLAG(int64_t, max_mission_memory_mb, kDefaults.max_mission_memory_mb,
+          "memory one mission may need (see max_memory_mb)");

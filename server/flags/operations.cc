@@ -1,0 +1,22 @@
+// oaipp-server's flags: what operators see: logs, metrics, the live view.
+// Defaults are ServerOptions' (server/server_options.h); ServerOptionsFromFlags
+// (server/flags/flags.h) reads them.
+#include <cstdint>
+#include <string>
+
+#include "absl/flags/flag.h"
+#include "server/server_options.h"
+
+namespace {
+const oaipp::server::ServerOptions kDefaults;
+}  // namespace
+
+ABSL_FLAG(std::string, log_level, kDefaults.log_level, "trace, debug, info, warn, error or off");
+ABSL_FLAG(std::string, metrics_listen, kDefaults.metrics_listen,
+          "Prometheus metrics address (host:port); empty disables");
+ABSL_FLAG(int, web_port, kDefaults.web_port,
+          "port of the live mission view, a read-only web page (docs/ground-stations.md); "
+          "0: off");
+ABSL_FLAG(std::string, web_address, kDefaults.web_address,
+          "address the live view binds; beyond loopback only with --token_file (each request "
+          "then names a token and sees its tenant's missions)");
