@@ -36,6 +36,9 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/reflection.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "api/metadata.h"
@@ -46,6 +49,8 @@
 #include "nlohmann/json.hpp"
 #include "server/openblas_kernels.h"
 #include "server/service.h"
+#include "server/flags/flags.h"
+#include "server/server.h"
 #include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
 #include "tests/bench/server/e1_mission.h"
@@ -63,14 +68,6 @@ ABSL_FLAG(int, stall_generations, 0,
           "best of this many generations before by no more than --stall_tolerance times it "
           "(0: never)");
 ABSL_FLAG(double, stall_tolerance, 1e-3, "spec.planner.stall_tolerance");
-ABSL_FLAG(int, planning_threads, 2, "server planning pool size");
-ABSL_FLAG(int, planning_queue, -1, "server planning queue (-1: 4 x missions)");
-ABSL_FLAG(int, planning_nice, 10, "oaipp-server --planning_nice");
-ABSL_FLAG(double, shed_above, 2.0,
-          "server overload shedding (oaipp-server --shed_above); 0: every plan runs its whole "
-          "search");
-ABSL_FLAG(double, min_search_fraction, 0.1, "oaipp-server --min_search_fraction");
-ABSL_FLAG(double, plan_latency_s, 0.0, "oaipp-server --plan_latency_s (0: no bound)");
 ABSL_FLAG(double, first_plan_budget_s, 0.0,
           "each mission asks for its first path with this planning_budget_s, in every run "
           "(0: none): what the first plans' search is worth to the RSE");
@@ -84,28 +81,13 @@ ABSL_FLAG(double, replan_cut_within_s, 0.0,
 ABSL_FLAG(double, launch_spread_s, 0.0,
           "missions start one after another, evenly over this many seconds (0: all at once, "
           "the default); not in the one-at-a-time run");
-ABSL_FLAG(int, take_off_plans, 0,
-          "oaipp-server --max_take_off_plans (take-off pacing; not in the one-at-a-time run): "
-          "a refused first plan is asked for again after the server's x-oaipp-retry-after-ms, "
-          "the UAV waiting on the ground; 0: no pacing");
-ABSL_FLAG(double, take_off_patience_s, 5.0, "oaipp-server --take_off_patience_s");
-ABSL_FLAG(int, prior_cache, 4, "server prior cache size (0: every mission computes its prior)");
 ABSL_FLAG(std::vector<std::string>, stores, {"memory"},
           "stores to run the load on, in turn: memory, sqlite (in a fresh folder under "
           "--data_dir), postgresql (a PostgreSQL server started for the run, as the tests "
           "start one) or a postgresql:// URI");
-ABSL_FLAG(std::string, data_dir, "/tmp/oaipp-server-load", "where sqlite runs keep their file");
-ABSL_FLAG(int, snapshot_every, 16, "server snapshot interval (measurements)");
 ABSL_FLAG(bool, compare_alone, false,
           "afterwards fly the same missions one at a time (as fast as the server answers, "
           "nothing shed) and compare the mean RSE");
-ABSL_FLAG(std::string, dense_backend, "openblas",
-          "the Kalman update's backend, as oaipp-server --dense_backend: openblas or eigen");
-ABSL_FLAG(
-    std::string, objective_precision, "double",
-    "the adaptive objective's solves: double, or single (OpenBLAS's kernels about twice as "
-    "fast; 0.76-0.88 of double's CPU for 100 missions; a plan may differ from double's where two "
-    "candidates tie, docs/capacity.md)");
 ABSL_FLAG(std::string, json, "", "write the figures and every call to this file");
 
 namespace {
@@ -328,33 +310,27 @@ MissionResult FlyMission(v1::MissionService::Stub& stub, int m, bool paced, Cloc
   return result;
 }
 
-// Flies the load against a fresh server on `store` (nullptr: memory):
-// all missions at once, or (alone) one after another with nothing shed.
-void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
+// Flies the load against a fresh server built from `options` (its store
+// among them): all missions at once, or (alone) one after another with
+// nothing shed.
+void RunLoad(oaipp::server::ServerOptions options, bool alone, LoadResult& out) {
   using namespace oaipp;
   const int missions = absl::GetFlag(FLAGS_missions);
   const bool paced = !alone && absl::GetFlag(FLAGS_pace) == "real_time";
-  server::MissionRegistry registry({.max_missions = missions + 1,
-                                    .prior_cache = absl::GetFlag(FLAGS_prior_cache),
-                                    .snapshot_every = absl::GetFlag(FLAGS_snapshot_every)},
-                                   store);
-  const int queue =
-      absl::GetFlag(FLAGS_planning_queue) >= 0 ? absl::GetFlag(FLAGS_planning_queue) : 4 * missions;
-  server::PlanningPool planners(absl::GetFlag(FLAGS_planning_threads), queue,
-                                absl::GetFlag(FLAGS_planning_nice));
-  server::MissionServiceImpl service(
-      &registry, &planners, nullptr, nullptr,
-      {.shed_above = alone ? 0.0 : absl::GetFlag(FLAGS_shed_above),
-       .min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction),
-       .plan_latency =
-           alone ? absl::ZeroDuration() : absl::Seconds(absl::GetFlag(FLAGS_plan_latency_s)),
-       .max_take_off_plans = alone ? 0 : absl::GetFlag(FLAGS_take_off_plans),
-       .take_off_patience = absl::Seconds(absl::GetFlag(FLAGS_take_off_patience_s))});
-  grpc::ServerBuilder builder;
-  int port = 0;
-  builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
-  builder.RegisterService(&service);
-  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
+  options.listen = "127.0.0.1:0";
+  options.max_missions = std::max(options.max_missions, missions + 1);
+  if (alone) {
+    options.shed_above = 0.0;
+    options.plan_latency_s = 0.0;
+    options.max_take_off_plans = 0;
+  }
+  absl::StatusOr<std::unique_ptr<server::Server>> started = server::Server::Start(options);
+  if (!started.ok()) {
+    std::fprintf(stderr, "%s\n", started.status().ToString().c_str());
+    std::exit(1);
+  }
+  server::Server& server = **started;
+  const int port = server.port();
   auto channel =
       grpc::CreateChannel(absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials());
   auto stub = v1::MissionService::NewStub(channel);
@@ -401,17 +377,17 @@ void RunLoad(oaipp::server::MissionStore* store, bool alone, LoadResult& out) {
   progress.join();
   out.bytes_per_mission /= std::max(1, done.load());
   out.peak_rss_kb = PeakRssKb();
-  server->Shutdown();
-  registry.FlushSnapshots();
+  server.Shutdown(absl::ZeroDuration());
 }
 
-void Print(LoadResult& r, int missions, double budget, const std::string& pace) {
+void Print(LoadResult& r, int missions, double budget, const std::string& pace,
+           int planning_threads) {
   int finished = 0;
   for (const MissionResult& m : r.missions) finished += m.finished ? 1 : 0;
   std::printf(
       "%d missions of %.0f s flight each (%s), %d finished, wall %.1f s, %d planning "
       "threads\n",
-      missions, budget, pace.c_str(), finished, r.wall_s, absl::GetFlag(FLAGS_planning_threads));
+      missions, budget, pace.c_str(), finished, r.wall_s, planning_threads);
   r.latencies.Print(r.wall_s);
   int shed = 0;
   const std::vector<double> shares = SearchShares(r);
@@ -511,43 +487,67 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
   return j;
 }
 
+
+// Flags of oaipp-server whose default differs here: no metrics endpoint
+// (the load runs beside whatever else uses its port), sqlite files under
+// /tmp and fewer log lines. The command line still overrides each.
+void SetLoadDefaults() {
+  const std::pair<const char*, const char*> defaults[] = {
+      {"metrics_listen", ""}, {"data_dir", "/tmp/oaipp-server-load"}, {"log_level", "warn"}};
+  for (const auto& [name, value] : defaults) {
+    absl::CommandLineFlag* flag = absl::FindCommandLineFlag(name);
+    std::string error;
+    if (flag == nullptr || !flag->ParseFrom(value, &error)) {
+      std::fprintf(stderr, "server_load: cannot set --%s's default: %s\n", name, error.c_str());
+      std::exit(1);
+    }
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   oaipp::server::RestartWithOpenBlasKernels(argv);
+  absl::SetProgramUsageMessage(
+      "Many E1 missions at once on one server in process; takes oaipp-server's flags too "
+      "(--help lists them).");
+  SetLoadDefaults();
   absl::ParseCommandLine(argc, argv);
-  spdlog::set_level(spdlog::level::warn);
+  // --planning_queue is as long as the missions need (4 x --missions)
+  // unless given.
+  const bool queue_given = std::any_of(argv + 1, argv + argc, [](const char* arg) {
+    return absl::StartsWith(arg, "--planning_queue") || absl::StartsWith(arg, "-planning_queue");
+  });
+  if (!queue_given) {
+    std::string error;
+    (void)absl::FindCommandLineFlag("planning_queue")
+        ->ParseFrom(std::to_string(4 * absl::GetFlag(FLAGS_missions)), &error);
+  }
+  const oaipp::server::ServerOptions options = oaipp::server::ServerOptionsFromFlags();
+  spdlog::set_level(spdlog::level::from_str(options.log_level));
   const std::string pace = absl::GetFlag(FLAGS_pace);
   if (pace != "real_time" && pace != "as_fast") {
     std::fprintf(stderr, "--pace: real_time or as_fast, got %s\n", pace.c_str());
     return 2;
   }
-  if (absl::GetFlag(FLAGS_dense_backend) == "openblas") {
-    if (absl::Status loaded = oaipp::UseOpenBlas(); !loaded.ok()) {
-      std::fprintf(stderr, "%s\n", std::string(loaded.message()).c_str());
-      return 1;
-    }
-  } else if (absl::GetFlag(FLAGS_dense_backend) != "eigen") {
-    std::fprintf(stderr, "--dense_backend: openblas or eigen\n");
+  if (absl::Status valid = options.Validate(); !valid.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(valid.message()).c_str());
     return 2;
   }
-  if (absl::Status set = oaipp::SetObjectivePrecision(absl::GetFlag(FLAGS_objective_precision));
-      !set.ok()) {
-    std::fprintf(stderr, "--%s\n", std::string(set.message()).c_str());
+  if (absl::Status set = oaipp::server::SetUpProcess(options); !set.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(set.message()).c_str());
     return 2;
   }
   std::printf("Kalman update on %s; objective's solves in %s precision\n",
-              oaipp::DenseBackendName().c_str(), absl::GetFlag(FLAGS_objective_precision).c_str());
+              oaipp::DenseBackendName().c_str(), options.objective_precision.c_str());
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
   if (missions < 1 || !(budget > 0) || !(absl::GetFlag(FLAGS_first_plan_budget_s) >= 0.0) ||
-      !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0) || absl::GetFlag(FLAGS_take_off_plans) < 0 ||
-      !(absl::GetFlag(FLAGS_replan_cut_within_s) >= 0.0) ||
-      !(absl::GetFlag(FLAGS_take_off_patience_s) >= 0.0)) {
+      !(absl::GetFlag(FLAGS_launch_spread_s) >= 0.0) ||
+      !(absl::GetFlag(FLAGS_replan_cut_within_s) >= 0.0)) {
     std::fprintf(stderr,
                  "--missions must be >= 1, --budget_s > 0, --first_plan_budget_s >= 0, "
-                 "--launch_spread_s >= 0, --take_off_plans >= 0, --replan_cut_within_s >= 0 "
-                 "and --take_off_patience_s >= 0\n");
+                 "--launch_spread_s >= 0 and --replan_cut_within_s >= 0\n");
     return 2;
   }
   std::vector<std::unique_ptr<LoadResult>> runs;
@@ -566,22 +566,17 @@ int main(int argc, char** argv) {
       if (!postgres->CreateDatabase(database)) return 1;
       kind = postgres->uri(database);
     }
-    const std::string dir =
-        absl::StrCat(absl::GetFlag(FLAGS_data_dir), "/run-", runs.size(), "-", getpid());
+    const std::string dir = absl::StrCat(options.data_dir, "/run-", runs.size(), "-", getpid());
     std::filesystem::remove_all(dir);
-    absl::StatusOr<std::unique_ptr<oaipp::server::MissionStore>> store =
-        oaipp::server::OpenStore(kind, dir);
-    if (!store.ok()) {
-      std::fprintf(stderr, "%s\n", store.status().ToString().c_str());
-      return 1;
-    }
     std::printf("== store: %s\n", oaipp::server::DescribeStore(kind, dir).c_str());
     std::fflush(stdout);
     runs.push_back(std::make_unique<LoadResult>());
     runs.back()->label = label;
-    RunLoad(store->get(), /*alone=*/false, *runs.back());
-    Print(*runs.back(), missions, budget, pace);
-    store->reset();
+    oaipp::server::ServerOptions run = options;
+    run.store = kind;
+    run.data_dir = dir;
+    RunLoad(run, /*alone=*/false, *runs.back());
+    Print(*runs.back(), missions, budget, pace, options.planning_threads);
     std::filesystem::remove_all(dir);
   }
   if (runs.size() > 1) {
@@ -597,8 +592,10 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
     alone = std::make_unique<LoadResult>();
     alone->label = "alone";
-    RunLoad(nullptr, /*alone=*/true, *alone);
-    Print(*alone, missions, budget, "one at a time");
+    oaipp::server::ServerOptions one_by_one = options;
+    one_by_one.store = "memory";
+    RunLoad(one_by_one, /*alone=*/true, *alone);
+    Print(*alone, missions, budget, "one at a time", options.planning_threads);
     const std::vector<double> together = Rses(*runs.front());
     const std::vector<double> apart = Rses(*alone);
     std::printf(
@@ -621,19 +618,19 @@ int main(int argc, char** argv) {
     nlohmann::json j;
     j["missions"] = missions;
     j["budget_s"] = budget;
-    j["planning_threads"] = absl::GetFlag(FLAGS_planning_threads);
-    j["shed_above"] = absl::GetFlag(FLAGS_shed_above);
-    j["plan_latency_s"] = absl::GetFlag(FLAGS_plan_latency_s);
+    j["planning_threads"] = options.planning_threads;
+    j["shed_above"] = options.shed_above;
+    j["plan_latency_s"] = options.plan_latency_s;
     j["launch_spread_s"] = absl::GetFlag(FLAGS_launch_spread_s);
-    j["take_off_plans"] = absl::GetFlag(FLAGS_take_off_plans);
-    j["take_off_patience_s"] = absl::GetFlag(FLAGS_take_off_patience_s);
+    j["take_off_plans"] = options.max_take_off_plans;
+    j["take_off_patience_s"] = options.take_off_patience_s;
     j["first_plan_budget_s"] = absl::GetFlag(FLAGS_first_plan_budget_s);
     j["replan_cut_within_s"] = absl::GetFlag(FLAGS_replan_cut_within_s);
     j["generations"] = absl::GetFlag(FLAGS_generations);
     j["stall_generations"] = absl::GetFlag(FLAGS_stall_generations);
     j["stall_tolerance"] = absl::GetFlag(FLAGS_stall_tolerance);
     j["dense_backend"] = oaipp::DenseBackendName();
-    j["objective_precision"] = absl::GetFlag(FLAGS_objective_precision);
+    j["objective_precision"] = options.objective_precision;
     nlohmann::json list = nlohmann::json::array();
     for (auto& run : runs) list.push_back(ToJson(*run, pace));
     j["runs"] = list;
