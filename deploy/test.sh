@@ -1,55 +1,138 @@
 #!/usr/bin/env bash
-# Sets up everything on a fresh Debian 12 machine (as root), builds the
-# project twice and runs the whole test suite with ctest in each build:
-#   1. Release, warnings as errors (./build);
-#   2. Debug with AddressSanitizer + UndefinedBehaviorSanitizer, asserts live,
-#      warnings as errors (./build-asan; -O1 so the suite fits CI's time);
-# then runs each libFuzzer target for 30 s (fuzz/run.sh, clang, ./build-fuzz).
-#   bash deploy/test.sh                 # all three
-#   OAIPP_SANITIZERS=0 bash deploy/test.sh   # the Release build only
-#   BUILD_DIR=/tmp/b bash deploy/test.sh     # build dirs /tmp/b, /tmp/b-asan and /tmp/b-fuzz
+# Sets up everything on a fresh Debian 12 machine (as root) and runs every
+# check the project has, in stages, then prints each stage's time:
+#   format   clang-format finds no drift in tracked C++ files (check only;
+#            `clang-format -i FILE` fixes one)
+#   release  Release build (./build), warnings as errors; every ctest tier:
+#            unit, service and slow
+#   asan     Debug -O1 with AddressSanitizer and UndefinedBehaviorSanitizer,
+#            asserts live (./build-asan); the unit and service tiers
+#   tsan     Debug -O1 with ThreadSanitizer (./build-tsan): only the tests of
+#            the server, the stores and the client that run in process
+#   fuzz     each libFuzzer target for 30 s on a fixed seed (fuzz/run.sh,
+#            clang, ./build-fuzz)
+# tests/README.md says what each tier holds.
+#   bash deploy/test.sh                                 # every stage
+#   OAIPP_STAGES="format release" bash deploy/test.sh   # some, in this order
+#   OAIPP_SANITIZERS=0 bash deploy/test.sh              # format and release
+#   BUILD_DIR=/tmp/b bash deploy/test.sh                # /tmp/b, /tmp/b-asan, ...
+#   JOBS=4 bash deploy/test.sh                          # parallel builds and tests
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
 jobs="${JOBS:-$(nproc)}"
+if [ -n "${OAIPP_STAGES:-}" ]; then
+  read -r -a stages <<<"$OAIPP_STAGES"
+elif [ "${OAIPP_SANITIZERS:-1}" = "0" ]; then
+  stages=(format release)
+else
+  stages=(format release asan tsan fuzz)
+fi
 
+# Each stage's name and time, printed at the end whether or not all passed.
+timings=()
+report() {
+  local status=$?
+  if [ ${#timings[@]} -gt 0 ]; then
+    echo "test: stage times"
+    printf '  %s\n' "${timings[@]}"
+  fi
+  [ "$status" -eq 0 ] && echo "test: every stage passed (${stages[*]})"
+  return "$status"
+}
+trap report EXIT
+
+started=$SECONDS
 bash "$root/deploy/install-deps.sh"
+timings+=("$(printf '%-8s %5d s' deps $((SECONDS - started)))")
 # The store tests start a real PostgreSQL; here it is installed, so a test
 # that cannot start one fails instead of skipping.
 export OAIPP_REQUIRE_POSTGRES=1
 
-# build_and_test DIR CMAKE_ARGS...: configure, build (printing only
-# diagnostics), run ctest; stops the script on the first failure.
-build_and_test() {
+# build DIR [TARGETS...] -- CMAKE_ARGS...: configure and build (printing only
+# diagnostics); all targets unless some are named.
+build() {
   local dir="$1"
   shift
-  local started=$SECONDS
+  local targets=()
+  while [ "$1" != "--" ]; do
+    targets+=(--target "$1")
+    shift
+  done
+  shift
   cmake -S "$root" -B "$dir" -DOAIPP_WERROR=ON "$@" >/dev/null
   echo "test: building $(basename "$dir") with $jobs jobs"
-  if ! cmake --build "$dir" -j "$jobs" >"$dir/build.log" 2>&1; then
+  if ! cmake --build "$dir" -j "$jobs" "${targets[@]}" >"$dir/build.log" 2>&1; then
     grep -E "error|warning|\*\*\*" "$dir/build.log" | head -50 || tail -50 "$dir/build.log"
     echo "test: the build in $dir failed (full log: $dir/build.log)" >&2
     return 1
   fi
-  echo "test: built $(basename "$dir") in $((SECONDS - started)) s; running ctest"
-  (cd "$dir" && ctest --output-on-failure -j "$jobs" --timeout 900)
-  echo "test: $(basename "$dir") done in $((SECONDS - started)) s"
 }
 
-if [ "${OAIPP_SANITIZERS:-1}" != "0" ]; then
-  # halt_on_error: the first report fails the test that caused it.
-  export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_error=1}"
-  export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
-  export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/deploy/lsan.supp}"
-  build_and_test "$build-asan" -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
-    -DOAIPP_SANITIZE=address,undefined -DOAIPP_BUILD_BENCHMARKS=OFF
-  unset ASAN_OPTIONS UBSAN_OPTIONS LSAN_OPTIONS
-fi
-build_and_test "$build" -DCMAKE_BUILD_TYPE=Release
+# run_ctest DIR CTEST_ARGS...: the tests of one build.
+run_ctest() {
+  local dir="$1"
+  shift
+  echo "test: ctest in $(basename "$dir") $*"
+  (cd "$dir" && ctest --output-on-failure -j "$jobs" --timeout 900 "$@")
+}
 
-if [ "${OAIPP_SANITIZERS:-1}" != "0" ]; then
+stage_format() {
+  local drift
+  drift=$(cd "$root" && git ls-files '*.cc' '*.h' | xargs clang-format --dry-run 2>&1 |
+    grep -oE '^[^ :]+\.(cc|h):' | sort -u || true)
+  if [ -n "$drift" ]; then
+    echo "test: clang-format would change these files (run clang-format -i on them):" >&2
+    echo "$drift" | tr -d ':' | sed 's/^/  /' >&2
+    return 1
+  fi
+  echo "test: clang-format finds no drift"
+}
+
+stage_release() {
+  build "$build" -- -DCMAKE_BUILD_TYPE=Release
+  run_ctest "$build"
+}
+
+stage_asan() {
+  (
+    # halt_on_error: the first report fails the test that caused it.
+    export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_error=1}"
+    export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+    export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/deploy/lsan.supp}"
+    build "$build-asan" -- -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
+      -DOAIPP_SANITIZE=address,undefined -DOAIPP_BUILD_BENCHMARKS=OFF
+    run_ctest "$build-asan" -L "unit|service"
+  )
+}
+
+stage_tsan() {
+  (
+    # The tests marked TSAN in tests/ (the only ones this build registers):
+    # the server's registry, missions, planning pool and stores, and the
+    # client against the service, all in one process. Abseil's locks are
+    # made visible to TSan by tests/support/tsan_absl_sync.cc.
+    export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$root/tests/support/tsan.supp}"
+    build "$build-tsan" tsan_self_test service_test client_test -- -DCMAKE_BUILD_TYPE=Debug \
+      -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" -DOAIPP_SANITIZE=thread -DOAIPP_BUILD_BENCHMARKS=OFF
+    run_ctest "$build-tsan"
+  )
+}
+
+stage_fuzz() {
   # Saved crash inputs (fuzz/regressions/) must run clean, and 30 s of
   # fuzzing per target (seeded, so a failure can be repeated) must find
   # nothing new.
   BUILD_DIR="$build-fuzz" JOBS="$jobs" FUZZ_SECONDS=30 FUZZ_SEED=1 bash "$root/fuzz/run.sh"
-fi
+}
+
+for stage in "${stages[@]}"; do
+  if ! declare -F "stage_$stage" >/dev/null; then
+    echo "test: no stage '$stage' (format, release, asan, tsan, fuzz)" >&2
+    exit 2
+  fi
+  started=$SECONDS
+  echo "test: stage $stage"
+  "stage_$stage"
+  timings+=("$(printf '%-8s %5d s' "$stage" $((SECONDS - started)))")
+done
