@@ -24,9 +24,18 @@
 #include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "core/common/status_macros.h"
+#include "server/store/postgres_connection.h"
 
 namespace oaipp::server {
 namespace {
+
+using postgres::Connection;
+using postgres::ConnectionPool;
+using postgres::CurrentError;
+using postgres::FirstLine;
+using postgres::InDoubt;
+using postgres::NoMission;
+using postgres::WithConnectTimeout;
 
 // The schema version this code reads and writes (store_info 'schema_version').
 // 1: missions, records, snapshots, deletions, mission_numbers.
@@ -80,11 +89,6 @@ CREATE INDEX IF NOT EXISTS missions_by_request ON missions(request_id);
 // new database at once take turns. Any constant works; this one is ours.
 constexpr std::int64_t kSchemaLockKey = 0x6f61697070;  // "oaipp"
 
-// libpq gives up on an unreachable host after this long instead of the TCP
-// timeout (minutes), so a call that cannot connect soon gives its pool slot
-// back.
-constexpr absl::string_view kConnectTimeout = "connect_timeout=10";
-
 std::int64_t NowUs() { return absl::ToUnixMicros(absl::Now()); }
 
 // libpqxx sends a std::string parameter as text, which libpq ends at the
@@ -94,145 +98,6 @@ std::string ReadBytes(const pqxx::field& field) { return pqxx::binarystring(fiel
 
 // A mission id as it appears in messages (ids are bytes to the store).
 std::string Printable(absl::string_view id) { return absl::CHexEscape(id); }
-
-std::string WithConnectTimeout(const std::string& uri) {
-  if (absl::StrContains(uri, "connect_timeout")) return uri;
-  if (absl::StartsWith(uri, "postgresql://") || absl::StartsWith(uri, "postgres://")) {
-    return absl::StrCat(uri, absl::StrContains(uri, '?') ? "&" : "?", kConnectTimeout);
-  }
-  return absl::StrCat(uri, " ", kConnectTimeout);
-}
-
-// The first line of a libpq or server message. The lines after it (DETAIL,
-// the query) can quote stored values, and the store's messages never echo
-// stored bytes.
-std::string FirstLine(absl::string_view message) {
-  message = message.substr(0, message.find('\n'));
-  absl::ConsumePrefix(&message, "ERROR:  ");
-  return std::string(absl::StripTrailingAsciiWhitespace(message));
-}
-
-absl::Status NoMission(absl::string_view what) {
-  return absl::NotFoundError(absl::StrCat("store: ", what, ": no such mission"));
-}
-
-// Unavailable, and maybe stored: the writer must read back before it writes
-// again (mission_store.h).
-absl::Status InDoubt(absl::string_view what, absl::string_view cause) {
-  std::string message = absl::StrCat(
-      "store: ", what, ": connection lost while committing, the write may or may not be stored");
-  if (!cause.empty()) absl::StrAppend(&message, " (", FirstLine(cause), ")");
-  absl::Status status = absl::UnavailableError(message);
-  status.SetPayload(kInDoubt, absl::Cord("1"));
-  return status;
-}
-
-// The status for the exception being handled (call only from a catch
-// block). A refused key, a missing mission and a full disk have codes of
-// their own; anything else means the store cannot be used now: Unavailable.
-absl::Status CurrentError(absl::string_view what, bool committing) {
-  try {
-    throw;
-  } catch (const pqxx::in_doubt_error&) {
-    return InDoubt(what, "");  // its text says no more than InDoubt's
-  } catch (const pqxx::broken_connection& e) {
-    // libpqxx itself turns a connection lost during COMMIT into
-    // in_doubt_error; this keeps a loss it reports otherwise on the safe side.
-    if (committing) return InDoubt(what, e.what());
-    return absl::UnavailableError(
-        absl::StrCat("store: ", what, ": no connection (", FirstLine(e.what()), ")"));
-  } catch (const pqxx::unique_violation& e) {
-    return absl::AlreadyExistsError(absl::StrCat("store: ", what, ": ", FirstLine(e.what())));
-  } catch (const pqxx::foreign_key_violation&) {
-    return NoMission(what);
-  } catch (const pqxx::disk_full& e) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("store: ", what, ": database disk full (", FirstLine(e.what()), ")"));
-  } catch (const pqxx::sql_error& e) {
-    return absl::UnavailableError(
-        absl::StrCat("store: ", what, ": ", FirstLine(e.what()), " (SQLSTATE ", e.sqlstate(), ")"));
-  } catch (const std::exception& e) {
-    return absl::UnavailableError(absl::StrCat("store: ", what, ": ", FirstLine(e.what())));
-  } catch (...) {
-    return absl::UnavailableError(absl::StrCat("store: ", what, ": unknown error"));
-  }
-}
-
-// One connection and the sink for its notices: libpqxx prints notices (the
-// server's, and its own about transactions it aborts on a lost connection)
-// to stderr unless a handler takes them, and the store reports through its
-// statuses only.
-class Connection {
- public:
-  // Connects; throws pqxx::broken_connection when it cannot.
-  explicit Connection(const std::string& uri) : conn_(uri), quiet_(conn_) {}
-  Connection(const Connection&) = delete;
-  Connection& operator=(const Connection&) = delete;
-
-  pqxx::connection& get() { return conn_; }
-
-  // Whether the connection still looks usable, found without a round trip.
-  // The store listens to no notifications, so an idle session hears from
-  // the server only when it is being closed (shutdown, restart, a
-  // terminated backend, an idle timeout): then its goodbye is waiting on the
-  // socket. Such a connection is replaced before a call uses it, so a
-  // restart of the server costs no failed call.
-  bool Alive() noexcept {
-    if (!conn_.is_open()) return false;
-    pollfd socket = {.fd = conn_.sock(), .events = POLLIN, .revents = 0};
-    return socket.fd >= 0 && poll(&socket, 1, /*timeout=*/0) == 0;
-  }
-
- private:
-  class Quiet final : public pqxx::errorhandler {
-   public:
-    explicit Quiet(pqxx::connection_base& conn) : pqxx::errorhandler(conn) {}
-    bool operator()(const char[]) noexcept override { return false; }
-  };
-
-  pqxx::connection conn_;
-  Quiet quiet_;  // declared after conn_: unregisters before the connection closes
-};
-
-// At most `size` connections in use at once. Each call borrows a slot; a
-// free slot may keep an open connection for the next call.
-class ConnectionPool {
- public:
-  explicit ConnectionPool(int size) : free_(size) {}
-
-  // Waits for a free slot and takes it, with its idle connection, or with
-  // none (nullptr): the caller then opens one.
-  std::unique_ptr<Connection> Borrow() {
-    absl::MutexLock lock(&mu_);
-    mu_.Await(absl::Condition(
-        +[](int* slots) { return *slots > 0; }, &free_));
-    --free_;
-    if (idle_.empty()) return nullptr;
-    std::unique_ptr<Connection> connection = std::move(idle_.back());
-    idle_.pop_back();
-    return connection;
-  }
-
-  // Gives the slot back, keeping `connection` for a later call while it is
-  // open. A broken one (or none: opening failed) most likely means the server
-  // restarted or went away, so the idle ones are dropped too rather than
-  // failing one call each.
-  void Return(std::unique_ptr<Connection> connection) {
-    std::vector<std::unique_ptr<Connection>> dropped;
-    absl::MutexLock lock(&mu_);
-    ++free_;
-    if (connection != nullptr && connection->get().is_open()) {
-      idle_.push_back(std::move(connection));
-    } else {
-      dropped.swap(idle_);
-    }
-  }  // `lock` is released before `dropped` and `connection` close
-
- private:
-  absl::Mutex mu_;
-  int free_ ABSL_GUARDED_BY(mu_);
-  std::vector<std::unique_ptr<Connection>> idle_ ABSL_GUARDED_BY(mu_);
-};
 
 class PostgresStore final : public MissionStore {
  public:
