@@ -1,6 +1,6 @@
 // Every setting of a server, its default and its check, in one place.
 //
-// A field is named as its oaipp-server flag (server_flags.cc declares the
+// A field is named as its oaipp-server flag (server/flags/ declares the
 // flags, with these defaults, and reads them into a ServerOptions);
 // Server::Start (server.h) assembles a server from it. Programs that run a
 // server in process, the load benchmark among them, fill one in the same

@@ -47,10 +47,10 @@
 #include "core/planning/information.h"
 #include "grpcpp/grpcpp.h"
 #include "nlohmann/json.hpp"
-#include "server/openblas_kernels.h"
-#include "server/service.h"
 #include "server/flags/flags.h"
+#include "server/openblas_kernels.h"
 #include "server/server.h"
+#include "server/service.h"
 #include "server/store/open_store.h"
 #include "spdlog/spdlog.h"
 #include "tests/bench/server/e1_mission.h"
@@ -486,7 +486,6 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
   j["calls"] = calls;  // [start_s, method, ms, ok]
   return j;
 }
-
 
 // Flags of oaipp-server whose default differs here: no metrics endpoint
 // (the load runs beside whatever else uses its port), sqlite files under
