@@ -9,11 +9,13 @@
 #            asserts live (./build-asan); the unit and service tiers
 #   tsan     Debug -O1 with ThreadSanitizer (./build-tsan): only the tests of
 #            the server, the stores and the client that run in process
-#   fuzz     each libFuzzer target for 30 s on a fixed seed (fuzz/run.sh,
-#            clang, ./build-fuzz)
+#   fuzz     (not by default) each libFuzzer target for 30 s on a fixed seed
+#            (fuzz/run.sh, clang, ./build-fuzz); the saved crash inputs and
+#            the seed corpus replay in the other stages as unit tests
 # tests/README.md says what each tier holds.
-#   bash deploy/test.sh                                 # every stage
+#   bash deploy/test.sh                                 # format release asan tsan
 #   OAIPP_STAGES="format release" bash deploy/test.sh   # some, in this order
+#   OAIPP_STAGES="fuzz" bash deploy/test.sh             # 30 s of fuzzing per target
 #   OAIPP_SANITIZERS=0 bash deploy/test.sh              # format and release
 #   BUILD_DIR=/tmp/b bash deploy/test.sh                # /tmp/b, /tmp/b-asan, ...
 #   JOBS=4 bash deploy/test.sh                          # parallel builds and tests
@@ -26,7 +28,7 @@ if [ -n "${OAIPP_STAGES:-}" ]; then
 elif [ "${OAIPP_SANITIZERS:-1}" = "0" ]; then
   stages=(format release)
 else
-  stages=(format release asan tsan fuzz)
+  stages=(format release asan tsan)
 fi
 
 # Each stage's name and time, printed at the end whether or not all passed.
