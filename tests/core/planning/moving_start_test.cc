@@ -290,11 +290,14 @@ TEST(MovingStartTest, EveryPlannerAnswersWhereAStraightStopIsSafe) {
         // where the ESDF's estimate alone would have counted some.
         EXPECT_EQ(path->collision_samples, 0)
             << PlannerKindName(planner_kind) << ", world " << w << ", state " << i;
-        if (path->stats.stop_first_s == 0) {
-          const double t_flight = std::max(path->trajectory.Duration(), 0.5);
-          EXPECT_NEAR(path->objective, path->information / t_flight,
-                      1e-9 * std::abs(path->objective) + 1e-12);
-        }
+        // The documented objective (mission_service.proto): information
+        // over t_flight, which for a stop-first path is the planned part's
+        // duration, after the brake.
+        const double t_flight =
+            std::max(path->trajectory.Duration() - path->stats.stop_first_s, 0.5);
+        EXPECT_NEAR(path->objective, path->information / t_flight,
+                    1e-9 * std::abs(path->objective) + 1e-12)
+            << PlannerKindName(planner_kind) << ", stop_first_s " << path->stats.stop_first_s;
         esdf_would_count += EsdfCollisionSamples(*env, path->trajectory) > 0;
         answered += can_stop;
         answered_beyond += !can_stop;
@@ -426,6 +429,13 @@ TEST(MovingStartTest, StopFirstJoinsBrakeAndPathSmoothly) {
   // The brake's last segment ends as the planned part's first begins, in
   // position and derivatives 1 to 4 (all zero: at rest).
   ASSERT_GT(path->stats.stop_first_s, 0) << "expected this start to need the stop first";
+  // objective = (k1 O_info - k2 C_coll) / t_flight with t_flight the part
+  // after the brake (mission_service.proto); the path is collision-free.
+  EXPECT_EQ(path->collision_samples, 0);
+  EXPECT_NEAR(path->objective,
+              path->information /
+                  std::max(path->trajectory.Duration() - path->stats.stop_first_s, 0.5),
+              1e-9 * std::abs(path->objective) + 1e-12);
   const PolynomialTrajectory& traj = path->trajectory;
   int joint = -1;
   for (int k = 1; k < traj.NumSegments(); ++k) {
