@@ -432,10 +432,10 @@ TEST(MovingStartTest, StopFirstJoinsBrakeAndPathSmoothly) {
   // objective = (k1 O_info - k2 C_coll) / t_flight with t_flight the part
   // after the brake (mission_service.proto); the path is collision-free.
   EXPECT_EQ(path->collision_samples, 0);
-  EXPECT_NEAR(path->objective,
-              path->information /
-                  std::max(path->trajectory.Duration() - path->stats.stop_first_s, 0.5),
-              1e-9 * std::abs(path->objective) + 1e-12);
+  EXPECT_NEAR(
+      path->objective,
+      path->information / std::max(path->trajectory.Duration() - path->stats.stop_first_s, 0.5),
+      1e-9 * std::abs(path->objective) + 1e-12);
   const PolynomialTrajectory& traj = path->trajectory;
   int joint = -1;
   for (int k = 1; k < traj.NumSegments(); ++k) {
