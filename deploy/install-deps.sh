@@ -15,6 +15,8 @@ packages=(
   # Owen's T function for the confirmation objective (Boost.Math, headers only)
   libboost-dev
   libabsl-dev
+  # large fields: the sparse-precision map's Cholesky factor (CHOLMOD)
+  libsuitesparse-dev
   # service: gRPC + protobuf (plugin and library must come together), logs, metrics, JSON
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
   libspdlog-dev prometheus-cpp-dev nlohmann-json3-dev

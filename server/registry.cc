@@ -197,6 +197,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   // there is a store to write it to).
   const std::string spec =
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
+  config.planner.common.information.single_precision = limits_.single_precision_objective;
   absl::StatusOr<std::shared_ptr<Mission>> mission =
       Mission::Create(key, std::move(config), caches_);
   if (mission.ok()) {
@@ -320,6 +321,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMi
   if (!spec.ParseFromString(m.spec)) return absl::DataLossError("spec: does not parse");
   absl::StatusOr<MissionConfig> config = api::MissionSpecToConfig(spec);
   if (!config.ok()) return absl::DataLossError(absl::StrCat("spec: ", config.status().message()));
+  config->planner.common.information.single_precision = limits_.single_precision_objective;
   absl::StatusOr<std::shared_ptr<Mission>> mission;
   std::int64_t last_write_us = m.create_time_unix_us;
   if (m.snapshot.has_value()) {

@@ -59,6 +59,11 @@ struct RegistryLimits {
   // this server still holds the mission it names, and a copy another server
   // took over is dropped.
   bool shared_store = false;
+  // Not a limit but a server-wide setting every mission's planner gets (it
+  // is not part of the spec, so a restored mission takes this server's):
+  // the adaptive objective's solves in single precision
+  // (InformationParams::single_precision, --objective_precision).
+  bool single_precision_objective = false;
 };
 
 // What a mission of `config` may hold at its peak, in bytes: its map (mean

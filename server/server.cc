@@ -12,7 +12,6 @@
 #include "absl/strings/str_cat.h"
 #include "api/limits.h"
 #include "core/mapping/dense_backend.h"
-#include "core/planning/information.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
 #include "grpcpp/health_check_service_interface.h"
 #include "grpcpp/impl/server_builder_option.h"
@@ -82,9 +81,6 @@ absl::Status SetUpProcess(const ServerOptions& options) {
   } else {
     return absl::InvalidArgumentError("--dense_backend: must be openblas or eigen");
   }
-  if (absl::Status set = SetObjectivePrecision(options.objective_precision); !set.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat("--objective_precision: ", set.message()));
-  }
   spdlog::info("Kalman update on {}; adaptive objective's solves in {} precision",
                DenseBackendName(), options.objective_precision);
   return absl::OkStatus();
@@ -131,7 +127,8 @@ absl::Status Server::StartParts() {
                      .max_missions_per_tenant = o.max_missions_per_tenant,
                      .max_mission_memory_bytes = o.max_mission_memory_mb << 20,
                      .max_memory_bytes = max_memory,
-                     .shared_store = o.cluster},
+                     .shared_store = o.cluster,
+                     .single_precision_objective = o.objective_precision == "single"},
       store_.get());
   const absl::Time recovery_started = absl::Now();
   absl::StatusOr<int> recovered = registry_->Recover();

@@ -1,6 +1,5 @@
 #include "core/planning/information.h"
 
-#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <type_traits>
@@ -98,8 +97,6 @@ template <typename Scalar>
 constexpr double kSeenNoiseRatio = 100.0;
 template <>
 constexpr double kSeenNoiseRatio<float> = 10.0;
-
-std::atomic<bool> g_single_precision{false};
 
 // L^-1 B_K: for the fused cells K, L the factor of B_KK + R: the rows whose
 // column norms are the variance reductions and whose Frobenius norm is the
@@ -269,7 +266,7 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
   if (fused.empty()) return var;
-  if (SinglePrecisionObjective()) {
+  if (params_.single_precision) {
     // A factor that fails in single precision (a covariance plus noise
     // should not) takes double's below.
     bool factored = false;
@@ -295,23 +292,10 @@ double InformationEvaluator::PoseValue(const PoseObservation& pose,
   return av * reward;
 }
 
-void SetSinglePrecisionObjective(bool single) { g_single_precision.store(single); }
-
-bool SinglePrecisionObjective() { return g_single_precision.load(std::memory_order_relaxed); }
-
-absl::Status SetObjectivePrecision(absl::string_view name) {
-  if (name != "double" && name != "single") {
-    return absl::InvalidArgumentError(
-        absl::StrCat("objective_precision: must be double or single, got ", name.substr(0, 64)));
-  }
-  SetSinglePrecisionObjective(name == "single");
-  return absl::OkStatus();
-}
-
 double InformationEvaluator::Adaptive(std::span<const PoseObservation> poses,
                                       const Eigen::MatrixXd& base) const {
-  return SinglePrecisionObjective() ? AdaptiveIn<float>(poses, base)
-                                    : AdaptiveIn<double>(poses, base);
+  return params_.single_precision ? AdaptiveIn<float>(poses, base)
+                                  : AdaptiveIn<double>(poses, base);
 }
 
 template <typename Scalar>

@@ -90,6 +90,20 @@ struct InformationParams {
   double second_look_sharpness = 0.0;
   // True when these are the phase's parameters (set by ForRemainingBudget).
   bool confirming = false;
+  // Off by default: the adaptive objective's solves (the Cholesky factor
+  // of the fused cells, the triangular solve of a shot's new cells against
+  // it, the inverse of its seen cells' block) and those of
+  // PosteriorVariances (the greedy start's) run in single precision, on the
+  // covariance's values rounded to floats; the map, its updates and every
+  // other computation stay double. OpenBLAS's single-precision kernels take
+  // about half the time. Against the double-precision oracle, scores agree
+  // to about 3e-8 relative and PosteriorVariances to about 3e-7 of the
+  // prior's variance (information_test.cc), so a search may rank two
+  // candidates the other way and take another step; as reproducible, but
+  // not bit for bit double's. A factor that fails in single precision is
+  // taken in double. docs/capacity.md measures what it saves and costs. A
+  // setting of the server (--objective_precision), not of the mission spec.
+  bool single_precision = false;
 
   // InvalidArgument naming the first bad field.
   [[nodiscard]] absl::Status Validate() const;
@@ -164,26 +178,6 @@ struct PrefixKey {
 // from one shared map at one start point all condition it on the same first
 // shot, and compute it once (a copy and a rank-k update of n^2 doubles).
 using ConditionedCache = SingleFlightCache<PrefixKey, Eigen::MatrixXd>;
-
-// Process-wide, off by default: the adaptive objective's solves (the
-// Cholesky factor of the fused cells, the triangular solve of a shot's new
-// cells against it, the inverse of its seen cells' block) and those of
-// PosteriorVariances (the greedy start's) run in single precision, on the
-// covariance's values rounded to floats; the map, its updates and every
-// other computation stay double. OpenBLAS's single-precision kernels take
-// about half the time. Against the double-precision oracle, scores agree to
-// about 3e-8 relative and PosteriorVariances to about 3e-7 of the prior's
-// variance (information_test.cc), so a search may rank two candidates the
-// other way and take another step; as reproducible, but not bit for bit
-// double's. A factor that fails in single precision is taken in double.
-// docs/capacity.md measures what it saves and costs. Set before plans run
-// (a server flag).
-void SetSinglePrecisionObjective(bool single);
-[[nodiscard]] bool SinglePrecisionObjective();
-// The same by name, as the flags give it: "double" or "single";
-// InvalidArgument naming objective_precision (and what it got, cut to 64
-// characters) otherwise, leaving the switch as it was.
-[[nodiscard]] absl::Status SetObjectivePrecision(absl::string_view name);
 
 class InformationEvaluator {
  public:

@@ -454,6 +454,31 @@ TEST_F(RecoveryTest, SnapshotsBoundTheTailAndRestoreTheMissionExactly) {
   }
 }
 
+// The objective's precision is the server's setting, not the spec's: a
+// mission takes it from the registry that creates it and again from the one
+// that recovers it.
+TEST_F(RecoveryTest, TheObjectivePrecisionIsTheHoldingServersSetting) {
+  auto single_precision = [](MissionRegistry& registry, const std::string& name) {
+    absl::StatusOr<std::shared_ptr<Mission>> m = registry.Get(name);
+    EXPECT_TRUE(m.ok()) << m.status();
+    return m.ok() && (*m)->config().planner.common.information.single_precision;
+  };
+  std::unique_ptr<MissionStore> store = Open();
+  {
+    InProcessService single(
+        RegistryLimits{.max_cells_per_mission = 1600, .single_precision_objective = true}, 2, 64,
+        store.get());
+    v1::Mission created;
+    ASSERT_TRUE(Create(single.stub(), "a", v1::PLANNER_KIND_OAIPP, &created).ok());
+    EXPECT_TRUE(single_precision(single.registry(), "missions/a"));
+    v1::PlanPathResponse plan;
+    ASSERT_TRUE(Plan(single.stub(), "missions/a", 12.0, "p1", &plan).ok());
+  }
+  InProcessService twin(RegistryLimits{.max_cells_per_mission = 1600}, 2, 64, store.get());
+  ASSERT_TRUE(twin.registry().Recover().ok());
+  EXPECT_FALSE(single_precision(twin.registry(), "missions/a"));
+}
+
 TEST_F(RecoveryTest, RetentionDeletesFinishedAndIdleMissionsWithTheirRecords) {
   std::unique_ptr<MissionStore> store = Open();
   InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,

@@ -214,7 +214,7 @@ void BM_ConfirmationAgainstPaper(benchmark::State& state) {
 }
 BENCHMARK(BM_ConfirmationAgainstPaper)->Unit(benchmark::kMillisecond)->Iterations(2);
 
-// Single-precision objective solves (SetSinglePrecisionObjective) against
+// Single-precision objective solves (InformationParams::single_precision) against
 // double, on OpenBLAS as the server runs them: the BM_ReplanE1 replans,
 // alternating; `single_over_double` is the ratio of the medians and
 // `same_paths` the share of plans whose waypoints came out bit for bit
@@ -234,8 +234,9 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
     for (const Vec3& p : starts) {
       std::vector<Vec3> waypoints[2];
       for (const bool single : {false, true}) {
-        SetSinglePrecisionObjective(single);
-        OaIppPlanner planner(PlannerCommon{}, OaIppConfig{});
+        PlannerCommon common;
+        common.information.single_precision = single;
+        OaIppPlanner planner(common, OaIppConfig{});
         UavState start;
         start.position_W = p;
         const auto t0 = std::chrono::steady_clock::now();
@@ -244,7 +245,6 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
             .push_back(
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         if (!path.ok()) {
-          SetSinglePrecisionObjective(false);
           UseEigen();
           state.SkipWithError(std::string(path.status().message()).c_str());
           return;
@@ -255,7 +255,6 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
       ++plans;
     }
   }
-  SetSinglePrecisionObjective(false);
   UseEigen();
   if (plans == 0) return;
   state.counters["double_median_ms"] = 1e3 * Median(double_s);

@@ -95,6 +95,7 @@ TEST_P(InformationAgreementTest, FastEqualsReferenceOnThePaperMap) {
 TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
   const GpMap map = RandomPosterior(40, 11);
   const InformationParams params{.kappa = 1.1};
+  const InformationParams single_params{.kappa = 1.1, .single_precision = true};
   const DownwardCamera camera;
   const SensorNoise noise;
   std::mt19937 rng(29);
@@ -106,6 +107,7 @@ TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
       UseEigen();
     }
     const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
+    const InformationEvaluator fast_single(map.Mean(), map.Covariance(), single_params);
     for (int path = 0; path < 4; ++path) {
       // A camera drifting by up to 2 m a shot, with one shot repeated.
       // Paths 2 and 3 also carry a shot with a detector's worst noise
@@ -123,11 +125,10 @@ TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
       const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
       EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference))
           << "path " << path << (open_blas ? " on OpenBLAS" : " on Eigen");
-      // In single precision (SetSinglePrecisionObjective), where seen cells
-      // take the solve above 10 times their variance: to its accuracy.
-      SetSinglePrecisionObjective(true);
-      const double single = fast.Evaluate(poses);
-      SetSinglePrecisionObjective(false);
+      // In single precision (InformationParams::single_precision), where
+      // seen cells take the solve above 10 times their variance: to its
+      // accuracy.
+      const double single = fast_single.Evaluate(poses);
       EXPECT_NEAR(single, reference, 1e-6 * std::abs(reference))
           << "path " << path << (open_blas ? " on OpenBLAS" : " on Eigen") << ", single";
     }
@@ -135,11 +136,11 @@ TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
   UseEigen();
 }
 
-// The adaptive objective in single precision (SetSinglePrecisionObjective)
-// against the double-precision oracle, on both dense backends: within
-// single precision's accuracy (1e-6 relative; 3e-8 was the worst seen, and a
-// wrong variance or cell would be off by far more), and not bit for bit
-// double's (the switch took effect).
+// The adaptive objective in single precision
+// (InformationParams::single_precision) against the double-precision oracle, on both dense
+// backends: within single precision's accuracy (1e-6 relative; 3e-8 was the worst seen, and a wrong
+// variance or cell would be off by far more), and not bit for bit double's (the switch took
+// effect).
 TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
   const GpMap map = RandomPosterior(24, 13);
   const InformationParams params{.kappa = 1.2};
@@ -162,6 +163,9 @@ TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
     paths.push_back(std::move(poses));
   }
   const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
+  InformationParams single_params = params;
+  single_params.single_precision = true;
+  const InformationEvaluator fast_single(map.Mean(), map.Covariance(), single_params);
   for (const bool open_blas : {false, true}) {
     if (open_blas) {
       ASSERT_TRUE(UseOpenBlas().ok());
@@ -171,9 +175,7 @@ TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
     double worst = 0.0;
     int differs = 0;
     for (std::size_t i = 0; i < paths.size(); ++i) {
-      SetSinglePrecisionObjective(true);
-      const double single = fast.Evaluate(paths[i]);
-      SetSinglePrecisionObjective(false);
+      const double single = fast_single.Evaluate(paths[i]);
       const double twice = fast.Evaluate(paths[i]);
       worst = std::max(worst, std::abs(single - references[i]) / references[i]);
       differs += single != twice;
@@ -184,21 +186,6 @@ TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
                    absl::StrCat(worst));
   }
   UseEigen();
-}
-
-// The flags' spelling of the switch: "double" or "single"; anything else is
-// refused by name and leaves the switch as it was.
-TEST(InformationTest, ObjectivePrecisionIsSetByName) {
-  ASSERT_TRUE(SetObjectivePrecision("single").ok());
-  EXPECT_TRUE(SinglePrecisionObjective());
-  const absl::Status half = SetObjectivePrecision("half");
-  EXPECT_EQ(half.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(half.message().find("objective_precision: must be double or single, got half"),
-            absl::string_view::npos)
-      << half.message();
-  EXPECT_TRUE(SinglePrecisionObjective());
-  ASSERT_TRUE(SetObjectivePrecision("double").ok());
-  EXPECT_FALSE(SinglePrecisionObjective());
 }
 
 // Conditioned on a shared unscored prefix (as every replan is, on the shot
@@ -282,6 +269,11 @@ TEST(InformationTest, PosteriorVariancesMatchFullUpdates) {
   InformationEvaluator plain(map.Mean(), map.Covariance(), params);
   InformationEvaluator conditioned(map.Mean(), map.Covariance(), params);
   ASSERT_TRUE(conditioned.Condition(prefix).ok());
+  InformationParams single_params = params;
+  single_params.single_precision = true;
+  InformationEvaluator plain_single(map.Mean(), map.Covariance(), single_params);
+  InformationEvaluator conditioned_single(map.Mean(), map.Covariance(), single_params);
+  ASSERT_TRUE(conditioned_single.Condition(prefix).ok());
   double worst_single = 0.0;
   for (int trial = 0; trial < 20; ++trial) {
     std::vector<PoseObservation> history = prefix;
@@ -296,12 +288,11 @@ TEST(InformationTest, PosteriorVariancesMatchFullUpdates) {
       ASSERT_TRUE(UpdateCovariance(obs, p).ok());
     }
     const Eigen::VectorXd expected = p.diagonal();
-    for (const InformationEvaluator* e : {&plain, &conditioned}) {
-      // Single precision (SetSinglePrecisionObjective) first: each variance
-      // to 2e-6 of the prior's largest (3e-7 seen).
-      SetSinglePrecisionObjective(true);
-      const Eigen::VectorXd single = e->PosteriorVariances(history);
-      SetSinglePrecisionObjective(false);
+    for (const auto& [e, e_single] :
+         {std::pair{&plain, &plain_single}, std::pair{&conditioned, &conditioned_single}}) {
+      // Single precision first: each variance to 2e-6 of the prior's
+      // largest (3e-7 seen).
+      const Eigen::VectorXd single = e_single->PosteriorVariances(history);
       ASSERT_EQ(single.size(), expected.size());
       const double scale = map.Covariance().diagonal().maxCoeff();
       worst_single = std::max(worst_single, (single - expected).cwiseAbs().maxCoeff() / scale);
