@@ -37,8 +37,8 @@ namespace oaipp::api {
 // obstacle; a start that is not finite, lies outside the flight volume or
 // exceeds the speed or acceleration limit; budget_s <= 0. ResourceExhausted
 // ("spec.field: ...") when the field has more than FieldGrid::kMaxCells
-// cells. Obstacle clearance of the start is not checked here (that needs
-// the environment). Geodetic points (*_geo) are converted to local metres
+// cells (the server's --max_cells is its own, lower limit). Obstacle clearance of the start is not
+// checked here (that needs the environment). Geodetic points (*_geo) are converted to local metres
 // at spec.geo_origin first (api/geodetic.h; errors name them).
 [[nodiscard]] absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec);
 

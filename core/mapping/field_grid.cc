@@ -98,8 +98,8 @@ absl::StatusOr<FieldGrid> FieldGrid::Create(const Vec2& origin_W, int nx, int ny
   if (ny < 1) return absl::InvalidArgumentError(absl::StrCat("ny: must be >= 1, got ", ny));
   const std::int64_t n = static_cast<std::int64_t>(nx) * ny;
   if (n > kMaxCells) {
-    return absl::ResourceExhaustedError(absl::StrCat("nx * ny: ", n, " cells exceed the limit of ",
-                                                     kMaxCells, " (the covariance is n x n)"));
+    return absl::ResourceExhaustedError(
+        absl::StrCat("nx * ny: ", n, " cells exceed the limit of ", kMaxCells));
   }
   const Vec2 far_W = origin_W + resolution_m * Vec2(nx, ny);
   if (!AllFinite(far_W)) {

@@ -32,9 +32,10 @@ namespace oaipp {
 
 class FieldGrid {
  public:
-  // A map over n cells holds an n x n covariance (8 n^2 bytes): 10'000 cells
-  // would already be 800 MB, so larger grids are refused.
-  static constexpr std::int64_t kMaxCells = 10'000;
+  // Largest grid: 2000 x 2000 cells (a square kilometre at 0.5 m). Which
+  // map can hold a grid is the map's limit (GpMap: kMaxDenseCells; the
+  // sparse map: its memory estimate).
+  static constexpr std::int64_t kMaxCells = 4'000'000;
 
   // The grid with corner origin_W = (x_min, y_min), metres, nx cells along x
   // and ny along y. InvalidArgument (naming the field) unless origin_W is

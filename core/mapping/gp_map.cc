@@ -243,8 +243,22 @@ absl::StatusOr<std::vector<CellObservation>> MergeObservations(
   return merged;
 }
 
+namespace {
+
+absl::Status CheckDenseSize(const FieldGrid& grid) {
+  if (grid.num_cells() > kMaxDenseCells) {
+    return absl::ResourceExhaustedError(absl::StrCat("the dense map holds at most ", kMaxDenseCells,
+                                                     " cells (8 n^2 bytes), got ",
+                                                     grid.num_cells()));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
 absl::StatusOr<MatrixXd> PriorCovariance(const FieldGrid& grid, const GpParams& params) {
   OAIPP_RETURN_IF_ERROR(params.Validate());
+  OAIPP_RETURN_IF_ERROR(CheckDenseSize(grid));
   const int nx = grid.nx();
   const int ny = grid.ny();
   const Index n = grid.num_cells();
@@ -331,6 +345,7 @@ absl::StatusOr<GpMap> GpMap::Create(const FieldGrid& grid, const GpParams& param
 }
 
 absl::StatusOr<GpMap> GpMap::FromPrior(const FieldGrid& grid, VectorXd mean, MatrixXd covariance) {
+  OAIPP_RETURN_IF_ERROR(CheckDenseSize(grid));
   const Index n = grid.num_cells();
   if (mean.size() != n) {
     return absl::InvalidArgumentError(

@@ -57,9 +57,14 @@ struct CellObservation {
 [[nodiscard]] absl::StatusOr<std::vector<CellObservation>> MergeObservations(
     std::span<const CellObservation> observations, int num_cells, bool check_values = true);
 
+// The dense map's largest field: its covariance is 8 n^2 bytes (800 MB at
+// this size). Larger fields take the sparse map (core/mapping/sparse_gp_map.h).
+inline constexpr std::int64_t kMaxDenseCells = 10'000;
+
 // The published code's prior covariance P0 = K - K (K + sn2 I)^-1 K over the
 // cell centres (docs/method.md §3), K_ij = Matern32(|c_i - c_j|), exactly
-// symmetric. InvalidArgument when params are invalid. Costs about n^3 flops
+// symmetric. InvalidArgument when params are invalid; ResourceExhausted for
+// a grid of more than kMaxDenseCells cells. Costs about n^3 flops
 // (0.2-0.4 s for 1600 cells, mapping_bench).
 [[nodiscard]] absl::StatusOr<Eigen::MatrixXd> PriorCovariance(const FieldGrid& grid,
                                                               const GpParams& params);

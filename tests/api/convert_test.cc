@@ -645,7 +645,7 @@ std::vector<BadCase> BadCases() {
        [] { return SpecWith([](auto& s) { s.mutable_field()->set_resolution_m(0.7); }); }, kInvalid,
        "spec.field.resolution_m: "},
       {"too many cells",
-       [] { return SpecWith([](auto& s) { s.mutable_field()->set_resolution_m(0.1); }); },
+       [] { return SpecWith([](auto& s) { s.mutable_field()->set_resolution_m(0.01); }); },
        StatusCode::kResourceExhausted, "spec.field"},
       {"negative length scale",
        [] { return SpecWith([](auto& s) { s.mutable_gp()->set_length_scale_m(-1); }); }, kInvalid,

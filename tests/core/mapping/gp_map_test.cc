@@ -576,5 +576,16 @@ TEST(GpMapTest, FromPriorValidates) {
             absl::StatusCode::kInvalidArgument);
 }
 
+// A field past the dense map's size is refused before its n^2 covariance
+// is allocated (a grid of that size is valid: the sparse map takes it).
+TEST(GpMapTest, AFieldTooLargeForTheDenseMapIsRefused) {
+  const FieldGrid grid = Grid(101, 100, 1.0);
+  const absl::StatusOr<GpMap> map = GpMap::Create(grid, GpParams::PaperPreset(1.0));
+  EXPECT_EQ(map.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(map.status().message(), HasSubstr("at most 10000 cells"));
+  EXPECT_EQ(GpMap::FromPrior(grid, VectorXd(), MatrixXd()).status().code(),
+            absl::StatusCode::kResourceExhausted);
+}
+
 }  // namespace
 }  // namespace oaipp

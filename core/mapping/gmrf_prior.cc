@@ -1,0 +1,218 @@
+#include "core/mapping/gmrf_prior.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+#include <vector>
+
+#include "unsupported/Eigen/FFT"
+
+#include "absl/strings/str_cat.h"
+#include "core/common/status_macros.h"
+
+namespace oaipp {
+namespace {
+
+using Complex = std::complex<double>;
+
+// The 2-D DFT of an n x n row-major array, rows then columns; the inverse
+// is scaled by 1 / n^2.
+void Dft2(std::vector<Complex>& data, int n, bool inverse) {
+  Eigen::FFT<double> fft;
+  std::vector<Complex> in(n), out(n);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int line = 0; line < n; ++line) {
+      for (int k = 0; k < n; ++k) in[k] = pass == 0 ? data[line * n + k] : data[k * n + line];
+      if (inverse) {
+        fft.inv(out, in);
+      } else {
+        fft.fwd(out, in);
+      }
+      for (int k = 0; k < n; ++k) (pass == 0 ? data[line * n + k] : data[k * n + line]) = out[k];
+    }
+  }
+}
+
+// Autocovariance over lags (row-major, lags wrapped) of the prior whose
+// spectrum on the lattice is `spectrum`, after the published code's noise
+// term: S / (1 + S / sn2).
+std::vector<double> PublishedPriorLags(const std::vector<double>& spectrum, double noise_var,
+                                       int n) {
+  std::vector<Complex> data(spectrum.size());
+  for (std::size_t k = 0; k < spectrum.size(); ++k) {
+    data[k] = spectrum[k] / (1.0 + spectrum[k] / noise_var);
+  }
+  Dft2(data, n, /*inverse=*/true);
+  std::vector<double> lags(data.size());
+  for (std::size_t k = 0; k < data.size(); ++k) lags[k] = data[k].real();
+  return lags;
+}
+
+// The lattice spectrum of the GMRF with K = a I + G, Q = K^3 / s.
+std::vector<double> GmrfSpectrum(double a, double scale, const std::vector<double>& lambda) {
+  const int n = static_cast<int>(lambda.size());
+  std::vector<double> s(static_cast<std::size_t>(n) * n);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) {
+      const double d = a + lambda[i] + lambda[j];
+      s[i * n + j] = scale / (d * d * d);
+    }
+  }
+  return s;
+}
+
+double MeanPublished(const std::vector<double>& spectrum, double noise_var) {
+  double sum = 0.0;
+  for (double v : spectrum) sum += v / (1.0 + v / noise_var);
+  return sum / static_cast<double>(spectrum.size());
+}
+
+}  // namespace
+
+GmrfFit FitGmrfToPublishedPrior(const GpParams& params, double resolution_m) {
+  const double h = resolution_m, l = params.length_scale_m;
+  // Lags out to 8 l and beyond wrap-around; a power of two for the DFT.
+  int n = 64;
+  while (n < 16.0 * l / h && n < 512) n *= 2;
+  // The Matérn 3/2 kernel sampled at the lattice's lags, wrapped.
+  std::vector<Complex> kernel(static_cast<std::size_t>(n) * n);
+  for (int i = 0; i < n; ++i) {
+    const double dy = h * std::min(i, n - i);
+    for (int j = 0; j < n; ++j) {
+      const double dx = h * std::min(j, n - j);
+      kernel[i * n + j] = Matern32(std::hypot(dx, dy), l, params.signal_var);
+    }
+  }
+  Dft2(kernel, n, /*inverse=*/false);
+  std::vector<double> dense_spectrum(kernel.size());
+  for (std::size_t k = 0; k < kernel.size(); ++k) dense_spectrum[k] = kernel[k].real();
+  const std::vector<double> dense = PublishedPriorLags(dense_spectrum, params.noise_var, n);
+
+  std::vector<double> lambda(n);
+  for (int k = 0; k < n; ++k) lambda[k] = 2.0 - 2.0 * std::cos(2.0 * std::numbers::pi * k / n);
+  // The lags fitted: one octant (the rest follow by symmetry) within 3 l.
+  std::vector<int> fitted;
+  for (int i = 0; i < n / 2; ++i) {
+    for (int j = 0; j <= i; ++j) {
+      if (std::hypot(i, j) * h <= 3.0 * l) fitted.push_back(i * n + j);
+    }
+  }
+  // For a given a: the scale whose P0 has the dense interior variance
+  // (bisection on log s; the variance grows with s).
+  auto scale_for = [&](double a) {
+    double lo = std::log(1e-12), hi = std::log(1e12);
+    for (int it = 0; it < 80; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      const double v = MeanPublished(GmrfSpectrum(a, std::exp(mid), lambda), params.noise_var);
+      (v < dense[0] ? lo : hi) = mid;
+    }
+    return std::exp(0.5 * (lo + hi));
+  };
+  auto misfit = [&](double log_a) {
+    const double a = std::exp(log_a);
+    const std::vector<double> lags =
+        PublishedPriorLags(GmrfSpectrum(a, scale_for(a), lambda), params.noise_var, n);
+    double sum = 0.0;
+    for (int k : fitted) sum += (lags[k] - dense[k]) * (lags[k] - dense[k]);
+    return sum;
+  };
+  // Golden-section search on log a.
+  double lo = std::log(1e-4), hi = std::log(10.0);
+  const double g = (std::sqrt(5.0) - 1.0) / 2.0;
+  double x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+  double f1 = misfit(x1), f2 = misfit(x2);
+  while (hi - lo > 1e-6) {
+    if (f1 < f2) {
+      hi = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = hi - g * (hi - lo);
+      f1 = misfit(x1);
+    } else {
+      lo = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = lo + g * (hi - lo);
+      f2 = misfit(x2);
+    }
+  }
+  GmrfFit fit;
+  fit.a = std::exp(0.5 * (lo + hi));
+  fit.scale = scale_for(fit.a);
+  const std::vector<double> lags =
+      PublishedPriorLags(GmrfSpectrum(fit.a, fit.scale, lambda), params.noise_var, n);
+  fit.dense_p0_variance = dense[0];
+  fit.fitted_p0_variance = lags[0];
+  for (int k : fitted) {
+    fit.worst_lag_difference = std::max(fit.worst_lag_difference, std::abs(lags[k] - dense[k]));
+  }
+  return fit;
+}
+
+absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& params,
+                                        const GmrfOptions& options) {
+  OAIPP_RETURN_IF_ERROR(params.Validate());
+  if (!(options.margin_ranges >= 0.0) || !std::isfinite(options.margin_ranges)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("margin_ranges: must be >= 0 and finite, got ", options.margin_ranges));
+  }
+  const double h = grid.resolution_m();
+  GmrfPrior prior;
+  prior.fit = FitGmrfToPublishedPrior(params, h);
+  const double a = prior.fit.a;
+  // The range 4 / kappa in cells is 4 / sqrt(a).
+  const double margin = std::ceil(options.margin_ranges * 4.0 / std::sqrt(a));
+  const double nx = grid.nx() + 2.0 * margin, ny = grid.ny() + 2.0 * margin;
+  if (nx * ny > static_cast<double>(std::numeric_limits<int>::max() / 32)) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("the prior's lattice of ", nx, " x ", ny, " states is too large"));
+  }
+  prior.margin_cells = static_cast<int>(margin);
+  prior.lattice_nx = static_cast<int>(nx);
+  prior.lattice_ny = static_cast<int>(ny);
+  const int lx = prior.lattice_nx, ly = prior.lattice_ny, n = lx * ly;
+
+  // K = a I + G, G the graph Laplacian of the 4-neighbour lattice.
+  std::vector<Eigen::Triplet<double, int>> k_entries;
+  k_entries.reserve(static_cast<std::size_t>(n) * 5);
+  for (int r = 0; r < ly; ++r) {
+    for (int c = 0; c < lx; ++c) {
+      const int s = r * lx + c;
+      int degree = 0;
+      auto neighbour = [&](int rr, int cc) {
+        if (rr < 0 || rr >= ly || cc < 0 || cc >= lx) return;
+        k_entries.emplace_back(s, rr * lx + cc, -1.0);
+        ++degree;
+      };
+      neighbour(r - 1, c);
+      neighbour(r + 1, c);
+      neighbour(r, c - 1);
+      neighbour(r, c + 1);
+      k_entries.emplace_back(s, s, a + degree);
+    }
+  }
+  Eigen::SparseMatrix<double, Eigen::ColMajor, int> k(n, n);
+  k.setFromTriplets(k_entries.begin(), k_entries.end());
+  const Eigen::SparseMatrix<double, Eigen::ColMajor, int> k2 = k * k;
+  Eigen::SparseMatrix<double, Eigen::ColMajor, int> q = (1.0 / prior.fit.scale) * (k2 * k);
+  // Exactly symmetric, whatever order the product summed in.
+  Eigen::SparseMatrix<double, Eigen::ColMajor, int> qt = q.transpose();
+  q = 0.5 * (q + qt);
+
+  prior.field_state.resize(grid.num_cells());
+  for (int cell = 0; cell < grid.num_cells(); ++cell) {
+    prior.field_state[cell] =
+        (grid.Row(cell) + prior.margin_cells) * lx + grid.Col(cell) + prior.margin_cells;
+  }
+  for (int s : prior.field_state) q.coeffRef(s, s) += 1.0 / params.noise_var;
+  prior.precision = q.triangularView<Eigen::Lower>();
+  prior.precision.makeCompressed();
+  prior.prior_mean = params.prior_mean;
+  prior.information = q * Eigen::VectorXd::Constant(n, params.prior_mean);
+  return prior;
+}
+
+}  // namespace oaipp

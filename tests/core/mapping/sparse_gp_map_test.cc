@@ -1,0 +1,270 @@
+// The large-field map (core/mapping/sparse_gp_map.h) against computations
+// made here: the prior's spectral fit against the dense published prior and
+// a sparse solve of its own lattice, the sparse inference against a dense
+// Kalman filter on the same prior (to 1e-9), and the prior's distance from
+// the mission's Matérn 3/2 prior (docs/method.md §3.8).
+#include "core/mapping/sparse_gp_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "Eigen/Cholesky"
+#include "Eigen/SparseCholesky"
+#include "absl/strings/str_cat.h"
+#include "core/mapping/camera.h"
+#include "core/mapping/gmrf_prior.h"
+#include "core/mapping/gp_map.h"
+#include "gmock/gmock.h"
+#include "gtest/gtest.h"
+
+namespace oaipp {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+using ::testing::HasSubstr;
+
+FieldGrid Grid(int nx, int ny, double res) {
+  auto grid = FieldGrid::Create(Vec2(-0.5 * nx * res, -0.5 * ny * res), nx, ny, res);
+  EXPECT_TRUE(grid.ok()) << grid.status();
+  return *grid;
+}
+
+// The prior's covariance over the field: the field's columns of Q^-1 (its
+// whole precision, margin included), solved with Eigen's own sparse
+// Cholesky (not CHOLMOD), and the field's rows of them.
+MatrixXd DenseFieldCovariance(const GmrfPrior& prior) {
+  const Eigen::SparseMatrix<double> q = prior.precision.selfadjointView<Eigen::Lower>();
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
+  EXPECT_EQ(ldlt.info(), Eigen::Success);
+  const int n = static_cast<int>(prior.field_state.size());
+  MatrixXd columns = MatrixXd::Zero(q.rows(), n);
+  for (int j = 0; j < n; ++j) columns(prior.field_state[j], j) = 1.0;
+  columns = ldlt.solve(columns);
+  MatrixXd field(n, n);
+  for (int i = 0; i < n; ++i) field.row(i) = columns.row(prior.field_state[i]);
+  return 0.5 * (field + field.transpose());
+}
+
+// Footprints of a downward camera at random places and heights, the
+// paper's noise model; some cells repeated.
+std::vector<std::vector<CellObservation>> RandomShots(const FieldGrid& grid, int shots,
+                                                      std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  const Vec2 lo = grid.min_W(), hi = grid.max_W();
+  std::uniform_real_distribution<double> x(lo.x(), hi.x()), y(lo.y(), hi.y()), h(3.0, 20.0),
+      label(0.0, 1.0);
+  const DownwardCamera camera;
+  const SensorNoise noise;
+  std::vector<std::vector<CellObservation>> out;
+  for (int s = 0; s < shots; ++s) {
+    const Vec3 p(x(rng), y(rng), h(rng));
+    std::vector<CellObservation> obs;
+    for (int cell : camera.FootprintCells(grid, p)) {
+      obs.push_back(
+          {.cell = cell, .value = label(rng) < 0.2 ? 1.0 : 0.0, .variance = noise.Variance(p.z())});
+    }
+    if (!obs.empty()) obs.push_back(obs.front());
+    out.push_back(std::move(obs));
+  }
+  return out;
+}
+
+double MaxRelative(const VectorXd& a, const VectorXd& b) {
+  return ((a - b).array().abs() / b.array().abs().max(1e-300)).maxCoeff();
+}
+
+// The fit's spectral sums against dense computations: the dense P0's
+// interior variance against the centre of a dense published prior on a
+// 41 x 41 field, the fitted one against a solve with the GMRF's
+// precision on a 41 x 41 lattice; and the fit makes the two equal.
+TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
+  for (const double h : {0.75, 2.0}) {
+    SCOPED_TRACE(absl::StrCat("resolution ", h));
+    const GpParams params = GpParams::PaperPreset(h);
+    const GmrfFit fit = FitGmrfToPublishedPrior(params, h);
+    EXPECT_NEAR(fit.fitted_p0_variance, fit.dense_p0_variance, 1e-9 * fit.dense_p0_variance);
+
+    const int side = 41, n = side * side, centre = (side / 2) * side + side / 2;
+    absl::StatusOr<MatrixXd> p0 = PriorCovariance(Grid(side, side, h), params);
+    ASSERT_TRUE(p0.ok());
+    EXPECT_NEAR((*p0)(centre, centre), fit.dense_p0_variance, 1e-5 * fit.dense_p0_variance);
+
+    std::vector<Eigen::Triplet<double>> entries;
+    for (int r = 0; r < side; ++r) {
+      for (int c = 0; c < side; ++c) {
+        const int s = r * side + c;
+        int degree = 0;
+        for (const auto& [dr, dc] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
+          const int rr = r + dr, cc = c + dc;
+          if (rr < 0 || rr >= side || cc < 0 || cc >= side) continue;
+          entries.emplace_back(s, rr * side + cc, -1.0);
+          ++degree;
+        }
+        entries.emplace_back(s, s, fit.a + degree);
+      }
+    }
+    Eigen::SparseMatrix<double> k(n, n), identity(n, n);
+    k.setFromTriplets(entries.begin(), entries.end());
+    identity.setIdentity();
+    const Eigen::SparseMatrix<double> k2 = k * k;
+    const Eigen::SparseMatrix<double> q =
+        (1.0 / fit.scale) * Eigen::SparseMatrix<double>(k2 * k) + identity / params.noise_var;
+    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
+    VectorXd e = VectorXd::Zero(n);
+    e[centre] = 1.0;
+    const double lattice = ldlt.solve(e)[centre];
+    EXPECT_NEAR(fit.fitted_p0_variance, lattice, 1e-6 * lattice);
+    RecordProperty(absl::StrCat("worst_lag_difference_at_", h),
+                   absl::StrCat(fit.worst_lag_difference));
+    EXPECT_LT(fit.worst_lag_difference, 0.05 * fit.dense_p0_variance);
+  }
+}
+
+// At the field's edges the published prior's variance is higher than
+// inside (its noise term reduces less where a cell has fewer neighbours);
+// the sparse prior, whose lattice runs on past the field so that the SPDE's
+// own free boundary stays outside, follows the dense prior there too.
+TEST(GmrfPriorTest, EdgesFollowTheDensePrior) {
+  const FieldGrid grid = Grid(24, 24, 1.0);
+  const GpParams params = GpParams::PaperPreset(1.0);
+  absl::StatusOr<GmrfPrior> prior = MakeGmrfPrior(grid, params);
+  ASSERT_TRUE(prior.ok()) << prior.status();
+  absl::StatusOr<MatrixXd> dense = PriorCovariance(grid, params);
+  ASSERT_TRUE(dense.ok());
+  const MatrixXd p = DenseFieldCovariance(*prior);
+  for (int cell : {grid.Index(12, 12), grid.Index(0, 0), grid.Index(0, 12), grid.Index(23, 23)}) {
+    EXPECT_NEAR(p(cell, cell), (*dense)(cell, cell), 0.02 * (*dense)(cell, cell))
+        << "cell " << cell;
+  }
+  EXPECT_GT((*dense)(0, 0), 1.5 * (*dense)(grid.Index(12, 12), grid.Index(12, 12)));
+}
+
+// The inference is exact for its prior: after each batch of shots (with
+// repeated cells and the ground under a building fused as near-certain
+// zeros), the mean and every variance equal a dense Kalman filter's on the
+// same prior to 1e-9 relative.
+TEST(SparseGpMapTest, EqualsADenseKalmanFilterOnTheSamePrior) {
+  const FieldGrid grid = Grid(14, 12, 1.0);
+  const GpParams params = GpParams::PaperPreset(1.0);
+  absl::StatusOr<GmrfPrior> prior = MakeGmrfPrior(grid, params);
+  ASSERT_TRUE(prior.ok()) << prior.status();
+  absl::StatusOr<GpMap> dense = GpMap::FromPrior(
+      grid, VectorXd::Constant(grid.num_cells(), params.prior_mean), DenseFieldCovariance(*prior));
+  ASSERT_TRUE(dense.ok()) << dense.status();
+  absl::StatusOr<SparseGpMap> sparse = SparseGpMap::FromPrior(grid, *prior);
+  ASSERT_TRUE(sparse.ok()) << sparse.status();
+
+  auto expect_equal = [&](const std::string& when) {
+    absl::StatusOr<VectorXd> var = sparse->Variances();
+    ASSERT_TRUE(var.ok()) << var.status();
+    EXPECT_LT(MaxRelative(*sparse->Mean(), dense->Mean()), 1e-9) << when;
+    EXPECT_LT(MaxRelative(*var, dense->Variances()), 1e-9) << when;
+    absl::StatusOr<double> trace = sparse->Trace();
+    ASSERT_TRUE(trace.ok());
+    EXPECT_NEAR(*trace, dense->Trace(), 1e-9 * dense->Trace()) << when;
+  };
+  expect_equal("at the prior");
+  const std::vector<int> building = {grid.Index(3, 3), grid.Index(3, 4), grid.Index(4, 3),
+                                     grid.Index(4, 4), grid.Index(4, 4)};
+  ASSERT_TRUE(dense->FuseNearCertainZeros(building).ok());
+  ASSERT_TRUE(sparse->FuseNearCertainZeros(building).ok());
+  expect_equal("after the building");
+  int batch = 0;
+  for (const std::vector<CellObservation>& shot : RandomShots(grid, 6, 7)) {
+    ASSERT_TRUE(dense->Update(shot).ok());
+    ASSERT_TRUE(sparse->Update(shot).ok());
+    expect_equal("after shot " + std::to_string(batch++));
+  }
+}
+
+// Fusion is additive: the same shots in another order and split otherwise
+// give the same map (to rounding), and a map restored from the two vectors
+// a snapshot holds is the same map.
+TEST(SparseGpMapTest, AnyOrderAndARestoreGiveTheSameMap) {
+  const FieldGrid grid = Grid(20, 16, 1.0);
+  const GpParams params = GpParams::PaperPreset(1.0);
+  const auto shots = RandomShots(grid, 8, 11);
+  absl::StatusOr<SparseGpMap> forward = SparseGpMap::Create(grid, params);
+  absl::StatusOr<SparseGpMap> backward = SparseGpMap::Create(grid, params);
+  ASSERT_TRUE(forward.ok() && backward.ok());
+  for (const auto& shot : shots) ASSERT_TRUE(forward->Update(shot).ok());
+  std::vector<CellObservation> all;
+  for (auto it = shots.rbegin(); it != shots.rend(); ++it) {
+    all.insert(all.end(), it->rbegin(), it->rend());
+  }
+  ASSERT_TRUE(backward->Update(all).ok());
+  EXPECT_LT(MaxRelative(*backward->Mean(), *forward->Mean()), 1e-12);
+  EXPECT_LT(MaxRelative(*backward->Variances(), *forward->Variances()), 1e-12);
+
+  absl::StatusOr<SparseGpMap> restored = SparseGpMap::Create(grid, params);
+  ASSERT_TRUE(restored.ok());
+  ASSERT_TRUE(restored->Restore(forward->AddedPrecision(), forward->AddedInformation()).ok());
+  EXPECT_LT(MaxRelative(*restored->Mean(), *forward->Mean()), 1e-12);
+  EXPECT_LT(MaxRelative(*restored->Variances(), *forward->Variances()), 1e-12);
+}
+
+// A bad observation names its entry and field and changes nothing; a
+// snapshot of another size or with a negative precision is refused.
+TEST(SparseGpMapTest, BadInputIsRefusedAndChangesNothing) {
+  const FieldGrid grid = Grid(10, 10, 1.0);
+  absl::StatusOr<SparseGpMap> map = SparseGpMap::Create(grid, GpParams::PaperPreset(1.0));
+  ASSERT_TRUE(map.ok());
+  const VectorXd mean = *map->Mean();
+  const std::vector<CellObservation> bad = {{.cell = 3, .value = 1.0, .variance = 0.4},
+                                            {.cell = 100, .value = 1.0, .variance = 0.4}};
+  const absl::Status status = map->Update(bad);
+  EXPECT_EQ(status.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(status.message(), HasSubstr("observations[1].cell"));
+  const std::vector<CellObservation> negative = {{.cell = 3, .value = 1.0, .variance = -1.0}};
+  EXPECT_THAT(map->Update(negative).message(), HasSubstr("observations[0].variance"));
+  EXPECT_EQ(*map->Mean(), mean);
+  EXPECT_EQ(map->AddedPrecision(), VectorXd::Zero(100));
+  EXPECT_EQ(map->Restore(VectorXd::Zero(99), VectorXd::Zero(99)).code(),
+            absl::StatusCode::kInvalidArgument);
+  VectorXd minus = VectorXd::Zero(100);
+  minus[5] = -1.0;
+  EXPECT_EQ(map->Restore(minus, VectorXd::Zero(100)).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(*map->Mean(), mean);
+  EXPECT_EQ(
+      MakeGmrfPrior(grid, GpParams::PaperPreset(1.0), {.margin_ranges = -1.0}).status().code(),
+      absl::StatusCode::kInvalidArgument);
+}
+
+// How far the sparse prior is from the mission's Matérn 3/2 prior (the
+// dense map's), on E1's field (40 x 40 cells at 0.75 m) before and after 25
+// shots: the figures docs/method.md §3.8 quotes (0.015 / +0.13 % and
+// 0.010 / +2.3 %), held to bounds a little above them.
+TEST(SparseGpMapTest, StaysCloseToTheMatern32Map) {
+  const FieldGrid grid = Grid(40, 40, 0.75);
+  const GpParams params = GpParams::PaperPreset(0.75);
+  absl::StatusOr<GpMap> dense = GpMap::Create(grid, params);
+  absl::StatusOr<SparseGpMap> sparse = SparseGpMap::Create(grid, params);
+  ASSERT_TRUE(dense.ok() && sparse.ok());
+  const double prior_var = dense->Variances().maxCoeff();
+  auto compare = [&](const std::string& when, double var_bound, double trace_bound) {
+    const VectorXd var = *sparse->Variances();
+    const double worst = (var - dense->Variances()).cwiseAbs().maxCoeff() / prior_var;
+    const double trace = var.sum() / dense->Trace() - 1.0;
+    const double mean_rmse =
+        std::sqrt((*sparse->Mean() - dense->Mean()).squaredNorm() / grid.num_cells());
+    RecordProperty(when + "_worst_variance_over_prior", absl::StrCat(worst));
+    RecordProperty(when + "_trace_relative", absl::StrCat(trace));
+    RecordProperty(when + "_mean_rmse", absl::StrCat(mean_rmse));
+    std::printf("%s: worst variance difference %.4f of the prior's, trace %+.4f, mean RMSE %.4f\n",
+                when.c_str(), worst, trace, mean_rmse);
+    EXPECT_LT(worst, var_bound) << when;
+    EXPECT_LT(std::abs(trace), trace_bound) << when;
+  };
+  compare("prior", 0.02, 0.005);
+  for (const auto& shot : RandomShots(grid, 25, 5)) {
+    ASSERT_TRUE(dense->Update(shot).ok());
+    ASSERT_TRUE(sparse->Update(shot).ok());
+  }
+  compare("posterior", 0.015, 0.03);
+}
+
+}  // namespace
+}  // namespace oaipp
