@@ -1,5 +1,5 @@
 // A prior with an exactly sparse precision for large fields (docs/method.md
-// §3.8): the Gaussian Markov random field of the SPDE
+// §3.9): the Gaussian Markov random field of the SPDE
 //   (kappa^2 - Laplacian)^(3/2) u = W / tau
 // on a regular lattice (Lindgren, Rue and Lindström 2011, alpha = 3), whose
 // solution is a Matérn field of smoothness nu = 2. It stands in for the

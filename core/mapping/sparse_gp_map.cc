@@ -17,7 +17,11 @@ struct SparseGpMap::Cholmod {
   cholmod_common common{};
   cholmod_factor* factor = nullptr;
 
-  Cholmod() { cholmod_start(&common); }
+  Cholmod() {
+    cholmod_start(&common);
+    // Always supernodal: the selected inversion works on its dense blocks.
+    common.supernodal = CHOLMOD_SUPERNODAL;
+  }
   ~Cholmod() {
     if (factor != nullptr) cholmod_free_factor(&factor, &common);
     cholmod_finish(&common);
@@ -47,73 +51,74 @@ cholmod_sparse View(const Eigen::SparseMatrix<double, Eigen::ColMajor, int>& q) 
   return a;
 }
 
-// diag((L L^T)^-1) from a simplicial, packed LL^T factor by the Takahashi
-// recursion, column by column from the last: for each column j with
-// off-diagonal rows R (all > j),
-//   Z_ij = -(1 / L_jj) sum_{k in R} L_kj Z_ik    (i in R)
-//   Z_jj = 1 / L_jj^2 - (1 / L_jj) sum_{k in R} L_kj Z_kj,
-// where every Z_ik needed lies in L's pattern (the filled graph is chordal).
-// Z is kept on that pattern only. Returns the diagonal in pivot order.
-Eigen::VectorXd TakahashiDiagonal(const cholmod_factor& f) {
+// diag((L L^T)^-1) from CHOLMOD's supernodal factor, by the Takahashi
+// recursion a supernode at a time, from the last. For a supernode S (its
+// own columns, lower-triangular block L_SS) with rows R below it (block
+// L_RS), and U = L_RS L_SS^-1:
+//   Z_RS = -Z_RR U,    Z_SS = L_SS^-T L_SS^-1 - U^T Z_RS,
+// where Z = (L L^T)^-1. Every entry of Z_RR lies in the pattern of a later
+// supernode (the filled graph is chordal), so Z is kept in L's own layout
+// and Z_RR gathered from it. Returns the diagonal in pivot order.
+Eigen::VectorXd SupernodalTakahashiDiagonal(const cholmod_factor& f) {
+  using Eigen::MatrixXd;
   const int n = static_cast<int>(f.n);
-  const int* p = static_cast<const int*>(f.p);
-  const int* rows = static_cast<const int*>(f.i);
+  const int nsuper = static_cast<int>(f.nsuper);
+  const int* super = static_cast<const int*>(f.super);
+  const int* pi = static_cast<const int*>(f.pi);
+  const int* px = static_cast<const int*>(f.px);
+  const int* rows = static_cast<const int*>(f.s);
   const double* lx = static_cast<const double*>(f.x);
-  std::vector<double> z(static_cast<std::size_t>(p[n]), 0.0);
-  // Z(i, k) for i > k: in column k at row i.
-  auto at = [&](int i, int k) -> double {
-    if (i == k) return z[p[k]];
-    if (i < k) std::swap(i, k);
-    const int* begin = rows + p[k] + 1;
-    const int* end = rows + p[k + 1];
-    const int* hit = std::lower_bound(begin, end, i);
-    return z[hit - rows];
-  };
-  std::vector<double> acc;
-  for (int j = n - 1; j >= 0; --j) {
-    const int first = p[j] + 1, last = p[j + 1];
-    const int m = last - first;
-    const double ljj = lx[p[j]];
-    acc.assign(m, 0.0);
-    for (int a = 0; a < m; ++a) {
-      const int ra = rows[first + a];
-      const double la = lx[first + a];
-      acc[a] += la * z[p[ra]];
-      for (int b = a + 1; b < m; ++b) {
-        const int rb = rows[first + b];
-        const double zab = at(rb, ra);
-        acc[a] += lx[first + b] * zab;
-        acc[b] += la * zab;
-      }
-    }
-    double sum = 0.0;
-    for (int a = 0; a < m; ++a) {
-      z[first + a] = -acc[a] / ljj;
-      sum += lx[first + a] * z[first + a];
-    }
-    z[p[j]] = 1.0 / (ljj * ljj) - sum / ljj;
+  std::vector<int> super_of(n);
+  for (int t = 0; t < nsuper; ++t) {
+    for (int k = super[t]; k < super[t + 1]; ++k) super_of[k] = t;
   }
+  std::vector<double> z(f.xsize, 0.0);
+  std::vector<int> pos;
+  MatrixXd zrr, u, zrs, inverse;
   Eigen::VectorXd diagonal(n);
-  for (int j = 0; j < n; ++j) diagonal[j] = z[p[j]];
-  return diagonal;
-}
-
-// Sorts the rows of each column of a packed simplicial factor (with the
-// diagonal first), which the recursion's lookups need.
-void SortColumns(cholmod_factor& f) {
-  const int n = static_cast<int>(f.n);
-  const int* p = static_cast<const int*>(f.p);
-  int* rows = static_cast<int*>(f.i);
-  double* x = static_cast<double*>(f.x);
-  std::vector<std::pair<int, double>> column;
-  for (int j = 0; j < n; ++j) {
-    const int first = p[j] + 1, last = p[j + 1];
-    if (std::is_sorted(rows + first, rows + last)) continue;
-    column.clear();
-    for (int k = first; k < last; ++k) column.emplace_back(rows[k], x[k]);
-    std::sort(column.begin(), column.end());
-    for (int k = first; k < last; ++k) std::tie(rows[k], x[k]) = column[k - first];
+  for (int t = nsuper - 1; t >= 0; --t) {
+    const int w = super[t + 1] - super[t];
+    const int nr = pi[t + 1] - pi[t];
+    const int r = nr - w;
+    const int* below = rows + pi[t] + w;
+    const Eigen::Map<const MatrixXd> l(lx + px[t], nr, w);
+    // Gather Z_RR (lower triangle, then mirrored), one later supernode at a
+    // time: R's columns in supernode T are consecutive, and the rows of R
+    // from there on all lie in T's row list.
+    zrr.resize(r, r);
+    for (int b = 0; b < r;) {
+      const int tt = super_of[below[b]];
+      const int* t_rows = rows + pi[tt];
+      const int t_nr = pi[tt + 1] - pi[tt];
+      int e = b;
+      while (e < r && below[e] < super[tt + 1]) ++e;
+      pos.resize(r - b);
+      for (int q = b, p = 0; q < r; ++q) {
+        while (t_rows[p] < below[q]) ++p;
+        pos[q - b] = p;
+      }
+      for (int a = b; a < e; ++a) {
+        const double* column =
+            z.data() + px[tt] + static_cast<std::size_t>(below[a] - super[tt]) * t_nr;
+        for (int q = a; q < r; ++q) zrr(q, a) = column[pos[q - b]];
+      }
+      b = e;
+    }
+    zrr.triangularView<Eigen::StrictlyUpper>() = zrr.transpose();
+    const auto lss = l.topRows(w).triangularView<Eigen::Lower>();
+    inverse = lss.solve(MatrixXd::Identity(w, w));
+    Eigen::Map<MatrixXd> zt(z.data() + px[t], nr, w);
+    if (r > 0) {
+      u = l.bottomRows(r) * inverse;
+      zrs.noalias() = -zrr * u;
+      zt.bottomRows(r) = zrs;
+      zt.topRows(w).noalias() = inverse.transpose() * inverse - u.transpose() * zrs;
+    } else {
+      zt.topRows(w).noalias() = inverse.transpose() * inverse;
+    }
+    for (int k = 0; k < w; ++k) diagonal[super[t] + k] = zt(k, k);
   }
+  return diagonal;
 }
 
 }  // namespace
@@ -240,20 +245,11 @@ absl::StatusOr<Eigen::VectorXd> SparseGpMap::Mean() const {
 absl::StatusOr<Eigen::VectorXd> SparseGpMap::Variances() const {
   OAIPP_RETURN_IF_ERROR(Refresh());
   if (variances_ != nullptr) return *variances_;
-  cholmod_common& c = cholmod_->common;
-  cholmod_factor* f = cholmod_copy_factor(cholmod_->factor, &c);
-  if (f == nullptr) return absl::ResourceExhaustedError("CHOLMOD: no memory to copy the factor");
-  if (!cholmod_change_factor(CHOLMOD_REAL, /*to_ll=*/1, /*to_super=*/0, /*to_packed=*/1,
-                             /*to_monotonic=*/1, f, &c)) {
-    cholmod_free_factor(&f, &c);
-    return absl::InternalError("CHOLMOD could not convert the factor");
-  }
-  SortColumns(*f);
-  const Eigen::VectorXd pivoted = TakahashiDiagonal(*f);
+  const cholmod_factor& f = *cholmod_->factor;
+  const Eigen::VectorXd pivoted = SupernodalTakahashiDiagonal(f);
   Eigen::VectorXd states(pivoted.size());
-  const int* perm = static_cast<const int*>(f->Perm);
+  const int* perm = static_cast<const int*>(f.Perm);
   for (Eigen::Index k = 0; k < pivoted.size(); ++k) states[perm[k]] = pivoted[k];
-  cholmod_free_factor(&f, &c);
   auto field = std::make_unique<Eigen::VectorXd>(grid_.num_cells());
   for (int cell = 0; cell < grid_.num_cells(); ++cell) {
     (*field)[cell] = states[prior_.field_state[cell]];
@@ -297,13 +293,14 @@ absl::Status SparseGpMap::Restore(const Eigen::VectorXd& added_precision,
 std::int64_t SparseGpMap::factor_nonzeros() const {
   const cholmod_factor* f = cholmod_->factor;
   if (f == nullptr) return 0;
-  return static_cast<std::int64_t>(f->is_super ? f->xsize : f->nzmax);
+  return static_cast<std::int64_t>(f->xsize);
 }
 
 std::int64_t SparseGpMap::bytes() const {
   const std::int64_t q = 2 * (12 * prior_.precision.nonZeros() + 4 * prior_.precision.cols());
   const std::int64_t vectors = 8 * (2 * prior_.num_states() + 4 * num_cells());
-  return q + vectors + 12 * factor_nonzeros();
+  // The factor, and Z in its layout while the variances are computed.
+  return q + vectors + 16 * factor_nonzeros();
 }
 
 }  // namespace oaipp

@@ -1,6 +1,6 @@
 // The field map for large fields: the same Kalman-exact inference as GpMap,
 // in information form, on a prior with a sparse precision (GmrfPrior;
-// docs/method.md §3.8).
+// docs/method.md §3.9).
 //
 // The map holds the precision Q (sparse, states x states) and the
 // information vector b = Q mu. Fusing a per-cell observation (z, r) adds

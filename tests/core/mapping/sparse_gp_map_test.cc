@@ -2,7 +2,7 @@
 // made here: the prior's spectral fit against the dense published prior and
 // a sparse solve of its own lattice, the sparse inference against a dense
 // Kalman filter on the same prior (to 1e-9), and the prior's distance from
-// the mission's Matérn 3/2 prior (docs/method.md §3.8).
+// the mission's Matérn 3/2 prior (docs/method.md §3.9).
 #include "core/mapping/sparse_gp_map.h"
 
 #include <algorithm>
@@ -235,7 +235,7 @@ TEST(SparseGpMapTest, BadInputIsRefusedAndChangesNothing) {
 
 // How far the sparse prior is from the mission's Matérn 3/2 prior (the
 // dense map's), on E1's field (40 x 40 cells at 0.75 m) before and after 25
-// shots: the figures docs/method.md §3.8 quotes (0.015 / +0.13 % and
+// shots: the figures docs/method.md §3.9 quotes (0.015 / +0.13 % and
 // 0.010 / +2.3 %), held to bounds a little above them.
 TEST(SparseGpMapTest, StaysCloseToTheMatern32Map) {
   const FieldGrid grid = Grid(40, 40, 0.75);
