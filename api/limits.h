@@ -21,6 +21,10 @@ inline constexpr int kMaxLabels = 65'536;
 // Obstacle coordinates and sizes, metres: 1000 km, far past any field, so
 // that every obstacle maps to voxel indices an int can hold.
 inline constexpr double kMaxCoordinateM = 1e6;
+// request_id of a mutation, a plan, a create or a delete, bytes: as long
+// as an id (a UUID takes 36). Every remembered answer holds a copy or two,
+// and the mission's log one more.
+inline constexpr int kMaxRequestIdBytes = 128;
 // One gRPC message, either way (a 4096-cell GetMap with cells is 0.2 MB).
 inline constexpr std::int64_t kMaxMessageBytes = 16 << 20;
 

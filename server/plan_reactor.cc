@@ -65,6 +65,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   // the call at once.
   absl::Status Start() {
     OAIPP_ASSIGN_OR_RETURN(tenant_, service_->TenantOf(*context_));
+    OAIPP_RETURN_IF_ERROR(service_internal::CheckRequestId(request_->request_id()));
     OAIPP_ASSIGN_OR_RETURN(mission_, service_->registry_->Get(request_->name(), tenant_));
     if (!request_->has_state()) return absl::InvalidArgumentError("state: required");
     v1::UavState state = request_->state();

@@ -104,6 +104,7 @@ grpc::Status MissionServiceImpl::CreateMission(grpc::ServerContext* context,
                                                v1::Mission* response) {
   return Call(context, "CreateMission", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_RETURN_IF_ERROR(service_internal::CheckRequestId(request->request_id()));
     OAIPP_ASSIGN_OR_RETURN(MissionConfig config, MissionSpecToConfig(request->spec()));
     OAIPP_ASSIGN_OR_RETURN(
         std::shared_ptr<Mission> mission,
@@ -159,6 +160,7 @@ grpc::Status MissionServiceImpl::DeleteMission(grpc::ServerContext* context,
                                                v1::DeleteMissionResponse*) {
   return Call(context, "DeleteMission", [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(*context));
+    OAIPP_RETURN_IF_ERROR(service_internal::CheckRequestId(request->request_id()));
     OAIPP_RETURN_IF_ERROR(registry_->Delete(request->name(), request->request_id(), tenant));
     if (metrics_ != nullptr) {
       metrics_->SetMissions(static_cast<double>(registry_->size()),

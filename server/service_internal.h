@@ -18,6 +18,7 @@
 #include "absl/time/time.h"
 #include "api/geodetic.h"
 #include "api/geometry.h"
+#include "api/limits.h"
 #include "api/status.h"
 #include "core/common/status_macros.h"
 #include "google/protobuf/util/time_util.h"
@@ -27,6 +28,16 @@
 
 namespace oaipp::server {
 namespace service_internal {
+
+// InvalidArgument naming request_id when it is longer than
+// api::kMaxRequestIdBytes (the id itself is not echoed).
+inline absl::Status CheckRequestId(const std::string& request_id) {
+  if (request_id.size() <= static_cast<std::size_t>(api::kMaxRequestIdBytes)) {
+    return absl::OkStatus();
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      "request_id: must be at most ", api::kMaxRequestIdBytes, " bytes, got ", request_id.size()));
+}
 
 using api::ToProto;
 using google::protobuf::util::TimeUtil;
@@ -179,6 +190,7 @@ template <typename Request, typename Apply>
 absl::Status MissionServiceImpl::Mutate(const grpc::ServerContextBase& context,
                                         const Request& request, RecordKind kind, Apply apply) {
   OAIPP_ASSIGN_OR_RETURN(const std::string tenant, TenantOf(context));
+  OAIPP_RETURN_IF_ERROR(service_internal::CheckRequestId(request.request_id()));
   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission, registry_->Get(request.name(), tenant));
   Request resolved;
   OAIPP_ASSIGN_OR_RETURN(const Request* in_metres,

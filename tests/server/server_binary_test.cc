@@ -158,6 +158,96 @@ std::vector<std::string> KernelFamiliesForThisCpu() {
   return families;
 }
 
+// Resident memory of a process, bytes (VmRSS).
+std::int64_t ResidentBytes(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (absl::StartsWith(line, "VmRSS:")) return std::stoll(line.substr(6)) * 1024;
+  }
+  return -1;
+}
+
+// request_id is bounded (128 bytes) on every call that takes one: 20
+// measurements with 1 MB ids, and a plan, a create and a delete with one,
+// are refused naming request_id, change nothing, and leave the server's
+// memory where it was (kept, each id would be held several times over);
+// an id of exactly 128 bytes is taken.
+TEST(ServerBinaryTest, LongRequestIdsAreRefusedWithoutGrowingTheServer) {
+  testing::ServerProcess server(testing::FreePort(), {"--store=memory"});
+  ASSERT_TRUE(server.Start()) << "oaipp-server did not start on " << server.address();
+  auto stub = v1::MissionService::NewStub(testing::QuickReconnectChannel(server.address()));
+  testing::CreateSmall(*stub, "ids");
+  const std::string long_id(1 << 20, 'x');
+  auto expect_refused = [](const grpc::Status& status, const char* call) {
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << call;
+    EXPECT_TRUE(absl::StartsWith(status.error_message(),
+                                 "request_id: must be at most 128 bytes, got 1048576"))
+        << call << ": " << status.error_message().substr(0, 200);
+  };
+  {
+    // One refused call first, so that gRPC's own buffers for 1 MB messages
+    // are in place before the memory is read.
+    grpc::ClientContext context;
+    v1::AddMeasurementRequest request = testing::LabelMeasurement("missions/ids", 1, 1, 9, 1, 1);
+    request.set_request_id(long_id);
+    v1::AddMeasurementResponse out;
+    expect_refused(stub->AddMeasurement(&context, request, &out), "AddMeasurement");
+  }
+  const std::int64_t before = ResidentBytes(server.pid());
+  for (int i = 0; i < 20; ++i) {
+    grpc::ClientContext context;
+    v1::AddMeasurementRequest request = testing::LabelMeasurement("missions/ids", 1, 1, 9, 1, 1);
+    request.set_request_id(long_id);
+    v1::AddMeasurementResponse out;
+    expect_refused(stub->AddMeasurement(&context, request, &out), "AddMeasurement");
+  }
+  {
+    grpc::ClientContext context;
+    v1::PlanPathRequest request;
+    request.set_name("missions/ids");
+    request.set_request_id(long_id);
+    request.mutable_state()->mutable_position_m()->set_z(8);
+    v1::PlanPathResponse out;
+    expect_refused(stub->PlanPath(&context, request, &out), "PlanPath");
+  }
+  {
+    grpc::ClientContext context;
+    v1::CreateMissionRequest request;
+    request.set_mission_id("other");
+    request.set_request_id(long_id);
+    *request.mutable_spec() = testing::SmallSpec();
+    v1::Mission out;
+    expect_refused(stub->CreateMission(&context, request, &out), "CreateMission");
+  }
+  {
+    grpc::ClientContext context;
+    v1::DeleteMissionRequest request;
+    request.set_name("missions/ids");
+    request.set_request_id(long_id);
+    v1::DeleteMissionResponse out;
+    expect_refused(stub->DeleteMission(&context, request, &out), "DeleteMission");
+  }
+  const std::int64_t after = ResidentBytes(server.pid());
+  ASSERT_GT(before, 0);
+  // 21 MB of ids went in; kept, they would be held several times over.
+  EXPECT_LT(after - before, 16 << 20) << "before " << before << ", after " << after;
+  {
+    grpc::ClientContext context;
+    v1::AddMeasurementRequest request = testing::LabelMeasurement("missions/ids", 1, 1, 9, 1, 1);
+    request.set_request_id(std::string(128, 'y'));
+    v1::AddMeasurementResponse out;
+    const grpc::Status status = stub->AddMeasurement(&context, request, &out);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    EXPECT_EQ(out.measurements_fused(), 1);  // the refused ones fused nothing
+  }
+  grpc::ClientContext context;
+  v1::ListMissionsRequest list;
+  v1::ListMissionsResponse missions;
+  ASSERT_TRUE(stub->ListMissions(&context, list, &missions).ok());
+  EXPECT_EQ(missions.missions_size(), 1);  // "other" was not created, "ids" not deleted
+}
+
 // Kubernetes stops a pod with SIGTERM, and operators set OPENBLAS_CORETYPE:
 // with nothing but --listen and --data_dir (so OpenBLAS, the SQLite store
 // and metrics on their defaults), a SIGTERM that arrives while a plan runs
