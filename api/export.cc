@@ -130,6 +130,7 @@ std::vector<Item> BuildItems(const DenseSamples& d, const std::vector<std::size_
                              double acceptance_m) {
   std::vector<Item> items;
   double commanded = -1.0;
+  int captures = 0;
   for (std::size_t k = 0; k < waypoints.size(); ++k) {
     const std::size_t i = waypoints[k];
     if (k > 0) {
@@ -145,8 +146,11 @@ std::vector<Item> BuildItems(const DenseSamples& d, const std::vector<std::size_
     }
     items.push_back({kMavCmdNavWaypoint, {0.0, acceptance_m, 0.0, kHeadingDeg}, d.p_W[i]});
     if (d.shot[i]) {
-      // All cameras, one image, no interval.
-      items.push_back({kMavCmdImageStartCapture, {0.0, 0.0, 1.0, 0.0}, std::nullopt});
+      // All cameras, no interval, one image with its sequence number (1, 2,
+      // ...), so that a command sent again does not shoot again.
+      items.push_back({kMavCmdImageStartCapture,
+                       {0.0, 0.0, 1.0, static_cast<double>(++captures)},
+                       std::nullopt});
     }
   }
   return items;
@@ -308,7 +312,20 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
 
   if (!config.geo_origin.has_value()) return out;
   OAIPP_ASSIGN_OR_RETURN(const GeoFrame frame, GeoFrame::FromOrigin(*config.geo_origin));
-  const GeoPoint& home = frame.origin();
+  // Home: the ground under the mission's start, where the UAV took off;
+  // under the path's first point instead should an obstacle added since
+  // stand there. Never inside an obstacle's footprint, which the fence
+  // excludes. Altitudes are relative to it: its height is the origin's,
+  // the ground (z = 0), so that an item's relative altitude is its z.
+  Vec3 home_W(config.start.position_W.x(), config.start.position_W.y(), 0.0);
+  for (const Obstacle& o : obstacles) {
+    if (Over(o.shape, home_W)) {
+      home_W = Vec3(traj.Position(0.0).x(), traj.Position(0.0).y(), 0.0);
+      break;
+    }
+  }
+  GeoPoint home = frame.ToGeo(home_W);
+  home.altitude_m = frame.origin().altitude_m;
 
   nlohmann::json plan_items = nlohmann::json::array();
   for (std::size_t k = 0; k < items.size(); ++k) {

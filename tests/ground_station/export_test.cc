@@ -210,9 +210,13 @@ TEST_F(GroundStationTest, ThePlanFileHasQGroundControlsFieldsAndFollowsThePath) 
   EXPECT_EQ(mission.at("vehicleType"), 2);
   EXPECT_TRUE(mission.at("cruiseSpeed").is_number());
   EXPECT_TRUE(mission.at("hoverSpeed").is_number());
-  ASSERT_EQ(mission.at("plannedHomePosition").size(), 3u);
-  EXPECT_DOUBLE_EQ(mission.at("plannedHomePosition")[0].get<double>(), kOrigin.latitude_deg);
-  EXPECT_DOUBLE_EQ(mission.at("plannedHomePosition")[2].get<double>(), kOrigin.altitude_m);
+  // Home: the ground under the mission's start (given by latitude and
+  // longitude), not the frame's origin.
+  const json& home = mission.at("plannedHomePosition");
+  ASSERT_EQ(home.size(), 3u);
+  EXPECT_NEAR(home[0].get<double>(), 47.397742, 1e-9);
+  EXPECT_NEAR(home[1].get<double>(), 8.545594, 1e-9);
+  EXPECT_NEAR(home[2].get<double>(), kOrigin.altitude_m, 0.01);
   const json& items = mission.at("items");
   ASSERT_TRUE(items.is_array());
   ASSERT_EQ(items.size(), static_cast<std::size_t>(out.mission_items_size()));
@@ -248,6 +252,11 @@ TEST_F(GroundStationTest, ThePlanFileHasQGroundControlsFieldsAndFollowsThePath) 
     } else if (command == 2000) {
       ++shots;
       EXPECT_EQ(raw.frame(), 2u);
+      // One image each, numbered 1, 2, ... (MAVLink's sequence number, so
+      // that a command sent twice shoots once).
+      EXPECT_EQ(raw.param3(), 1.0f);
+      EXPECT_EQ(raw.param4(), static_cast<float>(shots)) << "item " << k;
+      EXPECT_EQ(item.at("params")[3].get<double>(), shots);
     } else {
       EXPECT_EQ(command, 178);
       ++speeds;
@@ -293,6 +302,12 @@ TEST_F(GroundStationTest, ThePlanFileHasQGroundControlsFieldsAndFollowsThePath) 
     for (const auto& poly : exclusions) ASSERT_FALSE(InPolygon(poly, p)) << "t = " << t;
     for (const auto& [centre, radius] : circles) ASSERT_GT((p - centre).norm(), radius);
   }
+  // Home lies inside the fence and outside every exclusion.
+  const Vec2 home_local =
+      frame.ToLocal({home[0].get<double>(), home[1].get<double>(), kOrigin.altitude_m}).head<2>();
+  EXPECT_TRUE(InPolygon(inclusions[0], home_local));
+  for (const auto& poly : exclusions) EXPECT_FALSE(InPolygon(poly, home_local));
+  for (const auto& [centre, radius] : circles) EXPECT_GT((home_local - centre).norm(), radius);
   EXPECT_EQ(plan.at("rallyPoints").at("version"), 2);
   ASSERT_EQ(plan.at("rallyPoints").at("points").size(), 1u);
   EXPECT_EQ(plan.at("rallyPoints").at("points")[0].size(), 3u);
