@@ -5,6 +5,8 @@
 // order, appends are conditional on (mission, sequence) and a retry of the
 // same record succeeds, snapshots replace the records they cover, deletes
 // cascade, and many missions can append at once.
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <mutex>
@@ -381,6 +383,32 @@ TEST(OpenStoreTest, TheFlagNamesTheStoreAndLogsHideThePassword) {
   EXPECT_EQ(DescribeStore("postgresql://oaipp@db/missions", ""),
             "postgresql postgresql://oaipp@db/missions");
   EXPECT_EQ(DescribeStore("sqlite", "/var/lib/oaipp"), "sqlite file /var/lib/oaipp/missions.db");
+  // A password in the query, a '@' in the password, an sslpassword.
+  EXPECT_EQ(DescribeStore("postgresql://db/missions?user=a&password=s3cret&sslmode=require", ""),
+            "postgresql postgresql://db/missions?user=a&password=***&sslmode=require");
+  EXPECT_EQ(DescribeStore("postgres://a:p@ss@db/m?PASSWORD=x&sslpassword=y", ""),
+            "postgresql postgres://a:***@db/m?PASSWORD=***&sslpassword=***");
+}
+
+// A --data_dir the store creates, and its database, are the owner's alone.
+TEST(OpenStoreTest, ANewDataDirAndItsFilesAreTheOwnersOnly) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("oaipp-perms-" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  {
+    absl::StatusOr<std::unique_ptr<MissionStore>> store = OpenStore("sqlite", (dir / "d").string());
+    ASSERT_TRUE(store.ok()) << store.status();
+    ASSERT_TRUE((*store)->CreateMission({.id = "m", .spec = "s"}).ok());
+    using std::filesystem::perms;
+    EXPECT_EQ(std::filesystem::status(dir / "d").permissions() & perms::all, perms::owner_all);
+    for (const char* file : {"missions.db", "missions.db-wal"}) {
+      ASSERT_TRUE(std::filesystem::exists(dir / "d" / file)) << file;
+      EXPECT_EQ(std::filesystem::status(dir / "d" / file).permissions() & perms::all,
+                perms::owner_read | perms::owner_write)
+          << file;
+    }
+  }
+  std::filesystem::remove_all(dir);
 }
 
 TEST(PostgresStoreTest, NoServerIsUnavailable) {
