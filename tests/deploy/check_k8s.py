@@ -58,6 +58,11 @@ DEFAULTS = {
     "planning_threads": "2",
     "max_memory_mb": "0",
     "shutdown_grace_s": "10",
+    "reflection": "true",
+    "max_missions": "64",
+    "max_missions_per_tenant": "0",
+    "max_plans_per_tenant": "0",
+    "planning_queue": "16",
 }
 
 WORKLOAD_KINDS = ("Deployment", "StatefulSet", "DaemonSet", "ReplicaSet")
@@ -910,6 +915,30 @@ def check_security(ov):
     return errors
 
 
+def check_tenants(ov):
+    """Quotas keep one tenant from taking every mission slot or the whole
+    planning queue (a full queue turns the replica NOT_SERVING and moves
+    missions for every tenant), and reflection is off."""
+    errors = need_server(ov)
+    if errors:
+        return errors
+    s = ov.server
+    if s.get("reflection") not in ("false", "0"):
+        errors.append(f"--reflection={s.get('reflection')}: a deployed server does not "
+                      "describe its API to whoever asks (--reflection=false)")
+    missions = int(s.get("max_missions"))
+    per_tenant = int(s.get("max_missions_per_tenant"))
+    if not 1 <= per_tenant < missions:
+        errors.append(f"--max_missions_per_tenant={per_tenant}: want 1 .. {missions - 1} "
+                      f"(below --max_missions={missions})")
+    queue = int(s.get("planning_queue"))
+    plans = int(s.get("max_plans_per_tenant"))
+    if not 1 <= plans < queue:
+        errors.append(f"--max_plans_per_tenant={plans}: want 1 .. {queue - 1} "
+                      f"(below --planning_queue={queue})")
+    return errors
+
+
 def selects(selector, labels):
     return bool(selector) and all(labels.get(k) == v for k, v in selector.items())
 
@@ -1248,6 +1277,7 @@ CHECKS = [
     ("shutdown", "terminationGracePeriodSeconds > --shutdown_grace_s", check_shutdown),
     ("security", "non-root, read-only root, no privilege escalation, capabilities dropped",
      check_security),
+    ("tenants", "tenant quotas below the server's limits, reflection off", check_tenants),
     ("pdb", "a PodDisruptionBudget selects the server's pods", check_pdb),
     ("services", "Service selectors and target ports match pods", check_services),
     ("secrets", "Secrets, ConfigMaps and claims referenced exist (Secrets as placeholders)",
@@ -1491,6 +1521,12 @@ FAULTS = [
      lambda rs: set_flag(rs, "planning_threads", "4")),
     ("single", "a grace period shorter than the drain", "shutdown",
      lambda rs: pod_spec(server_doc(rs)).__setitem__("terminationGracePeriodSeconds", 30)),
+    ("cluster", "reflection left on", "tenants",
+     lambda rs: set_flag(rs, "reflection", "true")),
+    ("single", "no mission quota per tenant", "tenants",
+     lambda rs: set_flag(rs, "max_missions_per_tenant", "0")),
+    ("cluster", "one tenant may fill the planning queue", "tenants",
+     lambda rs: set_flag(rs, "max_plans_per_tenant", "16")),
     ("single", "a writable root filesystem", "security",
      lambda rs: server_container(rs)["securityContext"].__setitem__(
          "readOnlyRootFilesystem", False)),
