@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "api/limits.h"
 #include "core/mapping/dense_backend.h"
 #include "grpcpp/ext/proto_server_reflection_plugin.h"
@@ -182,7 +183,12 @@ absl::Status Server::StartParts() {
   }
   web_view_ = std::make_unique<WebView>(registry_.get(), &auth_);
   if (o.web_port != 0) {
-    if (absl::Status started = web_view_->Start(o.web_address, o.web_port); !started.ok()) {
+    WebViewOptions view{.address = o.web_address,
+                        .port = o.web_port,
+                        .tls_cert = o.tls_cert,
+                        .tls_key = o.tls_key,
+                        .host_names = absl::StrSplit(o.web_hosts, ',', absl::SkipWhitespace())};
+    if (absl::Status started = web_view_->Start(view); !started.ok()) {
       return started;
     }
   }

@@ -75,6 +75,7 @@ struct ServerOptions {
   std::string log_level = "info";                 // trace, debug, info, warn, error or off
   int web_port = 0;                               // 0..65535; 0: off
   std::string web_address = "127.0.0.1";
+  std::string web_hosts;  // comma-separated host names besides web_address
 
   // OK, or InvalidArgument naming every setting out of its range by its
   // flag, each with the reason ("--planning_threads: must be >= 1, got 0;

@@ -5,11 +5,17 @@
 #include <utility>
 #include <vector>
 
+#include "absl/container/flat_hash_map.h"
+#include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "absl/strings/strip.h"
 #include "api/map.h"
 #include "httplib.h"
 #include "nlohmann/json.hpp"
+#include "openssl/rand.h"
 #include "server/http_serving.h"
 #include "server/web/index_html.h"
 #include "spdlog/spdlog.h"
@@ -21,6 +27,7 @@ using nlohmann::json;
 
 constexpr int kThreads = WebView::kMaxStreams + 4;  // streams hold a thread each
 constexpr const char* kJson = "application/json";
+constexpr const char* kSessionCookie = "oaipp_session";
 // Numbers in the JSON: enough digits for a picture, a quarter of the bytes.
 double Short(double v) { return std::round(v * 1e4) / 1e4; }
 
@@ -50,29 +57,104 @@ const char* EventKind(const MissionEventData& e) {
 }  // namespace
 
 WebView::WebView(MissionRegistry* registry, const Authenticator* auth)
-    : registry_(registry), auth_(auth), http_(std::make_unique<httplib::Server>()) {}
+    : registry_(registry), auth_(auth) {}
 
 WebView::~WebView() { Stop(); }
 
-absl::Status WebView::Start(const std::string& address, int port) {
-  if (!IsLoopback(address) && (auth_ == nullptr || !auth_->enabled())) {
+absl::Status WebView::Start(const WebViewOptions& options) {
+  const std::string& address = options.address;
+  const bool loopback = IsLoopback(address);
+  if (!loopback && (auth_ == nullptr || !auth_->enabled())) {
     return absl::InvalidArgumentError(absl::StrCat(
         "web_address: ", address.substr(0, 64),
         " is not loopback; the view shows mission data, so serve it beyond this machine only "
         "with --token_file"));
   }
+  tls_ = !options.tls_cert.empty() && !options.tls_key.empty();
+  if (!loopback && !tls_) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "web_address: ", address.substr(0, 64),
+        " is not loopback; the view's session and tokens would cross the network in the clear, "
+        "so serve it beyond this machine only with --tls_cert and --tls_key"));
+  }
+  const bool wildcard = address == "0.0.0.0" || address == "::" || address == "[::]";
+  if (wildcard && options.host_names.empty()) {
+    return absl::InvalidArgumentError(
+        "web_hosts: name the host names the view is reached by (it binds a wildcard address, "
+        "and answers only requests whose Host is one of its names)");
+  }
+  if (tls_) {
+    http_ = std::make_unique<httplib::SSLServer>(options.tls_cert.c_str(), options.tls_key.c_str());
+    if (!http_->is_valid()) {
+      return absl::UnavailableError("web_port: cannot serve HTTPS with --tls_cert and --tls_key");
+    }
+  } else {
+    http_ = std::make_unique<httplib::Server>();
+  }
   http_->new_task_queue = [] { return new httplib::ThreadPool(kThreads); };
   http_->set_payload_max_length(1 << 16);
   http_->set_keep_alive_max_count(100);
   Routes();
-  port_ = BindExclusive(*http_, address, port);
+  port_ = BindExclusive(*http_, address, options.port);
   if (port_ == 0) {
     return absl::UnavailableError(
-        absl::StrCat("web_port: cannot listen on ", address.substr(0, 64), ":", port));
+        absl::StrCat("web_port: cannot listen on ", address.substr(0, 64), ":", options.port));
+  }
+  std::vector<std::string> names = options.host_names;
+  if (!wildcard) names.push_back(address);
+  if (loopback) {
+    for (const char* name : {"127.0.0.1", "localhost", "[::1]"}) names.emplace_back(name);
+  }
+  for (const std::string& name : names) {
+    const std::string lower = absl::AsciiStrToLower(name);
+    hosts_.insert(lower);
+    // A bare name also answers with the view's port.
+    if (lower.find(':') == std::string::npos || absl::StartsWith(lower, "[")) {
+      if (!absl::StrContains(lower, "]:")) hosts_.insert(absl::StrCat(lower, ":", port_));
+    }
   }
   listener_.Start(http_.get());
-  spdlog::info("web view: http://{}:{}/", address, port_);
+  spdlog::info("web view: {}://{}:{}/", tls_ ? "https" : "http", address, port_);
   return absl::OkStatus();
+}
+
+bool WebView::HostAllowed(const std::string& host) const {
+  return hosts_.contains(absl::AsciiStrToLower(host));
+}
+
+bool WebView::OriginAllowed(const std::string& origin) const {
+  const std::string scheme = tls_ ? "https://" : "http://";
+  if (!absl::StartsWith(origin, scheme)) return false;
+  return HostAllowed(origin.substr(scheme.size()));
+}
+
+std::string WebView::NewSession(const std::string& tenant) {
+  unsigned char bytes[32];
+  if (RAND_bytes(bytes, sizeof(bytes)) != 1) return std::string();
+  const std::string id = absl::BytesToHexString(
+      absl::string_view(reinterpret_cast<const char*>(bytes), sizeof(bytes)));
+  const absl::Time now = absl::Now();
+  absl::MutexLock lock(&sessions_mu_);
+  absl::erase_if(sessions_, [&](const auto& entry) { return entry.second.expires <= now; });
+  if (sessions_.size() >= static_cast<std::size_t>(kMaxSessions)) {
+    auto oldest = std::min_element(
+        sessions_.begin(), sessions_.end(),
+        [](const auto& a, const auto& b) { return a.second.expires < b.second.expires; });
+    sessions_.erase(oldest);
+  }
+  sessions_[id] = Session{tenant, now + kSessionLifetime};
+  return id;
+}
+
+std::optional<std::string> WebView::SessionTenant(const std::string& id) {
+  absl::MutexLock lock(&sessions_mu_);
+  auto it = sessions_.find(id);
+  if (it == sessions_.end()) return std::nullopt;
+  if (it->second.expires <= absl::Now()) {
+    sessions_.erase(it);
+    return std::nullopt;
+  }
+  return it->second.tenant;
 }
 
 void WebView::Stop() {
@@ -171,21 +253,85 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
 }
 
 void WebView::Routes() {
-  // The caller's tenant, or an answer already written (401).
+  // Before any route: a Host or an Origin that is not this view's, and a
+  // token in the URL, are refused.
+  http_->set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+    if (!HostAllowed(req.get_header_value("Host"))) {
+      Error(res, 421, "Host: not a name of this view (--web_hosts lists more)");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.has_header("Origin") && !OriginAllowed(req.get_header_value("Origin"))) {
+      Error(res, 403, "Origin: not this view's");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    if (req.has_param("token")) {
+      Error(res, 400,
+            "token: a token in a URL is refused (it ends up in logs and history); send it in an "
+            "Authorization header, or log in with POST /api/session");
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    return httplib::Server::HandlerResponse::Unhandled;
+  });
+
+  // The caller's tenant, or an answer already written (401): by its
+  // Authorization header, else by its session cookie.
   auto tenant_of = [this](const httplib::Request& req,
                           httplib::Response& res) -> std::optional<std::string> {
     if (auth_ == nullptr || !auth_->enabled()) return std::string();
-    std::string header = req.get_header_value("Authorization");
-    if (header.empty() && req.has_param("token")) {
-      header = absl::StrCat("Bearer ", req.get_param_value("token"));
-    }
-    absl::StatusOr<std::string> tenant = auth_->TenantOfHeader(header.empty() ? nullptr : &header);
-    if (!tenant.ok()) {
+    if (req.has_header("Authorization")) {
+      const std::string header = req.get_header_value("Authorization");
+      absl::StatusOr<std::string> tenant = auth_->TenantOfHeader(&header);
+      if (tenant.ok()) return *tenant;
       Error(res, 401, std::string(tenant.status().message()));
       return std::nullopt;
     }
-    return *tenant;
+    for (absl::string_view cookie :
+         absl::StrSplit(req.get_header_value("Cookie"), ';', absl::SkipWhitespace())) {
+      cookie = absl::StripAsciiWhitespace(cookie);
+      if (absl::ConsumePrefix(&cookie, kSessionCookie) && absl::ConsumePrefix(&cookie, "=")) {
+        if (std::optional<std::string> tenant = SessionTenant(std::string(cookie))) return tenant;
+      }
+    }
+    Error(res, 401, "authentication: log in (POST /api/session with an Authorization header)");
+    return std::nullopt;
   };
+
+  // Logs in: the token in the Authorization header for an HttpOnly cookie.
+  http_->Post("/api/session", [this](const httplib::Request& req, httplib::Response& res) {
+    if (auth_ == nullptr || !auth_->enabled()) {
+      res.status = 204;  // no tokens here: nothing to log in to
+      return;
+    }
+    const std::string header = req.get_header_value("Authorization");
+    absl::StatusOr<std::string> tenant = auth_->TenantOfHeader(header.empty() ? nullptr : &header);
+    if (!tenant.ok()) {
+      Error(res, 401, std::string(tenant.status().message()));
+      return;
+    }
+    const std::string id = NewSession(*tenant);
+    if (id.empty()) {
+      Error(res, 503, "no session: the random source failed");
+      return;
+    }
+    res.set_header(
+        "Set-Cookie",
+        absl::StrCat(kSessionCookie, "=", id, "; Path=/; HttpOnly; SameSite=Strict; Max-Age=",
+                     absl::ToInt64Seconds(kSessionLifetime), tls_ ? "; Secure" : ""));
+    res.set_header("Cache-Control", "no-store");
+    res.status = 204;
+  });
+  http_->Delete("/api/session", [this](const httplib::Request& req, httplib::Response& res) {
+    for (absl::string_view cookie :
+         absl::StrSplit(req.get_header_value("Cookie"), ';', absl::SkipWhitespace())) {
+      cookie = absl::StripAsciiWhitespace(cookie);
+      if (absl::ConsumePrefix(&cookie, kSessionCookie) && absl::ConsumePrefix(&cookie, "=")) {
+        absl::MutexLock lock(&sessions_mu_);
+        sessions_.erase(std::string(cookie));
+      }
+    }
+    res.set_header("Set-Cookie", absl::StrCat(kSessionCookie, "=; Path=/; Max-Age=0"));
+    res.status = 204;
+  });
 
   http_->Get("/", [](const httplib::Request&, httplib::Response& res) {
     res.set_header("Content-Security-Policy",

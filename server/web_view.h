@@ -3,30 +3,55 @@
 // deviation, obstacles, planned and flown paths, detections, people found),
 // updating as the mission's events arrive (server-sent events).
 //
-// Off unless --web_port is given; it binds loopback by default, and a
-// non-loopback address needs a token file, since the page shows mission
-// data. With tokens, every request names one (query parameter `token`, or
-// an "Authorization: Bearer" header) and sees only its tenant's missions.
+// Off unless --web_port is given; it binds loopback by default. Off
+// loopback it needs tokens (--token_file) and TLS (the server's --tls_cert
+// and --tls_key, then it serves HTTPS), since the page shows mission data.
+// With tokens, a request carries an "Authorization: Bearer" header, or the
+// HttpOnly session cookie that POST /api/session hands out for one (what
+// the page uses, so that its event stream needs no token in its URL); a
+// token in a URL is refused. Each sees only its tenant's missions.
+// Requests whose Host is not one of the view's own names (its address, the
+// loopback names on loopback, and --web_hosts), or whose Origin is not
+// on one, are refused: a page elsewhere cannot read the view by DNS
+// rebinding or script it from another site.
 //
 //   WebView view(&registry, &auth);
-//   OAIPP_RETURN_IF_ERROR(view.Start("127.0.0.1", 8080));
+//   OAIPP_RETURN_IF_ERROR(view.Start({.address = "127.0.0.1", .port = 8080}));
 //   ...
 //   view.Stop();
 //
-// HTTP routes (docs/ground-stations.md): / (the page), /api/missions,
-// /api/missions/{id}, /api/missions/{id}/events.
+// HTTP routes (docs/ground-stations.md): / (the page), POST and DELETE
+// /api/session, /api/missions, /api/missions/{id},
+// /api/missions/{id}/events.
 #pragma once
 
 #include <atomic>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "absl/container/flat_hash_map.h"
+#include "absl/container/flat_hash_set.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
+#include "absl/time/time.h"
 #include "server/auth.h"
 #include "server/http_serving.h"
 #include "server/registry.h"
 
 namespace oaipp::server {
+
+struct WebViewOptions {
+  std::string address = "127.0.0.1";
+  int port = 0;  // 0: any free port
+  // PEM files: with both, the view serves HTTPS (required off loopback).
+  std::string tls_cert = {};
+  std::string tls_key = {};
+  // Names the view is reached by besides its address ("host" or
+  // "host:port"), e.g. the machine's DNS name.
+  std::vector<std::string> host_names = {};
+};
 
 class WebView {
  public:
@@ -39,10 +64,17 @@ class WebView {
   WebView& operator=(const WebView&) = delete;
   ~WebView();
 
-  // Binds `address`:`port` (0: any free port) and serves on a thread of its
-  // own. Unavailable when the port cannot be bound; InvalidArgument for a
-  // non-loopback address without tokens.
-  [[nodiscard]] absl::Status Start(const std::string& address, int port);
+  // Sessions held at once (the oldest is dropped past it) and how long one
+  // lasts.
+  static constexpr int kMaxSessions = 1024;
+  static constexpr absl::Duration kSessionLifetime = absl::Hours(12);
+
+  // Binds options.address:options.port and serves on a thread of its own.
+  // Unavailable when the port cannot be bound or the TLS files cannot be
+  // read; InvalidArgument naming the flag for a non-loopback address
+  // without tokens or without TLS, and for a wildcard address without
+  // host_names.
+  [[nodiscard]] absl::Status Start(const WebViewOptions& options);
   // The bound port (after Start).
   [[nodiscard]] int port() const { return port_; }
   // Ends every event stream and stops serving. Idempotent.
@@ -56,10 +88,24 @@ class WebView {
 
  private:
   void Routes();
+  // Whether a Host header / an Origin header names this view.
+  [[nodiscard]] bool HostAllowed(const std::string& host) const;
+  [[nodiscard]] bool OriginAllowed(const std::string& origin) const;
+  // A new session for `tenant` (its cookie value), and the tenant of one.
+  std::string NewSession(const std::string& tenant);
+  [[nodiscard]] std::optional<std::string> SessionTenant(const std::string& id);
 
   MissionRegistry* const registry_;
   const Authenticator* const auth_;
   std::unique_ptr<httplib::Server> http_;
+  bool tls_ = false;
+  absl::flat_hash_set<std::string> hosts_;  // lower case, with and without the port
+  struct Session {
+    std::string tenant;
+    absl::Time expires;
+  };
+  absl::Mutex sessions_mu_;
+  absl::flat_hash_map<std::string, Session> sessions_ ABSL_GUARDED_BY(sessions_mu_);
   ListenThread listener_;
   int port_ = 0;
   std::atomic<bool> stopping_{false};

@@ -51,6 +51,7 @@ ABSL_DECLARE_FLAG(std::string, replica_id);
 ABSL_DECLARE_FLAG(bool, cluster);
 ABSL_DECLARE_FLAG(int, web_port);
 ABSL_DECLARE_FLAG(std::string, web_address);
+ABSL_DECLARE_FLAG(std::string, web_hosts);
 
 namespace oaipp::server {
 
@@ -97,6 +98,7 @@ ServerOptions ServerOptionsFromFlags() {
   options.cluster = absl::GetFlag(FLAGS_cluster);
   options.web_port = absl::GetFlag(FLAGS_web_port);
   options.web_address = absl::GetFlag(FLAGS_web_address);
+  options.web_hosts = absl::GetFlag(FLAGS_web_hosts);
   return options;
 }
 

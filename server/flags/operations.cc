@@ -18,5 +18,9 @@ ABSL_FLAG(int, web_port, kDefaults.web_port,
           "port of the live mission view, a read-only web page (docs/ground-stations.md); "
           "0: off");
 ABSL_FLAG(std::string, web_address, kDefaults.web_address,
-          "address the live view binds; beyond loopback only with --token_file (each request "
-          "then names a token and sees its tenant's missions)");
+          "address the live view binds; beyond loopback only with --token_file and TLS "
+          "(--tls_cert, --tls_key: the view then serves HTTPS; each request logs in with a token "
+          "and sees its tenant's missions)");
+ABSL_FLAG(std::string, web_hosts, kDefaults.web_hosts,
+          "comma-separated host names (host or host:port) the live view answers to besides its "
+          "address; requests naming another Host are refused (needed for a wildcard address)");

@@ -1,11 +1,16 @@
 // The live view's HTTP side, in process: tenants see only their missions,
-// a missing token is refused, the picture data follows a measurement, the
-// event stream says what happened, and the view will not serve beyond
-// loopback without tokens.
+// a missing token is refused and one in a URL too, a login hands out an
+// HttpOnly session cookie, a foreign Host or Origin is refused, the picture
+// data follows a measurement, the event stream says what happened, and the
+// view will not serve beyond loopback without tokens and TLS.
 #include "server/web_view.h"
+
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <string>
 #include <thread>
 
@@ -34,13 +39,16 @@ class WebViewTest : public ::testing::Test {
     const api::MissionConfig config = *api::MissionSpecToConfig(v1::MissionSpec());
     alpha_ = *registry_.Create("survey", config, "", "", "alpha");
     (void)*registry_.Create("other", config, "", "", "bravo");
-    EXPECT_TRUE(view_.Start("127.0.0.1", 0).ok());
+    EXPECT_TRUE(view_.Start(WebViewOptions{}).ok());
   }
 
-  httplib::Result Get(const std::string& path) {
+  // GET with a bearer token (none when empty) and extra headers.
+  httplib::Result Get(const std::string& path, const std::string& token = "",
+                      httplib::Headers headers = {}) {
     httplib::Client client("127.0.0.1", view_.port());
     client.set_read_timeout(10, 0);
-    return client.Get(path.c_str());
+    if (!token.empty()) headers.emplace("Authorization", "Bearer " + token);
+    return client.Get(path.c_str(), headers);
   }
 
   Authenticator auth_;
@@ -59,7 +67,7 @@ TEST_F(WebViewTest, EachTokenSeesItsOwnTenantOnly) {
   ASSERT_TRUE(none);
   EXPECT_EQ(none->status, 401);
 
-  httplib::Result a = Get("/api/missions?token=token-a");
+  httplib::Result a = Get("/api/missions", "token-a");
   ASSERT_TRUE(a);
   ASSERT_EQ(a->status, 200);
   const json missions = json::parse(a->body).at("missions");
@@ -67,16 +75,90 @@ TEST_F(WebViewTest, EachTokenSeesItsOwnTenantOnly) {
   EXPECT_EQ(missions[0].at("id"), "survey");
 
   // Bravo's mission is not there for alpha, in the same words as a missing one.
-  httplib::Result other = Get("/api/missions/other?token=token-a");
+  httplib::Result other = Get("/api/missions/other", "token-a");
   ASSERT_TRUE(other);
   EXPECT_EQ(other->status, 404);
-  httplib::Result missing = Get("/api/missions/nope?token=token-a");
+  httplib::Result missing = Get("/api/missions/nope", "token-a");
   ASSERT_TRUE(missing);
   EXPECT_EQ(missing->status, 404);
-  httplib::Result wrong = Get("/api/missions/survey?token=not-a-token");
+  httplib::Result wrong = Get("/api/missions/survey", "not-a-token");
   ASSERT_TRUE(wrong);
   EXPECT_EQ(wrong->status, 401);
   EXPECT_FALSE(absl::StrContains(wrong->body, "not-a-token"));
+}
+
+// The page's way in: a token in the Authorization header of POST
+// /api/session buys an HttpOnly, SameSite=Strict cookie, which then stands
+// for the token (the event stream included) until DELETE /api/session. A
+// token in a URL is refused whatever it is, and not echoed.
+TEST_F(WebViewTest, ALoginGivesAnHttpOnlyCookieAndTokensStayOutOfUrls) {
+  httplib::Client client("127.0.0.1", view_.port());
+  client.set_read_timeout(10, 0);
+  httplib::Result refused =
+      client.Post("/api/session", {{"Authorization", "Bearer nope"}}, "", "text/plain");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 401);
+  EXPECT_FALSE(refused->has_header("Set-Cookie"));
+  httplib::Result login =
+      client.Post("/api/session", {{"Authorization", "Bearer token-a"}}, "", "text/plain");
+  ASSERT_TRUE(login);
+  ASSERT_EQ(login->status, 204);
+  const std::string cookie = login->get_header_value("Set-Cookie");
+  EXPECT_TRUE(absl::StartsWith(cookie, "oaipp_session=")) << cookie;
+  EXPECT_TRUE(absl::StrContains(cookie, "HttpOnly")) << cookie;
+  EXPECT_TRUE(absl::StrContains(cookie, "SameSite=Strict")) << cookie;
+  EXPECT_FALSE(absl::StrContains(cookie, "token-a"));
+  const std::string session = cookie.substr(0, cookie.find(';'));
+  EXPECT_EQ(session.size(), std::string("oaipp_session=").size() + 64);  // 32 random bytes
+
+  httplib::Result listed = Get("/api/missions", "", {{"Cookie", "theme=dark; " + session}});
+  ASSERT_TRUE(listed);
+  ASSERT_EQ(listed->status, 200);
+  EXPECT_EQ(json::parse(listed->body).at("missions")[0].at("id"), "survey");
+  httplib::Result forged =
+      Get("/api/missions", "", {{"Cookie", "oaipp_session=" + std::string(64, 'a')}});
+  ASSERT_TRUE(forged);
+  EXPECT_EQ(forged->status, 401);
+
+  httplib::Result in_url = Get("/api/missions?token=token-a");
+  ASSERT_TRUE(in_url);
+  EXPECT_EQ(in_url->status, 400);
+  EXPECT_TRUE(absl::StrContains(in_url->body, "token in a URL is refused"));
+  EXPECT_FALSE(absl::StrContains(in_url->body, "token-a"));
+
+  httplib::Result logout = client.Delete("/api/session", {{"Cookie", session}});
+  ASSERT_TRUE(logout);
+  EXPECT_EQ(logout->status, 204);
+  httplib::Result after = Get("/api/missions", "", {{"Cookie", session}});
+  ASSERT_TRUE(after);
+  EXPECT_EQ(after->status, 401);
+}
+
+// DNS rebinding and cross-site scripts: a request naming another Host, or
+// sent from a page of another Origin, is refused before any route runs,
+// with a valid token or not; the view's own names pass.
+TEST_F(WebViewTest, AForeignHostOrOriginIsRefused) {
+  const std::string port = std::to_string(view_.port());
+  for (const std::string& host :
+       std::vector<std::string>{"evil.example:" + port, "evil.example", "127.0.0.2:" + port}) {
+    httplib::Result r = Get("/api/missions", "token-a", {{"Host", host}});
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 421) << host;
+    httplib::Result page = Get("/", "", {{"Host", host}});
+    ASSERT_TRUE(page);
+    EXPECT_EQ(page->status, 421) << host;
+  }
+  httplib::Result origin =
+      Get("/api/missions", "token-a", {{"Origin", "http://evil.example:" + port}});
+  ASSERT_TRUE(origin);
+  EXPECT_EQ(origin->status, 403);
+  for (const std::string& host :
+       std::vector<std::string>{"localhost:" + port, "127.0.0.1:" + port, "LOCALHOST:" + port}) {
+    httplib::Result ok =
+        Get("/api/missions", "token-a", {{"Host", host}, {"Origin", "http://" + host}});
+    ASSERT_TRUE(ok);
+    EXPECT_EQ(ok->status, 200) << host;
+  }
 }
 
 TEST_F(WebViewTest, ThePictureDataFollowsAMeasurement) {
@@ -89,7 +171,7 @@ TEST_F(WebViewTest, ThePictureDataFollowsAMeasurement) {
   ASSERT_TRUE(alpha_->AddMeasurement(input, "m-1").ok());
   ASSERT_TRUE(alpha_->AddMeasurement(input, "m-2").ok());
 
-  httplib::Result r = Get("/api/missions/survey?token=token-a");
+  httplib::Result r = Get("/api/missions/survey", "token-a");
   ASSERT_TRUE(r);
   ASSERT_EQ(r->status, 200);
   const json m = json::parse(r->body);
@@ -128,7 +210,7 @@ TEST_F(WebViewTest, TheEventStreamNamesWhatHappened) {
   });
   // Reads until the first event arrives (or 15 s pass), then hangs up.
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(15);
-  (void)client.Get("/api/missions/survey/events?token=token-a",
+  (void)client.Get("/api/missions/survey/events", {{"Authorization", "Bearer token-a"}},
                    [&](const char* data, std::size_t length) {
                      received.append(data, length);
                      return !absl::StrContains(received, "measurement_fused") &&
@@ -140,13 +222,65 @@ TEST_F(WebViewTest, TheEventStreamNamesWhatHappened) {
   EXPECT_TRUE(absl::StrContains(received, R"("sequence":1)")) << received;
 }
 
-TEST(WebViewStartTest, BeyondLoopbackOnlyWithTokens) {
+TEST(WebViewStartTest, BeyondLoopbackOnlyWithTokensAndTls) {
   MissionRegistry registry({.max_missions = 1, .max_cells_per_mission = 1600});
   Authenticator anyone;
   WebView view(&registry, &anyone);
-  const absl::Status s = view.Start("0.0.0.0", 0);
+  const absl::Status s = view.Start({.address = "0.0.0.0"});
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_TRUE(absl::StartsWith(s.message(), "web_address: 0.0.0.0 is not loopback")) << s;
+  EXPECT_TRUE(absl::StrContains(s.message(), "--token_file")) << s;
+
+  Authenticator tokens =
+      *Authenticator::FromText(absl::StrCat("alpha ", Authenticator::HashToken("t"), "\n"));
+  WebView with_tokens(&registry, &tokens);
+  const absl::Status plain = with_tokens.Start({.address = "0.0.0.0", .host_names = {"ground"}});
+  EXPECT_EQ(plain.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(absl::StrContains(plain.message(), "--tls_cert and --tls_key")) << plain;
+  const absl::Status nameless =
+      with_tokens.Start({.address = "0.0.0.0", .tls_cert = "c.pem", .tls_key = "k.pem"});
+  EXPECT_EQ(nameless.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(absl::StartsWith(nameless.message(), "web_hosts:")) << nameless;
+}
+
+// With the server's certificate the view serves HTTPS (on loopback here;
+// the same holds off it), and its session cookie is Secure.
+TEST(WebViewStartTest, WithTlsTheViewServesHttpsAndSecureCookies) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / absl::StrCat("oaipp-web-tls-", getpid());
+  std::filesystem::create_directories(dir);
+  const std::string d = dir.string();
+  ASSERT_EQ(std::system(("cd " + d +
+                         " && openssl req -x509 -newkey rsa:2048 -nodes -days 2 -subj /CN=localhost"
+                         " -addext subjectAltName=IP:127.0.0.1 -keyout key.pem -out cert.pem"
+                         " >/dev/null 2>&1")
+                            .c_str()),
+            0);
+  MissionRegistry registry({.max_missions = 1, .max_cells_per_mission = 1600});
+  Authenticator tokens =
+      *Authenticator::FromText(absl::StrCat("alpha ", Authenticator::HashToken("t"), "\n"));
+  WebView view(&registry, &tokens);
+  ASSERT_TRUE(
+      view.Start({.address = "127.0.0.1", .tls_cert = d + "/cert.pem", .tls_key = d + "/key.pem"})
+          .ok());
+  httplib::SSLClient client("127.0.0.1", view.port());
+  client.set_ca_cert_path((d + "/cert.pem").c_str());
+  client.enable_server_certificate_verification(true);
+  client.set_read_timeout(10, 0);
+  httplib::Result page = client.Get("/");
+  ASSERT_TRUE(page) << httplib::to_string(page.error());
+  EXPECT_EQ(page->status, 200);
+  httplib::Result login =
+      client.Post("/api/session", {{"Authorization", "Bearer t"}}, "", "text/plain");
+  ASSERT_TRUE(login);
+  EXPECT_EQ(login->status, 204);
+  EXPECT_TRUE(absl::StrContains(login->get_header_value("Set-Cookie"), "; Secure"));
+  httplib::Client plain("127.0.0.1", view.port());
+  plain.set_read_timeout(5, 0);
+  httplib::Result cleartext = plain.Get("/");
+  EXPECT_TRUE(!cleartext || cleartext->status != 200);
+  view.Stop();
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

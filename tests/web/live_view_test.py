@@ -1,9 +1,13 @@
 #!/usr/bin/env python3
 """The live mission view in a real headless Chromium.
 
-Starts the real oaipp-server (memory store, the view on a free loopback
-port) and Chromium, drives the page over the DevTools protocol and checks on
-the page itself, without reloading it:
+Starts the real oaipp-server (memory store, tokens, the view on a free
+loopback port) and Chromium, opens the page as a ground station's operator
+would (/?mission=...#token=...), drives it over the DevTools protocol and
+checks on the page itself, without reloading it:
+  0. the page logs in with the token from the fragment, removes it from the
+     address bar, and no request it makes carries the token in its URL
+     (every URL Chromium requests is recorded), the event stream included;
   1. the mission created over gRPC appears in the list and is drawn;
   2. after AddMeasurement the page shows one measurement and the picture
      (a hash of the canvas pixels) changes;
@@ -17,6 +21,7 @@ Exit 0: pass; 1: fail; 77: skipped (no chromium or websocket module).
 """
 import argparse
 import base64
+import hashlib
 import itertools
 import json
 import os
@@ -48,6 +53,7 @@ class DevTools:
                                                       suppress_origin=True)
         self._ids = itertools.count(1)
         self.exceptions = []
+        self.requested_urls = []  # after Network.enable
 
     def send(self, method, **params):
         call_id = next(self._ids)
@@ -55,6 +61,8 @@ class DevTools:
         deadline = time.time() + TIMEOUT_S
         while time.time() < deadline:
             message = json.loads(self._ws.recv())
+            if message.get("method") == "Network.requestWillBeSent":
+                self.requested_urls.append(message["params"]["request"]["url"])
             if message.get("method") == "Runtime.exceptionThrown":
                 details = message["params"]["exceptionDetails"]
                 self.exceptions.append(
@@ -117,7 +125,12 @@ def main():
 
     work = tempfile.mkdtemp(prefix="oaipp-live-view-")
     web_port = free_port()
-    server = OaippServer(args.server_binary, [f"--web_port={web_port}"])
+    token = "live-view-" + os.urandom(8).hex()
+    with open(os.path.join(work, "tokens"), "w") as f:
+        f.write(f"alpha {hashlib.sha256(token.encode()).hexdigest()}\n")
+    auth = [("authorization", "Bearer " + token)]
+    server = OaippServer(args.server_binary, [f"--web_port={web_port}",
+                                              f"--token_file={os.path.join(work, 'tokens')}"])
     browser = None
     browser_log = None
     page = None
@@ -128,7 +141,8 @@ def main():
             mission_id="view-test",
             spec=pb.MissionSpec(obstacles=[pb.Obstacle(
                 id="house", box=pb.Box(centre_m=pb.Vector3(x=5, y=5, z=4),
-                                       size_m=pb.Vector3(x=4, y=6, z=8)))])), timeout=30)
+                                       size_m=pb.Vector3(x=4, y=6, z=8)))])), timeout=30,
+            metadata=auth)
         print("PASS created mission view-test over gRPC")
 
         browser_log = open(os.path.join(work, "chromium.log"), "w+")
@@ -155,13 +169,14 @@ def main():
         # A page target of its own, then its websocket.
         devtools_port = int(re.search(r":(\d+)/", endpoint).group(1))
         browser_ws = DevTools(websocket, endpoint)
-        url = f"http://127.0.0.1:{web_port}/?mission=view-test"
-        target = browser_ws.send("Target.createTarget", url=url)["targetId"]
+        target = browser_ws.send("Target.createTarget", url="about:blank")["targetId"]
         browser_ws.close()
         page = DevTools(websocket,
                         f"ws://127.0.0.1:{devtools_port}/devtools/page/{target}")
-        # Also reports exceptions thrown before this call.
         page.send("Runtime.enable")
+        page.send("Network.enable")
+        url = f"http://127.0.0.1:{web_port}/?mission=view-test#token={token}"
+        page.send("Page.navigate", url=url)
 
         # 1. The mission is listed and drawn.
         wait_for(page, "document.querySelector('li[data-mission=\"view-test\"]') !== null",
@@ -183,7 +198,8 @@ def main():
         stub.AddMeasurement(pb.AddMeasurementRequest(
             name="missions/view-test", mission_time_s=1.0,
             camera_position_m=pb.Vector3(x=-5, y=-5, z=10),
-            labels=pb.CellLabels(cells=cells, labels=labels), request_id="m-1"), timeout=30)
+            labels=pb.CellLabels(cells=cells, labels=labels), request_id="m-1"), timeout=30,
+            metadata=auth)
         wait_for(page, "document.body.dataset.measurements === '1' && "
                        f"document.body.dataset.canvasHash !== '{first['hash']}'",
                  "the measurement on the page")
@@ -197,7 +213,7 @@ def main():
         stub.PlanPath(pb.PlanPathRequest(
             name="missions/view-test",
             state=pb.UavState(position_m=pb.Vector3(x=0, y=0, z=10), mission_time_s=2.0),
-            planning_budget_s=2.0), timeout=60)
+            planning_budget_s=2.0), timeout=60, metadata=auth)
         wait_for(page, f"Number(document.body.dataset.sequence) > {int(second['sequence'])} && "
                        f"document.body.dataset.canvasHash !== '{second['hash']}'",
                  "the plan on the page")
@@ -208,6 +224,20 @@ def main():
         draws = int(page.evaluate("document.body.dataset.draws"))
         assert draws >= 3, f"expected at least 3 redraws of the same page, got {draws}"
         print(f"PASS title: {third['title']!r}; status: {third['status']!r}")
+
+        # 0. The token never reached a URL the page requested, and the
+        # fragment that carried it is gone from the address bar.
+        page.evaluate("0")
+        urls = [u for u in page.requested_urls if u.startswith("http")]
+        assert any(u.endswith("/events") for u in urls), f"no event stream requested: {urls}"
+        assert any("/api/session" in u for u in urls), f"no login: {urls}"
+        for u in urls:
+            assert token not in u.split("#")[0] and "token=" not in u.split("#")[0], \
+                f"a request carried the token in its URL: {u}"
+        href = page.evaluate("location.href")
+        assert token not in href, f"the token stayed in the address bar: {href}"
+        print(f"PASS {len(urls)} requests (login, data, event stream), none with the token "
+              "in its URL; the address bar no longer holds it")
 
         # 4. Uncaught exceptions would leave a stale picture behind.
         page.evaluate("0")
