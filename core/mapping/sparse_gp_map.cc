@@ -10,6 +10,15 @@
 #include "cholmod.h"
 #include "core/common/status_macros.h"
 
+// The reference BLAS interface (Fortran symbols), as CHOLMOD itself calls
+// it: Debian resolves libblas.so.3 to OpenBLAS when it is installed, with
+// kernels for the CPU at hand, where Eigen's own product is built for
+// generic x86-64.
+extern "C" void dgemm_(const char* transa, const char* transb, const int* m, const int* n,
+                       const int* k, const double* alpha, const double* a, const int* lda,
+                       const double* b, const int* ldb, const double* beta, double* c,
+                       const int* ldc);
+
 namespace oaipp {
 
 // CHOLMOD's workspace and the factor, freed together.
@@ -74,7 +83,7 @@ Eigen::VectorXd SupernodalTakahashiDiagonal(const cholmod_factor& f) {
   }
   std::vector<double> z(f.xsize, 0.0);
   std::vector<int> pos;
-  MatrixXd zrr, u, zrs, inverse;
+  MatrixXd zrr, u, zrs, inverse, inverse_product;
   Eigen::VectorXd diagonal(n);
   for (int t = nsuper - 1; t >= 0; --t) {
     const int w = super[t + 1] - super[t];
@@ -109,10 +118,19 @@ Eigen::VectorXd SupernodalTakahashiDiagonal(const cholmod_factor& f) {
     inverse = lss.solve(MatrixXd::Identity(w, w));
     Eigen::Map<MatrixXd> zt(z.data() + px[t], nr, w);
     if (r > 0) {
-      u = l.bottomRows(r) * inverse;
-      zrs.noalias() = -zrr * u;
+      // u = L_RS L_SS^-1, zrs = -zrr u and Z_SS -= u^T zrs: the products
+      // that cost, on BLAS.
+      const double minus_one = -1.0, one = 1.0, zero = 0.0;
+      u.resize(r, w);
+      zrs.resize(r, w);
+      dgemm_("N", "N", &r, &w, &w, &one, lx + px[t] + w, &nr, inverse.data(), &w, &zero, u.data(),
+             &r);
+      dgemm_("N", "N", &r, &w, &r, &minus_one, zrr.data(), &r, u.data(), &r, &zero, zrs.data(), &r);
       zt.bottomRows(r) = zrs;
-      zt.topRows(w).noalias() = inverse.transpose() * inverse - u.transpose() * zrs;
+      inverse_product.noalias() = inverse.transpose() * inverse;
+      dgemm_("T", "N", &w, &w, &r, &minus_one, u.data(), &r, zrs.data(), &r, &one,
+             inverse_product.data(), &w);
+      zt.topRows(w) = inverse_product;
     } else {
       zt.topRows(w).noalias() = inverse.transpose() * inverse;
     }
