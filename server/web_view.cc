@@ -43,6 +43,18 @@ void Error(httplib::Response& res, int status, const std::string& message) {
   res.set_content(json{{"error", message}}.dump(), kJson);
 }
 
+// The value of the session cookie the request carries, if any.
+std::optional<std::string> SessionId(const httplib::Request& req) {
+  for (absl::string_view cookie :
+       absl::StrSplit(req.get_header_value("Cookie"), ';', absl::SkipWhitespace())) {
+    cookie = absl::StripAsciiWhitespace(cookie);
+    if (absl::ConsumePrefix(&cookie, kSessionCookie) && absl::ConsumePrefix(&cookie, "=")) {
+      return std::string(cookie);
+    }
+  }
+  return std::nullopt;
+}
+
 const char* EventKind(const MissionEventData& e) {
   if (std::holds_alternative<MissionEventData::MeasurementFused>(e.event)) {
     return "measurement_fused";
@@ -285,12 +297,8 @@ void WebView::Routes() {
       Error(res, 401, std::string(tenant.status().message()));
       return std::nullopt;
     }
-    for (absl::string_view cookie :
-         absl::StrSplit(req.get_header_value("Cookie"), ';', absl::SkipWhitespace())) {
-      cookie = absl::StripAsciiWhitespace(cookie);
-      if (absl::ConsumePrefix(&cookie, kSessionCookie) && absl::ConsumePrefix(&cookie, "=")) {
-        if (std::optional<std::string> tenant = SessionTenant(std::string(cookie))) return tenant;
-      }
+    if (const std::optional<std::string> id = SessionId(req)) {
+      if (std::optional<std::string> tenant = SessionTenant(*id)) return tenant;
     }
     Error(res, 401, "authentication: log in (POST /api/session with an Authorization header)");
     return std::nullopt;
@@ -321,13 +329,9 @@ void WebView::Routes() {
     res.status = 204;
   });
   http_->Delete("/api/session", [this](const httplib::Request& req, httplib::Response& res) {
-    for (absl::string_view cookie :
-         absl::StrSplit(req.get_header_value("Cookie"), ';', absl::SkipWhitespace())) {
-      cookie = absl::StripAsciiWhitespace(cookie);
-      if (absl::ConsumePrefix(&cookie, kSessionCookie) && absl::ConsumePrefix(&cookie, "=")) {
-        absl::MutexLock lock(&sessions_mu_);
-        sessions_.erase(std::string(cookie));
-      }
+    if (const std::optional<std::string> id = SessionId(req)) {
+      absl::MutexLock lock(&sessions_mu_);
+      sessions_.erase(*id);
     }
     res.set_header("Set-Cookie", absl::StrCat(kSessionCookie, "=; Path=/; Max-Age=0"));
     res.status = 204;
