@@ -107,4 +107,22 @@ absl::StatusOr<std::string> Authenticator::TenantOf(const grpc::ServerContextBas
   return TenantOfHeader(&value);
 }
 
+grpc::Status TokenCheck::Process(const InputMetadata& auth_metadata, grpc::AuthContext*,
+                                 OutputMetadata*, OutputMetadata*) {
+  if (!auth_->enabled()) return grpc::Status::OK;
+  const auto path = auth_metadata.find(":path");
+  if (path == auth_metadata.end() ||
+      !absl::StartsWith(absl::string_view(path->second.data(), path->second.size()),
+                        "/oaipp.v1.MissionService/")) {
+    return grpc::Status::OK;
+  }
+  const auto header = auth_metadata.find("authorization");
+  std::string value;
+  if (header != auth_metadata.end()) value.assign(header->second.data(), header->second.size());
+  const absl::StatusOr<std::string> tenant =
+      auth_->TenantOfHeader(header == auth_metadata.end() ? nullptr : &value);
+  if (tenant.ok()) return grpc::Status::OK;
+  return grpc::Status(grpc::StatusCode::UNAUTHENTICATED, std::string(tenant.status().message()));
+}
+
 }  // namespace oaipp::server

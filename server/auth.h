@@ -16,6 +16,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "grpcpp/security/auth_metadata_processor.h"
 #include "grpcpp/server_context.h"
 
 namespace oaipp::server {
@@ -43,6 +44,29 @@ class Authenticator {
 
  private:
   std::map<std::string, std::string> tenant_by_hash_;
+};
+
+// The token check before a call's request is read, where gRPC offers one
+// (with TLS credentials: an AuthMetadataProcessor runs on the call's
+// metadata when it arrives). A call to the mission service with a missing
+// or unknown token is refused UNAUTHENTICATED there, so its body is never
+// parsed; other services (health, reflection) pass, and so does a call
+// whose metadata lacks the method's path. It only decides yes or no: the
+// handlers still read the tenant from the call's own metadata (the
+// processor's AuthContext belongs to the connection, which calls with
+// different tokens may share).
+class TokenCheck : public grpc::AuthMetadataProcessor {
+ public:
+  // `auth` must outlive the check.
+  explicit TokenCheck(const Authenticator* auth) : auth_(auth) {}
+  // A map lookup and a hash: done on gRPC's own thread.
+  [[nodiscard]] bool IsBlocking() const override { return false; }
+  grpc::Status Process(const InputMetadata& auth_metadata, grpc::AuthContext* context,
+                       OutputMetadata* consumed_auth_metadata,
+                       OutputMetadata* response_metadata) override;
+
+ private:
+  const Authenticator* const auth_;
 };
 
 }  // namespace oaipp::server

@@ -108,6 +108,10 @@ absl::Status Server::StartParts() {
     }
     auth_ = *std::move(loaded);
     spdlog::info("auth: {} tenants from {}", auth_.tenants(), o.token_file);
+    // Under TLS a bad token is refused before the request is read.
+    if (!o.tls_cert.empty()) {
+      (*credentials)->SetAuthMetadataProcessor(std::make_shared<TokenCheck>(&auth_));
+    }
   }
   std::int64_t max_memory = o.max_memory_mb << 20;
   if (max_memory == 0) {

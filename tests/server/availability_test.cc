@@ -19,6 +19,7 @@
 #include "grpcpp/generic/generic_stub.h"
 #include "gtest/gtest.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/auth.h"
 #include "tests/server/server_process.h"
 #include "tests/server/service_fixture.h"
 
@@ -220,6 +221,63 @@ TEST_F(TlsTest, ServerTlsAloneServesClientsThatTrustTheCa) {
   other.pem_root_certs = ReadAll(File("client.pem"));
   EXPECT_EQ(Probe(grpc::CreateChannel(server.address(), grpc::SslCredentials(other))),
             grpc::StatusCode::UNAVAILABLE);
+}
+
+// One unary call with a raw body (bytes that need not parse) and an
+// optional authorization header; its status code.
+grpc::StatusCode RawUnary(const std::shared_ptr<grpc::Channel>& channel, const std::string& method,
+                          const std::string& body, const std::string& authorization) {
+  grpc::GenericStub generic(channel);
+  grpc::CompletionQueue queue;
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  if (!authorization.empty()) context.AddMetadata("authorization", authorization);
+  grpc::Slice slice(body);
+  const grpc::ByteBuffer request(&slice, 1);
+  auto call = generic.PrepareUnaryCall(&context, method, request, &queue);
+  call->StartCall();
+  grpc::ByteBuffer response;
+  grpc::Status status;
+  call->Finish(&response, &status, nullptr);
+  void* tag = nullptr;
+  bool ok = false;
+  (void)queue.Next(&tag, &ok);
+  queue.Shutdown();
+  while (queue.Next(&tag, &ok)) {
+  }
+  return status.error_code();
+}
+
+// Under TLS the token is checked on the call's metadata, before its request
+// is read: a body that cannot parse is refused UNAUTHENTICATED with a
+// missing or unknown token (parsing never ran), and fails to parse with a
+// good one (it did). Health answers without a token.
+TEST_F(TlsTest, ABadTokenIsRefusedBeforeTheRequestIsRead) {
+  {
+    std::ofstream tokens(File("tokens"));
+    tokens << "alpha " << Authenticator::HashToken("good-token") << "\n";
+  }
+  testing::ServerProcess server(
+      FreePort(), {"--store=memory", "--tls_cert=" + File("server.pem"),
+                   "--tls_key=" + File("server.key"), "--token_file=" + File("tokens")});
+  ASSERT_TRUE(server.Start());
+  grpc::SslCredentialsOptions trust;
+  trust.pem_root_certs = ReadAll(File("ca.pem"));
+  const auto channel = grpc::CreateChannel(server.address(), grpc::SslCredentials(trust));
+  const std::string garbage(64, '\xff');
+  const std::string method = "/oaipp.v1.MissionService/AddMeasurement";
+  EXPECT_EQ(RawUnary(channel, method, garbage, "Bearer not-a-token"),
+            grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_EQ(RawUnary(channel, method, garbage, ""), grpc::StatusCode::UNAUTHENTICATED);
+  const grpc::StatusCode parsed = RawUnary(channel, method, garbage, "Bearer good-token");
+  EXPECT_NE(parsed, grpc::StatusCode::UNAUTHENTICATED);
+  EXPECT_NE(parsed, grpc::StatusCode::OK);
+  auto health = grpc::health::v1::Health::NewStub(channel);
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+  grpc::health::v1::HealthCheckRequest request;
+  grpc::health::v1::HealthCheckResponse response;
+  EXPECT_TRUE(health->Check(&context, request, &response).ok());
 }
 
 // Without TLS the server refuses a non-loopback address (exit 2, before it
