@@ -78,7 +78,7 @@ std::optional<Admission::TakeOffRefusal> Admission::AdmitTakeOff(
   // it has waited the patience since its first refusal.
   const int waiting = planners_->waiting();
   const int threads = planners_->threads();
-  const absl::Time now = absl::Now();
+  const absl::Time now = limits_.clock->Now();
   const bool patience_over =
       grounded_since.has_value() && now - *grounded_since >= limits_.take_off_patience;
   absl::MutexLock lock(&quota_mu_);
@@ -121,7 +121,7 @@ absl::Duration Admission::FairShare() const {
     absl::MutexLock lock(&quota_mu_);
     newest = newest_plan_;
   }
-  return (newest + bound - absl::Now()) * planners_->threads() / (behind + 1);
+  return (newest + bound - limits_.clock->Now()) * planners_->threads() / (behind + 1);
 }
 
 int Admission::open_streams() const {

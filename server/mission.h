@@ -205,6 +205,7 @@ class Mission {
   // Watchers get every event after they subscribe.
   [[nodiscard]] std::shared_ptr<EventQueue> Subscribe() { return events_.Subscribe(); }
   void Unsubscribe(const std::shared_ptr<EventQueue>& queue) { events_.Unsubscribe(queue); }
+  [[nodiscard]] int watchers() const { return events_.watchers(); }
   // Moves this mission's watchers to `successor` (the same mission read
   // back from the store).
   void HandWatchersTo(Mission& successor);

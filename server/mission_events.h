@@ -100,6 +100,11 @@ class MissionEvents {
   void HandTo(MissionEvents& successor);
   // The number of the last event (0 before the first).
   [[nodiscard]] std::int64_t last_sequence() const;
+  // Watchers subscribed now.
+  [[nodiscard]] int watchers() const {
+    absl::MutexLock lock(&mu_);
+    return static_cast<int>(watchers_.size());
+  }
 
  private:
   mutable absl::Mutex mu_;

@@ -33,7 +33,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
         context_(context),
         request_(request),
         response_(response),
-        arrived_(absl::Now()) {
+        arrived_(service->limits_.clock->Now()) {
     service_->TagReplica(context_);
     // A plan that was queued is counted (metrics, log) when it ends.
     const absl::Status status = service_->Run(
@@ -106,7 +106,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
       std::optional<Admission::TakeOffRefusal> refused =
           service_->admission_.AdmitTakeOff(mission_->grounded_since());
       if (refused.has_value()) {
-        mission_->NoteTakeOffRefused(absl::Now());
+        mission_->NoteTakeOffRefused(service_->limits_.clock->Now());
         const std::int64_t ms =
             std::max<std::int64_t>(1, absl::ToInt64Milliseconds(refused->retry_after));
         context_->AddTrailingMetadata(api::kRetryAfterHeader, absl::StrCat(ms));
@@ -137,7 +137,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     const absl::Status status = service_->Run("PlanPath", [&]() -> absl::Status {
       if (call_.cancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
       call_.search_fraction = service_->admission_.SearchFraction();
-      call_.queued = absl::Now() - arrived_;
+      call_.queued = service_->limits_.clock->Now() - arrived_;
       if (const absl::Duration bound = service_->limits_.plan_latency;
           bound > absl::ZeroDuration()) {
         // The plan and those queued behind it share the time left until

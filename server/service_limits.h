@@ -7,6 +7,7 @@
 #include <string>
 
 #include "absl/time/time.h"
+#include "server/clock.h"
 
 namespace oaipp::server {
 
@@ -69,6 +70,9 @@ struct ServiceLimits {
   // api::kReplicaHeader (which server answered: for operators and tests of
   // a cluster); empty: not sent.
   std::string replica_id = {};
+  // What elapsed time is read from for pacing, patience and the latency
+  // bound's shares (server/clock.h); must outlive the service.
+  const Clock* clock = Clock::Real();
 };
 
 }  // namespace oaipp::server

@@ -534,8 +534,10 @@ TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) 
   // generations), and the plan waits longer than the bound.
   constexpr absl::Duration kBound = absl::Seconds(1);
   constexpr absl::Duration kHeld = absl::Milliseconds(1500);
+  ManualClock clock;
   InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
-                     /*planning_queue=*/8, nullptr, nullptr, {.plan_latency = kBound});
+                     /*planning_queue=*/8, nullptr, nullptr,
+                     {.plan_latency = kBound, .clock = &clock});
   for (const char* id : {"late", "free"}) {
     grpc::ClientContext context;
     v1::CreateMissionRequest create;
@@ -558,16 +560,17 @@ TEST(ServiceTest, PlansThatWaitedPastTheLatencyBoundAnswerWithTheirGreedyStart) 
   v1::PlanPathResponse late;
   grpc::Status late_status;
   std::thread caller([&] { late_status = plan("late", &late); });
-  ASSERT_TRUE(Eventually([&] { return s.planners().waiting() == 1; }));
-  absl::SleepFor(kHeld);
+  // The blocker runs and the late plan waits behind it.
+  ASSERT_TRUE(
+      Eventually([&] { return s.planners().running() == 1 && s.planners().waiting() == 1; }));
+  clock.Advance(kHeld);
   release.Notify();
   caller.join();
   ASSERT_TRUE(late_status.ok()) << late_status.error_message();
   EXPECT_EQ(late.stats().stop_reason(), "deadline");
   EXPECT_LT(late.stats().generations(), 50000);
-  // It waited past the bound (held 1.5 s; the server's clock and the
-  // test's sleep need not agree to the millisecond).
-  EXPECT_GT(late.stats().queued_s(), absl::ToDoubleSeconds(kBound));
+  // It waited past the bound: held 1.5 s on the service's clock.
+  EXPECT_DOUBLE_EQ(late.stats().queued_s(), absl::ToDoubleSeconds(kHeld));
   EXPECT_TRUE(late.collision_free());
   EXPECT_GT(late.trajectory().segments_size(), 0);
 
@@ -715,18 +718,21 @@ TEST(ServiceTest, TakeOffsWaitWhileReplansQueue) {
 
 // Past the patience since its first refusal, a take-off is no longer held
 // back by a waiting replan (before it, it is), but the take-off limit still
-// holds; once it has flown, a new take-off waits afresh.
+// holds; once it has flown, a new take-off waits afresh. The service's clock
+// is moved by hand past the patience.
 TEST(ServiceTest, TakeOffsWaitForReplansOnlyUntilThePatience) {
-  InProcessService s({.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
-                     /*planning_queue=*/8, nullptr, nullptr,
-                     {.max_take_off_plans = 1, .take_off_patience = absl::Seconds(1)});
+  ManualClock clock;
+  InProcessService s(
+      {.max_missions = 8, .max_cells_per_mission = 1600}, /*planning_threads=*/1,
+      /*planning_queue=*/8, nullptr, nullptr,
+      {.max_take_off_plans = 1, .take_off_patience = absl::Seconds(1), .clock = &clock});
   for (const char* id : {"flying", "grounded", "other"}) CreateSmall(s.stub(), id);
   {
     ReplanWaiting waiting(s, "flying", 5.0);
     ASSERT_TRUE(waiting.queued());
     const PacingAnswer first = PlanAt(s, "grounded", 0.0, 0.0);
     const PacingAnswer again = PlanAt(s, "grounded", 0.0, 0.0);
-    absl::SleepFor(absl::Milliseconds(1200));
+    clock.Advance(absl::Milliseconds(1200));
     PacingAnswer patient;
     std::thread grounded([&] { patient = PlanAt(s, "grounded", 0.0, 0.0); });
     const bool admitted = Eventually([&] { return s.planners().waiting() == 2; });
@@ -889,7 +895,7 @@ TEST(ServiceTest, ThePlanningBudgetStartsWhenAPlannerIsFree) {
     v1::PlanPathResponse path;
     EXPECT_TRUE(s.stub().PlanPath(&context, request, &path).ok());
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // let it take the slot
+  ASSERT_TRUE(Eventually([&] { return s.planners().running() == 1; }));  // it holds the slot
   v1::PlanPathResponse path;
   const grpc::Status status = PlanWithBudget(s.stub(), "second", 0.5, &path);
   EXPECT_TRUE(status.ok()) << status.error_message();
@@ -922,7 +928,7 @@ TEST(ServiceTest, CallsDoNotWaitForAnotherMissionsPlan) {
     EXPECT_TRUE(s.stub().PlanPath(&context, request, &path).ok());
     plan_returned = true;
   });
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let the plan start
+  ASSERT_TRUE(Eventually([&] { return s.planners().running() == 1; }));  // the plan runs
   CreateSmall(s.stub(), "other");
   {
     grpc::ClientContext context;
@@ -981,9 +987,9 @@ TEST(ServiceTest, WatchMissionStreamsEventsUntilDeleted) {
   v1::WatchMissionRequest watch;
   watch.set_name("missions/w");
   auto reader = s.stub().WatchMission(&watch_context, watch);
-  // Give the stream time to subscribe, then make two events.
+  // Once the stream has subscribed, two events.
   std::thread actor([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    EXPECT_TRUE(Eventually([&] { return (*s.registry().Get("missions/w"))->watchers() == 1; }));
     grpc::ClientContext c1;
     v1::AddMeasurementResponse r;
     EXPECT_TRUE(
