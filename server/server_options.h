@@ -23,7 +23,7 @@ namespace oaipp::server {
 struct ServerOptions {
   // --- calls
   std::string listen = "127.0.0.1:50051";  // host:port, [v6]:port or unix:path
-  int worker_threads = 16;                 // >= 2
+  int worker_threads = 128;                // >= 2
   bool reflection = true;
   double shutdown_grace_s = 10.0;   // >= 0
   int max_streams = 256;            // >= 1
@@ -38,7 +38,7 @@ struct ServerOptions {
 
   // --- planning and overload
   int planning_threads = 2;                    // >= 1
-  int planning_queue = 16;                     // >= 0
+  int planning_queue = 128;                    // >= 0
   int planning_nice = 10;                      // 0..19
   double max_planning_s = 60.0;                // (0, 1e6)
   int max_plans_per_tenant = 0;                // >= 0; 0: no quota

@@ -12,7 +12,9 @@ const oaipp::server::ServerOptions kDefaults;
 }  // namespace
 
 ABSL_FLAG(std::string, listen, kDefaults.listen, "gRPC listen address (host:port)");
-ABSL_FLAG(int, worker_threads, kDefaults.worker_threads, "most threads serving RPCs at once");
+ABSL_FLAG(int, worker_threads, kDefaults.worker_threads,
+          "most threads serving the quick RPCs at once (streams and plans hold none); past it a "
+          "call is RESOURCE_EXHAUSTED. A fleet creating its missions at once needs one each");
 ABSL_FLAG(bool, reflection, kDefaults.reflection,
           "serve gRPC server reflection (for grpcurl and similar tools)");
 ABSL_FLAG(double, shutdown_grace_s, kDefaults.shutdown_grace_s,

@@ -512,15 +512,16 @@ int main(int argc, char** argv) {
       "(--help lists them).");
   SetLoadDefaults();
   absl::ParseCommandLine(argc, argv);
-  // --planning_queue is as long as the missions need (4 x --missions)
-  // unless given.
+  // --planning_queue holds a plan of every mission (one each is in flight)
+  // unless given: oaipp-server's default already does for up to 128.
   const bool queue_given = std::any_of(argv + 1, argv + argc, [](const char* arg) {
     return absl::StartsWith(arg, "--planning_queue") || absl::StartsWith(arg, "-planning_queue");
   });
-  if (!queue_given) {
+  if (!queue_given &&
+      absl::GetFlag(FLAGS_missions) > oaipp::server::ServerOptionsFromFlags().planning_queue) {
     std::string error;
     (void)absl::FindCommandLineFlag("planning_queue")
-        ->ParseFrom(std::to_string(4 * absl::GetFlag(FLAGS_missions)), &error);
+        ->ParseFrom(std::to_string(absl::GetFlag(FLAGS_missions)), &error);
   }
   const oaipp::server::ServerOptions options = oaipp::server::ServerOptionsFromFlags();
   spdlog::set_level(spdlog::level::from_str(options.log_level));
