@@ -1526,7 +1526,7 @@ FAULTS = [
     ("single", "no mission quota per tenant", "tenants",
      lambda rs: set_flag(rs, "max_missions_per_tenant", "0")),
     ("cluster", "one tenant may fill the planning queue", "tenants",
-     lambda rs: set_flag(rs, "max_plans_per_tenant", "16")),
+     lambda rs: set_flag(rs, "max_plans_per_tenant", "32")),
     ("single", "a writable root filesystem", "security",
      lambda rs: server_container(rs)["securityContext"].__setitem__(
          "readOnlyRootFilesystem", False)),
