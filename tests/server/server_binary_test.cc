@@ -231,7 +231,11 @@ TEST(ServerBinaryTest, LongRequestIdsAreRefusedWithoutGrowingTheServer) {
   const std::int64_t after = ResidentBytes(server.pid());
   ASSERT_GT(before, 0);
   // 21 MB of ids went in; kept, they would be held several times over.
+  // (Under AddressSanitizer freed memory stays resident in its quarantine,
+  // so there the figure says nothing; the Release build checks it.)
+#if !defined(__SANITIZE_ADDRESS__)
   EXPECT_LT(after - before, 16 << 20) << "before " << before << ", after " << after;
+#endif
   {
     grpc::ClientContext context;
     v1::AddMeasurementRequest request = testing::LabelMeasurement("missions/ids", 1, 1, 9, 1, 1);
