@@ -54,12 +54,6 @@ int main(int argc, char** argv) {
         spdlog::debug("protobuf: {}", message.substr(0, 200));
       });
 
-  // Before any thread of ours starts: loading OpenBLAS may set its
-  // environment.
-  if (absl::Status set = oaipp::server::SetUpProcess(options); !set.ok()) {
-    spdlog::error("bad flags: {}", std::string(set.message()));
-    return 2;
-  }
   // SIGTERM and SIGINT drain the server from here on, whichever thread
   // receives them (server/stop_signals.h says why a mask is not enough).
   absl::StatusOr<oaipp::server::StopSignals> stop_signals = oaipp::server::StopSignals::Install();

@@ -102,9 +102,14 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
         needed));
   }
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
+  // The map's updates run on the backend the objective's products run on
+  // (the server's --dense_backend).
   auto prior = [&]() -> absl::StatusOr<GpMap> {
-    return caches.priors != nullptr ? caches.priors->NewMap(grid, config.gp)
-                                    : GpMap::Create(grid, config.gp);
+    OAIPP_ASSIGN_OR_RETURN(GpMap map, caches.priors != nullptr
+                                          ? caches.priors->NewMap(grid, config.gp)
+                                          : GpMap::Create(grid, config.gp));
+    map.set_dense_backend(config.planner.common.information.dense_backend);
+    return map;
   };
   std::shared_ptr<GpMap> map;
   std::shared_ptr<const StartMap> start_map;

@@ -30,6 +30,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   }
   OAIPP_ASSIGN_OR_RETURN(
       GpMap map, GpMap::FromPrior(grid, std::move(state.mean), std::move(state.covariance)));
+  map.set_dense_backend(config.planner.common.information.dense_backend);
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
   std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),

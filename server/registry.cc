@@ -197,7 +197,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   // there is a store to write it to).
   const std::string spec =
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
-  config.planner.common.information.single_precision = limits_.single_precision_objective;
+  ApplyServerSettings(config);
   absl::StatusOr<std::shared_ptr<Mission>> mission =
       Mission::Create(key, std::move(config), caches_);
   if (mission.ok()) {
@@ -222,6 +222,11 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     created_by_request_.Remember(request_key, {key, fingerprint});
   }
   return mission;
+}
+
+void MissionRegistry::ApplyServerSettings(MissionConfig& config) const {
+  config.planner.common.information.single_precision = limits_.single_precision_objective;
+  config.planner.common.information.dense_backend = limits_.dense_backend;
 }
 
 void MissionRegistry::Register(const std::string& key, std::shared_ptr<Mission> mission) {
@@ -321,7 +326,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMi
   if (!spec.ParseFromString(m.spec)) return absl::DataLossError("spec: does not parse");
   absl::StatusOr<MissionConfig> config = api::MissionSpecToConfig(spec);
   if (!config.ok()) return absl::DataLossError(absl::StrCat("spec: ", config.status().message()));
-  config->planner.common.information.single_precision = limits_.single_precision_objective;
+  ApplyServerSettings(*config);
   absl::StatusOr<std::shared_ptr<Mission>> mission;
   std::int64_t last_write_us = m.create_time_unix_us;
   if (m.snapshot.has_value()) {

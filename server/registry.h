@@ -20,6 +20,7 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
+#include "core/mapping/dense_backend.h"
 #include "core/mapping/prior_cache.h"
 #include "server/mission.h"
 #include "server/request_memo.h"
@@ -59,11 +60,14 @@ struct RegistryLimits {
   // this server still holds the mission it names, and a copy another server
   // took over is dropped.
   bool shared_store = false;
-  // Not a limit but a server-wide setting every mission's planner gets (it
-  // is not part of the spec, so a restored mission takes this server's):
-  // the adaptive objective's solves in single precision
-  // (InformationParams::single_precision, --objective_precision).
+  // Not limits but server-wide settings every mission gets (they are not
+  // part of the spec, so a restored mission takes this server's): the
+  // adaptive objective's solves in single precision
+  // (InformationParams::single_precision, --objective_precision), and where
+  // the map's and the objective's dense products run
+  // (InformationParams::dense_backend, --dense_backend).
   bool single_precision_objective = false;
+  DenseBackend dense_backend = {};
 };
 
 // What a mission of `config` may hold at its peak, in bytes: its map (mean
@@ -205,6 +209,8 @@ class MissionRegistry {
   // A mission rebuilt from what the store holds: its snapshot (if any),
   // then the records after it replayed; it writes at stored.epoch.
   absl::StatusOr<std::shared_ptr<Mission>> Rebuild(const StoredMission& stored);
+  // Gives a mission's config this server's settings (RegistryLimits).
+  void ApplyServerSettings(MissionConfig& config) const;
   // The mission held under `key`, or nullptr.
   std::shared_ptr<Mission> Find(const std::string& key) const;
   // Shared store: `held` (or nullptr) if this server still holds the

@@ -72,35 +72,47 @@ class WithoutReflection final : public grpc::ServerBuilderOption {
 
 }  // namespace
 
-absl::Status SetUpProcess(const ServerOptions& options) {
+// The dense backend --dense_backend names: OpenBLAS when asked for and
+// loadable (a failure to load it is logged and Eigen kept), else Eigen.
+DenseBackend ChooseDenseBackend(const ServerOptions& options) {
+  DenseBackend backend;
   if (options.dense_backend == "openblas") {
-    if (absl::Status loaded = UseOpenBlas(); !loaded.ok()) {
-      spdlog::warn("{}", std::string(loaded.message()));
+    absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+    if (blas.ok()) {
+      backend = *blas;
+    } else {
+      spdlog::warn("{}", std::string(blas.status().message()));
     }
-  } else if (options.dense_backend == "eigen") {
-    UseEigen();
-  } else {
-    return absl::InvalidArgumentError("--dense_backend: must be openblas or eigen");
   }
-  spdlog::info("Kalman update on {}; adaptive objective's solves in {} precision",
-               DenseBackendName(), options.objective_precision);
-  return absl::OkStatus();
+  spdlog::info("Kalman update and objective on {}; adaptive objective's solves in {} precision",
+               backend.name(), options.objective_precision);
+  return backend;
 }
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   if (absl::Status valid = options.Validate(); !valid.ok()) return valid;
   std::unique_ptr<Server> server(new Server(options));
-  if (absl::Status started = server->StartParts(); !started.ok()) {
+  absl::StatusOr<ServerParts> parts = server->PartsFromOptions();
+  absl::Status started = parts.ok() ? server->Assemble(*std::move(parts)) : parts.status();
+  if (!started.ok()) {
     server->Shutdown(absl::ZeroDuration());
     return started;
   }
   return server;
 }
 
-absl::Status Server::StartParts() {
+absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options,
+                                                      ServerParts parts) {
+  std::unique_ptr<Server> server(new Server(options));
+  if (absl::Status started = server->Assemble(std::move(parts)); !started.ok()) {
+    server->Shutdown(absl::ZeroDuration());
+    return started;
+  }
+  return server;
+}
+
+absl::StatusOr<ServerParts> Server::PartsFromOptions() {
   const ServerOptions& o = options_;
-  absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = Credentials(o);
-  if (!credentials.ok()) return credentials.status();
   if (!o.token_file.empty()) {
     absl::StatusOr<Authenticator> loaded = Authenticator::FromFile(o.token_file);
     if (!loaded.ok()) {
@@ -108,70 +120,84 @@ absl::Status Server::StartParts() {
     }
     auth_ = *std::move(loaded);
     spdlog::info("auth: {} tenants from {}", auth_.tenants(), o.token_file);
-    // Under TLS a bad token is refused before the request is read.
-    if (!o.tls_cert.empty()) {
-      (*credentials)->SetAuthMetadataProcessor(std::make_shared<TokenCheck>(&auth_));
-    }
   }
   std::int64_t max_memory = o.max_memory_mb << 20;
   if (max_memory == 0) {
     max_memory = static_cast<std::int64_t>(sysconf(_SC_PHYS_PAGES)) * sysconf(_SC_PAGE_SIZE) / 2;
   }
-
   absl::StatusOr<std::unique_ptr<MissionStore>> opened = OpenStore(o.store, o.data_dir);
   if (!opened.ok()) return opened.status();
-  store_ = *std::move(opened);
+  owned_store_ = *std::move(opened);
   spdlog::info("store: {}", DescribeStore(o.store, o.data_dir));
+  return ServerParts{.registry = {.max_missions = o.max_missions,
+                                  .max_cells_per_mission = o.max_cells,
+                                  .prior_cache = o.prior_cache,
+                                  .snapshot_every = o.snapshot_every,
+                                  .recovery_threads = o.recovery_threads,
+                                  .max_missions_per_tenant = o.max_missions_per_tenant,
+                                  .max_mission_memory_bytes = o.max_mission_memory_mb << 20,
+                                  .max_memory_bytes = max_memory,
+                                  .shared_store = o.cluster,
+                                  .single_precision_objective = o.objective_precision == "single",
+                                  .dense_backend = ChooseDenseBackend(o)},
+                     .service = {.max_streams = o.max_streams,
+                                 .max_streams_per_client = o.max_streams_per_client,
+                                 .max_plans_per_tenant = o.max_plans_per_tenant,
+                                 .max_planning = absl::Seconds(o.max_planning_s),
+                                 .shed_above = o.shed_above,
+                                 .min_search_fraction = o.min_search_fraction,
+                                 .plan_latency = absl::Seconds(o.plan_latency_s),
+                                 .max_take_off_plans = o.max_take_off_plans,
+                                 .take_off_patience = absl::Seconds(o.take_off_patience_s),
+                                 .replica_id = o.replica_id},
+                     .planning_threads = o.planning_threads,
+                     .planning_queue = o.planning_queue,
+                     .planning_nice = o.planning_nice,
+                     .store = owned_store_.get(),
+                     .auth = &auth_};
+}
 
-  registry_ = std::make_unique<MissionRegistry>(
-      RegistryLimits{.max_missions = o.max_missions,
-                     .max_cells_per_mission = o.max_cells,
-                     .prior_cache = o.prior_cache,
-                     .snapshot_every = o.snapshot_every,
-                     .recovery_threads = o.recovery_threads,
-                     .max_missions_per_tenant = o.max_missions_per_tenant,
-                     .max_mission_memory_bytes = o.max_mission_memory_mb << 20,
-                     .max_memory_bytes = max_memory,
-                     .shared_store = o.cluster,
-                     .single_precision_objective = o.objective_precision == "single"},
-      store_.get());
+absl::Status Server::Assemble(ServerParts parts) {
+  const ServerOptions& o = options_;
+  store_ = parts.store;
+  dense_backend_ = parts.registry.dense_backend;
+  registry_ = std::make_unique<MissionRegistry>(parts.registry, store_);
   const absl::Time recovery_started = absl::Now();
-  absl::StatusOr<int> recovered = registry_->Recover();
-  if (!recovered.ok()) {
-    return absl::Status(recovered.status().code(),
-                        absl::StrCat("store: ", recovered.status().message()));
+  recovered_ = registry_->Recover();
+  if (!recovered_.ok()) {
+    return absl::Status(recovered_.status().code(),
+                        absl::StrCat("store: ", recovered_.status().message()));
   }
-  if (o.cluster) {
+  if (parts.registry.shared_store) {
     spdlog::info("cluster: missions are taken over from the store as calls for them arrive");
   } else if (store_ != nullptr) {
-    spdlog::info("store: recovered {} missions in {:.3f} s", *recovered,
+    spdlog::info("store: recovered {} missions in {:.3f} s", *recovered_,
                  absl::ToDoubleSeconds(absl::Now() - recovery_started));
   }
 
-  planners_ = std::make_unique<PlanningPool>(o.planning_threads, o.planning_queue, o.planning_nice);
+  planners_ = std::make_unique<PlanningPool>(parts.planning_threads, parts.planning_queue,
+                                             parts.planning_nice);
   metrics_http_ = std::make_unique<MetricsHttp>(metrics_.registry());
   if (!o.metrics_listen.empty()) {
     if (absl::Status st = metrics_http_->Start(o.metrics_listen); !st.ok()) return st;
     metrics_at_ = metrics_http_->address();
   }
-  service_ = std::make_unique<MissionServiceImpl>(
-      registry_.get(), planners_.get(), &metrics_, &auth_,
-      ServiceLimits{.max_streams = o.max_streams,
-                    .max_streams_per_client = o.max_streams_per_client,
-                    .max_plans_per_tenant = o.max_plans_per_tenant,
-                    .max_planning = absl::Seconds(o.max_planning_s),
-                    .shed_above = o.shed_above,
-                    .min_search_fraction = o.min_search_fraction,
-                    .plan_latency = absl::Seconds(o.plan_latency_s),
-                    .max_take_off_plans = o.max_take_off_plans,
-                    .take_off_patience = absl::Seconds(o.take_off_patience_s),
-                    .replica_id = o.replica_id});
+  service_ = std::make_unique<MissionServiceImpl>(registry_.get(), planners_.get(), &metrics_,
+                                                  parts.auth, parts.service);
 
   grpc::EnableDefaultHealthCheckService(true);
   grpc::reflection::InitProtoReflectionServerBuilderPlugin();
   grpc::ServerBuilder builder;
   if (!o.reflection) builder.SetOption(std::make_unique<WithoutReflection>());
-  builder.AddListeningPort(o.listen, *credentials, &port_);
+  if (!o.listen.empty()) {
+    absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> credentials = Credentials(o);
+    if (!credentials.ok()) return credentials.status();
+    // Under TLS a bad token is refused before the request is read.
+    if (parts.auth != nullptr && parts.auth->enabled() && !o.tls_cert.empty()) {
+      (*credentials)->SetAuthMetadataProcessor(std::make_shared<TokenCheck>(parts.auth));
+    }
+    builder.AddListeningPort(o.listen, *credentials, &port_);
+  }
   grpc::ResourceQuota quota("oaipp-server");
   quota.SetMaxThreads(o.worker_threads);
   builder.SetResourceQuota(quota);
@@ -181,11 +207,14 @@ absl::Status Server::StartParts() {
   // waits for them once the last call has finished.
   builder.SetSyncServerOption(grpc::ServerBuilder::SyncServerOption::CQ_TIMEOUT_MSEC, 200);
   builder.RegisterService(service_.get());
+  if (!parts.interceptors.empty()) {
+    builder.experimental().SetInterceptorCreators(std::move(parts.interceptors));
+  }
   grpc_ = builder.BuildAndStart();
-  if (grpc_ == nullptr || port_ == 0) {
+  if (grpc_ == nullptr || (!o.listen.empty() && port_ == 0)) {
     return absl::UnavailableError(absl::StrCat("--listen: cannot listen on ", o.listen));
   }
-  web_view_ = std::make_unique<WebView>(registry_.get(), &auth_);
+  web_view_ = std::make_unique<WebView>(registry_.get(), parts.auth);
   if (o.web_port != 0) {
     WebViewOptions view{.address = o.web_address,
                         .port = o.web_port,
@@ -198,7 +227,8 @@ absl::Status Server::StartParts() {
   }
   grpc_->GetHealthCheckService()->SetServingStatus(kServiceName, true);
   grpc_->GetHealthCheckService()->SetServingStatus(true);
-  spdlog::info("oaipp-server listening on {} ({}{}; metrics on {})", o.listen,
+  spdlog::info("oaipp-server listening on {} ({}{}; metrics on {})",
+               o.listen.empty() ? "nothing (in process only)" : o.listen,
                o.tls_cert.empty() ? "plaintext" : "TLS", o.tls_client_ca.empty() ? "" : ", mutual",
                metrics_at_);
   health_watch_ = std::thread([this] { WatchHealth(); });

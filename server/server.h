@@ -3,7 +3,9 @@
 // their HTTP endpoint, the gRPC service with its credentials and tenants,
 // the live web view, and the two background loops (health follows the
 // store and the load; retention expires old missions). oaipp-server's
-// main() and the load benchmark build their servers with it.
+// main(), the benchmarks and the tests' in-process fixtures build their
+// servers with it; a fixture gives its parts (limits, a store of its own, a
+// manual clock) as ServerParts instead of flags.
 //
 //   absl::StatusOr<std::unique_ptr<Server>> server = Server::Start(options);
 //   if (!server.ok()) ...                   // InvalidArgument: a bad setting
@@ -14,12 +16,15 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
+#include "core/mapping/dense_backend.h"
 #include "grpcpp/grpcpp.h"
+#include "grpcpp/support/server_interceptor.h"
 #include "server/auth.h"
 #include "server/metrics.h"
 #include "server/metrics_http.h"
@@ -32,11 +37,24 @@
 
 namespace oaipp::server {
 
-// What a process must set up once, before any server starts and before
-// other threads run: the Kalman update's dense backend (OpenBLAS is loaded
-// here; a failure to load it is logged and Eigen is kept) and the adaptive
-// objective's precision. InvalidArgument for a bad value.
-[[nodiscard]] absl::Status SetUpProcess(const ServerOptions& options);
+// What Server::Start(options) makes of the options (the store opened, the
+// tenants loaded, the dense backend loaded, the limits in their units), or
+// what a program that embeds a server gives directly.
+struct ServerParts {
+  RegistryLimits registry = {};
+  ServiceLimits service = {};
+  int planning_threads = 2;
+  int planning_queue = 64;
+  int planning_nice = 0;
+  // Borrowed, and must outlive the server; nullptr: nothing persists.
+  MissionStore* store = nullptr;
+  // Borrowed, and must outlive the server; nullptr: no tenants.
+  const Authenticator* auth = nullptr;
+  // Run on every call before the service (a program's own logging, or a
+  // test's fault injection); none by default.
+  std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> interceptors =
+      {};
+};
 
 class Server {
  public:
@@ -46,6 +64,15 @@ class Server {
   // setting at fault; other errors (a store that cannot be opened, a port
   // in use) keep their own codes. Nothing keeps running after an error.
   [[nodiscard]] static absl::StatusOr<std::unique_ptr<Server>> Start(const ServerOptions& options);
+
+  // The same server from `parts` instead of the options' store, tenants,
+  // limits and planning pool; the options give the rest: the listening
+  // address and its TLS (an empty `listen` serves only InProcessChannel()),
+  // reflection, metrics, the web view, worker threads, retention and the
+  // cluster's health loop. The options are not validated (the parts have no
+  // flags to name). Errors as Start.
+  [[nodiscard]] static absl::StatusOr<std::unique_ptr<Server>> Start(const ServerOptions& options,
+                                                                     ServerParts parts);
 
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
@@ -62,13 +89,22 @@ class Server {
   // The metrics endpoint's host:port, or "-" when off.
   [[nodiscard]] const std::string& metrics_address() const { return metrics_at_; }
   [[nodiscard]] MissionRegistry& registry() { return *registry_; }
+  // Where the missions' dense products run (--dense_backend).
+  [[nodiscard]] const DenseBackend& dense_backend() const { return dense_backend_; }
   [[nodiscard]] MissionServiceImpl& service() { return *service_; }
+  [[nodiscard]] PlanningPool& planners() { return *planners_; }
+  // How many missions the start recovered from the store, or why it could
+  // not (then Start failed).
+  [[nodiscard]] const absl::StatusOr<int>& recovered() const { return recovered_; }
   // A channel to this server inside the process (no socket).
   [[nodiscard]] std::shared_ptr<grpc::Channel> InProcessChannel();
 
  private:
   explicit Server(ServerOptions options) : options_(std::move(options)) {}
-  absl::Status StartParts();
+  // Opens the store (owned), loads the tenants and the dense backend.
+  absl::StatusOr<ServerParts> PartsFromOptions();
+  // Builds and starts everything from the parts and the options.
+  absl::Status Assemble(ServerParts parts);
   // Health follows the store and the load; a cluster's replica drops the
   // missions others took over.
   void WatchHealth();
@@ -77,7 +113,10 @@ class Server {
 
   const ServerOptions options_;
   Authenticator auth_;
-  std::unique_ptr<MissionStore> store_;
+  DenseBackend dense_backend_;
+  std::unique_ptr<MissionStore> owned_store_;  // the options' store
+  MissionStore* store_ = nullptr;
+  absl::StatusOr<int> recovered_ = 0;
   std::unique_ptr<MissionRegistry> registry_;
   std::unique_ptr<PlanningPool> planners_;
   Metrics metrics_;

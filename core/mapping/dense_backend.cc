@@ -2,7 +2,6 @@
 
 #include <dlfcn.h>
 
-#include <atomic>
 #include <cstddef>
 #include <cstdlib>
 #include <type_traits>
@@ -46,7 +45,9 @@ using SetThreads = void (*)(int);
 using CoreName = char* (*)();
 using GetParallel = int (*)();
 
-struct OpenBlas {
+}  // namespace
+
+struct OpenBlasLibrary {
   Dsyrk dsyrk = nullptr;
   Dtrsm dtrsm = nullptr;
   Dpotrf dpotrf = nullptr;
@@ -58,9 +59,7 @@ struct OpenBlas {
   std::string kernel;
 };
 
-// Set once by UseOpenBlas (before other threads start), read by every
-// update; nullptr: Eigen.
-std::atomic<const OpenBlas*> g_open_blas{nullptr};
+namespace {
 
 // Kernel families (openblas_get_corename) whose strsm, spotrf and strtri
 // were run for every size from 1 to 700 on one thread without a fault.
@@ -91,8 +90,10 @@ const char* OpenBlasCoreTypeForThisCpu() {
   return nullptr;
 }
 
-absl::Status UseOpenBlas() {
-  static const absl::StatusOr<const OpenBlas*> loaded = []() -> absl::StatusOr<const OpenBlas*> {
+absl::StatusOr<DenseBackend> DenseBackend::OpenBlas() {
+  // Loaded once; the entry points are kept for the life of the process.
+  static const absl::StatusOr<const OpenBlasLibrary*> loaded =
+      []() -> absl::StatusOr<const OpenBlasLibrary*> {
     SetCoreTypeIfUnset();
     // One thread per call: the server has its own threads.
     setenv("OPENBLAS_NUM_THREADS", "1", 0);
@@ -126,7 +127,7 @@ absl::Status UseOpenBlas() {
           "the OpenBLAS found is not the pthreads build (libopenblas0-pthread), the only one safe "
           "to call from several threads at once; the Kalman update runs on Eigen");
     }
-    OpenBlas blas;
+    OpenBlasLibrary blas;
     blas.dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
     blas.dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
     blas.dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
@@ -163,24 +164,19 @@ absl::Status UseOpenBlas() {
       blas.spotrf = nullptr;
       blas.strtri = nullptr;
     }
-    return new OpenBlas(std::move(blas));
+    return new OpenBlasLibrary(std::move(blas));
   }();
   if (!loaded.ok()) return loaded.status();
-  g_open_blas.store(*loaded);
-  return absl::OkStatus();
+  return DenseBackend(*loaded);
 }
 
-void UseEigen() { g_open_blas.store(nullptr); }
-
-bool DenseBackendIsOpenBlas() { return g_open_blas.load() != nullptr; }
-
-std::string DenseBackendName() {
-  const OpenBlas* blas = g_open_blas.load();
-  return blas == nullptr ? "eigen" : absl::StrCat("openblas (", blas->kernel, ")");
+std::string DenseBackend::name() const {
+  return blas_ == nullptr ? "eigen" : absl::StrCat("openblas (", blas_->kernel, ")");
 }
 
-void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd& p) {
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+void DenseBackend::SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b,
+                                       Eigen::MatrixXd& p) const {
+  const OpenBlasLibrary* blas = blas_;
   const Eigen::Index n = p.rows();
   const Eigen::Index m = b.cols();
   // CBLAS takes int sizes: a larger product stays on Eigen.
@@ -195,9 +191,10 @@ void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd
               static_cast<int>(p.outerStride()));
 }
 
-void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+void DenseBackend::SolveRightLowerTransposed(const Eigen::MatrixXd& lower,
+                                             Eigen::MatrixXd& b) const {
   if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  const OpenBlasLibrary* blas = blas_;
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
   if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(b);
@@ -208,9 +205,9 @@ void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b)
               b.data(), static_cast<int>(b.outerStride()));
 }
 
-void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
+void DenseBackend::SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) const {
   if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+  const OpenBlasLibrary* blas = blas_;
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
   if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(b);
@@ -235,10 +232,9 @@ MatrixOf<Scalar> LowerInverseOnEigen(const MatrixOf<Scalar>& lower) {
 }
 
 // OpenBLAS's kernel for Scalar (`d` for double, `s` for float), or nullptr
-// on Eigen or where the library lacks it.
+// on Eigen (blas nullptr) or where the library lacks it.
 template <typename Scalar, typename D, typename S>
-auto KernelOf(D OpenBlas::*d, S OpenBlas::*s) {
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+auto KernelOf(const OpenBlasLibrary* blas, D OpenBlasLibrary::*d, S OpenBlasLibrary::*s) {
   if constexpr (std::is_same_v<Scalar, double>) {
     return blas == nullptr ? D{nullptr} : blas->*d;
   } else {
@@ -249,9 +245,10 @@ auto KernelOf(D OpenBlas::*d, S OpenBlas::*s) {
 // The double- and single-precision versions of the three below share one
 // body; only OpenBLAS's entry point differs (d... or s...).
 template <typename Scalar>
-void SolveLeftLowerIn(const MatrixOf<Scalar>& lower, MatrixOf<Scalar>& b) {
+void SolveLeftLowerIn(const OpenBlasLibrary* blas, const MatrixOf<Scalar>& lower,
+                      MatrixOf<Scalar>& b) {
   if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
-  const auto trsm = KernelOf<Scalar>(&OpenBlas::dtrsm, &OpenBlas::strsm);
+  const auto trsm = KernelOf<Scalar>(blas, &OpenBlasLibrary::dtrsm, &OpenBlasLibrary::strsm);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
   if (trsm == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.template triangularView<Eigen::Lower>().solveInPlace(b);
@@ -263,8 +260,8 @@ void SolveLeftLowerIn(const MatrixOf<Scalar>& lower, MatrixOf<Scalar>& b) {
 }
 
 template <typename Scalar>
-bool CholeskyLowerInPlaceIn(MatrixOf<Scalar>& s) {
-  const auto potrf = KernelOf<Scalar>(&OpenBlas::dpotrf, &OpenBlas::spotrf);
+bool CholeskyLowerInPlaceIn(const OpenBlasLibrary* blas, MatrixOf<Scalar>& s) {
+  const auto potrf = KernelOf<Scalar>(blas, &OpenBlasLibrary::dpotrf, &OpenBlasLibrary::spotrf);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
   if (potrf == nullptr || s.rows() > kMaxInt || s.rows() == 0) {
     // As Eigen::LLT(s) computes it, bit for bit.
@@ -281,8 +278,8 @@ bool CholeskyLowerInPlaceIn(MatrixOf<Scalar>& s) {
 }
 
 template <typename Scalar>
-void InverseLowerInPlaceIn(MatrixOf<Scalar>& lower) {
-  const auto trtri = KernelOf<Scalar>(&OpenBlas::dtrtri, &OpenBlas::strtri);
+void InverseLowerInPlaceIn(const OpenBlasLibrary* blas, MatrixOf<Scalar>& lower) {
+  const auto trtri = KernelOf<Scalar>(blas, &OpenBlasLibrary::dtrtri, &OpenBlasLibrary::strtri);
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
   const Eigen::Index m = lower.rows();
   if (m == 0) return;
@@ -298,19 +295,27 @@ void InverseLowerInPlaceIn(MatrixOf<Scalar>& lower) {
 
 }  // namespace
 
-void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) {
-  SolveLeftLowerIn<double>(lower, b);
+void DenseBackend::SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) const {
+  SolveLeftLowerIn<double>(blas_, lower, b);
 }
-void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b) {
-  SolveLeftLowerIn<float>(lower, b);
+void DenseBackend::SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b) const {
+  SolveLeftLowerIn<float>(blas_, lower, b);
 }
-bool CholeskyLowerInPlace(Eigen::MatrixXd& s) { return CholeskyLowerInPlaceIn<double>(s); }
-bool CholeskyLowerInPlace(Eigen::MatrixXf& s) { return CholeskyLowerInPlaceIn<float>(s); }
-void InverseLowerInPlace(Eigen::MatrixXd& lower) { InverseLowerInPlaceIn<double>(lower); }
-void InverseLowerInPlace(Eigen::MatrixXf& lower) { InverseLowerInPlaceIn<float>(lower); }
+bool DenseBackend::CholeskyLowerInPlace(Eigen::MatrixXd& s) const {
+  return CholeskyLowerInPlaceIn<double>(blas_, s);
+}
+bool DenseBackend::CholeskyLowerInPlace(Eigen::MatrixXf& s) const {
+  return CholeskyLowerInPlaceIn<float>(blas_, s);
+}
+void DenseBackend::InverseLowerInPlace(Eigen::MatrixXd& lower) const {
+  InverseLowerInPlaceIn<double>(blas_, lower);
+}
+void DenseBackend::InverseLowerInPlace(Eigen::MatrixXf& lower) const {
+  InverseLowerInPlaceIn<float>(blas_, lower);
+}
 
-void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) {
-  const OpenBlas* blas = g_open_blas.load(std::memory_order_relaxed);
+void DenseBackend::InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) const {
+  const OpenBlasLibrary* blas = blas_;
   constexpr Eigen::Index kMaxInt = 0x7fffffff;
   const Eigen::Index m = lower.rows();
   if (m == 0) return;

@@ -1,14 +1,18 @@
-// Where the Kalman update's big product runs: Eigen (the default), or
-// OpenBLAS loaded at run time.
+// Where the Kalman update's big products run: Eigen, or OpenBLAS loaded at
+// run time. A DenseBackend is a small value that a map (GpMap) and the
+// planner's objective (InformationParams::dense_backend) hold: the core
+// library keeps no process-wide choice, and two maps in one process may use
+// different backends. The default value is Eigen.
 //
 // Fusing a measurement ends in P -= Bt Bt^T, a symmetric rank-m update of the
 // n x n covariance (n^2 m flops: most of AddMeasurement's time). This build
 // compiles Eigen for generic x86-64 (see CMakeLists.txt), so its kernels use
 // 128-bit vectors; OpenBLAS picks kernels for the CPU it runs on, 3-6x faster
-// for this product (docs/capacity.md). OpenBLAS is not linked: UseOpenBlas()
-// opens Debian's libopenblas0-pthread with dlopen, so the server runs (on
-// Eigen) where it is missing, and the core library's results stay bit for bit
-// those of Eigen unless a program asks for OpenBLAS.
+// for this product (docs/capacity.md). OpenBLAS is not linked:
+// DenseBackend::OpenBlas() opens Debian's libopenblas0-pthread with dlopen
+// (once per process), so a program runs (on Eigen) where it is missing, and
+// the core library's results stay bit for bit those of Eigen unless a
+// program asks for OpenBLAS.
 //
 // Only the pthreads build is used, with one thread per call. The server calls
 // these functions from several threads at once, and Debian's serial build
@@ -17,9 +21,8 @@
 // return wrong numbers, silently (before this was fixed, 32-102 of 5000 small
 // solves and rank updates per thread differed in the concurrency test of
 // dense_backend_test.cc, four threads on a 2-core machine). The pthreads
-// build locks its buffer pool and runs the same kernels; UseOpenBlas()
-// refuses any other build, so on a serial build that test now stops at
-// UseOpenBlas().
+// build locks its buffer pool and runs the same kernels; OpenBlas() refuses
+// any other build.
 //
 // OpenBLAS 0.3.21 (Debian 12) does not recognise CPUs newer than it and then
 // falls back to its oldest kernels. It reads OPENBLAS_CORETYPE once, when it
@@ -32,15 +35,16 @@
 // Results differ from Eigen's in the last bits (another summation order),
 // and between kernels; for one machine and backend they are deterministic.
 //
-//   // in main(), before other threads start (it may set an environment
-//   // variable):
-//   if (absl::Status s = UseOpenBlas(); !s.ok()) LOG(WARNING) << s;
+//   absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+//   DenseBackend backend = blas.ok() ? *blas : DenseBackend();  // Eigen
+//   map.set_dense_backend(backend);
 #pragma once
 
 #include <string>
 
 #include "Eigen/Core"
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 
 namespace oaipp {
 
@@ -48,58 +52,70 @@ namespace oaipp {
 // with AVX2 + FMA), or nullptr where OpenBLAS's own choice is right.
 [[nodiscard]] const char* OpenBlasCoreTypeForThisCpu();
 
-// Loads OpenBLAS (the pthreads build, one thread per call) and makes these
-// functions use it. Call once, from one thread, before other threads start
-// (it may set OPENBLAS_NUM_THREADS). FailedPrecondition (naming what is
-// missing, or that the library found is not the pthreads build) leaves Eigen
-// in use.
-[[nodiscard]] absl::Status UseOpenBlas();
+struct OpenBlasLibrary;  // the entry points found in the loaded library
 
-// Goes back to Eigen (tests compare the two).
-void UseEigen();
+class DenseBackend {
+ public:
+  // Eigen.
+  DenseBackend() = default;
 
-// True while OpenBLAS is in use.
-[[nodiscard]] bool DenseBackendIsOpenBlas();
+  // OpenBLAS (the pthreads build, one thread per call). The library is
+  // loaded at the first call, which may set OPENBLAS_NUM_THREADS and
+  // OPENBLAS_CORETYPE when unset: make it before other threads read the
+  // environment. Later calls return the same backend (or error).
+  // FailedPrecondition names what is missing, or that the library found is
+  // not the pthreads build.
+  [[nodiscard]] static absl::StatusOr<DenseBackend> OpenBlas();
 
-// "eigen", or "openblas (<kernel>)".
-[[nodiscard]] std::string DenseBackendName();
+  [[nodiscard]] bool is_open_blas() const { return blas_ != nullptr; }
+  // "eigen", or "openblas (<kernel>)".
+  [[nodiscard]] std::string name() const;
+  friend bool operator==(const DenseBackend&, const DenseBackend&) = default;
 
-// The lower triangle of p += alpha * b * b^T (p n x n, b n x m); the upper
-// triangle is not touched.
-void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd& p);
+  // The lower triangle of p += alpha * b * b^T (p n x n, b n x m); the upper
+  // triangle is not touched.
+  void SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b, Eigen::MatrixXd& p) const;
 
-// b := b L^-T for the lower-triangular L held in the lower triangle of
-// `lower` (m x m; what lies above the diagonal is ignored), b n x m: the
-// Kalman gain's whitened columns P_:J L^-T.
-void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
+  // b := b L^-T for the lower-triangular L held in the lower triangle of
+  // `lower` (m x m; what lies above the diagonal is ignored), b n x m: the
+  // Kalman gain's whitened columns P_:J L^-T.
+  void SolveRightLowerTransposed(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) const;
 
-// b := b L^-1 for L as above (m x m), b n x m.
-void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
+  // b := b L^-1 for L as above (m x m), b n x m.
+  void SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) const;
 
-// b := L^-1 b for L as above (m x m), b m x k: whitened rows L^-1 P_J:.
-void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b);
+  // b := L^-1 b for L as above (m x m), b m x k: whitened rows L^-1 P_J:.
+  void SolveLeftLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) const;
 
-// The Cholesky factor L of the symmetric positive definite s (m x m, its
-// lower triangle read), written over s's lower triangle; what lies above the
-// diagonal is unspecified afterwards. False when s is not positive definite.
-[[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXd& s);
+  // The Cholesky factor L of the symmetric positive definite s (m x m, its
+  // lower triangle read), written over s's lower triangle; what lies above
+  // the diagonal is unspecified afterwards. False when s is not positive
+  // definite.
+  [[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXd& s) const;
 
-// The lower triangle of (L L^T)^-1 from the Cholesky factor L in the lower
-// triangle of `lower` (m x m, as CholeskyLowerInPlace leaves it), written
-// over it (LAPACK's potri); what lies above the diagonal is unspecified.
-// Precondition: L's diagonal is positive.
-void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower);
+  // The lower triangle of (L L^T)^-1 from the Cholesky factor L in the lower
+  // triangle of `lower` (m x m, as CholeskyLowerInPlace leaves it), written
+  // over it (LAPACK's potri); what lies above the diagonal is unspecified.
+  // Precondition: L's diagonal is positive.
+  void InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) const;
 
-// L^-1 for the lower-triangular L in the lower triangle of `lower` (m x m),
-// written over that triangle (LAPACK's trtri); what lies above the diagonal
-// is unspecified. Precondition: L's diagonal is nonzero.
-void InverseLowerInPlace(Eigen::MatrixXd& lower);
+  // L^-1 for the lower-triangular L in the lower triangle of `lower` (m x m),
+  // written over that triangle (LAPACK's trtri); what lies above the
+  // diagonal is unspecified. Precondition: L's diagonal is nonzero.
+  void InverseLowerInPlace(Eigen::MatrixXd& lower) const;
 
-// The same three in single precision (OpenBLAS's strsm, spotrf and strtri,
-// or Eigen's), for the planner's objective when it runs in single
-// precision (core/planning/information.h).
-void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b);
-[[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXf& s);
-void InverseLowerInPlace(Eigen::MatrixXf& lower);
+  // The same three in single precision (OpenBLAS's strsm, spotrf and
+  // strtri, or Eigen's), for the planner's objective when it runs in single
+  // precision (core/planning/information.h).
+  void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b) const;
+  [[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXf& s) const;
+  void InverseLowerInPlace(Eigen::MatrixXf& lower) const;
+
+ private:
+  explicit DenseBackend(const OpenBlasLibrary* blas) : blas_(blas) {}
+
+  // nullptr: Eigen. The library's entry points live as long as the process.
+  const OpenBlasLibrary* blas_ = nullptr;
+};
 
 }  // namespace oaipp

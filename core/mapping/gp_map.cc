@@ -48,7 +48,8 @@ struct UpdateFactors {
   MatrixXd bt;
 };
 
-bool Factor(const MatrixXd& p, std::span<const CellObservation> obs, UpdateFactors& f) {
+bool Factor(const DenseBackend& backend, const MatrixXd& p, std::span<const CellObservation> obs,
+            UpdateFactors& f) {
   const Index n = p.rows();
   const Index m = static_cast<Index>(obs.size());
   // P_:J is m contiguous columns of the column-major P.
@@ -61,9 +62,9 @@ bool Factor(const MatrixXd& p, std::span<const CellObservation> obs, UpdateFacto
   }
   // On the dense backend: for a shot from 26 m (m = 1120) the factor is
   // m^3 / 3 flops, a third of the update's time on Eigen's generic kernels.
-  if (!CholeskyLowerInPlace(f.lower)) return false;
+  if (!backend.CholeskyLowerInPlace(f.lower)) return false;
   // Bt = P_:J L^-T: a right-side triangular solve with U = L^T.
-  SolveRightLowerTransposed(f.lower, f.bt);
+  backend.SolveRightLowerTransposed(f.lower, f.bt);
   return true;
 }
 
@@ -92,7 +93,8 @@ absl::Status CheckSquare(const MatrixXd& covariance) {
 // of 1600 cells 2.4 G multiply-adds against 1.5 G here. R - R S^-1 R also
 // avoids the cancellation of P_JJ - P_JJ S^-1 P_JJ when R is small against
 // P_JJ. Writes the whole of p (both triangles), column by column.
-absl::Status UpdateMostCells(std::span<const CellObservation> obs, VectorXd& mean, MatrixXd& p) {
+absl::Status UpdateMostCells(const DenseBackend& backend, std::span<const CellObservation> obs,
+                             VectorXd& mean, MatrixXd& p) {
   const Index n = p.rows();
   const Index m = static_cast<Index>(obs.size());
   std::vector<bool> observed(static_cast<std::size_t>(n), false);
@@ -111,9 +113,9 @@ absl::Status UpdateMostCells(std::span<const CellObservation> obs, VectorXd& mea
     lower(k, k) += obs[k].variance;
     for (Index a = 0; a < c; ++a) x(a, k) = column[rest[a]];
   }
-  if (!CholeskyLowerInPlace(lower)) return NotPositiveDefinite();
+  if (!backend.CholeskyLowerInPlace(lower)) return NotPositiveDefinite();
   // Nothing fails from here on: the map changes only now.
-  SolveRightLowerTransposed(lower, x);  // X = P_CJ L^-T
+  backend.SolveRightLowerTransposed(lower, x);  // X = P_CJ L^-T
   // mu_C += P_CJ S^-1 (z - mu_J) = X L^-1 (z - mu_J);
   // mu_J += P_JJ S^-1 (z - mu_J) = (z - mu_J) - R S^-1 (z - mu_J).
   VectorXd innovation(m);
@@ -133,15 +135,15 @@ absl::Status UpdateMostCells(std::span<const CellObservation> obs, VectorXd& mea
     const auto column = p.col(rest[b]);
     for (Index a = b; a < c; ++a) rest_block(a, b) = column[rest[a]];
   }
-  SymmetricRankUpdate(-1.0, x, rest_block);
+  backend.SymmetricRankUpdate(-1.0, x, rest_block);
   rest_block.triangularView<Eigen::StrictlyUpper>() = rest_block.transpose();
   // X L^-1 R, also transposed (m x c), so that both the columns of J and
   // those of C read it in order.
-  SolveRightLower(lower, x);
+  backend.SolveRightLower(lower, x);
   for (Index k = 0; k < m; ++k) x.col(k) *= obs[k].variance;
   const MatrixXd cross = x.transpose();
   // R - R S^-1 R.
-  InverseFromCholeskyInPlace(lower);
+  backend.InverseFromCholeskyInPlace(lower);
   MatrixXd seen(m, m);
   for (Index b = 0; b < m; ++b) {
     for (Index a = b; a < m; ++a) {
@@ -300,42 +302,45 @@ absl::StatusOr<MatrixXd> PriorCovariance(const FieldGrid& grid, const GpParams& 
   return p0;
 }
 
-absl::Status UpdateCovariance(std::span<const CellObservation> observations, MatrixXd& covariance) {
+absl::Status UpdateCovariance(std::span<const CellObservation> observations, MatrixXd& covariance,
+                              const DenseBackend& backend) {
   OAIPP_RETURN_IF_ERROR(CheckSquare(covariance));
   OAIPP_ASSIGN_OR_RETURN(
       std::vector<CellObservation> merged,
       MergeObservations(observations, static_cast<int>(covariance.rows()), false));
   if (merged.empty()) return absl::OkStatus();
   UpdateFactors f;
-  if (!Factor(covariance, merged, f)) return NotPositiveDefinite();
+  if (!Factor(backend, covariance, merged, f)) return NotPositiveDefinite();
   // P -= Bt Bt^T as a symmetric rank-m update of the lower triangle (half the
   // flops of a general product), then mirrored so P stays exactly symmetric.
-  SymmetricRankUpdate(-1.0, f.bt, covariance);
+  backend.SymmetricRankUpdate(-1.0, f.bt, covariance);
   MirrorLowerToUpper(covariance);
   return absl::OkStatus();
 }
 
 absl::StatusOr<double> TraceAfterUpdate(const MatrixXd& covariance,
-                                        std::span<const CellObservation> observations) {
+                                        std::span<const CellObservation> observations,
+                                        const DenseBackend& backend) {
   OAIPP_RETURN_IF_ERROR(CheckSquare(covariance));
   OAIPP_ASSIGN_OR_RETURN(
       std::vector<CellObservation> merged,
       MergeObservations(observations, static_cast<int>(covariance.rows()), false));
   if (merged.empty()) return covariance.trace();
   UpdateFactors f;
-  if (!Factor(covariance, merged, f)) return NotPositiveDefinite();
+  if (!Factor(backend, covariance, merged, f)) return NotPositiveDefinite();
   return covariance.trace() - f.bt.squaredNorm();
 }
 
 absl::StatusOr<VectorXd> VariancesAfterUpdate(const MatrixXd& covariance,
-                                              std::span<const CellObservation> observations) {
+                                              std::span<const CellObservation> observations,
+                                              const DenseBackend& backend) {
   OAIPP_RETURN_IF_ERROR(CheckSquare(covariance));
   OAIPP_ASSIGN_OR_RETURN(
       std::vector<CellObservation> merged,
       MergeObservations(observations, static_cast<int>(covariance.rows()), false));
   if (merged.empty()) return VectorXd(covariance.diagonal());
   UpdateFactors f;
-  if (!Factor(covariance, merged, f)) return NotPositiveDefinite();
+  if (!Factor(backend, covariance, merged, f)) return NotPositiveDefinite();
   return VectorXd(covariance.diagonal() - f.bt.rowwise().squaredNorm());
 }
 
@@ -376,7 +381,7 @@ absl::Status GpMap::UpdateDeferred(std::span<const CellObservation> observations
 
 void GpMap::Settle() {
   if (settled()) return;
-  SymmetricRankUpdate(-1.0, pending_, covariance_);
+  backend_.SymmetricRankUpdate(-1.0, pending_, covariance_);
   MirrorLowerToUpper(covariance_);
   pending_.resize(0, 0);
 }
@@ -386,11 +391,11 @@ absl::Status GpMap::Fuse(std::span<const CellObservation> observations, bool def
                          MergeObservations(observations, num_cells()));
   if (merged.empty()) return absl::OkStatus();
   Settle();
-  if (DenseBackendIsOpenBlas() && 2 * merged.size() >= static_cast<std::size_t>(num_cells())) {
-    return UpdateMostCells(merged, mean_, covariance_);
+  if (backend_.is_open_blas() && 2 * merged.size() >= static_cast<std::size_t>(num_cells())) {
+    return UpdateMostCells(backend_, merged, mean_, covariance_);
   }
   UpdateFactors f;
-  if (!Factor(covariance_, merged, f)) return NotPositiveDefinite();
+  if (!Factor(backend_, covariance_, merged, f)) return NotPositiveDefinite();
   // Nothing fails from here on: the map changes only now.
   // mu += W (z_J - mu_J) = Bt L^-1 (z_J - mu_J).
   VectorXd innovation(merged.size());
@@ -404,7 +409,7 @@ absl::Status GpMap::Fuse(std::span<const CellObservation> observations, bool def
     pending_ = std::move(f.bt);
     return absl::OkStatus();
   }
-  SymmetricRankUpdate(-1.0, f.bt, covariance_);
+  backend_.SymmetricRankUpdate(-1.0, f.bt, covariance_);
   MirrorLowerToUpper(covariance_);
   return absl::OkStatus();
 }

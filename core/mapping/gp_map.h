@@ -31,6 +31,7 @@
 #include "Eigen/Core"
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "core/mapping/dense_backend.h"
 #include "core/mapping/field_grid.h"
 #include "core/mapping/gp_params.h"
 
@@ -75,19 +76,23 @@ inline constexpr std::int64_t kMaxDenseCells = 10'000;
 // square, symmetric and positive semi-definite. Returns InvalidArgument (as
 // MergeObservations, or for a non-square matrix) and Internal when S is not
 // positive definite (P was not PSD); on error `covariance` is unchanged.
+// The three run their products on `backend` (Eigen by default).
 [[nodiscard]] absl::Status UpdateCovariance(std::span<const CellObservation> observations,
-                                            Eigen::MatrixXd& covariance);
+                                            Eigen::MatrixXd& covariance,
+                                            const DenseBackend& backend = DenseBackend());
 
 // Tr(P) after the covariance-only update, without forming the updated P:
 // Tr(P) - ||L^-1 P_J:||_F^2 with L L^T = S, O(n m^2) instead of O(n^2 m).
 // Errors as UpdateCovariance.
-[[nodiscard]] absl::StatusOr<double> TraceAfterUpdate(
-    const Eigen::MatrixXd& covariance, std::span<const CellObservation> observations);
+[[nodiscard]] absl::StatusOr<double> TraceAfterUpdate(const Eigen::MatrixXd& covariance,
+                                                      std::span<const CellObservation> observations,
+                                                      const DenseBackend& backend = DenseBackend());
 
 // The diagonal of P after the covariance-only update (per-cell predicted
 // variances), O(n m^2). Errors as UpdateCovariance.
 [[nodiscard]] absl::StatusOr<Eigen::VectorXd> VariancesAfterUpdate(
-    const Eigen::MatrixXd& covariance, std::span<const CellObservation> observations);
+    const Eigen::MatrixXd& covariance, std::span<const CellObservation> observations,
+    const DenseBackend& backend = DenseBackend());
 
 class GpMap {
  public:
@@ -121,8 +126,14 @@ class GpMap {
     GpMap copy(grid_, mean_, covariance_);
     copy.pending_ = pending_;
     copy.trace_after_pending_ = trace_after_pending_;
+    copy.backend_ = backend_;
     return copy;
   }
+
+  // Where the updates' dense products run (core/mapping/dense_backend.h):
+  // Eigen unless set. Results differ between backends in the last bits.
+  void set_dense_backend(const DenseBackend& backend) { backend_ = backend; }
+  [[nodiscard]] const DenseBackend& dense_backend() const { return backend_; }
 
   // Fuses `observations` in one Kalman update (docs/method.md §3), repeated
   // cells merged first (MergeObservations). An empty span does nothing.
@@ -190,6 +201,7 @@ class GpMap {
   // Bt (n x m) of an update whose downdate is pending; empty when settled.
   Eigen::MatrixXd pending_;
   double trace_after_pending_ = 0.0;
+  DenseBackend backend_;
 };
 
 }  // namespace oaipp

@@ -54,10 +54,10 @@ class MergedCells {
   // In double or single precision; with `ok`, whether it succeeded.
   template <typename Scalar = double>
   [[nodiscard]] Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> FactorLower(
-      const Eigen::MatrixXd& cov, bool* ok = nullptr) const {
+      const DenseBackend& backend, const Eigen::MatrixXd& cov, bool* ok = nullptr) const {
     std::vector<int> order(cells_.size());
     std::iota(order.begin(), order.end(), 0);
-    return FactorLower<Scalar>(cov, order, ok);
+    return FactorLower<Scalar>(backend, cov, order, ok);
   }
 
   // The same factor with the cells taken in `order` (slots, a permutation
@@ -65,7 +65,8 @@ class MergedCells {
   // With `ok`, whether the factorisation succeeded.
   template <typename Scalar = double>
   [[nodiscard]] Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> FactorLower(
-      const Eigen::MatrixXd& cov, const std::vector<int>& order, bool* ok = nullptr) const {
+      const DenseBackend& backend, const Eigen::MatrixXd& cov, const std::vector<int>& order,
+      bool* ok = nullptr) const {
     const auto m = static_cast<Eigen::Index>(order.size());
     Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> s(m, m);
     for (Eigen::Index b = 0; b < m; ++b) {
@@ -77,7 +78,7 @@ class MergedCells {
     }
     // Positive definite by construction (a covariance plus positive noise);
     // like Factor's, a failure is not reported unless asked for.
-    const bool factored = CholeskyLowerInPlace(s);
+    const bool factored = backend.CholeskyLowerInPlace(s);
     if (ok != nullptr) *ok = factored;
     return s;
   }
@@ -104,7 +105,7 @@ constexpr double kSeenNoiseRatio<float> = 10.0;
 // In the precision of `lower` (B rounded to it).
 template <typename Scalar>
 Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> WhitenedRows(
-    const MergedCells& fused, const Eigen::MatrixXd& base,
+    const DenseBackend& backend, const MergedCells& fused, const Eigen::MatrixXd& base,
     const Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic>& lower) {
   const std::vector<int>& k = fused.cells();
   Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> rows(static_cast<Eigen::Index>(k.size()),
@@ -112,7 +113,7 @@ Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> WhitenedRows(
   for (Eigen::Index a = 0; a < rows.rows(); ++a) {
     rows.row(a) = base.col(k[a]).transpose().template cast<Scalar>();
   }
-  SolveLeftLower(lower, rows);
+  backend.SolveLeftLower(lower, rows);
   return rows;
 }
 
@@ -218,9 +219,10 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
   for (const PoseObservation& pose : prefix) fused.Add(pose);
   if (fused.empty()) return absl::OkStatus();
   auto compute = [&]() -> absl::StatusOr<Eigen::MatrixXd> {
-    const Eigen::MatrixXd w = WhitenedRows(fused, cov_, fused.FactorLower(cov_));
+    const DenseBackend& backend = params_.dense_backend;
+    const Eigen::MatrixXd w = WhitenedRows(backend, fused, cov_, fused.FactorLower(backend, cov_));
     Eigen::MatrixXd conditioned = cov_;
-    SymmetricRankUpdate(-1.0, w.transpose(), conditioned);
+    backend.SymmetricRankUpdate(-1.0, w.transpose(), conditioned);
     conditioned.triangularView<Eigen::StrictlyUpper>() = conditioned.transpose();
     return conditioned;
   };
@@ -266,20 +268,24 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   for (const PoseObservation& pose : poses.subspan(skip)) fused.Add(pose);
   Eigen::VectorXd var = base.diagonal();
   if (fused.empty()) return var;
+  const DenseBackend& backend = params_.dense_backend;
   if (params_.single_precision) {
     // A factor that fails in single precision (a covariance plus noise
     // should not) takes double's below.
     bool factored = false;
-    const Eigen::MatrixXf lower = fused.FactorLower<float>(base, &factored);
+    const Eigen::MatrixXf lower = fused.FactorLower<float>(backend, base, &factored);
     if (factored) {
-      const Eigen::MatrixXf rows = WhitenedRows(fused, base, lower);
+      const Eigen::MatrixXf rows = WhitenedRows(backend, fused, base, lower);
       for (Eigen::Index c = 0; c < rows.cols(); ++c) {
         var[c] -= rows.col(c).cast<double>().squaredNorm();
       }
       return var;
     }
   }
-  var -= WhitenedRows(fused, base, fused.FactorLower(base)).colwise().squaredNorm().transpose();
+  var -= WhitenedRows(backend, fused, base, fused.FactorLower(backend, base))
+             .colwise()
+             .squaredNorm()
+             .transpose();
   return var;
 }
 
@@ -348,7 +354,8 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
         }
         order.insert(order.end(), seen_slots.begin(), seen_slots.end());
         bool factored = true;
-        const Matrix lower = fused.template FactorLower<Scalar>(base, order, &factored);
+        const Matrix lower =
+            fused.template FactorLower<Scalar>(params_.dense_backend, base, order, &factored);
         if constexpr (!std::is_same_v<Scalar, double>) {
           // A covariance plus noise should factor in single precision too;
           // where it does not, the whole value is taken in double.
@@ -363,7 +370,7 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
               cross(a, b) = static_cast<Scalar>(base(fused.cells()[order[a]], cell));
             }
           }
-          SolveLeftLower(lower, cross);
+          params_.dense_backend.SolveLeftLower(lower, cross);
           for (Eigen::Index b = 0; b < u; ++b) {
             var[unseen[b]] -= cross.col(b).template cast<double>().squaredNorm();
           }
@@ -371,7 +378,7 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
         if (!seen.empty()) {
           const auto o = static_cast<Eigen::Index>(seen.size());
           Matrix inv = lower.bottomRightCorner(o, o);
-          InverseLowerInPlace(inv);
+          params_.dense_backend.InverseLowerInPlace(inv);
           for (Eigen::Index b = 0; b < o; ++b) {
             // (S^-1)_jj: column b of L_OO^-1, which is zero above row b.
             const double s_inv = inv.col(b).tail(o - b).template cast<double>().squaredNorm();
@@ -415,7 +422,7 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
       return sum;
     }
     // |L^-1 B_K,:|_F^2: m^2 n, cheaper when K is most of the field.
-    return WhitenedRows(fused, base, factor.matrixLLT()).squaredNorm();
+    return WhitenedRows(params_.dense_backend, fused, base, factor.matrixLLT()).squaredNorm();
   };
   return reduction(all) - reduction(baseline);
 }

@@ -48,6 +48,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/string_view.h"
 #include "core/common/single_flight_cache.h"
+#include "core/mapping/dense_backend.h"
 
 namespace oaipp {
 
@@ -104,6 +105,10 @@ struct InformationParams {
   // taken in double. docs/capacity.md measures what it saves and costs. A
   // setting of the server (--objective_precision), not of the mission spec.
   bool single_precision = false;
+  // Where the objective's dense products run (core/mapping/dense_backend.h):
+  // Eigen unless set. A setting of the server (--dense_backend), not of the
+  // mission spec.
+  DenseBackend dense_backend = {};
 
   // InvalidArgument naming the first bad field.
   [[nodiscard]] absl::Status Validate() const;

@@ -10,26 +10,18 @@
 #include "gtest/gtest.h"
 #include "server/service.h"
 #include "sim/scenario.h"
+#include "tests/server/service_fixture.h"
 
 namespace oaipp::client {
 namespace {
 
-std::unique_ptr<grpc::Server> Serve(grpc::Service* service) {
-  grpc::ServerBuilder builder;
-  builder.RegisterService(service);
-  return builder.BuildAndStart();
-}
-
-// The real service in-process, with two planning threads, and a client over
+// The real server in-process, with two planning threads, and a client over
 // its channel.
 struct LocalService {
-  ~LocalService() { server->Shutdown(); }
-
-  server::MissionRegistry registry{{}};
-  server::PlanningPool planners{2, 8};
-  server::MissionServiceImpl service{&registry, &planners, nullptr};
-  std::unique_ptr<grpc::Server> server = Serve(&service);
-  Client client{server->InProcessChannel(grpc::ChannelArguments()), {}};
+  server::testing::InProcessService server{
+      server::ServerParts{.planning_threads = 2, .planning_queue = 8}};
+  server::MissionRegistry& registry = server.registry();
+  Client client{server.channel(), {}};
 };
 
 // E1 with a 30 s budget and 10 CMA-ES generations a plan: a short mission.
@@ -123,15 +115,11 @@ TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
 // take-off plan is refused with a retry delay; the client waits as told and
 // asks again (not a failed attempt), and gets its path once the slot is free.
 TEST(EndToEndTest, APacedTakeOffWaitsAndThenFlies) {
-  server::MissionRegistry registry({});
-  server::PlanningPool planners(1, 8);
-  server::MissionServiceImpl service(&registry, &planners, nullptr, nullptr,
-                                     {.max_take_off_plans = 1});
-  grpc::ServerBuilder builder;
-  builder.RegisterService(&service);
-  std::unique_ptr<grpc::Server> server = builder.BuildAndStart();
-  Client first(server->InProcessChannel(grpc::ChannelArguments()), {});
-  Client second(server->InProcessChannel(grpc::ChannelArguments()), {});
+  server::testing::InProcessService local(server::ServerParts{
+      .service = {.max_take_off_plans = 1}, .planning_threads = 1, .planning_queue = 8});
+  server::PlanningPool& planners = local.planners();
+  Client first(local.channel(), {});
+  Client second(local.channel(), {});
 
   auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
   ASSERT_TRUE(scenario.ok()) << scenario.status();
@@ -160,7 +148,7 @@ TEST(EndToEndTest, APacedTakeOffWaitsAndThenFlies) {
   // A client that will not wait gets the refusal itself.
   ClientOptions impatient_options;
   impatient_options.max_retry_after = absl::ZeroDuration();
-  Client impatient(server->InProcessChannel(grpc::ChannelArguments()), impatient_options);
+  Client impatient(local.channel(), impatient_options);
   const absl::StatusOr<v1::PlanPathResponse> refused = take_off(impatient, "second");
   std::thread two([&] { b = take_off(second, "second"); });
   const bool paced = eventually([&] { return second.paced_calls() >= 1; });
@@ -178,7 +166,6 @@ TEST(EndToEndTest, APacedTakeOffWaitsAndThenFlies) {
   EXPECT_EQ(first.paced_calls(), 0);
   EXPECT_GE(second.paced_calls(), 1);
   EXPECT_EQ(second.retried_calls(), 0);
-  server->Shutdown();
 }
 
 }  // namespace

@@ -56,26 +56,21 @@ class RetryTest : public ::testing::Test {
     answers_to_cancel_ = answers_to_cancel;
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
     creators.push_back(std::make_unique<CancelAnswersFactory>(&answers_to_cancel_));
-    grpc::ServerBuilder builder;
-    builder.RegisterService(&service_);
-    builder.experimental().SetInterceptorCreators(std::move(creators));
-    server_ = builder.BuildAndStart();
-  }
-  void TearDown() override {
-    if (server_ != nullptr) server_->Shutdown();
+    server_ = std::make_unique<server::testing::InProcessService>(
+        server::ServerParts{.registry = {.max_missions = 4, .max_cells_per_mission = 1600},
+                            .planning_threads = 1,
+                            .planning_queue = 4,
+                            .interceptors = std::move(creators)});
   }
   Client Connect(int max_attempts) {
     ClientOptions options;
     options.max_attempts = max_attempts;
     options.first_backoff = absl::Milliseconds(10);
-    return Client(server_->InProcessChannel(grpc::ChannelArguments()), options);
+    return Client(server_->channel(), options);
   }
 
-  server::MissionRegistry registry_{{.max_missions = 4, .max_cells_per_mission = 1600}};
-  server::PlanningPool planners_{1, 4};
-  server::MissionServiceImpl service_{&registry_, &planners_, nullptr};
   std::atomic<int> answers_to_cancel_{0};
-  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<server::testing::InProcessService> server_;
 };
 
 TEST_F(RetryTest, AMeasurementWhoseAnswerWasCancelledIsAskedAgainAndFusedOnce) {

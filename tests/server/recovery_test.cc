@@ -142,7 +142,7 @@ TEST_F(RecoveryTest, EveryMissionComesBackAsItWas) {
   store = Open();
   InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
                          store.get());
-  absl::StatusOr<int> recovered = after.registry().Recover();
+  absl::StatusOr<int> recovered = after.recovered();
   ASSERT_TRUE(recovered.ok()) << recovered.status();
   EXPECT_EQ(*recovered, 2);
   for (const std::string name : {"missions/a", "missions/l"}) {
@@ -182,7 +182,7 @@ TEST_F(RecoveryTest, RetriesAfterARestartAreAnsweredOnceWithTheFirstResult) {
   store = Open();
   InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
                          store.get());
-  ASSERT_TRUE(after.registry().Recover().ok());
+  ASSERT_TRUE(after.recovered().ok());
   v1::AddMeasurementResponse fused;
   ASSERT_TRUE(Measure(after.stub(), "missions/a", 3, &fused).ok());
   EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(fused, first_fused));
@@ -220,7 +220,7 @@ TEST_F(RecoveryTest, TheLawnmowerGoesOnFromItsPlaceInThePattern) {
   std::unique_ptr<MissionStore> twin_store = Open("twin.db");
   InProcessService twin(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
                         twin_store.get());
-  ASSERT_TRUE(twin.registry().Recover().ok());
+  ASSERT_TRUE(twin.recovered().ok());
   v1::PlanPathResponse expected, got;
   ASSERT_TRUE(Plan(running.stub(), "missions/l", 30.0, "p3", &expected).ok());
   ASSERT_TRUE(Plan(twin.stub(), "missions/l", 30.0, "p3", &got).ok());
@@ -251,7 +251,7 @@ TEST_F(RecoveryTest, ServerAssignedIdsNeverRepeatAcrossRestarts) {
   }
   std::unique_ptr<MissionStore> store = Open();
   InProcessService after({}, 2, 64, store.get());
-  ASSERT_TRUE(after.registry().Recover().ok());
+  ASSERT_TRUE(after.recovered().ok());
   EXPECT_EQ(after.registry().size(), 0u);  // the deleted mission stays deleted
   grpc::ClientContext c;
   v1::CreateMissionRequest r;
@@ -350,7 +350,7 @@ TEST_F(RecoveryTest, AFailedWriteAppliesNothing) {
   std::unique_ptr<MissionStore> reopened = Open();
   InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
                          reopened.get());
-  absl::StatusOr<int> recovered = after.registry().Recover();
+  absl::StatusOr<int> recovered = after.recovered();
   ASSERT_TRUE(recovered.ok()) << recovered.status();
   EXPECT_EQ(*recovered, 2);
   EXPECT_EQ(Map(after.stub(), "missions/a").SerializeAsString(),
@@ -420,7 +420,7 @@ TEST_F(RecoveryTest, SnapshotsBoundTheTailAndRestoreTheMissionExactly) {
   }
   std::unique_ptr<MissionStore> twin_store = Open("twin.db");
   InProcessService twin(limits, 2, 64, twin_store.get());
-  absl::StatusOr<int> recovered = twin.registry().Recover();
+  absl::StatusOr<int> recovered = twin.recovered();
   ASSERT_TRUE(recovered.ok()) << recovered.status();
   ASSERT_EQ(*recovered, 2);
   for (const std::string name : {"missions/a", "missions/l"}) {
@@ -475,7 +475,7 @@ TEST_F(RecoveryTest, TheObjectivePrecisionIsTheHoldingServersSetting) {
     ASSERT_TRUE(Plan(single.stub(), "missions/a", 12.0, "p1", &plan).ok());
   }
   InProcessService twin(RegistryLimits{.max_cells_per_mission = 1600}, 2, 64, store.get());
-  ASSERT_TRUE(twin.registry().Recover().ok());
+  ASSERT_TRUE(twin.recovered().ok());
   EXPECT_FALSE(single_precision(twin.registry(), "missions/a"));
 }
 
@@ -595,7 +595,7 @@ TEST_F(DiskFullTest, AWriteThatDoesNotFitIsResourceExhaustedAndNotApplied) {
   std::unique_ptr<MissionStore> reopened = *OpenSqliteStore((dir_ / "missions.db").string());
   InProcessService after(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600}, 2, 64,
                          reopened.get());
-  ASSERT_TRUE(after.registry().Recover().ok());
+  ASSERT_TRUE(after.recovered().ok());
   EXPECT_EQ(Map(after.stub(), "missions/a").SerializeAsString(),
             Map(service.stub(), "missions/a").SerializeAsString());
 }

@@ -1,7 +1,8 @@
-// An in-process MissionService for tests: no network, real registry,
-// planning pool and service.
+// An in-process MissionService for tests: the real server (Server::Start)
+// with no network, real registry, planning pool and service.
 #pragma once
 
+#include <cstdlib>
 #include <memory>
 #include <string>
 #include <thread>
@@ -9,40 +10,54 @@
 #include "grpcpp/grpcpp.h"
 #include "gtest/gtest.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/server.h"
 #include "server/service.h"
 
 namespace oaipp::server::testing {
 
 class InProcessService {
  public:
+  // A server assembled by Server::Start from `parts`, serving only in
+  // process (no port, no metrics endpoint, no web view). Recovery from the
+  // parts' store has run when this returns: recovered() says how it went.
+  explicit InProcessService(ServerParts parts) {
+    ServerOptions options;
+    options.listen = "";
+    options.metrics_listen = "";
+    absl::StatusOr<std::unique_ptr<Server>> started = Server::Start(options, std::move(parts));
+    // A fixture whose start failed fails the test that made it.
+    if (!started.ok()) {
+      ADD_FAILURE() << "Server::Start: " << started.status();
+      std::abort();
+    }
+    server_ = *std::move(started);
+    stub_ = v1::MissionService::NewStub(server_->InProcessChannel());
+  }
+  // The same from the parts most tests set.
   explicit InProcessService(RegistryLimits limits = {.max_missions = 64,
                                                      .max_cells_per_mission = 1600},
                             int planning_threads = 2, int planning_queue = 64,
                             MissionStore* store = nullptr, const Authenticator* auth = nullptr,
                             ServiceLimits service_limits = {})
-      : registry_(limits, store),
-        planners_(planning_threads, planning_queue),
-        service_(&registry_, &planners_, &metrics_, auth, service_limits) {
-    grpc::ServerBuilder builder;
-    builder.RegisterService(&service_);
-    server_ = builder.BuildAndStart();
-    stub_ = v1::MissionService::NewStub(server_->InProcessChannel(grpc::ChannelArguments()));
-  }
-  ~InProcessService() {
-    server_->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(5));
-  }
+      : InProcessService(ServerParts{.registry = limits,
+                                     .service = service_limits,
+                                     .planning_threads = planning_threads,
+                                     .planning_queue = planning_queue,
+                                     .store = store,
+                                     .auth = auth}) {}
+  ~InProcessService() { server_->Shutdown(absl::Seconds(5)); }
 
   v1::MissionService::Stub& stub() { return *stub_; }
-  MissionRegistry& registry() { return registry_; }
-  MissionServiceImpl& service() { return service_; }
-  PlanningPool& planners() { return planners_; }
+  // Another channel to the server, in process.
+  std::shared_ptr<grpc::Channel> channel() { return server_->InProcessChannel(); }
+  MissionRegistry& registry() { return server_->registry(); }
+  MissionServiceImpl& service() { return server_->service(); }
+  PlanningPool& planners() { return server_->planners(); }
+  // How many missions the start recovered from the store.
+  [[nodiscard]] const absl::StatusOr<int>& recovered() const { return server_->recovered(); }
 
  private:
-  MissionRegistry registry_;
-  PlanningPool planners_;
-  Metrics metrics_;
-  MissionServiceImpl service_;
-  std::unique_ptr<grpc::Server> server_;
+  std::unique_ptr<Server> server_;
   std::unique_ptr<v1::MissionService::Stub> stub_;
 };
 

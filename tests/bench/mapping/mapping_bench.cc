@@ -102,19 +102,19 @@ void BM_KalmanUpdateOpenBlas(benchmark::State& state) {
   double eigen_s = 0.0;
   double blas_s = 0.0;
   using Clock = std::chrono::steady_clock;
-  if (!UseOpenBlas().ok()) {
+  const absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+  if (!blas.ok()) {
     state.SkipWithError("OpenBLAS (libopenblas0-pthread) is not installed");
     return;
   }
-  const std::string kernel = DenseBackendName();
+  const std::string kernel = blas->name();
   for (auto _ : state) {
     map = PriorMap().Clone();
-    UseEigen();
     const auto t0 = Clock::now();
     absl::Status status = map.Update(obs);
     const auto t1 = Clock::now();
     map = PriorMap().Clone();
-    (void)UseOpenBlas();
+    map.set_dense_backend(*blas);
     const auto t2 = Clock::now();
     status.Update(map.Update(obs));
     const auto t3 = Clock::now();
@@ -124,7 +124,6 @@ void BM_KalmanUpdateOpenBlas(benchmark::State& state) {
     blas_s += b;
     eigen_s += std::chrono::duration<double>(t1 - t0).count();
   }
-  UseEigen();
   const double iterations = static_cast<double>(state.iterations());
   state.counters["m"] = static_cast<double>(obs.size());
   state.counters["eigen_ms"] = 1e3 * eigen_s / iterations;

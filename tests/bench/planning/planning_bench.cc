@@ -220,11 +220,12 @@ BENCHMARK(BM_ConfirmationAgainstPaper)->Unit(benchmark::kMillisecond)->Iteration
 // `same_paths` the share of plans whose waypoints came out bit for bit
 // those of double precision.
 void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
-  if (!UseOpenBlas().ok()) {
+  const absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+  if (!blas.ok()) {
     state.SkipWithError("OpenBLAS (libopenblas0-pthread) is not installed");
     return;
   }
-  const std::string backend = DenseBackendName();
+  const std::string backend = blas->name();
   const World& w = E1();
   const std::vector<Vec3> starts = {{10, 0, 7},    {-10, 8, 10}, {5, 10, 12},  {-12, -12, 8},
                                     {12, -10, 15}, {0, 6, 5},    {-6, -5, 18}, {8, 8, 20}};
@@ -236,6 +237,7 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
       for (const bool single : {false, true}) {
         PlannerCommon common;
         common.information.single_precision = single;
+        common.information.dense_backend = *blas;
         OaIppPlanner planner(common, OaIppConfig{});
         UavState start;
         start.position_W = p;
@@ -245,7 +247,6 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
             .push_back(
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
         if (!path.ok()) {
-          UseEigen();
           state.SkipWithError(std::string(path.status().message()).c_str());
           return;
         }
@@ -255,7 +256,6 @@ void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
       ++plans;
     }
   }
-  UseEigen();
   if (plans == 0) return;
   state.counters["double_median_ms"] = 1e3 * Median(double_s);
   state.counters["single_median_ms"] = 1e3 * Median(single_s);

@@ -12,6 +12,7 @@
 #include "api/measurement.h"
 #include "api/spec.h"
 #include "grpcpp/grpcpp.h"
+#include "server/server.h"
 #include "server/service.h"
 #include "tests/bench/server/e1_mission.h"
 
@@ -20,22 +21,19 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// The real server (Server::Start) on a loopback port, no store.
 struct Loopback {
-  server::MissionRegistry registry{{}};
-  server::PlanningPool planners{2, 16};
-  server::MissionServiceImpl service{&registry, &planners, nullptr};
-  std::unique_ptr<grpc::Server> server;
+  std::unique_ptr<server::Server> server;
   std::unique_ptr<v1::MissionService::Stub> stub;
   std::shared_ptr<server::Mission> direct;  // a twin mission called in-process
 
   Loopback() {
-    grpc::ServerBuilder builder;
-    int port = 0;
-    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
-    builder.RegisterService(&service);
-    server = builder.BuildAndStart();
-    stub = v1::MissionService::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(port),
-                                                           grpc::InsecureChannelCredentials()));
+    server::ServerOptions options;
+    options.listen = "127.0.0.1:0";
+    options.metrics_listen = "";
+    server = *server::Server::Start(options, {.planning_threads = 2, .planning_queue = 16});
+    stub = v1::MissionService::NewStub(grpc::CreateChannel(
+        "127.0.0.1:" + std::to_string(server->port()), grpc::InsecureChannelCredentials()));
     grpc::ClientContext context;
     v1::CreateMissionRequest request;
     request.set_mission_id("rpc");
@@ -83,7 +81,7 @@ void BM_AddMeasurement(benchmark::State& state) {
   // Both sides settle the covariance downdate the call leaves pending (the
   // server's background thread may get there first), so each times the
   // whole update, not how much of it overlaps the other side.
-  const std::shared_ptr<server::Mission> served = *w.registry.Get("missions/rpc", "");
+  const std::shared_ptr<server::Mission> served = *w.server->registry().Get("missions/rpc", "");
   CompareInProcessAndRpc(
       state,
       [&] {

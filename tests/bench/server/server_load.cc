@@ -43,7 +43,6 @@
 #include "absl/strings/str_cat.h"
 #include "api/metadata.h"
 #include "api/plan.h"
-#include "core/mapping/dense_backend.h"
 #include "core/planning/information.h"
 #include "grpcpp/grpcpp.h"
 #include "nlohmann/json.hpp"
@@ -124,6 +123,7 @@ struct LoadResult {
   std::vector<MissionResult> missions;
   double bytes_per_mission = 0.0;  // as the server reports it (map_bytes)
   long peak_rss_kb = 0;
+  std::string dense_backend;  // the server's (--dense_backend, as loaded)
 };
 
 double Mean(const std::vector<double>& v) {
@@ -330,6 +330,9 @@ void RunLoad(oaipp::server::ServerOptions options, bool alone, LoadResult& out) 
     std::exit(1);
   }
   server::Server& server = **started;
+  out.dense_backend = server.dense_backend().name();
+  std::printf("Kalman update on %s; objective's solves in %s precision\n",
+              out.dense_backend.c_str(), options.objective_precision.c_str());
   const int port = server.port();
   auto channel =
       grpc::CreateChannel(absl::StrCat("127.0.0.1:", port), grpc::InsecureChannelCredentials());
@@ -534,12 +537,6 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", std::string(valid.message()).c_str());
     return 2;
   }
-  if (absl::Status set = oaipp::server::SetUpProcess(options); !set.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(set.message()).c_str());
-    return 2;
-  }
-  std::printf("Kalman update on %s; objective's solves in %s precision\n",
-              oaipp::DenseBackendName().c_str(), options.objective_precision.c_str());
   const int missions = absl::GetFlag(FLAGS_missions);
   const double budget = absl::GetFlag(FLAGS_budget_s);
   if (missions < 1 || !(budget > 0) || !(absl::GetFlag(FLAGS_first_plan_budget_s) >= 0.0) ||
@@ -629,7 +626,7 @@ int main(int argc, char** argv) {
     j["generations"] = absl::GetFlag(FLAGS_generations);
     j["stall_generations"] = absl::GetFlag(FLAGS_stall_generations);
     j["stall_tolerance"] = absl::GetFlag(FLAGS_stall_tolerance);
-    j["dense_backend"] = oaipp::DenseBackendName();
+    j["dense_backend"] = runs.empty() ? "" : runs.front()->dense_backend;
     j["objective_precision"] = options.objective_precision;
     nlohmann::json list = nlohmann::json::array();
     for (auto& run : runs) list.push_back(ToJson(*run, pace));

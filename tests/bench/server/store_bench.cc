@@ -17,6 +17,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "grpcpp/grpcpp.h"
+#include "server/server.h"
 #include "server/service.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
@@ -60,14 +61,21 @@ std::unique_ptr<server::MissionStore> OpenKind(int kind, const std::string& name
 }
 
 // A service in-process over `store` (nullptr: memory) holding missions.
+// The real server (Server::Start) on `store`, in process only.
 struct Service {
-  explicit Service(server::MissionStore* store) : registry({.max_missions = 128}, store) {
-    grpc::ServerBuilder builder;
-    builder.RegisterService(&service);
-    server = builder.BuildAndStart();
-    stub = v1::MissionService::NewStub(server->InProcessChannel(grpc::ChannelArguments()));
+  explicit Service(server::MissionStore* store)
+      : server(Start(store)),
+        registry(server->registry()),
+        stub(v1::MissionService::NewStub(server->InProcessChannel())) {}
+  static std::unique_ptr<server::Server> Start(server::MissionStore* store) {
+    server::ServerOptions options;
+    options.listen = "";
+    options.metrics_listen = "";
+    return *server::Server::Start(options, {.registry = {.max_missions = 128},
+                                            .planning_threads = 2,
+                                            .planning_queue = 16,
+                                            .store = store});
   }
-  ~Service() { server->Shutdown(); }
   void Create(const std::string& id) {
     grpc::ClientContext c;
     v1::CreateMissionRequest r;
@@ -90,10 +98,8 @@ struct Service {
     (void)stub->AddMeasurement(&c, r, &out);
     return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   }
-  server::MissionRegistry registry;
-  server::PlanningPool planners{2, 16};
-  server::MissionServiceImpl service{&registry, &planners, nullptr};
-  std::unique_ptr<grpc::Server> server;
+  std::unique_ptr<server::Server> server;
+  server::MissionRegistry& registry;
   std::unique_ptr<v1::MissionService::Stub> stub;
 };
 
@@ -209,6 +215,7 @@ void BM_Recover(benchmark::State& state) {
   for (auto _ : state) {
     auto store = *server::OpenSqliteStore((dir / "missions.db").string());
     server::MissionRegistry registry({.max_missions = missions}, store.get());
+    // The registry's own recovery: what a server's start spends on it.
     const absl::StatusOr<int> recovered = registry.Recover();
     if (!recovered.ok() || *recovered != missions) state.SkipWithError("recovery failed");
   }

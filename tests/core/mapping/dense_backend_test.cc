@@ -20,15 +20,24 @@
 namespace oaipp {
 namespace {
 
+// deploy/install-deps.sh installs libopenblas0-pthread. Each test holds
+// both backends as values: nothing in the process is switched.
 class DenseBackendTest : public ::testing::Test {
  protected:
-  void TearDown() override { UseEigen(); }
+  void SetUp() override {
+    absl::StatusOr<DenseBackend> loaded = DenseBackend::OpenBlas();
+    ASSERT_TRUE(loaded.ok()) << loaded.status();
+    blas_ = *loaded;
+  }
+  DenseBackend blas_;
+  const DenseBackend eigen_;
 };
 
 TEST_F(DenseBackendTest, OpenBlasRankUpdateEqualsEigensOnTheLowerTriangle) {
-  // deploy/install-deps.sh installs libopenblas0-pthread.
-  ASSERT_TRUE(UseOpenBlas().ok());
-  EXPECT_THAT(DenseBackendName(), ::testing::StartsWith("openblas ("));
+  EXPECT_THAT(blas_.name(), ::testing::StartsWith("openblas ("));
+  EXPECT_EQ(eigen_.name(), "eigen");
+  EXPECT_TRUE(blas_.is_open_blas());
+  EXPECT_FALSE(eigen_.is_open_blas());
   std::mt19937 rng(3);
   std::normal_distribution<double> normal;
   for (const auto& [n, m] : {std::pair{7, 1}, std::pair{300, 41}, std::pair{1000, 260}}) {
@@ -39,11 +48,9 @@ TEST_F(DenseBackendTest, OpenBlasRankUpdateEqualsEigensOnTheLowerTriangle) {
     // The plain product, written out, as the reference for both.
     const Eigen::MatrixXd expected = start - 0.5 * b * b.transpose();
     Eigen::MatrixXd blas = start;
-    SymmetricRankUpdate(-0.5, b, blas);
-    UseEigen();
+    blas_.SymmetricRankUpdate(-0.5, b, blas);
     Eigen::MatrixXd eigen = start;
-    SymmetricRankUpdate(-0.5, b, eigen);
-    ASSERT_TRUE(UseOpenBlas().ok());
+    eigen_.SymmetricRankUpdate(-0.5, b, eigen);
     const double scale = 1.0 + m;
     for (int j = 0; j < n; ++j) {
       for (int i = 0; i < n; ++i) {
@@ -59,7 +66,6 @@ TEST_F(DenseBackendTest, OpenBlasRankUpdateEqualsEigensOnTheLowerTriangle) {
 }
 
 TEST_F(DenseBackendTest, OpenBlasTriangularSolveEqualsEigens) {
-  ASSERT_TRUE(UseOpenBlas().ok());
   std::mt19937 rng(4);
   std::normal_distribution<double> normal;
   for (const auto& [n, m] : {std::pair{5, 1}, std::pair{400, 90}}) {
@@ -72,11 +78,9 @@ TEST_F(DenseBackendTest, OpenBlasTriangularSolveEqualsEigens) {
     Eigen::MatrixXd b(n, m);
     for (double& v : b.reshaped()) v = normal(rng);
     Eigen::MatrixXd blas = b;
-    SolveRightLowerTransposed(lower, blas);
-    UseEigen();
+    blas_.SolveRightLowerTransposed(lower, blas);
     Eigen::MatrixXd eigen = b;
-    SolveRightLowerTransposed(lower, eigen);
-    ASSERT_TRUE(UseOpenBlas().ok());
+    eigen_.SolveRightLowerTransposed(lower, eigen);
     // Both solve X L^T = B: check against B itself.
     const Eigen::MatrixXd l = lower.triangularView<Eigen::Lower>();
     EXPECT_LT((blas * l.transpose() - b).cwiseAbs().maxCoeff(), 1e-10);
@@ -86,7 +90,6 @@ TEST_F(DenseBackendTest, OpenBlasTriangularSolveEqualsEigens) {
 }
 
 TEST_F(DenseBackendTest, OpenBlasCholeskyEqualsEigensAndRefusesWhatIsNotPositiveDefinite) {
-  ASSERT_TRUE(UseOpenBlas().ok());
   std::mt19937 rng(6);
   std::normal_distribution<double> normal;
   for (const int m : {1, 30, 300}) {
@@ -94,11 +97,9 @@ TEST_F(DenseBackendTest, OpenBlasCholeskyEqualsEigensAndRefusesWhatIsNotPositive
     for (double& v : a.reshaped()) v = normal(rng);
     const Eigen::MatrixXd s = a * a.transpose() + Eigen::MatrixXd::Identity(m, m);
     Eigen::MatrixXd blas = s;
-    ASSERT_TRUE(CholeskyLowerInPlace(blas));
-    UseEigen();
+    ASSERT_TRUE(blas_.CholeskyLowerInPlace(blas));
     Eigen::MatrixXd eigen = s;
-    ASSERT_TRUE(CholeskyLowerInPlace(eigen));
-    ASSERT_TRUE(UseOpenBlas().ok());
+    ASSERT_TRUE(eigen_.CholeskyLowerInPlace(eigen));
     const Eigen::MatrixXd l_blas = blas.triangularView<Eigen::Lower>();
     const Eigen::MatrixXd l_eigen = eigen.triangularView<Eigen::Lower>();
     EXPECT_LT((l_blas * l_blas.transpose() - s).cwiseAbs().maxCoeff(), 1e-10 * m);
@@ -106,9 +107,8 @@ TEST_F(DenseBackendTest, OpenBlasCholeskyEqualsEigensAndRefusesWhatIsNotPositive
   }
   Eigen::MatrixXd indefinite{{1.0, 2.0}, {2.0, 1.0}};  // eigenvalues 3 and -1
   Eigen::MatrixXd copy = indefinite;
-  EXPECT_FALSE(CholeskyLowerInPlace(copy));
-  UseEigen();
-  EXPECT_FALSE(CholeskyLowerInPlace(indefinite));
+  EXPECT_FALSE(blas_.CholeskyLowerInPlace(copy));
+  EXPECT_FALSE(eigen_.CholeskyLowerInPlace(indefinite));
 }
 
 // L^-1 on both backends: L times it is the identity, and garbage above the
@@ -124,13 +124,8 @@ TEST_F(DenseBackendTest, TriangularInverseTimesTheFactorIsTheIdentityOnBothBacke
     lower.triangularView<Eigen::StrictlyUpper>().setConstant(1e300);
     const Eigen::MatrixXd l = lower.triangularView<Eigen::Lower>();
     for (const bool open_blas : {true, false}) {
-      if (open_blas) {
-        ASSERT_TRUE(UseOpenBlas().ok());
-      } else {
-        UseEigen();
-      }
       Eigen::MatrixXd inv = lower;
-      InverseLowerInPlace(inv);
+      (open_blas ? blas_ : eigen_).InverseLowerInPlace(inv);
       const Eigen::MatrixXd inv_lower = inv.triangularView<Eigen::Lower>();
       EXPECT_LT((l * inv_lower - Eigen::MatrixXd::Identity(m, m)).cwiseAbs().maxCoeff(), 1e-12)
           << "m " << m << (open_blas ? " on OpenBLAS" : " on Eigen");
@@ -142,7 +137,8 @@ TEST_F(DenseBackendTest, AMapFusedThroughOpenBlasMatchesEigenToRoundOff) {
   const FieldGrid grid = *FieldGrid::FromBounds(Vec2(-15, -15), Vec2(15, 15), 0.75);
   GpMap on_eigen = *GpMap::Create(grid, GpParams::PaperPreset(0.75));
   GpMap on_blas = on_eigen.Clone();
-  ASSERT_TRUE(UseOpenBlas().ok());
+  // Two maps in one process, each on its own backend.
+  on_blas.set_dense_backend(blas_);
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> where(-12, 12), height(3, 20);
   for (int shot = 0; shot < 12; ++shot) {
@@ -152,9 +148,7 @@ TEST_F(DenseBackendTest, AMapFusedThroughOpenBlasMatchesEigenToRoundOff) {
     for (int c : cells)
       obs.push_back({.cell = c, .value = (c % 7 == 0) ? 1.0 : 0.0, .variance = 0.3});
     ASSERT_TRUE(on_blas.Update(obs).ok());
-    UseEigen();
     ASSERT_TRUE(on_eigen.Update(obs).ok());
-    ASSERT_TRUE(UseOpenBlas().ok());
   }
   EXPECT_NEAR(on_blas.Trace(), on_eigen.Trace(), 1e-10 * on_eigen.Trace());
   EXPECT_LT((on_blas.Mean() - on_eigen.Mean()).cwiseAbs().maxCoeff(), 1e-10);
@@ -188,9 +182,10 @@ TEST_F(DenseBackendTest, AShotSeeingMostOfTheFieldIsFusedAsTheTextbookUpdate) {
   const FieldGrid grid = *FieldGrid::FromBounds(Vec2(-7.5, -7.5), Vec2(7.5, 7.5), 0.75);
   GpMap on_blas = *GpMap::Create(grid, GpParams::PaperPreset(0.75));
   GpMap on_eigen = on_blas.Clone();
+  on_blas.set_dense_backend(blas_);
+  EXPECT_EQ(on_blas.Clone().dense_backend(), blas_);  // a copy keeps it
   Eigen::VectorXd mean = on_blas.Mean();
   Eigen::MatrixXd p = on_blas.Covariance();
-  ASSERT_TRUE(UseOpenBlas().ok());
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> where(-3, 3), height(14, 26), label(0, 1);
   int all_seen = 0;
@@ -209,9 +204,7 @@ TEST_F(DenseBackendTest, AShotSeeingMostOfTheFieldIsFusedAsTheTextbookUpdate) {
     }
     for (std::size_t k = 4; k < cells.size(); k += 31) obs[k].variance = 1e-6;
     ASSERT_TRUE(on_blas.Update(obs).ok());
-    UseEigen();
     ASSERT_TRUE(on_eigen.Update(obs).ok());
-    ASSERT_TRUE(UseOpenBlas().ok());
     TextbookUpdate(obs, mean, p);
     // Where R = 1e-6 the means are sensitive (cond(S) ~ 1e6): the three
     // routes differ there by about 1e-10, everywhere else by round-off.
@@ -232,9 +225,8 @@ TEST_F(DenseBackendTest, ConcurrentCallsGiveTheSingleThreadedResultsBitForBit) {
   // time. Each thread repeats the same solves and rank updates and must get
   // what one thread alone gets, to the bit. Debian's serial OpenBLAS, which
   // hands out scratch buffers without a lock, failed this before
-  // UseOpenBlas() refused it: small calls, many of them, make the race
+  // DenseBackend::OpenBlas() refused it: small calls, many of them, make the race
   // likely.
-  ASSERT_TRUE(UseOpenBlas().ok());
   std::mt19937 rng(5);
   std::normal_distribution<double> normal;
   constexpr int kThreads = 4;
@@ -256,11 +248,11 @@ TEST_F(DenseBackendTest, ConcurrentCallsGiveTheSingleThreadedResultsBitForBit) {
     w.p = Eigen::MatrixXd::Identity(k, k);
     work.push_back(std::move(w));
   }
-  auto run = [](const Work& w) {
+  auto run = [this](const Work& w) {
     Eigen::MatrixXd x = w.b;
-    SolveLeftLower(w.lower, x);
+    blas_.SolveLeftLower(w.lower, x);
     Eigen::MatrixXd p = w.p;
-    SymmetricRankUpdate(-1e-3, x.transpose(), p);
+    blas_.SymmetricRankUpdate(-1e-3, x.transpose(), p);
     return std::pair{x, p};
   };
   std::vector<std::pair<Eigen::MatrixXd, Eigen::MatrixXd>> alone;

@@ -94,18 +94,17 @@ TEST_P(InformationAgreementTest, FastEqualsReferenceOnThePaperMap) {
 // listed twice. Agreement with the oracle on both dense backends.
 TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
   const GpMap map = RandomPosterior(40, 11);
-  const InformationParams params{.kappa = 1.1};
-  const InformationParams single_params{.kappa = 1.1, .single_precision = true};
   const DownwardCamera camera;
   const SensorNoise noise;
   std::mt19937 rng(29);
   std::uniform_real_distribution<double> xy(5, 25), h(5, 22), step(-2.0, 2.0);
+  absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+  ASSERT_TRUE(blas.ok()) << blas.status();
   for (const bool open_blas : {false, true}) {
-    if (open_blas) {
-      ASSERT_TRUE(UseOpenBlas().ok());
-    } else {
-      UseEigen();
-    }
+    const DenseBackend backend = open_blas ? *blas : DenseBackend();
+    const InformationParams params{.kappa = 1.1, .dense_backend = backend};
+    const InformationParams single_params{
+        .kappa = 1.1, .single_precision = true, .dense_backend = backend};
     const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
     const InformationEvaluator fast_single(map.Mean(), map.Covariance(), single_params);
     for (int path = 0; path < 4; ++path) {
@@ -133,7 +132,6 @@ TEST(InformationTest, OverlappingShotsEqualReferenceOnBothBackends) {
           << "path " << path << (open_blas ? " on OpenBLAS" : " on Eigen") << ", single";
     }
   }
-  UseEigen();
 }
 
 // The adaptive objective in single precision
@@ -162,16 +160,15 @@ TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
     ASSERT_GT(references.back(), 0.0);
     paths.push_back(std::move(poses));
   }
-  const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
-  InformationParams single_params = params;
-  single_params.single_precision = true;
-  const InformationEvaluator fast_single(map.Mean(), map.Covariance(), single_params);
+  absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+  ASSERT_TRUE(blas.ok()) << blas.status();
   for (const bool open_blas : {false, true}) {
-    if (open_blas) {
-      ASSERT_TRUE(UseOpenBlas().ok());
-    } else {
-      UseEigen();
-    }
+    InformationParams on_backend = params;
+    on_backend.dense_backend = open_blas ? *blas : DenseBackend();
+    const InformationEvaluator fast(map.Mean(), map.Covariance(), on_backend);
+    InformationParams single_params = on_backend;
+    single_params.single_precision = true;
+    const InformationEvaluator fast_single(map.Mean(), map.Covariance(), single_params);
     double worst = 0.0;
     int differs = 0;
     for (std::size_t i = 0; i < paths.size(); ++i) {
@@ -185,7 +182,6 @@ TEST(InformationTest, SinglePrecisionAgreesWithReferenceToItsAccuracy) {
     RecordProperty(open_blas ? "worst_relative_openblas" : "worst_relative_eigen",
                    absl::StrCat(worst));
   }
-  UseEigen();
 }
 
 // Conditioned on a shared unscored prefix (as every replan is, on the shot
