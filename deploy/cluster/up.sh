@@ -56,7 +56,7 @@ for i in $(seq 1 "$replicas"); do
     --listen="127.0.0.1:$port" --metrics_listen="127.0.0.1:$((9470 + i))" \
     >"$dir/replica-$i.log" 2>&1 </dev/null &
   echo $! >"$dir/replica-$i.pid"
-  servers+="    server replica-$i 127.0.0.1:$port"$'\n'
+  servers+="    server replica-$i 127.0.0.1:$port id $i"$'\n'
   echo "cluster: replica-$i on 127.0.0.1:$port (log $dir/replica-$i.log)"
 done
 

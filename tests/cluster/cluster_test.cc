@@ -143,10 +143,18 @@ class ClusterTest : public ::testing::Test {
   std::vector<std::string> holders_;
 };
 
+// Two proxies, their server lines in opposite orders, agree on every
+// mission's replica: the ring is keyed by each replica's fixed identity, not
+// by where a proxy lists it.
 TEST_F(ClusterTest, TheProxyRoutesEachMissionToOneReplica) {
   constexpr int kRouted = 12;
   std::set<std::string> all;
   client::Client client = client::Client::Connect(cluster_.proxy_address(), Patient());
+  std::vector<int> reversed;
+  for (int i = cluster_.replicas() - 1; i >= 0; --i) reversed.push_back(i);
+  const std::string other_proxy = cluster_.AddProxy(reversed);
+  ASSERT_FALSE(other_proxy.empty());
+  client::Client through_other = client::Client::Connect(other_proxy, Patient());
   for (int m = 0; m < kRouted; ++m) {
     const std::string id = absl::StrCat("routed-", m);
     std::set<std::string> seen;
@@ -163,6 +171,8 @@ TEST_F(ClusterTest, TheProxyRoutesEachMissionToOneReplica) {
     }
     ASSERT_TRUE(client.GetMission("missions/" + id).ok());
     seen.insert(client.last_replica());
+    ASSERT_TRUE(through_other.GetMission("missions/" + id).ok());
+    seen.insert(through_other.last_replica());
     EXPECT_EQ(seen.size(), 1u) << id << " was answered by more than one replica";
     all.insert(seen.begin(), seen.end());
   }

@@ -44,6 +44,9 @@ class LocalCluster {
   LocalCluster() = default;
   ~LocalCluster() {
     if (proxy_ != nullptr) proxy_->Stop(SIGKILL);
+    for (auto& p : more_proxies_) {
+      if (p != nullptr) p->Stop(SIGKILL);
+    }
     for (auto& r : replicas_) r->Stop(SIGKILL);
     postgres_.reset();
     if (!dir_.empty()) {
@@ -68,7 +71,6 @@ class LocalCluster {
       std::fprintf(stderr, "LocalCluster: PostgreSQL did not start\n");
       return false;
     }
-    std::string servers;
     for (int i = 0; i < options.replicas; ++i) {
       const int port = FreePort();
       std::vector<std::string> args = {
@@ -80,11 +82,51 @@ class LocalCluster {
           "--dense_backend=eigen"};
       args.insert(args.end(), options.replica_flags.begin(), options.replica_flags.end());
       replicas_.push_back(std::make_unique<ChildProcess>(std::move(args), port));
-      absl::StrAppend(&servers, "    server ", ReplicaName(i), " 127.0.0.1:", port, "\n");
       if (!replicas_.back()->Start()) {
         std::fprintf(stderr, "LocalCluster: replica %d did not start\n", i);
         return false;
       }
+    }
+    std::vector<int> order(replicas_.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+    proxy_ = StartProxy(order);
+    return proxy_ != nullptr;
+  }
+
+  // Another proxy in front of the same replicas, their server lines in
+  // `order` (replica numbers; the ring identities stay theirs); its
+  // address, or "" when it did not start.
+  std::string AddProxy(const std::vector<int>& order) {
+    more_proxies_.push_back(StartProxy(order));
+    return more_proxies_.back() != nullptr ? more_proxies_.back()->address() : std::string();
+  }
+
+  [[nodiscard]] std::string proxy_address() const { return proxy_->address(); }
+  [[nodiscard]] int replicas() const { return static_cast<int>(replicas_.size()); }
+  ChildProcess& replica(int i) { return *replicas_.at(static_cast<std::size_t>(i)); }
+  // The name replica i sends back in x-oaipp-replica.
+  static std::string ReplicaName(int i) { return absl::StrCat("replica-", i); }
+  // Its identity on the proxies' hash ring (HAProxy's server id): fixed per
+  // replica, so that every proxy hashes a mission to the same replica
+  // whatever the order of its server lines (docs/cluster.md).
+  static int RingId(int i) { return i + 1; }
+  [[nodiscard]] std::string store_uri() const { return postgres_->uri("oaipp"); }
+
+ private:
+  std::string dir_;
+  std::unique_ptr<PostgresInstance> postgres_;
+  std::vector<std::unique_ptr<ChildProcess>> replicas_;
+  std::unique_ptr<ChildProcess> proxy_;
+  std::vector<std::unique_ptr<ChildProcess>> more_proxies_;
+
+  // HAProxy from deploy/cluster/haproxy.cfg.in with one server line per
+  // replica, in `order`; nullptr (with what failed on stderr) when it did
+  // not start.
+  std::unique_ptr<ChildProcess> StartProxy(const std::vector<int>& order) {
+    std::string servers;
+    for (int i : order) {
+      absl::StrAppend(&servers, "    server ", ReplicaName(i), " ", replica(i).address(), " id ",
+                      RingId(i), "\n");
     }
     const int proxy_port = FreePort();
     std::ifstream in(std::string(OAIPP_SOURCE_DIR) + "/deploy/cluster/haproxy.cfg.in");
@@ -93,29 +135,16 @@ class LocalCluster {
     const std::string config = absl::StrReplaceAll(
         text.str(),
         {{"@LISTEN@", absl::StrCat("127.0.0.1:", proxy_port)}, {"@SERVERS@\n", servers}});
-    const std::string config_path = dir_ + "/haproxy.cfg";
+    const std::string config_path = absl::StrCat(dir_, "/haproxy-", proxy_port, ".cfg");
     std::ofstream(config_path) << config;
-    proxy_ = std::make_unique<ChildProcess>(
+    auto proxy = std::make_unique<ChildProcess>(
         std::vector<std::string>{kHaproxy, "-db", "-q", "-f", config_path}, proxy_port);
-    if (config.find("@") != std::string::npos || !proxy_->Start()) {
+    if (config.find("@") != std::string::npos || !proxy->Start()) {
       std::fprintf(stderr, "LocalCluster: HAProxy did not start (%s)\n", config_path.c_str());
-      return false;
+      return nullptr;
     }
-    return true;
+    return proxy;
   }
-
-  [[nodiscard]] std::string proxy_address() const { return proxy_->address(); }
-  [[nodiscard]] int replicas() const { return static_cast<int>(replicas_.size()); }
-  ChildProcess& replica(int i) { return *replicas_.at(static_cast<std::size_t>(i)); }
-  // The name replica i sends back in x-oaipp-replica.
-  static std::string ReplicaName(int i) { return absl::StrCat("replica-", i); }
-  [[nodiscard]] std::string store_uri() const { return postgres_->uri("oaipp"); }
-
- private:
-  std::string dir_;
-  std::unique_ptr<PostgresInstance> postgres_;
-  std::vector<std::unique_ptr<ChildProcess>> replicas_;
-  std::unique_ptr<ChildProcess> proxy_;
 };
 
 }  // namespace oaipp::cluster_testing
