@@ -1,5 +1,7 @@
 #include "server/registry.h"
 
+#include <openssl/rand.h>
+
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -476,6 +478,39 @@ std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> MissionRegistry::
     out.emplace_back(it->first, missions_.at(it->second));
   }
   return out;
+}
+
+absl::StatusOr<std::vector<MissionRegistry::Listed>> MissionRegistry::ListStored(
+    const std::string& tenant, std::int64_t after_time_us, const std::string& after_key,
+    int limit) const {
+  if (store_ == nullptr) return absl::FailedPreconditionError("no store to list");
+  OAIPP_ASSIGN_OR_RETURN(std::vector<MissionListing> stored,
+                         store_->List(tenant.empty() ? std::string() : Key(tenant, ""),
+                                      after_time_us, after_key, limit));
+  std::vector<Listed> out;
+  out.reserve(stored.size());
+  absl::MutexLock lock(&mu_);
+  for (MissionListing& m : stored) {
+    const auto it = missions_.find(m.id);
+    std::shared_ptr<Mission> held = it != missions_.end() ? it->second : nullptr;
+    out.push_back({.stored = std::move(m), .held = std::move(held)});
+  }
+  return out;
+}
+
+absl::StatusOr<std::string> MissionRegistry::PageTokenKey() const {
+  absl::MutexLock lock(&key_mu_);
+  if (!page_token_key_.empty()) return page_token_key_;
+  if (store_ != nullptr) {
+    OAIPP_ASSIGN_OR_RETURN(page_token_key_, store_->SigningKey());
+  } else {
+    page_token_key_.assign(32, '\0');
+    if (RAND_bytes(reinterpret_cast<unsigned char*>(page_token_key_.data()), 32) != 1) {
+      page_token_key_.clear();
+      return absl::InternalError("page tokens: no random bytes for their key");
+    }
+  }
+  return page_token_key_;
 }
 
 absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& request_id,

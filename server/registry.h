@@ -137,6 +137,24 @@ class MissionRegistry {
   // Only `tenant`'s missions.
   [[nodiscard]] std::vector<std::pair<std::int64_t, std::shared_ptr<Mission>>> ListAfter(
       std::int64_t after, std::size_t limit, const std::string& tenant = "") const;
+  // For servers that share a store: `tenant`'s missions in the store,
+  // whoever holds them, in creation order (create time, then key) after the
+  // one created at `after_time_us` with key `after_key` ("" and 0: from the
+  // first), at most `limit`; each with the mission when this server holds
+  // it (nullptr otherwise). Unavailable when the store cannot be read.
+  struct Listed {
+    MissionListing stored;
+    std::shared_ptr<Mission> held;
+  };
+  [[nodiscard]] absl::StatusOr<std::vector<Listed>> ListStored(const std::string& tenant,
+                                                               std::int64_t after_time_us,
+                                                               const std::string& after_key,
+                                                               int limit) const;
+  [[nodiscard]] bool shares_store() const { return limits_.shared_store && store_ != nullptr; }
+  // The key page tokens are signed with: the store's (the same for every
+  // server sharing it, and across restarts), or without a store one drawn
+  // for this process. Unavailable when the store cannot be read.
+  [[nodiscard]] absl::StatusOr<std::string> PageTokenKey() const;
   // Removes a mission (watchers are told), from the store first when there
   // is one. NotFound unless it exists or the same request_id deleted it
   // before (also before a restart).
@@ -276,6 +294,8 @@ class MissionRegistry {
   std::map<std::int64_t, std::string> order_ ABSL_GUARDED_BY(mu_);
   std::map<std::string, std::int64_t> number_of_ ABSL_GUARDED_BY(mu_);
   std::int64_t next_number_ ABSL_GUARDED_BY(mu_) = 1;
+  mutable absl::Mutex key_mu_;
+  mutable std::string page_token_key_ ABSL_GUARDED_BY(key_mu_);
   std::int64_t next_id_ ABSL_GUARDED_BY(mu_) = 1;
   // request_id -> the mission it created (and the creating request's
   // fingerprint) / deleted.

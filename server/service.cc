@@ -1,5 +1,9 @@
 #include "server/service.h"
 
+#include <openssl/evp.h>
+#include <openssl/hmac.h>
+
+#include <algorithm>
 #include <chrono>
 
 #include "absl/strings/cord.h"
@@ -43,30 +47,61 @@ using api::UavStateFromProto;
 
 using google::protobuf::util::TimeUtil;
 
-// ListMissions page tokens: the creation number of the last mission shown
-// (numbers are never reused, so deleting missions between pages neither
-// hides nor repeats one), with a check value, in URL-safe base64. A token
-// this server did not make is refused.
-constexpr absl::string_view kPageTokenKey = "oaipp.v1.ListMissions";
+// ListMissions page tokens: where the last page ended, signed with the
+// registry's key (HMAC-SHA256, MissionRegistry::PageTokenKey) and in
+// URL-safe base64. A token this server (or, sharing a store, its cluster)
+// did not make is refused. Where the listing comes from the registry, the
+// position is the creation number of the last mission shown (numbers are
+// never reused, so deleting missions between pages neither hides nor
+// repeats one); from a shared store, its create time and key.
+struct PagePosition {
+  std::int64_t number = 0;   // "n": the registry's listing
+  std::int64_t time_us = 0;  // "t": the store's listing ...
+  std::string key = {};      // ... (time, key)
+  bool from_store = false;
+};
 
-std::string PageToken(std::int64_t after) {
-  const std::string body = absl::StrCat("p1.", after);
-  return absl::WebSafeBase64Escape(
-      absl::StrCat(body, ".", FingerprintBytes(absl::StrCat(kPageTokenKey, body))));
+std::string Signature(const std::string& key, absl::string_view body) {
+  unsigned char mac[EVP_MAX_MD_SIZE];
+  unsigned int size = 0;
+  HMAC(EVP_sha256(), key.data(), static_cast<int>(key.size()),
+       reinterpret_cast<const unsigned char*>(body.data()), body.size(), mac, &size);
+  // 128 bits are plenty against forgery.
+  return absl::BytesToHexString(
+      absl::string_view(reinterpret_cast<const char*>(mac), std::min(size, 16u)));
 }
 
-absl::StatusOr<std::int64_t> ParsePageToken(const std::string& token) {
+std::string PageToken(const std::string& key, const PagePosition& at) {
+  const std::string body = at.from_store
+                               ? absl::StrCat("t.", at.time_us, ".", absl::BytesToHexString(at.key))
+                               : absl::StrCat("n.", at.number);
+  return absl::WebSafeBase64Escape(absl::StrCat(body, ".", Signature(key, body)));
+}
+
+absl::StatusOr<PagePosition> ParsePageToken(const std::string& key, const std::string& token,
+                                            bool from_store) {
   const absl::Status bad = absl::InvalidArgumentError(
       "page_token: not a token this server gave out (pass next_page_token unchanged)");
   std::string decoded;
-  if (token.size() > 128 || !absl::WebSafeBase64Unescape(token, &decoded)) return bad;
-  const std::vector<absl::string_view> parts = absl::StrSplit(decoded, '.');
-  std::int64_t after = 0;
-  if (parts.size() != 3 || parts[0] != "p1" || !absl::SimpleAtoi(parts[1], &after) || after < 0 ||
-      parts[2] != FingerprintBytes(absl::StrCat(kPageTokenKey, parts[0], ".", parts[1]))) {
-    return bad;
+  if (token.size() > 1024 || !absl::WebSafeBase64Unescape(token, &decoded)) return bad;
+  const std::size_t dot = decoded.rfind('.');
+  if (dot == std::string::npos) return bad;
+  const std::string body = decoded.substr(0, dot);
+  if (decoded.substr(dot + 1) != Signature(key, body)) return bad;
+  const std::vector<absl::string_view> parts = absl::StrSplit(body, '.');
+  PagePosition at{.from_store = from_store};
+  if (!from_store && parts.size() == 2 && parts[0] == "n" &&
+      absl::SimpleAtoi(parts[1], &at.number) && at.number >= 0) {
+    return at;
   }
-  return after;
+  if (from_store && parts.size() == 3 && parts[0] == "t" &&
+      absl::SimpleAtoi(parts[1], &at.time_us)) {
+    at.key = absl::HexStringToBytes(parts[2]);
+    return at;
+  }
+  // Signed but of the other kind: a server that joined or left a cluster.
+  return absl::InvalidArgumentError(
+      "page_token: from a listing of another kind (start again without a page_token)");
 }
 
 void FillMission(const Mission& mission, v1::Mission* out) {
@@ -142,15 +177,47 @@ grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext* context,
           absl::StrCat("page_size: must be in [0, 1000], got ", request->page_size()));
     }
     const std::size_t size = request->page_size() == 0 ? 50 : request->page_size();
-    std::int64_t after = 0;
+    OAIPP_ASSIGN_OR_RETURN(const std::string key, registry_->PageTokenKey());
+    const bool from_store = registry_->shares_store();
+    PagePosition after{.from_store = from_store};
     if (!request->page_token().empty()) {
-      OAIPP_ASSIGN_OR_RETURN(after, ParsePageToken(request->page_token()));
+      OAIPP_ASSIGN_OR_RETURN(after, ParsePageToken(key, request->page_token(), from_store));
     }
-    const auto missions = registry_->ListAfter(after, size + 1, tenant);
+    if (from_store) {
+      // A cluster's replica lists every mission of the tenant in the store,
+      // whoever holds it: those it holds in full, the others by name, spec
+      // and creation time (GetMission gives the rest, and moves the mission
+      // here).
+      OAIPP_ASSIGN_OR_RETURN(
+          std::vector<MissionRegistry::Listed> listed,
+          registry_->ListStored(tenant, after.time_us, after.key, static_cast<int>(size) + 1));
+      for (std::size_t i = 0; i < listed.size() && i < size; ++i) {
+        v1::Mission* out = response->add_missions();
+        if (listed[i].held != nullptr) {
+          FillMission(*listed[i].held, out);
+          continue;
+        }
+        const MissionListing& stored = listed[i].stored;
+        out->set_name(absl::StrCat("missions/", MissionRegistry::PublicId(stored.id)));
+        if (!out->mutable_spec()->ParseFromString(stored.spec)) {
+          return absl::DataLossError(absl::StrCat(out->name(), ": its stored spec does not parse"));
+        }
+        *out->mutable_create_time() = TimeUtil::MicrosecondsToTimestamp(stored.create_time_unix_us);
+      }
+      if (listed.size() > size) {
+        const MissionListing& last = listed[size - 1].stored;
+        response->set_next_page_token(PageToken(
+            key, {.time_us = last.create_time_unix_us, .key = last.id, .from_store = true}));
+      }
+      return absl::OkStatus();
+    }
+    const auto missions = registry_->ListAfter(after.number, size + 1, tenant);
     for (std::size_t i = 0; i < missions.size() && i < size; ++i) {
       FillMission(*missions[i].second, response->add_missions());
     }
-    if (missions.size() > size) response->set_next_page_token(PageToken(missions[size - 1].first));
+    if (missions.size() > size) {
+      response->set_next_page_token(PageToken(key, {.number = missions[size - 1].first}));
+    }
     return absl::OkStatus();
   });
 }

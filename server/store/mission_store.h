@@ -87,6 +87,14 @@ struct StoredMission {
   std::vector<LogRecord> log = {};  // by sequence
 };
 
+// One line of a listing: what the store knows of a mission without reading
+// its log.
+struct MissionListing {
+  std::string id = {};
+  std::string spec = {};
+  std::int64_t create_time_unix_us = 0;
+};
+
 class MissionStore {
  public:
   virtual ~MissionStore() = default;
@@ -142,6 +150,17 @@ class MissionStore {
   [[nodiscard]] virtual absl::Status ForgetDeletionsBefore(std::int64_t unix_us) = 0;
   // OK while the store can be written (it writes to find out).
   [[nodiscard]] virtual absl::Status Health() = 0;
+  // The missions whose ids start with `prefix` and hold no '/' after it, in
+  // creation order (create time, then id bytewise), after the one created
+  // at `after_time_us` with id `after_id` (0 and "": from the first), at
+  // most `limit`.
+  [[nodiscard]] virtual absl::StatusOr<std::vector<MissionListing>> List(
+      const std::string& prefix, std::int64_t after_time_us, const std::string& after_id,
+      int limit) = 0;
+  // 32 random bytes made the first time any server asks and kept in the
+  // store, the same for every server that shares it: what they sign page
+  // tokens with.
+  [[nodiscard]] virtual absl::StatusOr<std::string> SigningKey() = 0;
 };
 
 // The status payload (type URL) an Append error carries when the record may

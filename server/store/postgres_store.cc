@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include <openssl/rand.h>
 #include <pqxx/pqxx>
 
 #include "absl/base/thread_annotations.h"
@@ -82,6 +83,10 @@ CREATE TABLE IF NOT EXISTS deletions(
 CREATE INDEX IF NOT EXISTS deletions_by_time ON deletions(time_us);
 ALTER TABLE missions ADD COLUMN IF NOT EXISTS epoch bigint NOT NULL DEFAULT 1;
 CREATE INDEX IF NOT EXISTS missions_by_request ON missions(request_id);
+CREATE INDEX IF NOT EXISTS missions_by_creation ON missions(create_time_us, id);
+CREATE TABLE IF NOT EXISTS store_secrets(
+  name text PRIMARY KEY,
+  value bytea NOT NULL);
 )sql";
 
 // Held while the schema is created: CREATE ... IF NOT EXISTS is not atomic
@@ -385,6 +390,53 @@ class PostgresStore final : public MissionStore {
       Commit(tx, state);
       return absl::OkStatus();
     });
+  }
+
+  absl::StatusOr<std::vector<MissionListing>> List(const std::string& prefix,
+                                                   std::int64_t after_time_us,
+                                                   const std::string& after_id,
+                                                   int limit) override {
+    return Call(
+        "list",
+        [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<std::vector<MissionListing>> {
+          ReadOnly tx(conn);
+          const pqxx::result rows = tx.exec_params(
+              "SELECT id, spec, create_time_us FROM missions "
+              "WHERE substring(id from 1 for length($1::bytea)) = $1::bytea "
+              "AND position('\\x2f'::bytea in substring(id from length($1::bytea) + 1)) = 0 "
+              "AND (create_time_us > $2 OR (create_time_us = $2 AND id > $3::bytea)) "
+              "ORDER BY create_time_us, id LIMIT $4",
+              Blob(prefix), after_time_us, Blob(after_id), limit);
+          std::vector<MissionListing> out;
+          for (const pqxx::row& row : rows) {
+            out.push_back({.id = ReadBytes(row[0]),
+                           .spec = ReadBytes(row[1]),
+                           .create_time_unix_us = row[2].as<std::int64_t>()});
+          }
+          return out;
+        });
+  }
+
+  absl::StatusOr<std::string> SigningKey() override {
+    return Call("signing key",
+                [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<std::string> {
+                  std::string key(32, '\0');
+                  if (RAND_bytes(reinterpret_cast<unsigned char*>(key.data()), 32) != 1) {
+                    return absl::InternalError("signing key: no random bytes");
+                  }
+                  // The first server's key stays: a later insert does nothing
+                  // (it waits for a concurrent first one) and reads that one.
+                  pqxx::work tx(conn);
+                  tx.exec_params0(
+                      "INSERT INTO store_secrets(name, value) VALUES('page_tokens', $1) "
+                      "ON CONFLICT (name) DO NOTHING",
+                      Blob(key));
+                  const pqxx::row stored =
+                      tx.exec1("SELECT value FROM store_secrets WHERE name = 'page_tokens'");
+                  std::string kept = ReadBytes(stored[0]);
+                  Commit(tx, state);
+                  return kept;
+                });
   }
 
   // A real write (one small durable transaction), so that a server that

@@ -1,5 +1,6 @@
 #include "server/store/sqlite_store.h"
 
+#include <openssl/rand.h>
 #include <sqlite3.h>
 
 #include <deque>
@@ -9,13 +10,18 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/time/clock.h"
 #include "core/common/status_macros.h"
+#include "server/store/sqlite_statement.h"
 
 namespace oaipp::server {
 namespace {
 
+using sqlite::SqliteError;
+using sqlite::Statement;
+
 // The schema version this code reads and writes (PRAGMA user_version).
 // 1: missions, records, deletions, counters. 2: + snapshots, write times.
 // 3: + missions.epoch (ownership; always kFirstEpoch for a single server).
+// Later tables and indexes come with kSchema, which runs at every open.
 constexpr int kSchemaVersion = 3;
 
 constexpr const char* kSchema = R"sql(
@@ -49,6 +55,10 @@ CREATE TABLE IF NOT EXISTS deletions(
   request_id TEXT PRIMARY KEY,
   mission_id TEXT NOT NULL,
   time_us INTEGER NOT NULL DEFAULT 0);
+CREATE TABLE IF NOT EXISTS secrets(
+  name TEXT PRIMARY KEY,
+  value BLOB NOT NULL);
+CREATE INDEX IF NOT EXISTS missions_by_creation ON missions(create_time_us, id);
 )sql";
 
 // From version 1 (written before snapshots): the new columns; the new table
@@ -63,60 +73,9 @@ constexpr const char* kFromVersion2 = R"sql(
 ALTER TABLE missions ADD COLUMN epoch INTEGER NOT NULL DEFAULT 1;
 )sql";
 
-// The status for a failed SQLite call: a full disk is ResourceExhausted, a
-// violated key AlreadyExists, anything else Unavailable (the store, not the
-// request, is at fault).
-absl::Status SqliteError(sqlite3* db, int code, absl::string_view what) {
-  const std::string message = absl::StrCat("store: ", what, ": ", sqlite3_errmsg(db));
-  switch (code & 0xff) {
-    case SQLITE_FULL:
-      return absl::ResourceExhaustedError(message);
-    case SQLITE_CONSTRAINT:
-      return absl::AlreadyExistsError(message);
-    default:
-      return absl::UnavailableError(message);
-  }
-}
-
 absl::Status NoMission(const std::string& id) {
   return absl::NotFoundError(absl::StrCat("store: no mission '", id, "'"));
 }
-
-// A prepared statement, finalized when it goes out of scope.
-class Statement {
- public:
-  Statement(sqlite3* db, const char* sql) : db_(db) {
-    code_ = sqlite3_prepare_v2(db, sql, -1, &stmt_, nullptr);
-  }
-  ~Statement() { sqlite3_finalize(stmt_); }
-  Statement(const Statement&) = delete;
-  Statement& operator=(const Statement&) = delete;
-
-  [[nodiscard]] absl::Status prepared(absl::string_view what) const {
-    return code_ == SQLITE_OK ? absl::OkStatus() : SqliteError(db_, code_, what);
-  }
-  void Bind(int i, const std::string& bytes, bool blob = false) {
-    if (blob) {
-      sqlite3_bind_blob(stmt_, i, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
-    } else {
-      sqlite3_bind_text(stmt_, i, bytes.data(), static_cast<int>(bytes.size()), SQLITE_TRANSIENT);
-    }
-  }
-  void Bind(int i, std::int64_t value) { sqlite3_bind_int64(stmt_, i, value); }
-  // SQLITE_ROW, SQLITE_DONE or an error code.
-  int Step() { return sqlite3_step(stmt_); }
-  [[nodiscard]] std::string Bytes(int column) const {
-    const void* data = sqlite3_column_blob(stmt_, column);
-    const int size = sqlite3_column_bytes(stmt_, column);
-    return data == nullptr ? std::string() : std::string(static_cast<const char*>(data), size);
-  }
-  [[nodiscard]] std::int64_t Int(int column) const { return sqlite3_column_int64(stmt_, column); }
-
- private:
-  sqlite3* db_;
-  sqlite3_stmt* stmt_ = nullptr;
-  int code_ = SQLITE_OK;
-};
 
 // An append waiting for the group commit that takes it.
 struct PendingAppend {
@@ -368,6 +327,57 @@ class SqliteStore final : public MissionStore {
     OAIPP_RETURN_IF_ERROR(s.prepared("forget deletions"));
     s.Bind(1, unix_us);
     return Done(s, "forget deletions");
+  }
+
+  absl::StatusOr<std::vector<MissionListing>> List(const std::string& prefix,
+                                                   std::int64_t after_time_us,
+                                                   const std::string& after_id,
+                                                   int limit) override {
+    absl::MutexLock lock(&mu_);
+    // Ids are compared as bytes (BINARY); substr and instr count bytes on
+    // blobs, so the prefix is matched on the id cast to one.
+    Statement s(db_,
+                "SELECT id, spec, create_time_us FROM missions "
+                "WHERE substr(CAST(id AS BLOB), 1, length(?1)) = ?1 "
+                "AND instr(substr(CAST(id AS BLOB), length(?1) + 1), X'2F') = 0 "
+                "AND (create_time_us > ?2 OR (create_time_us = ?2 AND id > ?3)) "
+                "ORDER BY create_time_us, id LIMIT ?4");
+    OAIPP_RETURN_IF_ERROR(s.prepared("list"));
+    s.Bind(1, prefix, /*blob=*/true);
+    s.Bind(2, after_time_us);
+    s.Bind(3, after_id);
+    s.Bind(4, static_cast<std::int64_t>(limit));
+    std::vector<MissionListing> out;
+    int code = SQLITE_ROW;
+    while ((code = s.Step()) == SQLITE_ROW) {
+      out.push_back({.id = s.Bytes(0), .spec = s.Bytes(1), .create_time_unix_us = s.Int(2)});
+    }
+    if (code != SQLITE_DONE) return SqliteError(db_, code, "list");
+    return out;
+  }
+
+  absl::StatusOr<std::string> SigningKey() override {
+    absl::MutexLock lock(&mu_);
+    std::string key;
+    OAIPP_RETURN_IF_ERROR(InTransaction("signing key", [&]() -> absl::Status {
+      Statement read(db_, "SELECT value FROM secrets WHERE name = 'page_tokens'");
+      OAIPP_RETURN_IF_ERROR(read.prepared("signing key"));
+      const int code = read.Step();
+      if (code == SQLITE_ROW) {
+        key = read.Bytes(0);
+        return absl::OkStatus();
+      }
+      if (code != SQLITE_DONE) return SqliteError(db_, code, "signing key");
+      key.assign(32, '\0');
+      if (RAND_bytes(reinterpret_cast<unsigned char*>(key.data()), 32) != 1) {
+        return absl::InternalError("signing key: no random bytes");
+      }
+      Statement write(db_, "INSERT INTO secrets(name, value) VALUES('page_tokens', ?)");
+      OAIPP_RETURN_IF_ERROR(write.prepared("signing key"));
+      write.Bind(1, key, /*blob=*/true);
+      return Done(write, "signing key");
+    }));
+    return key;
   }
 
   // A real write (one small durable transaction), so that a full or lost

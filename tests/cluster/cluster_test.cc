@@ -22,7 +22,9 @@
 #include "absl/strings/str_cat.h"
 #include "api/measurement.h"
 #include "api/spec.h"
+#include "grpcpp/grpcpp.h"
 #include "gtest/gtest.h"
+#include "oaipp/v1/mission_service.grpc.pb.h"
 #include "server/mission.h"
 #include "tests/cluster/e1_flight.h"
 #include "tests/cluster/local_cluster.h"
@@ -180,6 +182,38 @@ TEST_F(ClusterTest, TheProxyRoutesEachMissionToOneReplica) {
   // have probability 3 * 3^-12.
   EXPECT_GE(all.size(), 2u);
   for (const std::string& r : all) EXPECT_TRUE(absl::StartsWith(r, "replica-")) << r;
+
+  // A listing (without the header, so each page goes round robin) holds
+  // every mission, whichever replica holds it and answers the page, in
+  // creation order; each replica takes the others' page tokens.
+  auto stub = v1::MissionService::NewStub(
+      grpc::CreateChannel(cluster_.proxy_address(), grpc::InsecureChannelCredentials()));
+  std::vector<std::string> listed;
+  std::set<std::string> answered_by;
+  std::string token;
+  for (int page = 0; page < 10; ++page) {
+    grpc::ClientContext context;
+    v1::ListMissionsRequest request;
+    request.set_page_size(5);
+    request.set_page_token(token);
+    v1::ListMissionsResponse response;
+    const grpc::Status status = stub->ListMissions(&context, request, &response);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    for (const auto& [name, value] : context.GetServerInitialMetadata()) {
+      if (name == "x-oaipp-replica") answered_by.insert(std::string(value.data(), value.size()));
+    }
+    for (const v1::Mission& m : response.missions()) {
+      listed.push_back(m.name());
+      EXPECT_TRUE(m.has_create_time()) << m.name();
+      EXPECT_GT(m.spec().budget_s(), 0.0) << m.name();
+    }
+    token = response.next_page_token();
+    if (token.empty()) break;
+  }
+  std::vector<std::string> expected;
+  for (int m = 0; m < kRouted; ++m) expected.push_back(absl::StrCat("missions/routed-", m));
+  EXPECT_EQ(listed, expected);
+  EXPECT_GE(answered_by.size(), 2u) << "the pages did not go round robin";
 }
 
 TEST_F(ClusterTest, AKilledReplicasMissionsAreTakenOverAndNothingIsLost) {

@@ -308,6 +308,11 @@ class FailingStore final : public MissionStore {
     return store_->DeletedBy(r);
   }
   absl::Status Health() override { return fail ? Down() : store_->Health(); }
+  absl::StatusOr<std::vector<MissionListing>> List(const std::string& prefix, std::int64_t t,
+                                                   const std::string& id, int limit) override {
+    return store_->List(prefix, t, id, limit);
+  }
+  absl::StatusOr<std::string> SigningKey() override { return store_->SigningKey(); }
 
  private:
   static absl::Status Down() { return absl::UnavailableError("store: injected failure"); }

@@ -7,6 +7,7 @@
 #include <thread>
 #include <vector>
 
+#include "absl/strings/escaping.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/synchronization/notification.h"
@@ -115,7 +116,8 @@ TEST(ServiceTest, MissionsOverTheSameObstaclesShareOneEsdf) {
 
 // Page tokens are opaque and stable: deleting missions between pages
 // neither hides nor repeats one, and a token made up by the client (the old
-// raw offsets) is refused naming page_token.
+// raw offsets, a well-formed position with a made-up signature) or made by
+// another server (another key) is refused naming page_token.
 TEST(ServiceTest, PagesStayRightWhenMissionsAreDeletedBetweenThem) {
   InProcessService s;
   for (const char* id : {"m0", "m1", "m2", "m3", "m4"}) CreateSmall(s.stub(), id);
@@ -143,8 +145,20 @@ TEST(ServiceTest, PagesStayRightWhenMissionsAreDeletedBetweenThem) {
   EXPECT_EQ(second.missions(0).name(), "missions/m3");
   EXPECT_EQ(second.missions(1).name(), "missions/m4");
   EXPECT_TRUE(second.next_page_token().empty());
+  InProcessService other;
+  for (const char* id : {"m0", "m1", "m2"}) CreateSmall(other.stub(), id);
+  v1::ListMissionsResponse others_page;
+  {
+    grpc::ClientContext context;
+    v1::ListMissionsRequest request;
+    request.set_page_size(2);
+    ASSERT_TRUE(other.stub().ListMissions(&context, request, &others_page).ok());
+    ASSERT_FALSE(others_page.next_page_token().empty());
+  }
   for (const std::string& forged :
-       std::vector<std::string>{"2", "cDEuMg", first.next_page_token() + "x"}) {
+       std::vector<std::string>{"2", "cDEuMg", first.next_page_token() + "x",
+                                absl::WebSafeBase64Escape("n.2.00000000000000000000000000000000"),
+                                others_page.next_page_token()}) {
     v1::ListMissionsResponse page;
     const grpc::Status status = list(forged, &page);
     EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << forged;

@@ -98,6 +98,63 @@ TEST_P(StoreTest, MissionNumbersNeverRepeatAcrossReopening) {
   EXPECT_EQ(*store->NextMissionNumber(), 3);
 }
 
+// A listing holds the missions under one prefix (a tenant's) and none below
+// a further '/', in creation order, then by id where two were created in
+// the same microsecond, and resumes after any position; the expected order
+// is written out here, not computed.
+TEST_P(StoreTest, AListingGoesInCreationOrderUnderOnePrefix) {
+  std::unique_ptr<MissionStore> store = Open();
+  const std::vector<std::pair<std::string, std::int64_t>> created = {
+      {"a/m3", 30}, {"a/m1", 10},   {"b/m2", 20}, {"a/m2", 20},
+      {"m9", 5},    {"a/x/m4", 15}, {"a/m0", 20}, {"ab/m5", 12}};
+  for (const auto& [id, time] : created) {
+    ASSERT_TRUE(
+        store->CreateMission({.id = id, .spec = "spec of " + id, .create_time_unix_us = time})
+            .ok());
+  }
+  auto ids = [&](const std::string& prefix, std::int64_t t, const std::string& after, int limit) {
+    absl::StatusOr<std::vector<MissionListing>> listed = store->List(prefix, t, after, limit);
+    EXPECT_TRUE(listed.ok()) << listed.status();
+    std::vector<std::string> out;
+    for (const MissionListing& m : listed.value_or(std::vector<MissionListing>{})) {
+      EXPECT_EQ(m.spec, "spec of " + m.id);
+      out.push_back(m.id);
+    }
+    return out;
+  };
+  using Ids = std::vector<std::string>;
+  EXPECT_EQ(ids("a/", 0, "", 10), (Ids{"a/m1", "a/m0", "a/m2", "a/m3"}));
+  EXPECT_EQ(ids("a/", 0, "", 2), (Ids{"a/m1", "a/m0"}));
+  EXPECT_EQ(ids("a/", 20, "a/m0", 10), (Ids{"a/m2", "a/m3"}));
+  EXPECT_EQ(ids("a/", 30, "a/m3", 10), Ids{});
+  EXPECT_EQ(ids("b/", 0, "", 10), Ids{"b/m2"});
+  // No prefix: only ids without a '/' (missions of no tenant).
+  EXPECT_EQ(ids("", 0, "", 10), Ids{"m9"});
+  absl::StatusOr<std::vector<MissionListing>> timed = store->List("a/", 0, "", 1);
+  ASSERT_TRUE(timed.ok() && timed->size() == 1u);
+  EXPECT_EQ(timed->front().create_time_unix_us, 10);
+}
+
+// The signing key is made once and kept: the same after reopening, and for
+// a second store object on the same database (another server).
+TEST_P(StoreTest, TheSigningKeyIsMadeOnceAndShared) {
+  std::string first;
+  {
+    std::unique_ptr<MissionStore> store = Open();
+    absl::StatusOr<std::string> key = store->SigningKey();
+    ASSERT_TRUE(key.ok()) << key.status();
+    EXPECT_EQ(key->size(), 32u);
+    first = *key;
+  }
+  std::unique_ptr<MissionStore> store = Open();
+  EXPECT_EQ(*store->SigningKey(), first);
+  if (GetParam() == "postgresql") {  // SQLite has one server per file
+    std::unique_ptr<MissionStore> other = Open();
+    EXPECT_EQ(*other->SigningKey(), first);
+  }
+  EXPECT_NE(first, std::string(32, '\0'));
+}
+
 TEST_P(StoreTest, RecordsComeBackInOrderByteForByte) {
   std::string every_byte;
   for (int b = 0; b < 256; ++b) every_byte.push_back(static_cast<char>(b));
