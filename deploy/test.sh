@@ -5,7 +5,7 @@
 #            `clang-format -i FILE` fixes one)
 #   release  Release build (./build), warnings as errors; every ctest tier:
 #            unit, service and slow
-#   asan     Debug -O1 with AddressSanitizer and UndefinedBehaviorSanitizer,
+#   asan     Debug -O1 -g1 (line tables) with AddressSanitizer and UndefinedBehaviorSanitizer,
 #            asserts live (./build-asan); the unit and service tiers
 #   tsan     Debug -O1 with ThreadSanitizer (./build-tsan): only the tests of
 #            the server, the stores and the client that run in process
@@ -102,7 +102,7 @@ stage_asan() {
     export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:halt_on_error=1:abort_on_error=1}"
     export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
     export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/deploy/lsan.supp}"
-    build "$build-asan" -- -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" \
+    build "$build-asan" -- -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" \
       -DOAIPP_SANITIZE=address,undefined -DOAIPP_BUILD_BENCHMARKS=OFF
     run_ctest "$build-asan" -L "unit|service"
   )
@@ -116,7 +116,7 @@ stage_tsan() {
     # made visible to TSan by tests/support/tsan_absl_sync.cc.
     export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$root/tests/support/tsan.supp}"
     build "$build-tsan" tsan_self_test service_test client_test -- -DCMAKE_BUILD_TYPE=Debug \
-      -DCMAKE_CXX_FLAGS_DEBUG="-g -O1" -DOAIPP_SANITIZE=thread -DOAIPP_BUILD_BENCHMARKS=OFF
+      -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" -DOAIPP_SANITIZE=thread -DOAIPP_BUILD_BENCHMARKS=OFF
     run_ctest "$build-tsan"
   )
 }
