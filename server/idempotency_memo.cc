@@ -1,5 +1,7 @@
 #include "server/idempotency_memo.h"
 
+#include <cstddef>
+
 #include "absl/strings/str_cat.h"
 #include "api/status.h"
 
@@ -30,14 +32,46 @@ IdempotencyMemo::Recall<MeasurementResult>(const RequestKey& request) const;
 template std::optional<absl::StatusOr<PlannedPath>> IdempotencyMemo::Recall<PlannedPath>(
     const RequestKey& request) const;
 
+namespace {
+
+// What one remembered answer holds: its id twice (the memo's map and its
+// order), its fingerprint, and the answer (a plan's waypoints, shots and
+// trajectory segments).
+std::int64_t EntryBytes(const std::string& request_id, const RememberedAnswer& answer) {
+  std::size_t bytes = 2 * (sizeof(std::string) + request_id.size()) + answer.fingerprint.size() +
+                      sizeof(RememberedAnswer);
+  if (const PlannedPath* path = std::get_if<PlannedPath>(&answer.result)) {
+    bytes += path->control_waypoints_W.size() * sizeof(Vec3) +
+             path->measurement_poses.size() * sizeof(MeasurementPose) +
+             path->trajectory.NumSegments() *
+                 (2 * sizeof(PolynomialTrajectory::SegmentCoefficients) + sizeof(Vec3));
+  }
+  return static_cast<std::int64_t>(bytes);
+}
+
+}  // namespace
+
+void IdempotencyMemo::RememberLocked(const std::string& request_id, RememberedAnswer answer) {
+  if (request_id.empty() || done_.Find(request_id) != nullptr) return;
+  bytes_ += EntryBytes(request_id, answer);
+  if (auto evicted = done_.Remember(request_id, std::move(answer))) {
+    bytes_ -= EntryBytes(evicted->first, evicted->second);
+  }
+}
+
 void IdempotencyMemo::Remember(const RequestKey& request, RequestResult result) {
   absl::MutexLock lock(&mu_);
-  done_.Remember(request.request_id, {request.fingerprint, std::move(result)});
+  RememberLocked(request.request_id, {request.fingerprint, std::move(result)});
 }
 
 void IdempotencyMemo::Restore(std::vector<std::pair<std::string, RememberedAnswer>> answers) {
   absl::MutexLock lock(&mu_);
-  for (auto& [request_id, answer] : answers) done_.Remember(request_id, std::move(answer));
+  for (auto& [request_id, answer] : answers) RememberLocked(request_id, std::move(answer));
+}
+
+std::int64_t IdempotencyMemo::bytes() const {
+  absl::MutexLock lock(&mu_);
+  return bytes_;
 }
 
 }  // namespace oaipp::server

@@ -72,6 +72,10 @@ class IdempotencyMemo {
   void Remember(const RequestKey& request, RequestResult result);
   // Recovery: answers read back from a snapshot, oldest first.
   void Restore(std::vector<std::pair<std::string, RememberedAnswer>> answers);
+  // What the remembered answers hold in memory (ids, fingerprints, the
+  // answers themselves), bytes. It counts against the mission's memory and
+  // falls again as newer ids push old ones out.
+  [[nodiscard]] std::int64_t bytes() const;
   // Calls f(request_id, answer) for every remembered id, oldest first,
   // under the memo's lock.
   template <typename F>
@@ -81,8 +85,13 @@ class IdempotencyMemo {
   }
 
  private:
+  // Remember and Restore: one entry, with its bytes counted.
+  void RememberLocked(const std::string& request_id, RememberedAnswer answer)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+
   mutable absl::Mutex mu_;
   RequestMemo<RememberedAnswer> done_ ABSL_GUARDED_BY(mu_);
+  std::int64_t bytes_ ABSL_GUARDED_BY(mu_) = 0;
 };
 
 extern template std::optional<absl::StatusOr<ObstacleResult>>

@@ -49,14 +49,6 @@ std::int64_t LogEntryBytes(const LogEntry& entry) {
   return bytes;
 }
 
-// What remembering the answer to `request` holds: its id twice (the memo's
-// map and its order) and its fingerprint, beside the answer itself.
-std::int64_t MemoEntryBytes(const RequestKey& request) {
-  if (request.request_id.empty()) return 0;
-  return static_cast<std::int64_t>(2 * (sizeof(std::string) + request.request_id.size()) +
-                                   request.fingerprint.size() + sizeof(RememberedAnswer));
-}
-
 }  // namespace
 
 Mission::Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
@@ -224,7 +216,7 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
                                                      next.obstacles().size(),
                                                      " obstacles; at most ", api::kMaxObstacles));
     }
-    const std::int64_t entry_bytes = LogEntryBytes(change) + MemoEntryBytes(request);
+    const std::int64_t entry_bytes = LogEntryBytes(change);
     OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
     OAIPP_RETURN_IF_ERROR(Persist(persist));
     absl::MutexLock lock(&mu_);
@@ -294,7 +286,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
       absl::ReaderMutexLock lock(&mu_);
       OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
     }
-    const std::int64_t entry_bytes = LogEntryBytes(input) + MemoEntryBytes(request);
+    const std::int64_t entry_bytes = LogEntryBytes(input);
     OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
     // Durable first: a failed write leaves the mission as it was.
     OAIPP_RETURN_IF_ERROR(Persist(persist));
@@ -404,17 +396,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     return written;
   }
   ++paths_planned_;
+  // The remembered answer counts against the mission's memory until newer
+  // ids push it out (IdempotencyMemo::bytes).
   answers_.Remember(request, *path);
-  // The remembered answer counts against the mission's memory like a log
-  // entry (it is kept until 4096 newer ids push it out).
-  if (!request.request_id.empty()) {
-    log_bytes_ += MemoEntryBytes(request) +
-                  static_cast<std::int64_t>(
-                      path->control_waypoints_W.size() * sizeof(Vec3) +
-                      path->measurement_poses.size() * sizeof(MeasurementPose) +
-                      path->trajectory.NumSegments() *
-                          (2 * sizeof(PolynomialTrajectory::SegmentCoefficients) + sizeof(Vec3)));
-  }
   {
     absl::MutexLock lock(&mu_);
     mission_time_s_ = std::max(mission_time_s_, state.mission_time_s);
@@ -555,7 +539,7 @@ void Mission::SettleMap() const {
 }
 
 absl::Status Mission::CheckLogRoom(std::int64_t bytes) const {
-  const std::int64_t held = log_bytes_.load();
+  const std::int64_t held = LogBytes();
   if (bytes <= log_limit_.load() - held) return absl::OkStatus();
   return absl::ResourceExhaustedError(absl::StrFormat(
       "name: the mission's log of applied changes holds %.1f MB, all that this server's "

@@ -177,8 +177,10 @@ class Mission {
   // for no mutation and no plan (the server reports it after every call).
   [[nodiscard]] std::int64_t MemoryBytes() const;
   // Bytes held by the log of applied changes (Log()), which grows with
-  // every measurement and obstacle change; read without a lock.
-  [[nodiscard]] std::int64_t LogBytes() const { return log_bytes_.load(); }
+  // every measurement and obstacle change, and by the remembered answers to
+  // request_ids (bounded: the oldest go first); read without the mission's
+  // lock.
+  [[nodiscard]] std::int64_t LogBytes() const { return log_bytes_.load() + answers_.bytes(); }
   // Changes that would take LogBytes() past `bytes` are refused with
   // RESOURCE_EXHAUSTED before anything is applied or stored. The registry
   // sets it from the mission's memory budget; no limit until then.

@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <deque>
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -33,15 +34,17 @@ class RequestMemo {
   }
 
   // Remembers the first result of `request_id` (an empty id is not
-  // remembered; a known id keeps its first result).
-  void Remember(const std::string& request_id, Value value) {
-    if (request_id.empty()) return;
-    if (!values_.emplace(request_id, std::move(value)).second) return;
+  // remembered; a known id keeps its first result). Returns the entry this
+  // pushed out past the capacity, if any.
+  std::optional<std::pair<std::string, Value>> Remember(const std::string& request_id,
+                                                        Value value) {
+    if (request_id.empty()) return std::nullopt;
+    if (!values_.emplace(request_id, std::move(value)).second) return std::nullopt;
     order_.push_back(request_id);
-    if (order_.size() > capacity_) {
-      values_.erase(order_.front());
-      order_.pop_front();
-    }
+    if (order_.size() <= capacity_) return std::nullopt;
+    auto oldest = values_.extract(order_.front());
+    order_.pop_front();
+    return std::pair{std::move(oldest.key()), std::move(oldest.mapped())};
   }
 
   [[nodiscard]] std::size_t size() const { return values_.size(); }
