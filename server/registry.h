@@ -192,6 +192,14 @@ class MissionRegistry {
   // ids deleted.
   std::vector<std::string> Sweep(absl::Time now, absl::Duration keep_finished,
                                  absl::Duration keep_idle);
+  // Retention of a shared store, held by one server at a time: when this
+  // server (`holder`) holds or wins the store's retention lease (for
+  // `lease`), deletes every mission nothing was written to for
+  // `keep_idle`, whoever holds it, at most 100 a call; a server that holds
+  // one answers NOT_FOUND for it from then on. Returns the ids deleted;
+  // nothing without a shared store or when another server holds the lease.
+  std::vector<std::string> SweepStore(absl::Time now, absl::Duration keep_idle,
+                                      const std::string& holder, absl::Duration lease);
 
   // Waits until every snapshot asked for so far is written or has failed.
   void FlushSnapshots();

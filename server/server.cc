@@ -277,10 +277,22 @@ void Server::WatchHealth() {
 void Server::SweepRetention() {
   const absl::Duration every = std::clamp(std::min(options_.keep_finished, options_.keep_idle) / 10,
                                           absl::Seconds(1), absl::Minutes(1));
+  // A cluster's replicas also sweep the shared store, one at a time: the
+  // holder of the store's lease renews it at each sweep; it lapses three
+  // sweeps after its holder stops, and another replica takes it.
+  const std::string holder =
+      options_.replica_id.empty()
+          ? absl::StrCat("pid-", getpid(), "-", absl::ToUnixNanos(absl::Now()))
+          : options_.replica_id;
   while (!stopping_.WaitForNotificationWithTimeout(every)) {
+    const absl::Time now = absl::Now();
     for (const std::string& id :
-         registry_->Sweep(absl::Now(), options_.keep_finished, options_.keep_idle)) {
+         registry_->Sweep(now, options_.keep_finished, options_.keep_idle)) {
       spdlog::info("mission event=expired name=missions/{}", id);
+    }
+    for (const std::string& id :
+         registry_->SweepStore(now, options_.keep_idle, holder, 3 * every)) {
+      spdlog::info("mission event=expired name=missions/{} (from the shared store)", id);
     }
   }
 }

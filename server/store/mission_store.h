@@ -30,6 +30,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -157,6 +158,19 @@ class MissionStore {
   [[nodiscard]] virtual absl::StatusOr<std::vector<MissionListing>> List(
       const std::string& prefix, std::int64_t after_time_us, const std::string& after_id,
       int limit) = 0;
+  // The lease `name` for `holder` until `until_us`, when at `now_us` it is
+  // free (never taken, expired, or `holder`'s own): true when `holder` holds
+  // it afterwards. How servers sharing the store agree which one of them
+  // does a periodic job (retention); the times are the callers' clocks.
+  [[nodiscard]] virtual absl::StatusOr<bool> TryLease(const std::string& name,
+                                                      const std::string& holder,
+                                                      std::int64_t now_us,
+                                                      std::int64_t until_us) = 0;
+  // Missions nothing was written to since `before_us` (created, and their
+  // records and snapshot written, before it), with their epochs, oldest
+  // first, at most `limit`.
+  [[nodiscard]] virtual absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> IdleSince(
+      std::int64_t before_us, int limit) = 0;
   // 32 random bytes made the first time any server asks and kept in the
   // store, the same for every server that shares it: what they sign page
   // tokens with.

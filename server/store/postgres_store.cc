@@ -26,6 +26,7 @@
 #include "absl/time/time.h"
 #include "core/common/status_macros.h"
 #include "server/store/postgres_connection.h"
+#include "server/store/postgres_schema.h"
 
 namespace oaipp::server {
 namespace {
@@ -35,64 +36,11 @@ using postgres::ConnectionPool;
 using postgres::CurrentError;
 using postgres::FirstLine;
 using postgres::InDoubt;
+using postgres::kSchema;
+using postgres::kSchemaLockKey;
+using postgres::kSchemaVersion;
 using postgres::NoMission;
 using postgres::WithConnectTimeout;
-
-// The schema version this code reads and writes (store_info 'schema_version').
-// 1: missions, records, snapshots, deletions, mission_numbers.
-// 2: + missions.epoch (ownership, for servers sharing the store), an index
-//    of missions by request_id.
-constexpr std::int64_t kSchemaVersion = 2;
-
-// Every stored string is bytea, ids and request_ids too: the store keeps
-// bytes, and text would refuse a NUL or a byte sequence that is not valid in
-// the database's encoding. bytea also compares byte by byte, so missions
-// created in the same microsecond come back in the same order as from the
-// SQLite store, whatever the database's collation.
-constexpr const char* kSchema = R"sql(
-CREATE SEQUENCE IF NOT EXISTS mission_numbers;
-CREATE TABLE IF NOT EXISTS store_info(
-  key text PRIMARY KEY,
-  value bigint NOT NULL);
-CREATE TABLE IF NOT EXISTS missions(
-  id bytea PRIMARY KEY,
-  spec bytea NOT NULL,
-  request_id bytea NOT NULL,
-  fingerprint bytea NOT NULL,
-  create_time_us bigint NOT NULL);
-CREATE TABLE IF NOT EXISTS records(
-  mission_id bytea NOT NULL REFERENCES missions(id) ON DELETE CASCADE,
-  sequence bigint NOT NULL,
-  kind integer NOT NULL,
-  payload bytea NOT NULL,
-  request_id bytea NOT NULL,
-  fingerprint bytea NOT NULL,
-  result bytea NOT NULL,
-  planner_state bytea NOT NULL,
-  write_time_us bigint NOT NULL,
-  PRIMARY KEY(mission_id, sequence));
-CREATE TABLE IF NOT EXISTS snapshots(
-  mission_id bytea PRIMARY KEY REFERENCES missions(id) ON DELETE CASCADE,
-  sequence bigint NOT NULL,
-  state bytea NOT NULL,
-  write_time_us bigint NOT NULL);
-CREATE TABLE IF NOT EXISTS deletions(
-  request_id bytea PRIMARY KEY,
-  mission_id bytea NOT NULL,
-  time_us bigint NOT NULL);
-CREATE INDEX IF NOT EXISTS deletions_by_time ON deletions(time_us);
-ALTER TABLE missions ADD COLUMN IF NOT EXISTS epoch bigint NOT NULL DEFAULT 1;
-CREATE INDEX IF NOT EXISTS missions_by_request ON missions(request_id);
-CREATE INDEX IF NOT EXISTS missions_by_creation ON missions(create_time_us, id);
-CREATE TABLE IF NOT EXISTS store_secrets(
-  name text PRIMARY KEY,
-  value bytea NOT NULL);
-)sql";
-
-// Held while the schema is created: CREATE ... IF NOT EXISTS is not atomic
-// against a concurrent create of the same name, so two servers opening a
-// new database at once take turns. Any constant works; this one is ours.
-constexpr std::int64_t kSchemaLockKey = 0x6f61697070;  // "oaipp"
 
 std::int64_t NowUs() { return absl::ToUnixMicros(absl::Now()); }
 
@@ -412,6 +360,47 @@ class PostgresStore final : public MissionStore {
             out.push_back({.id = ReadBytes(row[0]),
                            .spec = ReadBytes(row[1]),
                            .create_time_unix_us = row[2].as<std::int64_t>()});
+          }
+          return out;
+        });
+  }
+
+  absl::StatusOr<bool> TryLease(const std::string& name, const std::string& holder,
+                                std::int64_t now_us, std::int64_t until_us) override {
+    return Call("lease", [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<bool> {
+      // The row is taken or renewed only when free: two servers asking at
+      // once are ordered by the row's lock, and the second sees the first's.
+      pqxx::work tx(conn);
+      const pqxx::result held = tx.exec_params(
+          "INSERT INTO store_leases(name, holder, until_us) VALUES($1, $2, $4) "
+          "ON CONFLICT (name) DO UPDATE SET holder = EXCLUDED.holder, "
+          "until_us = EXCLUDED.until_us "
+          "WHERE store_leases.until_us < $3 OR store_leases.holder = EXCLUDED.holder "
+          "RETURNING holder",
+          name, Blob(holder), now_us, until_us);
+      Commit(tx, state);
+      return !held.empty();
+    });
+  }
+
+  absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> IdleSince(
+      std::int64_t before_us, int limit) override {
+    return Call(
+        "idle missions",
+        [&](pqxx::connection& conn,
+            CallState&) -> absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> {
+          ReadOnly tx(conn);
+          const pqxx::result rows = tx.exec_params(
+              "SELECT m.id, m.epoch FROM missions m WHERE m.create_time_us < $1 "
+              "AND NOT EXISTS (SELECT 1 FROM records r WHERE r.mission_id = m.id "
+              "AND r.write_time_us >= $1) "
+              "AND NOT EXISTS (SELECT 1 FROM snapshots s WHERE s.mission_id = m.id "
+              "AND s.write_time_us >= $1) "
+              "ORDER BY m.create_time_us, m.id LIMIT $2",
+              before_us, limit);
+          std::vector<std::pair<std::string, std::int64_t>> out;
+          for (const pqxx::row& row : rows) {
+            out.emplace_back(ReadBytes(row[0]), row[1].as<std::int64_t>());
           }
           return out;
         });

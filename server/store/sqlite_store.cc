@@ -10,68 +10,18 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/time/clock.h"
 #include "core/common/status_macros.h"
+#include "server/store/sqlite_schema.h"
 #include "server/store/sqlite_statement.h"
 
 namespace oaipp::server {
 namespace {
 
+using sqlite::kFromVersion1;
+using sqlite::kFromVersion2;
+using sqlite::kSchema;
+using sqlite::kSchemaVersion;
 using sqlite::SqliteError;
 using sqlite::Statement;
-
-// The schema version this code reads and writes (PRAGMA user_version).
-// 1: missions, records, deletions, counters. 2: + snapshots, write times.
-// 3: + missions.epoch (ownership; always kFirstEpoch for a single server).
-// Later tables and indexes come with kSchema, which runs at every open.
-constexpr int kSchemaVersion = 3;
-
-constexpr const char* kSchema = R"sql(
-CREATE TABLE IF NOT EXISTS counters(
-  name TEXT PRIMARY KEY,
-  value INTEGER NOT NULL);
-CREATE TABLE IF NOT EXISTS missions(
-  id TEXT PRIMARY KEY,
-  spec BLOB NOT NULL,
-  request_id TEXT NOT NULL,
-  fingerprint TEXT NOT NULL,
-  create_time_us INTEGER NOT NULL,
-  epoch INTEGER NOT NULL DEFAULT 1);
-CREATE TABLE IF NOT EXISTS records(
-  mission_id TEXT NOT NULL REFERENCES missions(id) ON DELETE CASCADE,
-  sequence INTEGER NOT NULL,
-  kind INTEGER NOT NULL,
-  payload BLOB NOT NULL,
-  request_id TEXT NOT NULL,
-  fingerprint TEXT NOT NULL,
-  result BLOB NOT NULL,
-  planner_state BLOB NOT NULL,
-  write_time_us INTEGER NOT NULL DEFAULT 0,
-  PRIMARY KEY(mission_id, sequence));
-CREATE TABLE IF NOT EXISTS snapshots(
-  mission_id TEXT PRIMARY KEY REFERENCES missions(id) ON DELETE CASCADE,
-  sequence INTEGER NOT NULL,
-  state BLOB NOT NULL,
-  write_time_us INTEGER NOT NULL);
-CREATE TABLE IF NOT EXISTS deletions(
-  request_id TEXT PRIMARY KEY,
-  mission_id TEXT NOT NULL,
-  time_us INTEGER NOT NULL DEFAULT 0);
-CREATE TABLE IF NOT EXISTS secrets(
-  name TEXT PRIMARY KEY,
-  value BLOB NOT NULL);
-CREATE INDEX IF NOT EXISTS missions_by_creation ON missions(create_time_us, id);
-)sql";
-
-// From version 1 (written before snapshots): the new columns; the new table
-// comes from kSchema.
-constexpr const char* kFromVersion1 = R"sql(
-ALTER TABLE records ADD COLUMN write_time_us INTEGER NOT NULL DEFAULT 0;
-ALTER TABLE deletions ADD COLUMN time_us INTEGER NOT NULL DEFAULT 0;
-)sql";
-
-// From version 2 (written before epochs).
-constexpr const char* kFromVersion2 = R"sql(
-ALTER TABLE missions ADD COLUMN epoch INTEGER NOT NULL DEFAULT 1;
-)sql";
 
 absl::Status NoMission(const std::string& id) {
   return absl::NotFoundError(absl::StrCat("store: no mission '", id, "'"));
@@ -353,6 +303,44 @@ class SqliteStore final : public MissionStore {
       out.push_back({.id = s.Bytes(0), .spec = s.Bytes(1), .create_time_unix_us = s.Int(2)});
     }
     if (code != SQLITE_DONE) return SqliteError(db_, code, "list");
+    return out;
+  }
+
+  absl::StatusOr<bool> TryLease(const std::string& name, const std::string& holder,
+                                std::int64_t now_us, std::int64_t until_us) override {
+    absl::MutexLock lock(&mu_);
+    Statement s(db_,
+                "INSERT INTO leases(name, holder, until_us) VALUES(?1, ?2, ?4) "
+                "ON CONFLICT(name) DO UPDATE SET holder = excluded.holder, "
+                "until_us = excluded.until_us WHERE until_us < ?3 OR holder = excluded.holder "
+                "RETURNING holder");
+    OAIPP_RETURN_IF_ERROR(s.prepared("lease"));
+    s.Bind(1, name);
+    s.Bind(2, holder);
+    s.Bind(3, now_us);
+    s.Bind(4, until_us);
+    const int code = s.Step();
+    if (code != SQLITE_ROW && code != SQLITE_DONE) return SqliteError(db_, code, "lease");
+    return code == SQLITE_ROW;
+  }
+
+  absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> IdleSince(
+      std::int64_t before_us, int limit) override {
+    absl::MutexLock lock(&mu_);
+    Statement s(db_,
+                "SELECT m.id, m.epoch FROM missions m WHERE m.create_time_us < ?1 "
+                "AND NOT EXISTS (SELECT 1 FROM records r WHERE r.mission_id = m.id "
+                "AND r.write_time_us >= ?1) "
+                "AND NOT EXISTS (SELECT 1 FROM snapshots s WHERE s.mission_id = m.id "
+                "AND s.write_time_us >= ?1) "
+                "ORDER BY m.create_time_us, m.id LIMIT ?2");
+    OAIPP_RETURN_IF_ERROR(s.prepared("idle missions"));
+    s.Bind(1, before_us);
+    s.Bind(2, static_cast<std::int64_t>(limit));
+    std::vector<std::pair<std::string, std::int64_t>> out;
+    int code = SQLITE_ROW;
+    while ((code = s.Step()) == SQLITE_ROW) out.emplace_back(s.Bytes(0), s.Int(1));
+    if (code != SQLITE_DONE) return SqliteError(db_, code, "idle missions");
     return out;
   }
 

@@ -20,12 +20,14 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "api/measurement.h"
 #include "api/spec.h"
 #include "grpcpp/grpcpp.h"
 #include "gtest/gtest.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
 #include "server/mission.h"
+#include "server/store/postgres_store.h"
 #include "tests/cluster/e1_flight.h"
 #include "tests/cluster/local_cluster.h"
 
@@ -279,6 +281,57 @@ TEST_F(ClusterTest, ARollingRestartLosesNothing) {
   EXPECT_FALSE(restart_failed.load()) << "a replica did not stop cleanly or did not start";
   RecordProperty("attempts_retried", static_cast<int>(retried_.load()));
   ExpectMapsEqualReplays(flights);
+}
+
+// Retention of the shared store: a mission nothing was written to for
+// --keep_idle leaves the store, deleted by whichever replica holds the
+// store's retention lease, also when no replica holds the mission any more
+// (its holder was killed); a replica that still holds one answers
+// NOT_FOUND for it afterwards.
+TEST(ClusterRetentionTest, IdleMissionsLeaveTheStoreWhoeverHoldsThem) {
+  if (!LocalCluster::Available()) {
+    if (std::getenv("OAIPP_REQUIRE_POSTGRES") != nullptr) {
+      FAIL() << "PostgreSQL 15 or HAProxy is missing (deploy/install-deps.sh installs both)";
+    }
+    GTEST_SKIP() << "PostgreSQL 15 or HAProxy is not installed";
+  }
+  LocalCluster cluster;
+  ASSERT_TRUE(cluster.Start({.replicas = 3, .replica_flags = {"--keep_idle=4s"}}));
+  client::Client client = client::Client::Connect(
+      cluster.proxy_address(), PatientClient(40, absl::Milliseconds(100), absl::Seconds(1)));
+  ASSERT_TRUE(client.CreateMission(E1FlightSpec(1, 60), "orphan").ok());
+  const std::string orphans_holder = client.last_replica();
+  // A mission held by another replica than the orphan's.
+  std::string held;
+  for (int k = 0; k < 12 && held.empty(); ++k) {
+    const std::string id = absl::StrCat("held-", k);
+    ASSERT_TRUE(client.CreateMission(E1FlightSpec(1, 60), id).ok());
+    if (client.last_replica() != orphans_holder) held = id;
+  }
+  ASSERT_FALSE(held.empty()) << "every mission hashed to " << orphans_holder;
+  int victim = -1;
+  for (int i = 0; i < cluster.replicas(); ++i) {
+    if (LocalCluster::ReplicaName(i) == orphans_holder) victim = i;
+  }
+  ASSERT_GE(victim, 0) << orphans_holder;
+  cluster.replica(victim).Stop(SIGKILL);
+
+  absl::StatusOr<std::unique_ptr<server::MissionStore>> store =
+      server::OpenPostgresStore(cluster.store_uri());
+  ASSERT_TRUE(store.ok()) << store.status();
+  auto gone = [&](const std::string& id) {
+    return (*store)->Load(id).status().code() == absl::StatusCode::kNotFound;
+  };
+  // 4 s idle, a sweep a second, and up to 3 s for a dead holder's lease.
+  bool both_gone = false;
+  for (int i = 0; i < 300 && !both_gone; ++i) {
+    absl::SleepFor(absl::Milliseconds(100));
+    both_gone = gone("orphan") && gone(held);
+  }
+  EXPECT_TRUE(both_gone) << "orphan gone: " << gone("orphan") << ", " << held
+                         << " gone: " << gone(held);
+  absl::StatusOr<v1::Mission> asked = client.GetMission("missions/" + held);
+  EXPECT_EQ(asked.status().code(), absl::StatusCode::kNotFound) << asked.status();
 }
 
 }  // namespace

@@ -313,6 +313,14 @@ class FailingStore final : public MissionStore {
     return store_->List(prefix, t, id, limit);
   }
   absl::StatusOr<std::string> SigningKey() override { return store_->SigningKey(); }
+  absl::StatusOr<bool> TryLease(const std::string& name, const std::string& holder,
+                                std::int64_t now_us, std::int64_t until_us) override {
+    return store_->TryLease(name, holder, now_us, until_us);
+  }
+  absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> IdleSince(
+      std::int64_t before_us, int limit) override {
+    return store_->IdleSince(before_us, limit);
+  }
 
  private:
   static absl::Status Down() { return absl::UnavailableError("store: injected failure"); }

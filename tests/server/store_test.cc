@@ -155,6 +155,59 @@ TEST_P(StoreTest, TheSigningKeyIsMadeOnceAndShared) {
   EXPECT_NE(first, std::string(32, '\0'));
 }
 
+// One holder at a time: a lease is taken when free, renewed by its holder,
+// refused to another until it expires, then taken by the other.
+TEST_P(StoreTest, ALeaseHasOneHolderUntilItExpires) {
+  std::unique_ptr<MissionStore> store = Open();
+  auto lease = [&](const std::string& holder, std::int64_t now, std::int64_t until) {
+    absl::StatusOr<bool> held = store->TryLease("retention", holder, now, until);
+    EXPECT_TRUE(held.ok()) << held.status();
+    return held.value_or(false);
+  };
+  EXPECT_TRUE(lease("a", 100, 200));
+  EXPECT_FALSE(lease("b", 150, 250));  // a's until 200
+  EXPECT_TRUE(lease("a", 190, 300));   // renewed
+  EXPECT_FALSE(lease("b", 250, 350));  // still a's
+  EXPECT_TRUE(lease("b", 301, 400));   // lapsed at 300
+  EXPECT_FALSE(lease("a", 302, 500));
+  absl::StatusOr<bool> other = store->TryLease("another job", "a", 302, 500);
+  ASSERT_TRUE(other.ok());
+  EXPECT_TRUE(*other);  // leases are per name
+}
+
+// A mission is idle since a time when it was created before it and nothing
+// (record or snapshot) was written to it since; the times are written out.
+TEST_P(StoreTest, IdleMissionsAreThoseNothingWasWrittenToSince) {
+  std::unique_ptr<MissionStore> store = Open();
+  for (const auto& [id, created] : std::vector<std::pair<std::string, std::int64_t>>{
+           {"old", 10}, {"written", 10}, {"snapshotted", 10}, {"new", 60}}) {
+    ASSERT_TRUE(store->CreateMission({.id = id, .spec = "s", .create_time_unix_us = created}).ok());
+  }
+  LogRecord late = Record(1, "late");
+  late.write_time_unix_us = 70;
+  ASSERT_TRUE(store->Append("written", late).ok());
+  LogRecord early = Record(1, "early");
+  early.write_time_unix_us = 20;
+  ASSERT_TRUE(store->Append("old", early).ok());
+  LogRecord covered = Record(1, "covered");
+  covered.write_time_unix_us = 20;
+  ASSERT_TRUE(store->Append("snapshotted", covered).ok());
+  ASSERT_TRUE(
+      store->PutSnapshot("snapshotted", {.sequence = 1, .state = "x", .write_time_unix_us = 80})
+          .ok());
+  absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> idle = store->IdleSince(50, 10);
+  ASSERT_TRUE(idle.ok()) << idle.status();
+  ASSERT_EQ(idle->size(), 1u);
+  EXPECT_EQ(idle->front().first, "old");
+  EXPECT_EQ(idle->front().second, kFirstEpoch);
+  idle = store->IdleSince(100, 10);
+  ASSERT_TRUE(idle.ok());
+  EXPECT_EQ(idle->size(), 4u);
+  idle = store->IdleSince(100, 2);
+  ASSERT_TRUE(idle.ok());
+  EXPECT_EQ(idle->size(), 2u);
+}
+
 TEST_P(StoreTest, RecordsComeBackInOrderByteForByte) {
   std::string every_byte;
   for (int b = 0; b < 256; ++b) every_byte.push_back(static_cast<char>(b));
