@@ -7,6 +7,7 @@
 #            unit, service and slow
 #   asan     Debug -O1 -g1 (line tables) with AddressSanitizer and UndefinedBehaviorSanitizer,
 #            asserts live (./build-asan); the unit and service tiers
+#            (the slow tier is not even built)
 #   tsan     Debug -O1 with ThreadSanitizer (./build-tsan): only the tests of
 #            the server, the stores and the client that run in process
 #   fuzz     (not by default) each libFuzzer target for 30 s on a fixed seed
@@ -103,7 +104,7 @@ stage_asan() {
     export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
     export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/deploy/lsan.supp}"
     build "$build-asan" -- -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" \
-      -DOAIPP_SANITIZE=address,undefined -DOAIPP_BUILD_BENCHMARKS=OFF
+      -DOAIPP_SANITIZE=address,undefined -DOAIPP_BUILD_BENCHMARKS=OFF -DOAIPP_SLOW_TESTS=OFF
     run_ctest "$build-asan" -L "unit|service"
   )
 }

@@ -4,7 +4,7 @@
 // the test. E1 missions fly through the proxy with the client library
 // while a replica is killed with SIGKILL at a seeded moment and restarted
 // later, or while all three are restarted one after the other. Every
-// mission must finish its 150 s with no call failing (UNAVAILABLE and
+// mission must finish its budget with no call failing (UNAVAILABLE and
 // CANCELLED are retried by the library with the same request_id), and each
 // final map must equal an independent in-process replay of the
 // measurements the service acknowledged: nothing lost, nothing fused twice.
@@ -34,18 +34,21 @@
 namespace oaipp::cluster_testing {
 namespace {
 
-// The sanitizer build runs about ten times slower: it flies 3 shorter
-// missions through the same code paths (the Release build flies the 30
-// full E1 missions the cluster's acceptance asks for).
+// 30 E1 missions at once, each flying 60 s of its budget: about 540 calls
+// through the proxy, enough for a kill and a takeover (or three restarts)
+// in mid-flight. The sanitizer build (about ten times slower) flies 3.
+// cluster_bench flies the full 150 s missions (docs/benchmarks.md).
 #if defined(__SANITIZE_ADDRESS__)
 constexpr int kMissions = 3;
-constexpr double kBudgetS = 60.0;
 #else
 constexpr int kMissions = 30;
-constexpr double kBudgetS = 150.0;
 #endif
-// Calls one E1 mission makes: a create, then about 22 plans and 23 shots in
-// 150 s.
+constexpr double kBudgetS = 60.0;
+// The plans are real but short: what is tested is where calls go and what
+// survives, not the plans' quality.
+constexpr int kGenerations = 12;
+// Calls one E1 mission makes: a create, then about 22 plans and 23 shots
+// per 150 s.
 constexpr int kCallsPerMission = 1 + static_cast<int>(44 * kBudgetS / 150.0);
 
 class ClusterTest : public ::testing::Test {
@@ -71,6 +74,7 @@ class ClusterTest : public ::testing::Test {
   // acknowledged call with the count so far.
   std::vector<E1Flight> FlyAll(const std::function<void(int)>& on_ack) {
     std::vector<E1Flight> flights(kMissions);
+    for (E1Flight& flight : flights) flight.generations = kGenerations;
     holders_.assign(kMissions, "");
     std::atomic<int> acked{0};
     std::vector<std::thread> threads;
@@ -101,8 +105,8 @@ class ClusterTest : public ::testing::Test {
     for (int m = 0; m < kMissions; ++m) {
       SCOPED_TRACE(flights[m].name);
       EXPECT_GE(flights[m].mission_time_s, kBudgetS);
-      absl::StatusOr<api::MissionConfig> config =
-          api::MissionSpecToConfig(E1FlightSpec(static_cast<std::uint32_t>(m + 1), kBudgetS));
+      absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(
+          E1FlightSpec(static_cast<std::uint32_t>(m + 1), kBudgetS, kGenerations));
       ASSERT_TRUE(config.ok()) << config.status();
       absl::StatusOr<std::shared_ptr<server::Mission>> twin =
           server::Mission::Create("twin", *config);

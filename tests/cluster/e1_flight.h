@@ -20,6 +20,9 @@ namespace oaipp::cluster_testing {
 
 struct E1Flight {
   std::string name;  // "missions/{id}"
+  // CMA-ES generations per plan (E1's are 45; fewer cost less CPU where
+  // plan quality is not what is tested).
+  int generations = 45;
   std::vector<v1::AddMeasurementRequest> acknowledged = {};
   int plans = 0;
   double mission_time_s = 0.0;
@@ -60,8 +63,8 @@ inline client::ClientOptions PatientClient(int attempts, absl::Duration first_ba
 }
 
 // The E1 spec as this mission flies it: seed and budget set.
-inline v1::MissionSpec E1FlightSpec(std::uint32_t seed, double budget_s) {
-  v1::MissionSpec spec = bench::E1Spec();
+inline v1::MissionSpec E1FlightSpec(std::uint32_t seed, double budget_s, int generations = 45) {
+  v1::MissionSpec spec = bench::E1Spec(generations);
   spec.mutable_planner()->set_seed(seed);
   spec.set_budget_s(budget_s);
   return spec;
@@ -78,7 +81,7 @@ inline absl::Status FlyE1(client::Client& client, const std::string& id, std::ui
     if (flight.on_ack) flight.on_ack();
   };
   absl::StatusOr<v1::Mission> created = Timed(flight, "CreateMission", [&] {
-    return client.CreateMission(E1FlightSpec(seed, budget_s), id);
+    return client.CreateMission(E1FlightSpec(seed, budget_s, flight.generations), id);
   });
   if (!created.ok()) return created.status();
   acked();
