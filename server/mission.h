@@ -223,6 +223,12 @@ class Mission {
   // every record it writes states it.
   [[nodiscard]] std::int64_t epoch() const { return epoch_.load(); }
   void set_epoch(std::int64_t epoch) { epoch_.store(epoch); }
+  // Shared store: when this server last renewed its lease on the mission
+  // (MissionRegistry's bookkeeping; the infinite past until then).
+  [[nodiscard]] absl::Time lease_renewed() const {
+    return absl::FromUnixMicros(lease_renewed_us_.load());
+  }
+  void set_lease_renewed(absl::Time at) { lease_renewed_us_.store(absl::ToUnixMicros(at)); }
   // Take-off pacing (ServiceLimits::take_off_patience): when this mission's
   // take-off was first refused; nullopt if it was not, or a take-off plan
   // has since been answered OK. In memory only: a restart, a reload or
@@ -322,6 +328,7 @@ class Mission {
   SnapshotPolicy snapshots_;
   std::atomic<std::int64_t> last_change_unix_us_{0};
   std::atomic<std::int64_t> epoch_{1};
+  std::atomic<std::int64_t> lease_renewed_us_{std::numeric_limits<std::int64_t>::min()};
   static constexpr std::int64_t kNotGrounded = std::numeric_limits<std::int64_t>::min();
   std::atomic<std::int64_t> grounded_since_ns_{kNotGrounded};
 

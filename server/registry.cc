@@ -216,6 +216,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     if (!stored.ok()) mission = stored;
   }
   if (!mission.ok()) return mission.status();
+  if (limits_.shared_store) KeepLease(**mission);  // this server's from the start
   absl::MutexLock lock(&mu_);
   std::move(release).Cancel();
   building_bytes_.erase(key);

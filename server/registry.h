@@ -60,6 +60,19 @@ struct RegistryLimits {
   // this server still holds the mission it names, and a copy another server
   // took over is dropped.
   bool shared_store = false;
+  // Shared store: who this server is in the store's leases (its replica
+  // id, or a name made at start; Server says it is alive, MissionStore::
+  // Heartbeat). A mission stays this server's for `mission_lease` after the
+  // last call it served here: while it is alive, a call for it that reaches
+  // another server (a forged or stale routing header) is answered
+  // UNAVAILABLE there, after waiting up to `silent_after` for the holder to
+  // be found silent, and nothing is rebuilt. When the holder falls silent
+  // (no heartbeat for `silent_after`) or retires, its missions are free at
+  // once; a mission whose calls go elsewhere is free `mission_lease` after
+  // its last call here.
+  std::string holder = {};
+  absl::Duration mission_lease = absl::Seconds(2);
+  absl::Duration silent_after = absl::Milliseconds(500);
   // Not limits but server-wide settings every mission gets (they are not
   // part of the spec, so a restored mission takes this server's): the
   // adaptive objective's solves in single precision
@@ -245,9 +258,21 @@ class MissionRegistry {
   absl::StatusOr<std::shared_ptr<Mission>> Hold(const std::string& key,
                                                 std::shared_ptr<Mission> held,
                                                 absl::string_view name);
-  // Claims the mission, rebuilds it and holds it. Concurrent calls for one
-  // key share one takeover.
+  // Claims the mission, rebuilds it and holds it, once its lease is this
+  // server's (AcquireLease). Concurrent calls for one key share one
+  // takeover.
   absl::StatusOr<std::shared_ptr<Mission>> TakeOver(const std::string& key, absl::string_view name);
+  // Shared store: the store's lease on serving `key` ("mission/" and the
+  // key in hex).
+  static std::string LeaseName(const std::string& key);
+  // Takes the mission's lease for this server, waiting up to
+  // limits_.silent_after for a live holder to fall silent; UNAVAILABLE
+  // (naming `name`) while another live server holds it.
+  absl::Status AcquireLease(const std::string& key, absl::string_view name);
+  // Renews the lease of a mission this server serves when a quarter of it
+  // has passed since it was last renewed (so calls cost a write at most
+  // every mission_lease / 4); best effort: a failure is logged.
+  void KeepLease(Mission& mission);
   // Registers a mission in the listing order (mu_ held).
   void Register(const std::string& key, std::shared_ptr<Mission> mission)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);

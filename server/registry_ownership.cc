@@ -1,14 +1,17 @@
 // A mission's ownership when servers share a store (a cluster,
 // docs/cluster.md): whether this server still holds the copy it serves, the
-// takeover of a mission from another server, and the copies dropped when
-// another server took them over.
+// lease that keeps a mission with a live server, the takeover of a mission
+// from another server, and the copies dropped when another server took them
+// over.
 #include "server/registry.h"
 
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "absl/time/time.h"
 #include "core/common/status_macros.h"
 #include "spdlog/spdlog.h"
@@ -22,7 +25,10 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Hold(const std::string
     // One indexed read: whether another server has claimed the mission
     // since this copy was read.
     absl::StatusOr<std::int64_t> epoch = store_->Epoch(key);
-    if (epoch.ok() && *epoch == held->epoch()) return held;
+    if (epoch.ok() && *epoch == held->epoch()) {
+      KeepLease(*held);
+      return held;
+    }
     if (!epoch.ok() && epoch.status().code() != absl::StatusCode::kNotFound) {
       return epoch.status();
     }
@@ -62,6 +68,8 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
   }
   const absl::Time started = absl::Now();
   takeover->result = [&]() -> absl::StatusOr<std::shared_ptr<Mission>> {
+    const absl::Time leased = absl::Now();
+    OAIPP_RETURN_IF_ERROR(AcquireLease(key, name));
     absl::StatusOr<StoredMission> claimed = store_->Claim(key);
     if (claimed.status().code() == absl::StatusCode::kNotFound) {
       return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
@@ -72,6 +80,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
       return absl::Status(mission.status().code(), absl::StrCat("taking over mission '", name,
                                                                 "': ", mission.status().message()));
     }
+    (*mission)->set_lease_renewed(leased);
     std::shared_ptr<Mission> replaced;
     {
       absl::MutexLock lock(&mu_);
@@ -95,6 +104,49 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
   }
   takeover->done.Notify();
   return takeover->result;
+}
+
+std::string MissionRegistry::LeaseName(const std::string& key) {
+  return absl::StrCat("mission/", absl::BytesToHexString(key));
+}
+
+absl::Status MissionRegistry::AcquireLease(const std::string& key, absl::string_view name) {
+  const absl::Time deadline = absl::Now() + limits_.silent_after;
+  while (true) {
+    const absl::Time now = absl::Now();
+    absl::StatusOr<bool> held =
+        store_->TryLease(LeaseName(key), limits_.holder, absl::ToUnixMicros(now),
+                         absl::ToUnixMicros(now + limits_.mission_lease), true);
+    OAIPP_RETURN_IF_ERROR(held.status());
+    if (*held) return absl::OkStatus();
+    // Another server holds it and was alive when asked: a holder that just
+    // died is found silent within silent_after, so a short wait here saves
+    // the caller a retry; a live holder keeps its mission.
+    if (now >= deadline) {
+      return absl::UnavailableError(absl::StrCat(
+          "name: mission '", name,
+          "' is served by another server, which is alive; this call reached the wrong one "
+          "(its x-oaipp-mission header names another mission, or the routing is changing); "
+          "nothing was applied; retry"));
+    }
+    absl::SleepFor(std::min(absl::Milliseconds(50), deadline - now));
+  }
+}
+
+void MissionRegistry::KeepLease(Mission& mission) {
+  const absl::Time now = absl::Now();
+  if (now - mission.lease_renewed() < limits_.mission_lease / 4) return;
+  mission.set_lease_renewed(now);
+  const std::string& key = mission.id();
+  // Renewed only while it is this server's (or free): had it lapsed and
+  // been taken, the taker's claim fences this copy's next write.
+  const absl::StatusOr<bool> held =
+      store_->TryLease(LeaseName(key), limits_.holder, absl::ToUnixMicros(now),
+                       absl::ToUnixMicros(now + limits_.mission_lease), false);
+  if (!held.ok()) {
+    spdlog::warn("lease of mission 'missions/{}': {}", std::string(PublicId(key)),
+                 held.status().ToString());
+  }
 }
 
 void MissionRegistry::Drop(const std::string& key, const std::shared_ptr<Mission>& mission,

@@ -49,7 +49,7 @@ std::vector<std::string> MissionRegistry::SweepStore(absl::Time now, absl::Durat
   std::vector<std::string> deleted;
   if (!shares_store() || keep_idle == absl::InfiniteDuration()) return deleted;
   const absl::StatusOr<bool> held = store_->TryLease("retention", holder, absl::ToUnixMicros(now),
-                                                     absl::ToUnixMicros(now + lease));
+                                                     absl::ToUnixMicros(now + lease), false);
   if (!held.ok()) {
     spdlog::warn("retention: {}", held.status().ToString());
     return deleted;

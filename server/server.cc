@@ -138,6 +138,7 @@ absl::StatusOr<ServerParts> Server::PartsFromOptions() {
                                   .max_mission_memory_bytes = o.max_mission_memory_mb << 20,
                                   .max_memory_bytes = max_memory,
                                   .shared_store = o.cluster,
+                                  .holder = o.replica_id,
                                   .single_precision_objective = o.objective_precision == "single",
                                   .dense_backend = ChooseDenseBackend(o)},
                      .service = {.max_streams = o.max_streams,
@@ -161,6 +162,20 @@ absl::Status Server::Assemble(ServerParts parts) {
   const ServerOptions& o = options_;
   store_ = parts.store;
   dense_backend_ = parts.registry.dense_backend;
+  if (parts.registry.holder.empty()) {
+    parts.registry.holder = absl::StrCat("pid-", getpid(), "-", absl::ToUnixNanos(absl::Now()));
+  }
+  holder_ = parts.registry.holder;
+  silent_after_ = parts.registry.silent_after;
+  if (parts.registry.shared_store && store_ != nullptr) {
+    // Alive before the first call can take a mission over.
+    if (absl::Status alive =
+            store_->Heartbeat(holder_, absl::ToUnixMicros(absl::Now() + silent_after_));
+        !alive.ok()) {
+      return absl::Status(alive.code(), absl::StrCat("store: ", alive.message()));
+    }
+    heartbeat_ = std::thread([this] { Heartbeat(); });
+  }
   registry_ = std::make_unique<MissionRegistry>(parts.registry, store_);
   const absl::Time recovery_started = absl::Now();
   recovered_ = registry_->Recover();
@@ -280,10 +295,6 @@ void Server::SweepRetention() {
   // A cluster's replicas also sweep the shared store, one at a time: the
   // holder of the store's lease renews it at each sweep; it lapses three
   // sweeps after its holder stops, and another replica takes it.
-  const std::string holder =
-      options_.replica_id.empty()
-          ? absl::StrCat("pid-", getpid(), "-", absl::ToUnixNanos(absl::Now()))
-          : options_.replica_id;
   while (!stopping_.WaitForNotificationWithTimeout(every)) {
     const absl::Time now = absl::Now();
     for (const std::string& id :
@@ -291,8 +302,25 @@ void Server::SweepRetention() {
       spdlog::info("mission event=expired name=missions/{}", id);
     }
     for (const std::string& id :
-         registry_->SweepStore(now, options_.keep_idle, holder, 3 * every)) {
+         registry_->SweepStore(now, options_.keep_idle, holder_, 3 * every)) {
       spdlog::info("mission event=expired name=missions/{} (from the shared store)", id);
+    }
+  }
+}
+
+void Server::Heartbeat() {
+  bool ok = true;
+  while (!stopping_.WaitForNotificationWithTimeout(silent_after_ / 5)) {
+    const absl::Status alive =
+        store_->Heartbeat(holder_, absl::ToUnixMicros(absl::Now() + silent_after_));
+    if (alive.ok() != ok) {
+      ok = alive.ok();
+      if (ok) {
+        spdlog::info("cluster: heartbeats reach the store again");
+      } else {
+        spdlog::warn("cluster: heartbeat: {} (other replicas may take this one's missions)",
+                     alive.ToString());
+      }
     }
   }
 }
@@ -319,6 +347,14 @@ void Server::Shutdown(absl::Duration grace) {
   if (registry_ != nullptr) registry_->FlushSnapshots();
   if (health_watch_.joinable()) health_watch_.join();
   if (sweeper_.joinable()) sweeper_.join();
+  if (heartbeat_.joinable()) {
+    heartbeat_.join();
+    // Gone: the other replicas take this one's missions at their next call,
+    // without waiting for it to fall silent.
+    if (absl::Status retired = store_->Retire(holder_); !retired.ok()) {
+      spdlog::warn("cluster: retiring from the store: {}", retired.ToString());
+    }
+  }
   if (metrics_http_ != nullptr) metrics_http_->Stop();
 }
 

@@ -110,6 +110,9 @@ class Server {
   void WatchHealth();
   // Expires finished and idle missions.
   void SweepRetention();
+  // A cluster's replica tells the store it is alive, five times per
+  // RegistryLimits::silent_after.
+  void Heartbeat();
 
   const ServerOptions options_;
   Authenticator auth_;
@@ -129,6 +132,10 @@ class Server {
   absl::Notification stopping_;
   std::thread health_watch_;
   std::thread sweeper_;
+  std::thread heartbeat_;
+  // Who this server is in the store's leases (RegistryLimits::holder).
+  std::string holder_;
+  absl::Duration silent_after_;
   bool shut_down_ = false;
 };
 

@@ -147,7 +147,8 @@ class MissionStore {
   [[nodiscard]] virtual absl::StatusOr<StoredMission> Load(const std::string& mission_id) = 0;
   // The mission a request_id deleted, or NotFound.
   [[nodiscard]] virtual absl::StatusOr<std::string> DeletedBy(const std::string& request_id) = 0;
-  // Forgets the request_ids of deletions made before `unix_us` (retention).
+  // Forgets the request_ids of deletions made before `unix_us`, and the
+  // leases and heartbeats that lapsed before it (retention).
   [[nodiscard]] virtual absl::Status ForgetDeletionsBefore(std::int64_t unix_us) = 0;
   // OK while the store can be written (it writes to find out).
   [[nodiscard]] virtual absl::Status Health() = 0;
@@ -159,13 +160,22 @@ class MissionStore {
       const std::string& prefix, std::int64_t after_time_us, const std::string& after_id,
       int limit) = 0;
   // The lease `name` for `holder` until `until_us`, when at `now_us` it is
-  // free (never taken, expired, or `holder`'s own): true when `holder` holds
-  // it afterwards. How servers sharing the store agree which one of them
-  // does a periodic job (retention); the times are the callers' clocks.
+  // free (never taken, expired, or `holder`'s own; with
+  // `free_if_holder_silent`, also when its holder is not alive, see
+  // Heartbeat): true when `holder` holds it afterwards. How servers sharing
+  // the store agree which one of them does a periodic job (retention) and
+  // which one serves a mission; the times are the callers' clocks.
   [[nodiscard]] virtual absl::StatusOr<bool> TryLease(const std::string& name,
                                                       const std::string& holder,
-                                                      std::int64_t now_us,
-                                                      std::int64_t until_us) = 0;
+                                                      std::int64_t now_us, std::int64_t until_us,
+                                                      bool free_if_holder_silent) = 0;
+  // `holder` is alive until `until_us` (its clock): a server sharing the
+  // store says so every fraction of that time. A holder that never said so,
+  // whose time has passed, or that retired is not alive.
+  [[nodiscard]] virtual absl::Status Heartbeat(const std::string& holder,
+                                               std::int64_t until_us) = 0;
+  // `holder` stops: it is no longer alive and holds no lease.
+  [[nodiscard]] virtual absl::Status Retire(const std::string& holder) = 0;
   // Missions nothing was written to since `before_us` (created, and their
   // records and snapshot written, before it), with their epochs, oldest
   // first, at most `limit`.

@@ -10,7 +10,8 @@ namespace oaipp::server::postgres {
 // 1: missions, records, snapshots, deletions, mission_numbers.
 // 2: + missions.epoch (ownership, for servers sharing the store), an index
 //    of missions by request_id.
-// Later tables and indexes (the listing's index, secrets, leases) come with
+// Later tables and indexes (the listing's index, secrets, leases, the
+// servers alive) come with
 // kSchema, which is idempotent and runs at every open.
 inline constexpr std::int64_t kSchemaVersion = 2;
 
@@ -60,6 +61,10 @@ CREATE TABLE IF NOT EXISTS store_secrets(
 CREATE TABLE IF NOT EXISTS store_leases(
   name text PRIMARY KEY,
   holder bytea NOT NULL,
+  until_us bigint NOT NULL);
+CREATE INDEX IF NOT EXISTS store_leases_by_holder ON store_leases(holder);
+CREATE TABLE IF NOT EXISTS store_alive(
+  holder bytea PRIMARY KEY,
   until_us bigint NOT NULL);
 )sql";
 

@@ -335,6 +335,8 @@ class PostgresStore final : public MissionStore {
     return Call("forget deletions", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
       pqxx::work tx(conn);
       tx.exec_params0("DELETE FROM deletions WHERE time_us < $1", unix_us);
+      tx.exec_params0("DELETE FROM store_leases WHERE until_us < $1", unix_us);
+      tx.exec_params0("DELETE FROM store_alive WHERE until_us < $1", unix_us);
       Commit(tx, state);
       return absl::OkStatus();
     });
@@ -366,7 +368,8 @@ class PostgresStore final : public MissionStore {
   }
 
   absl::StatusOr<bool> TryLease(const std::string& name, const std::string& holder,
-                                std::int64_t now_us, std::int64_t until_us) override {
+                                std::int64_t now_us, std::int64_t until_us,
+                                bool free_if_holder_silent) override {
     return Call("lease", [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<bool> {
       // The row is taken or renewed only when free: two servers asking at
       // once are ordered by the row's lock, and the second sees the first's.
@@ -376,10 +379,34 @@ class PostgresStore final : public MissionStore {
           "ON CONFLICT (name) DO UPDATE SET holder = EXCLUDED.holder, "
           "until_us = EXCLUDED.until_us "
           "WHERE store_leases.until_us < $3 OR store_leases.holder = EXCLUDED.holder "
+          "OR ($5 AND NOT EXISTS (SELECT 1 FROM store_alive a "
+          "WHERE a.holder = store_leases.holder AND a.until_us >= $3)) "
           "RETURNING holder",
-          name, Blob(holder), now_us, until_us);
+          name, Blob(holder), now_us, until_us, free_if_holder_silent);
       Commit(tx, state);
       return !held.empty();
+    });
+  }
+
+  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
+    return Call("heartbeat", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      tx.exec_params(
+          "INSERT INTO store_alive(holder, until_us) VALUES($1, $2) "
+          "ON CONFLICT (holder) DO UPDATE SET until_us = EXCLUDED.until_us",
+          Blob(holder), until_us);
+      Commit(tx, state);
+      return absl::OkStatus();
+    });
+  }
+
+  absl::Status Retire(const std::string& holder) override {
+    return Call("retire", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+      pqxx::work tx(conn);
+      tx.exec_params("DELETE FROM store_alive WHERE holder = $1", Blob(holder));
+      tx.exec_params("DELETE FROM store_leases WHERE holder = $1", Blob(holder));
+      Commit(tx, state);
+      return absl::OkStatus();
     });
   }
 

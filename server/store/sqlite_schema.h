@@ -48,6 +48,9 @@ CREATE TABLE IF NOT EXISTS leases(
   name TEXT PRIMARY KEY,
   holder TEXT NOT NULL,
   until_us INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS alive(
+  holder TEXT PRIMARY KEY,
+  until_us INTEGER NOT NULL);
 CREATE INDEX IF NOT EXISTS missions_by_creation ON missions(create_time_us, id);
 )sql";
 

@@ -314,9 +314,13 @@ class FailingStore final : public MissionStore {
   }
   absl::StatusOr<std::string> SigningKey() override { return store_->SigningKey(); }
   absl::StatusOr<bool> TryLease(const std::string& name, const std::string& holder,
-                                std::int64_t now_us, std::int64_t until_us) override {
-    return store_->TryLease(name, holder, now_us, until_us);
+                                std::int64_t now_us, std::int64_t until_us, bool silent) override {
+    return store_->TryLease(name, holder, now_us, until_us, silent);
   }
+  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
+    return store_->Heartbeat(holder, until_us);
+  }
+  absl::Status Retire(const std::string& holder) override { return store_->Retire(holder); }
   absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> IdleSince(
       std::int64_t before_us, int limit) override {
     return store_->IdleSince(before_us, limit);

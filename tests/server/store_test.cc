@@ -160,7 +160,7 @@ TEST_P(StoreTest, TheSigningKeyIsMadeOnceAndShared) {
 TEST_P(StoreTest, ALeaseHasOneHolderUntilItExpires) {
   std::unique_ptr<MissionStore> store = Open();
   auto lease = [&](const std::string& holder, std::int64_t now, std::int64_t until) {
-    absl::StatusOr<bool> held = store->TryLease("retention", holder, now, until);
+    absl::StatusOr<bool> held = store->TryLease("retention", holder, now, until, false);
     EXPECT_TRUE(held.ok()) << held.status();
     return held.value_or(false);
   };
@@ -170,9 +170,39 @@ TEST_P(StoreTest, ALeaseHasOneHolderUntilItExpires) {
   EXPECT_FALSE(lease("b", 250, 350));  // still a's
   EXPECT_TRUE(lease("b", 301, 400));   // lapsed at 300
   EXPECT_FALSE(lease("a", 302, 500));
-  absl::StatusOr<bool> other = store->TryLease("another job", "a", 302, 500);
+  absl::StatusOr<bool> other = store->TryLease("another job", "a", 302, 500, false);
   ASSERT_TRUE(other.ok());
   EXPECT_TRUE(*other);  // leases are per name
+}
+
+// Asked with free_if_holder_silent, a lease is also free when its holder is
+// not alive: it never said so, its heartbeat's time has passed, or it
+// retired (which also frees its leases for everyone).
+TEST_P(StoreTest, ALeaseOfASilentHolderIsFreeToThoseWhoAskSo) {
+  std::unique_ptr<MissionStore> store = Open();
+  auto lease = [&](const std::string& holder, std::int64_t now, bool silent,
+                   const std::string& name = "mission/m") {
+    absl::StatusOr<bool> held = store->TryLease(name, holder, now, now + 1000, silent);
+    EXPECT_TRUE(held.ok()) << held.status();
+    return held.value_or(false);
+  };
+  ASSERT_TRUE(store->Heartbeat("a", 500).ok());
+  EXPECT_TRUE(lease("a", 100, true));    // a's until 1100, a alive until 500
+  EXPECT_FALSE(lease("b", 200, true));   // a is alive
+  EXPECT_FALSE(lease("b", 600, false));  // a is silent, but b did not ask for that
+  EXPECT_TRUE(lease("b", 600, true));    // a is silent: b's until 1600
+  ASSERT_TRUE(store->Heartbeat("a", 2000).ok());
+  ASSERT_TRUE(store->Heartbeat("b", 2000).ok());
+  EXPECT_FALSE(lease("a", 700, true));  // b is alive and its lease runs
+  EXPECT_TRUE(lease("a", 1700, true));  // b's lease lapsed at 1600
+  ASSERT_TRUE(store->Retire("a").ok());
+  EXPECT_TRUE(lease("b", 1800, false));  // a retired: its lease is gone
+  EXPECT_TRUE(lease("c", 1800, false, "mission/n"));
+  EXPECT_FALSE(lease("b", 1900, false, "mission/n"));
+  EXPECT_TRUE(lease("b", 1900, true, "mission/n"));  // c never said it is alive
+  EXPECT_FALSE(lease("c", 2000, false, "mission/n"));
+  ASSERT_TRUE(store->ForgetDeletionsBefore(3000).ok());  // b's lease lapses at 2900
+  EXPECT_TRUE(lease("c", 2000, false, "mission/n"));     // forgotten
 }
 
 // A mission is idle since a time when it was created before it and nothing

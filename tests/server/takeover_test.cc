@@ -1,12 +1,15 @@
 // Two servers sharing one store (RegistryLimits::shared_store), in one
-// process: a real SQLite store and two real services. A mission moves to
-// the server that gets a call for it; the server it left has its next write
-// refused (UNAVAILABLE, nothing applied) and lets go of its copy; a retry
-// with the same request_id on the new owner is answered once; whatever
-// either server acknowledged is in the map the other reads.
+// process: a real SQLite store and two real services. Without a mission
+// lease, a mission moves to the server that gets a call for it; the server
+// it left has its next write refused (UNAVAILABLE, nothing applied) and
+// lets go of its copy; a retry with the same request_id on the new owner is
+// answered once; whatever either server acknowledged is in the map the
+// other reads. With the lease (the default), a live holder keeps its
+// mission and a call that reaches the other server rebuilds nothing.
 #include <filesystem>
 
 #include "absl/strings/str_cat.h"
+#include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "server/store/sqlite_store.h"
 #include "tests/server/service_fixture.h"
@@ -24,8 +27,16 @@ class TakeoverTest : public ::testing::Test {
         OpenSqliteStore((dir_ / "missions.db").string());
     ASSERT_TRUE(store.ok()) << store.status();
     store_ = *std::move(store);
-    const RegistryLimits shared{
-        .max_missions = 8, .max_cells_per_mission = 1600, .shared_store = true};
+    // No lease: the moves are what most of these tests check.
+    StartBoth(absl::ZeroDuration());
+  }
+  void StartBoth(absl::Duration mission_lease) {
+    a_.reset();
+    b_.reset();
+    const RegistryLimits shared{.max_missions = 8,
+                                .max_cells_per_mission = 1600,
+                                .shared_store = true,
+                                .mission_lease = mission_lease};
     a_ = std::make_unique<testing::InProcessService>(shared, 1, 8, store_.get());
     b_ = std::make_unique<testing::InProcessService>(shared, 1, 8, store_.get());
   }
@@ -172,6 +183,33 @@ TEST_F(TakeoverTest, DeletedOnOneServerIsGoneOnTheOther) {
   // The retry of the delete, on B: answered OK.
   grpc::ClientContext c2;
   EXPECT_TRUE(b_->stub().DeleteMission(&c2, d, &out).ok());
+}
+
+// With the lease: a call for A's mission that reaches B while A is alive
+// (a forged or stale routing header) is refused after B has waited for A
+// to fall silent, and B rebuilds nothing: the store's epoch stays. Once A
+// stops (it retires from the store), B takes the mission at its next call.
+TEST_F(TakeoverTest, ALiveHolderKeepsItsMissionUntilItStops) {
+  StartBoth(RegistryLimits{}.mission_lease);
+  testing::CreateSmall(a_->stub(), "m");
+  v1::AddMeasurementResponse out;
+  ASSERT_TRUE(Measure(*a_, "r1", -3, &out).ok());
+  grpc::ClientContext c;
+  v1::GetMissionRequest r;
+  r.set_name("missions/m");
+  v1::Mission m;
+  const grpc::Status refused = b_->stub().GetMission(&c, r, &m);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::UNAVAILABLE);
+  EXPECT_THAT(refused.error_message(), ::testing::HasSubstr("served by another server"));
+  EXPECT_EQ(b_->registry().takeovers(), 0);
+  EXPECT_EQ(b_->registry().size(), 0u);
+  absl::StatusOr<std::int64_t> epoch = store_->Epoch("m");
+  ASSERT_TRUE(epoch.ok());
+  EXPECT_EQ(*epoch, kFirstEpoch);
+  ASSERT_TRUE(Measure(*a_, "r2", -1, &out).ok());  // A serves on
+  a_.reset();                                      // a graceful stop: A retires
+  EXPECT_EQ(Get(*b_).measurements_fused(), 2);
+  EXPECT_EQ(b_->registry().takeovers(), 1);
 }
 
 }  // namespace
