@@ -7,7 +7,8 @@
 #            unit, service and slow
 #   asan     Debug -O1 -g1 (line tables) with AddressSanitizer and UndefinedBehaviorSanitizer,
 #            asserts live (./build-asan); the unit and service tiers
-#            (the slow tier is not even built)
+#            (the slow tier is not even built), each executable in 4
+#            gtest shards rather than one process per case
 #   tsan     Debug -O1 with ThreadSanitizer (./build-tsan): only the tests of
 #            the server, the stores and the client that run in process
 #   fuzz     (not by default) each libFuzzer target for 30 s on a fixed seed
@@ -104,7 +105,8 @@ stage_asan() {
     export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
     export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/deploy/lsan.supp}"
     build "$build-asan" -- -DCMAKE_BUILD_TYPE=Debug -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" \
-      -DOAIPP_SANITIZE=address,undefined -DOAIPP_BUILD_BENCHMARKS=OFF -DOAIPP_SLOW_TESTS=OFF
+      -DOAIPP_SANITIZE=address,undefined -DOAIPP_BUILD_BENCHMARKS=OFF -DOAIPP_SLOW_TESTS=OFF \
+      -DOAIPP_TEST_SHARDS=4
     run_ctest "$build-asan" -L "unit|service"
   )
 }
@@ -117,7 +119,8 @@ stage_tsan() {
     # made visible to TSan by tests/support/tsan_absl_sync.cc.
     export TSAN_OPTIONS="${TSAN_OPTIONS:-halt_on_error=1:second_deadlock_stack=1:suppressions=$root/tests/support/tsan.supp}"
     build "$build-tsan" tsan_self_test service_test client_test -- -DCMAKE_BUILD_TYPE=Debug \
-      -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" -DOAIPP_SANITIZE=thread -DOAIPP_BUILD_BENCHMARKS=OFF
+      -DCMAKE_CXX_FLAGS_DEBUG="-g1 -O1" -DOAIPP_SANITIZE=thread -DOAIPP_BUILD_BENCHMARKS=OFF \
+      -DOAIPP_TEST_SHARDS=4
     run_ctest "$build-tsan"
   )
 }
