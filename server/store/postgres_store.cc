@@ -389,15 +389,16 @@ class PostgresStore final : public MissionStore {
   }
 
   absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
-    return Call("heartbeat", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
-      pqxx::work tx(conn);
-      tx.exec_params(
-          "INSERT INTO store_alive(holder, until_us) VALUES($1, $2) "
-          "ON CONFLICT (holder) DO UPDATE SET until_us = EXCLUDED.until_us",
-          Blob(holder), until_us);
-      Commit(tx, state);
-      return absl::OkStatus();
-    });
+    return CallOn(heartbeat_pool_, "heartbeat",
+                  [&](pqxx::connection& conn, CallState& state) -> absl::Status {
+                    pqxx::work tx(conn);
+                    tx.exec_params(
+                        "INSERT INTO store_alive(holder, until_us) VALUES($1, $2) "
+                        "ON CONFLICT (holder) DO UPDATE SET until_us = EXCLUDED.until_us",
+                        Blob(holder), until_us);
+                    Commit(tx, state);
+                    return absl::OkStatus();
+                  });
   }
 
   absl::Status Retire(const std::string& holder) override {
@@ -485,13 +486,20 @@ class PostgresStore final : public MissionStore {
     tx.commit();
   }
 
-  // Runs `body(connection, state)` on a borrowed connection (opening it if
-  // the slot has none) and turns whatever it throws into a status.
+  // Runs `body(connection, state)` on a connection borrowed from `pool`
+  // (the shared one by default; opened if the slot has none) and turns
+  // whatever it throws into a status.
   template <typename Body>
   std::invoke_result_t<Body, pqxx::connection&, CallState&> Call(absl::string_view what,
                                                                  Body body) {
+    return CallOn(pool_, what, std::move(body));
+  }
+  template <typename Body>
+  std::invoke_result_t<Body, pqxx::connection&, CallState&> CallOn(ConnectionPool& pool,
+                                                                   absl::string_view what,
+                                                                   Body body) {
     using Result = std::invoke_result_t<Body, pqxx::connection&, CallState&>;
-    std::unique_ptr<Connection> connection = pool_.Borrow();
+    std::unique_ptr<Connection> connection = pool.Borrow();
     if (connection != nullptr && !connection->Alive()) connection.reset();
     CallState state;
     Result result = [&]() -> Result {
@@ -502,7 +510,7 @@ class PostgresStore final : public MissionStore {
         return CurrentError(what, state.committing);
       }
     }();
-    pool_.Return(std::move(connection));
+    pool.Return(std::move(connection));
     return result;
   }
 
@@ -568,6 +576,9 @@ class PostgresStore final : public MissionStore {
 
   const std::string uri_;
   ConnectionPool pool_;
+  // The heartbeat's own connection: a server's "alive" never waits behind
+  // its other calls, however busy the pool is.
+  ConnectionPool heartbeat_pool_{1};
 };
 
 }  // namespace
