@@ -10,6 +10,7 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/time/clock.h"
 #include "core/common/status_macros.h"
+#include "server/store/sqlite_leases.h"
 #include "server/store/sqlite_schema.h"
 #include "server/store/sqlite_statement.h"
 
@@ -315,45 +316,15 @@ class SqliteStore final : public MissionStore {
                                 std::int64_t now_us, std::int64_t until_us,
                                 bool free_if_holder_silent) override {
     absl::MutexLock lock(&mu_);
-    Statement s(db_,
-                "INSERT INTO leases(name, holder, until_us) VALUES(?1, ?2, ?4) "
-                "ON CONFLICT(name) DO UPDATE SET holder = excluded.holder, "
-                "until_us = excluded.until_us WHERE leases.until_us < ?3 "
-                "OR leases.holder = excluded.holder OR (?5 AND NOT EXISTS "
-                "(SELECT 1 FROM alive a WHERE a.holder = leases.holder AND a.until_us >= ?3)) "
-                "RETURNING holder");
-    OAIPP_RETURN_IF_ERROR(s.prepared("lease"));
-    s.Bind(1, name);
-    s.Bind(2, holder);
-    s.Bind(3, now_us);
-    s.Bind(4, until_us);
-    s.Bind(5, static_cast<std::int64_t>(free_if_holder_silent ? 1 : 0));
-    const int code = s.Step();
-    if (code != SQLITE_ROW && code != SQLITE_DONE) return SqliteError(db_, code, "lease");
-    return code == SQLITE_ROW;
+    return sqlite::TryLease(db_, name, holder, now_us, until_us, free_if_holder_silent);
   }
-
   absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
     absl::MutexLock lock(&mu_);
-    Statement s(db_,
-                "INSERT INTO alive(holder, until_us) VALUES(?1, ?2) "
-                "ON CONFLICT(holder) DO UPDATE SET until_us = excluded.until_us");
-    OAIPP_RETURN_IF_ERROR(s.prepared("heartbeat"));
-    s.Bind(1, holder);
-    s.Bind(2, until_us);
-    return Done(s, "heartbeat");
+    return sqlite::Heartbeat(db_, holder, until_us);
   }
-
   absl::Status Retire(const std::string& holder) override {
     absl::MutexLock lock(&mu_);
-    for (const char* sql :
-         {"DELETE FROM alive WHERE holder = ?1", "DELETE FROM leases WHERE holder = ?1"}) {
-      Statement s(db_, sql);
-      OAIPP_RETURN_IF_ERROR(s.prepared("retire"));
-      s.Bind(1, holder);
-      OAIPP_RETURN_IF_ERROR(Done(s, "retire"));
-    }
-    return absl::OkStatus();
+    return sqlite::Retire(db_, holder);
   }
 
   absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> IdleSince(
