@@ -67,6 +67,11 @@ class SparseGpMap {
   [[nodiscard]] const FieldGrid& grid() const { return grid_; }
   [[nodiscard]] int num_cells() const { return grid_.num_cells(); }
   [[nodiscard]] const GmrfPrior& prior() const { return prior_; }
+  // The posterior precision Q: the prior's plus what was fused (lower
+  // triangle, the prior's pattern, over all lattice states).
+  [[nodiscard]] const Eigen::SparseMatrix<double, Eigen::ColMajor, int>& precision() const {
+    return precision_;
+  }
   // The posterior mean over the field's cells (factorising first if
   // anything was fused since the last call). Internal if CHOLMOD fails.
   [[nodiscard]] absl::StatusOr<Eigen::VectorXd> Mean() const;

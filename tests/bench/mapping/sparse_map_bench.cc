@@ -12,12 +12,17 @@
 //   refactorisation and the mean's solve).
 // BM_SparseVariances/side/res_cm: every field cell's variance after an
 //   update (the selected inversion).
+// BM_SparseWindow/side/res_cm/half_width_m: the planner's dense window
+//   (core/mapping/field_window.h) around a point that moves across the
+//   field, after an update whose mean is already computed, on OpenBLAS where
+//   it loads. Counter: window_cells.
 //
 //   sparse_map_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <vector>
 
 #include "benchmark/benchmark.h"
 #include "core/mapping/camera.h"
+#include "core/mapping/field_window.h"
 #include "core/mapping/sparse_gp_map.h"
 
 namespace oaipp {
@@ -97,6 +102,29 @@ void BM_SparseVariances(benchmark::State& state) {
   }
 }
 
+void BM_SparseWindow(benchmark::State& state) {
+  const FieldGrid grid = Grid(state);
+  absl::StatusOr<SparseGpMap> map =
+      SparseGpMap::Create(grid, GpParams::PaperPreset(grid.resolution_m()));
+  absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+  const DenseBackend backend = blas.ok() ? *blas : DenseBackend();
+  state.SetLabel(backend.name());
+  int i = 0;
+  int cells = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    const std::vector<CellObservation> shot = Shot(grid, i++);
+    if (!map->Update(shot).ok() || !map->Mean().ok()) state.SkipWithError("update failed");
+    const absl::StatusOr<FieldWindow> window =
+        WindowAround(grid, grid.CellCentreXY(shot.front().cell), state.range(2));
+    state.ResumeTiming();
+    absl::StatusOr<GpMap> local = WindowMap(*map, *window, {}, backend);
+    if (!local.ok()) state.SkipWithError(std::string(local.status().message()).c_str());
+    cells = local->num_cells();
+  }
+  state.counters["window_cells"] = cells;
+}
+
 void Sizes(benchmark::internal::Benchmark* b) {
   b->Args({300, 100})->Args({500, 200})->Unit(benchmark::kMillisecond);
 }
@@ -104,6 +132,12 @@ BENCHMARK(BM_SparseCreate)->Apply(Sizes)->Iterations(1);
 BENCHMARK(BM_SparseFuse)->Apply(Sizes)->Iterations(50);
 BENCHMARK(BM_SparseMean)->Apply(Sizes)->Iterations(10);
 BENCHMARK(BM_SparseVariances)->Apply(Sizes)->Iterations(1);
+BENCHMARK(BM_SparseWindow)
+    ->Args({300, 100, 20})
+    ->Args({300, 100, 30})
+    ->Args({500, 200, 40})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(5);
 
 }  // namespace
 }  // namespace oaipp
