@@ -16,6 +16,7 @@
 #include "core/mapping/camera.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/core/mapping/centred_grid.h"
 
 namespace oaipp {
 namespace {
@@ -23,12 +24,6 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 using ::testing::HasSubstr;
-
-FieldGrid Grid(int nx, int ny, double res) {
-  auto grid = FieldGrid::Create(Vec2(-0.5 * nx * res, -0.5 * ny * res), nx, ny, res);
-  EXPECT_TRUE(grid.ok()) << grid.status();
-  return *grid;
-}
 
 // The exact posterior covariance between the given field cells.
 MatrixXd ExactCovariance(const SparseGpMap& map, const std::vector<int>& cells) {
@@ -70,7 +65,7 @@ double WorstDifference(const MatrixXd& a, const MatrixXd& b, double scale) {
 }
 
 TEST(WindowAroundTest, ClipsToTheFieldAndKeepsCellsAligned) {
-  const FieldGrid field = Grid(50, 40, 1.0);  // [-25, 25] x [-20, 20]
+  const FieldGrid field = testing::CentredGrid(50, 40, 1.0);  // [-25, 25] x [-20, 20]
   auto inside = WindowAround(field, Vec2(0.3, -0.2), 5.0);
   ASSERT_TRUE(inside.ok()) << inside.status();
   // Overlapping [-4.7, 5.3] x [-5.2, 4.8]: columns 20..30, rows 14..24.
@@ -102,7 +97,7 @@ TEST(WindowAroundTest, ClipsToTheFieldAndKeepsCellsAligned) {
 }
 
 TEST(WindowMapTest, IsExactWhenTheMarginCoversTheLattice) {
-  auto map = SparseGpMap::Create(Grid(24, 20, 1.0), GpParams::PaperPreset(1.0));
+  auto map = SparseGpMap::Create(testing::CentredGrid(24, 20, 1.0), GpParams::PaperPreset(1.0));
   ASSERT_TRUE(map.ok()) << map.status();
   FuseRandomShots(*map, 6, 3);
   ASSERT_TRUE(map->FuseNearCertainZeros(std::vector<int>{5, 6, 29, 30}).ok());
@@ -123,7 +118,7 @@ TEST(WindowMapTest, IsExactWhenTheMarginCoversTheLattice) {
 
 TEST(WindowMapTest, TheDefaultMarginIsAlmostExact) {
   // A field four times the window's width each way, shots all over it.
-  auto map = SparseGpMap::Create(Grid(64, 64, 1.0), GpParams::PaperPreset(1.0));
+  auto map = SparseGpMap::Create(testing::CentredGrid(64, 64, 1.0), GpParams::PaperPreset(1.0));
   ASSERT_TRUE(map.ok()) << map.status();
   FuseRandomShots(*map, 40, 7);
   auto window = WindowAround(map->grid(), Vec2(3.0, -2.0), 8.0);
@@ -177,9 +172,9 @@ TEST(WindowMapTest, TheDefaultMarginIsAlmostExact) {
 }
 
 TEST(WindowMapTest, RefusesWhatIsNotAWindowOfTheMap) {
-  auto map = SparseGpMap::Create(Grid(20, 20, 1.0), GpParams::PaperPreset(1.0));
+  auto map = SparseGpMap::Create(testing::CentredGrid(20, 20, 1.0), GpParams::PaperPreset(1.0));
   ASSERT_TRUE(map.ok());
-  auto other = WindowAround(Grid(30, 30, 1.0), Vec2(12.0, 12.0), 3.0);
+  auto other = WindowAround(testing::CentredGrid(30, 30, 1.0), Vec2(12.0, 12.0), 3.0);
   ASSERT_TRUE(other.ok());
   EXPECT_EQ(WindowMap(*map, *other, {}, DenseBackend()).status().code(),
             absl::StatusCode::kInvalidArgument);

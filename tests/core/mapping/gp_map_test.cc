@@ -15,6 +15,7 @@
 #include "core/mapping/camera.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/core/mapping/centred_grid.h"
 
 namespace oaipp {
 namespace {
@@ -26,12 +27,6 @@ using ::testing::HasSubstr;
 // docs/reference-values.md §1 tolerances are 1e-6 relative.
 void ExpectRel(double actual, double expected, double rel = 1e-6) {
   EXPECT_NEAR(actual, expected, rel * std::abs(expected));
-}
-
-FieldGrid Grid(int nx, int ny, double res) {
-  auto grid = FieldGrid::Create(Vec2(-0.5 * nx * res, -0.5 * ny * res), nx, ny, res);
-  EXPECT_TRUE(grid.ok()) << grid.status();
-  return *grid;
 }
 
 // The block rows 15..24, cols 13..26 of the 40 x 40 grid (docs/reference-values.md).
@@ -219,7 +214,7 @@ class PaperMapTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     const auto start = std::chrono::steady_clock::now();
-    auto map = GpMap::Create(Grid(40, 40, 0.75), GpParams::PaperPreset(0.75));
+    auto map = GpMap::Create(testing::CentredGrid(40, 40, 0.75), GpParams::PaperPreset(0.75));
     const double seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ASSERT_TRUE(map.ok()) << map.status();
@@ -278,7 +273,7 @@ TEST_F(PaperMapTest, OneUpdateTracesMatchReference) {
 // after the sequence, from an independent dense computation of the same
 // model (numpy, np.linalg.solve on the full 1600-cell matrices).
 TEST_F(PaperMapTest, DetectionsAndMissesOfOnePersonMatchAnIndependentComputation) {
-  const FieldGrid grid = Grid(40, 40, 0.75);
+  const FieldGrid grid = testing::CentredGrid(40, 40, 0.75);
   const std::vector<int> person = grid.CellsOverlapping(Vec2(-10.375, -10), Vec2(-9.625, -8));
   ASSERT_EQ(person.size(), 8u);
   const Vec2 offsets[4] = {{0, 1}, {1, 1.5}, {-1, 0.5}, {0.5, 2}};
@@ -344,7 +339,7 @@ TEST(GpMapTest, CopyPolicyIsExplicit) {
 // docs/reference-values.md: the paper's printed numbers read literally (l = 3.67 m,
 // sn2 = 1.42, sf2 = 1.82) give a different prior.
 TEST(PriorCovarianceTest, LiteralPaperNumbersGiveReferenceTrace) {
-  auto p0 = PriorCovariance(Grid(40, 40, 0.75),
+  auto p0 = PriorCovariance(testing::CentredGrid(40, 40, 0.75),
                             {.length_scale_m = 3.67, .signal_var = 1.82, .noise_var = 1.42});
   ASSERT_TRUE(p0.ok());
   ExpectRel(p0->trace(), 235.606822);
@@ -355,7 +350,7 @@ TEST(PriorCovarianceTest, LiteralPaperNumbersGiveReferenceTrace) {
 TEST(PriorCovarianceTest, MatchesDenseFormulaOnSmallGrids) {
   for (auto [nx, ny, res] :
        {std::tuple{15, 12, 0.75}, std::tuple{7, 3, 2.0}, std::tuple{1, 1, 1.0}}) {
-    const FieldGrid grid = Grid(nx, ny, res);
+    const FieldGrid grid = testing::CentredGrid(nx, ny, res);
     const GpParams p = GpParams::PaperPreset(0.75);
     auto p0 = PriorCovariance(grid, p);
     ASSERT_TRUE(p0.ok());
@@ -392,7 +387,7 @@ void DenseUpdate(const std::vector<CellObservation>& obs, VectorXd& mu, MatrixXd
 }
 
 TEST(GpMapTest, UpdateMatchesDenseKalmanAndSequentialUpdates) {
-  const FieldGrid grid = Grid(12, 10, 0.75);
+  const FieldGrid grid = testing::CentredGrid(12, 10, 0.75);
   auto base = GpMap::Create(grid, GpParams::PaperPreset(0.75));
   ASSERT_TRUE(base.ok());
   std::mt19937 rng(42);
@@ -422,7 +417,7 @@ TEST(GpMapTest, UpdateMatchesDenseKalmanAndSequentialUpdates) {
 // twin), and once settled the covariance bit for bit; a second update
 // settles the first before it starts, and a clone carries what is pending.
 TEST(GpMapTest, DeferredUpdatesSettleToTheSameMapBitForBit) {
-  const FieldGrid grid = Grid(12, 10, 0.75);
+  const FieldGrid grid = testing::CentredGrid(12, 10, 0.75);
   auto base = GpMap::Create(grid, GpParams::PaperPreset(0.75));
   ASSERT_TRUE(base.ok());
   std::mt19937 rng(7);
@@ -473,7 +468,7 @@ TEST(MergeObservationsTest, PrecisionsAddAndValuesArePrecisionWeighted) {
 }
 
 TEST(GpMapTest, StaysSymmetricAndPsdOverManyRandomUpdates) {
-  const FieldGrid grid = Grid(20, 20, 0.75);
+  const FieldGrid grid = testing::CentredGrid(20, 20, 0.75);
   auto map = GpMap::Create(grid, GpParams::PaperPreset(0.75));
   ASSERT_TRUE(map.ok());
   // A building first, as a mission would, then 300 footprint-like updates.
@@ -498,7 +493,7 @@ TEST(GpMapTest, StaysSymmetricAndPsdOverManyRandomUpdates) {
 }
 
 TEST(GpMapTest, NearCertainZerosPinTheCells) {
-  const FieldGrid grid = Grid(16, 16, 0.75);
+  const FieldGrid grid = testing::CentredGrid(16, 16, 0.75);
   auto map = GpMap::Create(grid, GpParams::PaperPreset(0.75));
   ASSERT_TRUE(map.ok());
   const std::vector<int> building = grid.CellsInRectangle(Vec2(1, -1), Vec2(3, 7.5));
@@ -515,7 +510,7 @@ TEST(GpMapTest, NearCertainZerosPinTheCells) {
 }
 
 TEST(GpMapTest, BadObservationsLeaveTheMapUntouched) {
-  const FieldGrid grid = Grid(8, 8, 0.75);
+  const FieldGrid grid = testing::CentredGrid(8, 8, 0.75);
   auto map = GpMap::Create(grid, GpParams::PaperPreset(0.75));
   ASSERT_TRUE(map.ok());
   const GpMap before = map->Clone();
@@ -561,7 +556,7 @@ TEST(GpMapTest, BadObservationsLeaveTheMapUntouched) {
 }
 
 TEST(GpMapTest, FromPriorValidates) {
-  const FieldGrid grid = Grid(2, 2, 1.0);
+  const FieldGrid grid = testing::CentredGrid(2, 2, 1.0);
   EXPECT_THAT(
       GpMap::FromPrior(grid, VectorXd::Zero(3), MatrixXd::Identity(4, 4)).status().message(),
       HasSubstr("mean"));
@@ -579,7 +574,7 @@ TEST(GpMapTest, FromPriorValidates) {
 // A field past the dense map's size is refused before its n^2 covariance
 // is allocated (a grid of that size is valid: the sparse map takes it).
 TEST(GpMapTest, AFieldTooLargeForTheDenseMapIsRefused) {
-  const FieldGrid grid = Grid(101, 100, 1.0);
+  const FieldGrid grid = testing::CentredGrid(101, 100, 1.0);
   const absl::StatusOr<GpMap> map = GpMap::Create(grid, GpParams::PaperPreset(1.0));
   EXPECT_EQ(map.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(map.status().message(), HasSubstr("at most 10000 cells"));

@@ -18,6 +18,7 @@
 #include "core/mapping/gp_map.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "tests/core/mapping/centred_grid.h"
 
 namespace oaipp {
 namespace {
@@ -25,12 +26,6 @@ namespace {
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 using ::testing::HasSubstr;
-
-FieldGrid Grid(int nx, int ny, double res) {
-  auto grid = FieldGrid::Create(Vec2(-0.5 * nx * res, -0.5 * ny * res), nx, ny, res);
-  EXPECT_TRUE(grid.ok()) << grid.status();
-  return *grid;
-}
 
 // The prior's covariance over the field: the field's columns of Q^-1 (its
 // whole precision, margin included), solved with Eigen's own sparse
@@ -88,7 +83,7 @@ TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
     EXPECT_NEAR(fit.fitted_p0_variance, fit.dense_p0_variance, 1e-9 * fit.dense_p0_variance);
 
     const int side = 41, n = side * side, centre = (side / 2) * side + side / 2;
-    absl::StatusOr<MatrixXd> p0 = PriorCovariance(Grid(side, side, h), params);
+    absl::StatusOr<MatrixXd> p0 = PriorCovariance(testing::CentredGrid(side, side, h), params);
     ASSERT_TRUE(p0.ok());
     EXPECT_NEAR((*p0)(centre, centre), fit.dense_p0_variance, 1e-5 * fit.dense_p0_variance);
 
@@ -128,7 +123,7 @@ TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
 // the sparse prior, whose lattice runs on past the field so that the SPDE's
 // own free boundary stays outside, follows the dense prior there too.
 TEST(GmrfPriorTest, EdgesFollowTheDensePrior) {
-  const FieldGrid grid = Grid(24, 24, 1.0);
+  const FieldGrid grid = testing::CentredGrid(24, 24, 1.0);
   const GpParams params = GpParams::PaperPreset(1.0);
   absl::StatusOr<GmrfPrior> prior = MakeGmrfPrior(grid, params);
   ASSERT_TRUE(prior.ok()) << prior.status();
@@ -147,7 +142,7 @@ TEST(GmrfPriorTest, EdgesFollowTheDensePrior) {
 // zeros), the mean and every variance equal a dense Kalman filter's on the
 // same prior to 1e-9 relative.
 TEST(SparseGpMapTest, EqualsADenseKalmanFilterOnTheSamePrior) {
-  const FieldGrid grid = Grid(14, 12, 1.0);
+  const FieldGrid grid = testing::CentredGrid(14, 12, 1.0);
   const GpParams params = GpParams::PaperPreset(1.0);
   absl::StatusOr<GmrfPrior> prior = MakeGmrfPrior(grid, params);
   ASSERT_TRUE(prior.ok()) << prior.status();
@@ -184,7 +179,7 @@ TEST(SparseGpMapTest, EqualsADenseKalmanFilterOnTheSamePrior) {
 // give the same map (to rounding), and a map restored from the two vectors
 // a snapshot holds is the same map.
 TEST(SparseGpMapTest, AnyOrderAndARestoreGiveTheSameMap) {
-  const FieldGrid grid = Grid(20, 16, 1.0);
+  const FieldGrid grid = testing::CentredGrid(20, 16, 1.0);
   const GpParams params = GpParams::PaperPreset(1.0);
   const auto shots = RandomShots(grid, 8, 11);
   absl::StatusOr<SparseGpMap> forward = SparseGpMap::Create(grid, params);
@@ -209,7 +204,7 @@ TEST(SparseGpMapTest, AnyOrderAndARestoreGiveTheSameMap) {
 // A bad observation names its entry and field and changes nothing; a
 // snapshot of another size or with a negative precision is refused.
 TEST(SparseGpMapTest, BadInputIsRefusedAndChangesNothing) {
-  const FieldGrid grid = Grid(10, 10, 1.0);
+  const FieldGrid grid = testing::CentredGrid(10, 10, 1.0);
   absl::StatusOr<SparseGpMap> map = SparseGpMap::Create(grid, GpParams::PaperPreset(1.0));
   ASSERT_TRUE(map.ok());
   const VectorXd mean = *map->Mean();
@@ -238,7 +233,7 @@ TEST(SparseGpMapTest, BadInputIsRefusedAndChangesNothing) {
 // shots: the figures docs/method.md §3.9 quotes (0.015 / +0.13 % and
 // 0.010 / +2.3 %), held to bounds a little above them.
 TEST(SparseGpMapTest, StaysCloseToTheMatern32Map) {
-  const FieldGrid grid = Grid(40, 40, 0.75);
+  const FieldGrid grid = testing::CentredGrid(40, 40, 0.75);
   const GpParams params = GpParams::PaperPreset(0.75);
   absl::StatusOr<GpMap> dense = GpMap::Create(grid, params);
   absl::StatusOr<SparseGpMap> sparse = SparseGpMap::Create(grid, params);
