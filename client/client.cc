@@ -13,6 +13,7 @@
 #include "absl/strings/str_format.h"
 #include "api/metadata.h"
 #include "api/status.h"
+#include "grpc/health/v1/health.grpc.pb.h"
 
 namespace oaipp::client {
 
@@ -140,13 +141,18 @@ absl::Status Client::WaitUntilServing(absl::Duration timeout) {
   const absl::Time until = absl::Now() + timeout;
   while (absl::Now() < until) {
     if (channel_->WaitForConnected(absl::ToChronoTime(absl::Now() + absl::Milliseconds(500)))) {
+      // gRPC's health service, the server as a whole (""; the service's own
+      // status also says NOT_SERVING while its planning queue is full). It
+      // needs no token, so a probe without one (a container's HEALTHCHECK)
+      // sees a server that has tenants.
       grpc::ClientContext context;
-      Prepare(context);
       context.set_deadline(absl::ToChronoTime(absl::Now() + absl::Seconds(2)));
-      v1::ListMissionsRequest request;
-      request.set_page_size(1);
-      v1::ListMissionsResponse response;
-      if (stub_->ListMissions(&context, request, &response).ok()) return absl::OkStatus();
+      grpc::health::v1::HealthCheckRequest request;
+      grpc::health::v1::HealthCheckResponse response;
+      if (grpc::health::v1::Health::NewStub(channel_)->Check(&context, request, &response).ok() &&
+          response.status() == grpc::health::v1::HealthCheckResponse::SERVING) {
+        return absl::OkStatus();
+      }
     }
   }
   return absl::UnavailableError("server: not serving within the timeout");

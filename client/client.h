@@ -61,7 +61,8 @@ class Client {
   // Uses an existing channel (e.g. an in-process one in tests).
   Client(std::shared_ptr<grpc::Channel> channel, ClientOptions options);
 
-  // OK when the server answers the health check with SERVING within `timeout`.
+  // OK when the server answers gRPC's health check (the server as a whole)
+  // with SERVING within `timeout`. Needs no token.
   [[nodiscard]] absl::Status WaitUntilServing(absl::Duration timeout);
 
   [[nodiscard]] absl::StatusOr<v1::Mission> CreateMission(const v1::MissionSpec& spec,

@@ -2,7 +2,9 @@
 # End-to-end test of the service image: builds it (with its debootstrap
 # base), starts it with a named volume and the gRPC and metrics ports
 # published on 127.0.0.1 only, checks health from the host and from the
-# image's own HEALTHCHECK, flies the E1 scenario with the host's client,
+# image's own HEALTHCHECK, checks that the image's default refuses to start
+# without a tenants' token file and that a call without a token is refused,
+# flies the E1 scenario with the host's client (with a token),
 # restarts the container and checks that the mission came back from the
 # SQLite store on the volume. The container and the volume are removed
 # whatever happens.
@@ -90,7 +92,7 @@ healthcheck() {
 }
 
 echo "=== packages and podman"
-oaipp_need_packages podman runc debootstrap
+oaipp_need_packages podman runc debootstrap openssl
 oaipp_podman_env
 echo "podman $(pm version --format '{{.Client.Version}}'), runtime runc $(runc --version | awk 'NR==1{print $3}')"
 
@@ -136,12 +138,27 @@ until [ -x "$client" ] && { "$client" >/dev/null 2>&1; [ $? -eq 2 ]; }; do
 done
 echo "host client: $client"
 
+echo "=== no token file"
+# The image's default serves nobody without tenants: it must not start.
+rc=0
+timeout 60 podman --runtime /usr/sbin/runc run --rm "$IMAGE" >"$tmp/no-tokens.out" 2>&1 || rc=$?
+if [ "$rc" != 0 ] && grep -q -- '--token_file' "$tmp/no-tokens.out"; then
+  pass "without /etc/oaipp/tokens/tokens the server exits $rc: $(grep -o -- '--token_file.*' "$tmp/no-tokens.out" | head -n 1 | cut -c1-120)"
+else
+  fail "without a token file: exit $rc, $(tail -n 2 "$tmp/no-tokens.out")"
+fi
+
 echo "=== start"
 port=$(oaipp_free_port)
 metrics_port=$(oaipp_free_port)
+# One tenant; the file holds the token's hash only, readable by the
+# image's user.
+token=$(openssl rand -hex 24)
+printf 'container-test %s\n' "$(printf %s "$token" | sha256sum | cut -d' ' -f1)" >"$tmp/tokens"
+chmod 0644 "$tmp/tokens"
 pm volume create "$volume" >/dev/null
 started=1
-pm run -d --name "$name" -v "$volume:/var/lib/oaipp" \
+pm run -d --name "$name" -v "$volume:/var/lib/oaipp" -v "$tmp/tokens:/etc/oaipp/tokens/tokens:ro" \
   -p "127.0.0.1:$port:50051" -p "127.0.0.1:$metrics_port:9464" "$IMAGE" >/dev/null 2> >(oaipp_quiet_systemd)
 echo "container $name: gRPC on 127.0.0.1:$port, metrics on 127.0.0.1:$metrics_port, volume $volume"
 wait_serving "start" 90 || exit 1
@@ -162,6 +179,17 @@ if grep -q 'store: sqlite file /var/lib/oaipp/' "$tmp/server.log"; then
 else
   fail "server did not open the sqlite store on the volume: $(grep 'store:' "$tmp/server.log" | head -n 1)"
 fi
+
+echo "=== tokens"
+rc=0
+timeout 20 "$client" map missions/none --png="$tmp/none.png" --server="127.0.0.1:$port" >"$tmp/anon.out" 2>&1 || rc=$?
+if [ "$rc" != 0 ] && grep -qi 'unauthenticated' "$tmp/anon.out"; then
+  pass "a call without a token is refused: $(head -n 1 "$tmp/anon.out" | cut -c1-100)"
+else
+  fail "a call without a token: exit $rc, $(head -n 2 "$tmp/anon.out")"
+fi
+# The client reads it from the environment (not the process list).
+export OAIPP_TOKEN=$token
 
 echo "=== E1 mission"
 t0=$SECONDS
