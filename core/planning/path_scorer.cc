@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
+#include "core/planning/separation.h"
 #include "core/trajectory/measurement_schedule.h"
 
 namespace oaipp {
@@ -91,12 +92,37 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   if (state.accel_W_m_s2.norm() > limits.dynamics.max_accel_m_s2 * (1 + 1e-6)) {
     return absl::InvalidArgumentError("state.accel_W_m_s2: beyond limits.max_accel_m_s2");
   }
+  if (!mission.teammates.empty()) {
+    if (!(mission.min_separation_m > 0.0) || !std::isfinite(mission.min_separation_m)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "mission.min_separation_m: must be positive and finite, got ", mission.min_separation_m));
+    }
+    for (const Teammate& mate : mission.teammates) {
+      const Vec3 there = TeammatePosition(mate, state.mission_time_s);
+      if (!Separated(state.position_W, there, mission.min_separation_m)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("state.position_W: ", (state.position_W - there).norm(), " m from UAV ",
+                         mate.uav_id, ", closer than min_separation_m ", mission.min_separation_m));
+      }
+    }
+  }
   PathScorer scorer(mission, state, limits,
                     common.information.ForRemainingBudget(mission.remaining_budget_s),
                     common.weights);
+  // Teammates' shots still to come count as taken (unscored) before any of
+  // this UAV's, so that it does not plan to look at the same ground.
+  for (const Teammate& mate : mission.teammates) {
+    for (const Vec3& p : mate.pending_shots_W) {
+      PoseObservation shot = scorer.Observe(p, /*scored=*/false);
+      if (!shot.cells.empty()) scorer.start_observations_.push_back(std::move(shot));
+    }
+  }
+  scorer.teammate_observations_ = scorer.start_observations_.size();
   if (mission.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
     scorer.start_observations_.push_back(scorer.Observe(state.position_W, /*scored=*/false));
-    // Every candidate fuses this shot first: condition on it once.
+  }
+  if (!scorer.start_observations_.empty()) {
+    // Every candidate fuses these shots first: condition on them once.
     OAIPP_RETURN_IF_ERROR(
         scorer.evaluator_.Condition(scorer.start_observations_, mission.conditioned));
   }
@@ -128,7 +154,9 @@ ScoredPath PathScorer::ScoreTrajectory(PolynomialTrajectory trajectory) const {
        .next_shot_mission_s = std::max(mission_.next_shot_mission_s, state_.mission_time_s)});
   if (!shots.ok()) return out;
 
-  std::vector<PoseObservation> observations;
+  std::vector<PoseObservation> observations(
+      start_observations_.begin(),
+      start_observations_.begin() + static_cast<std::ptrdiff_t>(teammate_observations_));
   for (double t : shots->times_s) {
     const Vec3 p = trajectory.Position(t);
     out.poses.push_back({t, state_.mission_time_s + t, p});
@@ -171,7 +199,10 @@ absl::Status CheckTrajectoryExact(const Environment& env, const PolynomialTrajec
 }
 
 absl::Status PathScorer::CheckExact(const PolynomialTrajectory& trajectory) const {
-  return CheckTrajectoryExact(*mission_.environment, trajectory, limits_);
+  OAIPP_RETURN_IF_ERROR(CheckTrajectoryExact(*mission_.environment, trajectory, limits_));
+  if (mission_.teammates.empty()) return absl::OkStatus();
+  return CheckSeparationExact(trajectory, state_.mission_time_s, mission_.teammates,
+                              mission_.min_separation_m, limits_.exact_check_spacing_m);
 }
 
 double PathScorer::Objective(double information, int collision_samples, double duration_s) const {
@@ -190,7 +221,10 @@ int PathScorer::CollisionSamples(const PolynomialTrajectory& trajectory, bool ex
     const bool near = exact ? env.SignedDistance(p) < 0.5 * r : env.InCollision(p, r);
     if (!env.flight_volume().Contains(p) || near) ++count;
   }
-  return count;
+  // Teammates by the one separation rule, at the same rate (to the last
+  // teammate's end, this UAV hovering after its own).
+  return count + SeparationSamples(trajectory, state_.mission_time_s, mission_.teammates,
+                                   mission_.min_separation_m, limits_.collision_sample_rate_hz);
 }
 
 PlannedPath PathScorer::Finish(ScoredPath scored, const std::vector<Vec3>& waypoints_W,

@@ -116,7 +116,9 @@ class PathScorer {
   [[nodiscard]] const FieldGrid& grid() const { return mission_.map->grid(); }
   // Where waypoints may go: the flight volume shrunk by r_uav / 2.
   [[nodiscard]] const Aabb& waypoint_box() const { return waypoint_box_; }
-  // Unscored observation of a shot due right at the start, if any.
+  // What every candidate's shots follow, unscored: the teammates' pending
+  // shots (PlanningContext::teammates), then the shot due right at the
+  // start, if any.
   [[nodiscard]] const std::vector<PoseObservation>& start_observations() const {
     return start_observations_;
   }
@@ -141,6 +143,8 @@ class PathScorer {
   InformationEvaluator evaluator_;
   Aabb waypoint_box_;
   std::vector<PoseObservation> start_observations_;
+  // How many of start_observations_ are teammates' shots (they come first).
+  std::size_t teammate_observations_ = 0;
 };
 
 }  // namespace oaipp

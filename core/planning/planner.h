@@ -17,6 +17,7 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,20 @@
 #include "core/trajectory/min_snap.h"
 
 namespace oaipp {
+
+// Another UAV of the same mission, as a plan must keep clear of it
+// (core/planning/separation.h): its committed trajectory, starting at
+// start_mission_s on the mission clock. Before that it is taken to be at the
+// trajectory's first point, after its end hovering at its last.
+// Its shots still to come (pending_shots_W, where the camera will be) count
+// in a plan's objective as if already taken, so that a UAV does not plan to
+// look again at ground a teammate is about to see.
+struct Teammate {
+  int uav_id = 0;  // names it in messages
+  PolynomialTrajectory trajectory;
+  double start_mission_s = 0.0;
+  std::vector<Vec3> pending_shots_W = {};
+};
 
 // What a planner reads of its mission for one plan: the world, the map, the
 // sensor and the mission's clock. The pointers must outlive the Plan call.
@@ -58,6 +73,11 @@ struct PlanningContext {
   // The caller promises that the map does not change while the cache is used
   // with it, and that the cache serves no other covariance.
   ConditionedCache* conditioned = nullptr;
+  // The mission's other UAVs, and how far apart any two must stay
+  // (centre to centre, metres; valid: > 0, finite). With no teammates
+  // (the default) a plan is exactly what it would be without these fields.
+  std::span<const Teammate> teammates = {};
+  double min_separation_m = 4.0;
 };
 
 // The UAV when planning starts: its kinematic state on the mission clock.

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "core/common/status_macros.h"
+#include "core/planning/separation.h"
 #include "core/trajectory/measurement_schedule.h"
 #include "core/trajectory/min_snap.h"
 
@@ -267,6 +268,13 @@ absl::StatusOr<PlannedPath> StopFirstPlanner::Plan(const PlanningContext& missio
       !exact.ok()) {
     return absl::InternalError(
         absl::StrCat("stop-first path failed its exact check: ", exact.message()));
+  }
+  // The brake was chosen against obstacles only; the planned part after it
+  // against teammates too. The whole must keep clear of them.
+  if (!mission.teammates.empty()) {
+    OAIPP_RETURN_IF_ERROR(CheckSeparationExact(out.trajectory, state.mission_time_s,
+                                               mission.teammates, mission.min_separation_m,
+                                               limits_.exact_check_spacing_m));
   }
   out.stats.stop_first_s = t_brake;
   out.stats.wall_time_s = absl::ToDoubleSeconds(absl::Now() - started);

@@ -1,0 +1,67 @@
+#include "core/planning/separation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+
+namespace oaipp {
+
+double SeparationHorizon(const PolynomialTrajectory& trajectory, double start_mission_s,
+                         std::span<const Teammate> teammates) {
+  double end = start_mission_s + trajectory.Duration();
+  for (const Teammate& t : teammates) {
+    end = std::max(end, t.start_mission_s + t.trajectory.Duration());
+  }
+  return end;
+}
+
+int SeparationSamples(const PolynomialTrajectory& trajectory, double start_mission_s,
+                      std::span<const Teammate> teammates, double min_separation_m,
+                      double rate_hz) {
+  if (teammates.empty()) return 0;
+  const double dt = 1.0 / rate_hz;
+  const double span = SeparationHorizon(trajectory, start_mission_s, teammates) - start_mission_s;
+  const int samples = static_cast<int>(std::floor(span / dt)) + 1;
+  int count = 0;
+  for (int i = 0; i <= samples; ++i) {
+    const double t = std::min(i * dt, span);
+    const Vec3 p = trajectory.Position(t);
+    for (const Teammate& mate : teammates) {
+      if (!Separated(p, TeammatePosition(mate, start_mission_s + t), min_separation_m)) {
+        ++count;
+        break;
+      }
+    }
+  }
+  return count;
+}
+
+absl::Status CheckSeparationExact(const PolynomialTrajectory& trajectory, double start_mission_s,
+                                  std::span<const Teammate> teammates, double min_separation_m,
+                                  double spacing_m) {
+  const double own_speed = trajectory.MaxSpeed();
+  for (const Teammate& mate : teammates) {
+    // The two distances' rate of change is at most the sum of the speeds.
+    const double v = std::max(own_speed + mate.trajectory.MaxSpeed(), 1e-3);
+    const double dt = spacing_m / v;
+    const double margin = 0.5 * v * dt;
+    const double from = start_mission_s;
+    const double to = std::max(from, SeparationHorizon(trajectory, start_mission_s, {&mate, 1}));
+    const int steps = std::max(1, static_cast<int>(std::ceil((to - from) / dt)));
+    const double step = (to - from) / steps;
+    for (int i = 0; i <= steps; ++i) {
+      const double t = from + i * step;
+      const double d = (trajectory.Position(t - from) - TeammatePosition(mate, t)).norm();
+      if (d < min_separation_m + margin) {
+        return absl::FailedPreconditionError(absl::StrFormat(
+            "path comes within %.2f m of UAV %d at mission time %.2f s (min_separation_m %g)", d,
+            mate.uav_id, t, min_separation_m));
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace oaipp
