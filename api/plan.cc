@@ -135,10 +135,7 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
 
 v1::UavState StateAlongPath(const PolynomialTrajectory& trajectory, double t_s,
                             double start_mission_time_s) {
-  return UavStateToProto({.position_W = trajectory.Position(t_s),
-                          .velocity_W_m_s = trajectory.Velocity(t_s),
-                          .accel_W_m_s2 = trajectory.Acceleration(t_s),
-                          .mission_time_s = start_mission_time_s + t_s});
+  return UavStateToProto(StateAlong(trajectory, t_s, start_mission_time_s));
 }
 
 }  // namespace oaipp::api

@@ -130,9 +130,8 @@ absl::StatusOr<GpMap> WindowMap(const SparseGpMap& map, const FieldWindow& windo
   OAIPP_ASSIGN_OR_RETURN(Eigen::VectorXd field_mean, map.Mean());
 
   const GmrfPrior& prior = map.prior();
-  const double range_states = 4.0 / std::sqrt(prior.fit.a);
-  const WindowLattice lattice(prior, window,
-                              static_cast<int>(std::ceil(options.margin_ranges * range_states)));
+  const WindowLattice lattice(
+      prior, window, static_cast<int>(std::ceil(options.margin_ranges * prior.fit.range_cells())));
   const int n = lattice.window_size();
   const int m = lattice.margin_size();
 

@@ -148,8 +148,7 @@ absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& p
   GmrfPrior prior;
   prior.fit = FitGmrfToPublishedPrior(params, h);
   const double a = prior.fit.a;
-  // The range 4 / kappa in cells is 4 / sqrt(a).
-  const double margin = std::ceil(options.margin_ranges * 4.0 / std::sqrt(a));
+  const double margin = std::ceil(options.margin_ranges * prior.fit.range_cells());
   const double nx = grid.nx() + 2.0 * margin, ny = grid.ny() + 2.0 * margin;
   if (nx * ny > static_cast<double>(std::numeric_limits<int>::max() / 32)) {
     return absl::ResourceExhaustedError(

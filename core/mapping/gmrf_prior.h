@@ -35,6 +35,7 @@
 //   // prior.field_state[c]: the state of field cell c
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include "Eigen/SparseCore"
@@ -63,6 +64,9 @@ struct GmrfFit {
   double dense_p0_variance = 0.0;
   double fitted_p0_variance = 0.0;
   double worst_lag_difference = 0.0;
+  // The range 4 / kappa (the correlation falls to about 0.1), in lattice
+  // cells.
+  [[nodiscard]] double range_cells() const { return 4.0 / std::sqrt(a); }
 };
 
 // The fit above for a field of resolution h = resolution_m. Precondition:

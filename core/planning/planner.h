@@ -89,6 +89,17 @@ struct UavState {
   double mission_time_s = 0.0;
 };
 
+// The UAV t_s into `trajectory`, which it began at start_mission_time_s
+// (t_s is clamped to the trajectory, as Position does): where the next plan
+// starts when this one is flown to t_s.
+[[nodiscard]] inline UavState StateAlong(const PolynomialTrajectory& trajectory, double t_s,
+                                         double start_mission_time_s) {
+  return {.position_W = trajectory.Position(t_s),
+          .velocity_W_m_s = trajectory.Velocity(t_s),
+          .accel_W_m_s2 = trajectory.Acceleration(t_s),
+          .mission_time_s = start_mission_time_s + t_s};
+}
+
 // Settings shared by every planner; defaults from docs/method.md.
 struct PlannerLimits {
   TrajectoryLimits dynamics;  // 5 m/s, 3 m/s^2

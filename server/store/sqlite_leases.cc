@@ -35,8 +35,7 @@ absl::Status Heartbeat(sqlite3* db, const std::string& holder, std::int64_t unti
   OAIPP_RETURN_IF_ERROR(s.prepared("heartbeat"));
   s.Bind(1, holder);
   s.Bind(2, until_us);
-  const int code = s.Step();
-  return code == SQLITE_DONE ? absl::OkStatus() : SqliteError(db, code, "heartbeat");
+  return s.Done("heartbeat");
 }
 
 absl::Status Retire(sqlite3* db, const std::string& holder) {
@@ -45,7 +44,7 @@ absl::Status Retire(sqlite3* db, const std::string& holder) {
     Statement s(db, sql);
     OAIPP_RETURN_IF_ERROR(s.prepared("retire"));
     s.Bind(1, holder);
-    if (const int code = s.Step(); code != SQLITE_DONE) return SqliteError(db, code, "retire");
+    OAIPP_RETURN_IF_ERROR(s.Done("retire"));
   }
   return absl::OkStatus();
 }

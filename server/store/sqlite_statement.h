@@ -51,6 +51,12 @@ class Statement {
   void Bind(int i, std::int64_t value) { sqlite3_bind_int64(stmt_, i, value); }
   // SQLITE_ROW, SQLITE_DONE or an error code.
   int Step() { return sqlite3_step(stmt_); }
+  // Steps a statement that returns no row: OK on SQLITE_DONE, else the
+  // error, naming `what`.
+  [[nodiscard]] absl::Status Done(absl::string_view what) {
+    const int code = Step();
+    return code == SQLITE_DONE ? absl::OkStatus() : SqliteError(db_, code, what);
+  }
   [[nodiscard]] std::string Bytes(int column) const {
     const void* data = sqlite3_column_blob(stmt_, column);
     const int size = sqlite3_column_bytes(stmt_, column);

@@ -110,7 +110,7 @@ class SqliteStore final : public MissionStore {
     s.Bind(3, m.request_id);
     s.Bind(4, m.fingerprint);
     s.Bind(5, m.create_time_unix_us);
-    return Done(s, absl::StrCat("create mission '", m.id, "'"));
+    return s.Done(absl::StrCat("create mission '", m.id, "'"));
   }
 
   // Group commit: the caller queues its record; the first caller that finds
@@ -159,13 +159,13 @@ class SqliteStore final : public MissionStore {
       s.Bind(2, snap.sequence);
       s.Bind(3, snap.state, /*blob=*/true);
       s.Bind(4, snap.write_time_unix_us != 0 ? snap.write_time_unix_us : NowUs());
-      OAIPP_RETURN_IF_ERROR(Done(s, absl::StrCat("snapshot of '", mission_id, "'")));
+      OAIPP_RETURN_IF_ERROR(s.Done(absl::StrCat("snapshot of '", mission_id, "'")));
       Statement d(db_,
                   "DELETE FROM records WHERE mission_id = ?1 AND sequence <= "
                   "(SELECT sequence FROM snapshots WHERE mission_id = ?1)");
       OAIPP_RETURN_IF_ERROR(d.prepared("snapshot"));
       d.Bind(1, mission_id);
-      return Done(d, absl::StrCat("snapshot of '", mission_id, "'"));
+      return d.Done(absl::StrCat("snapshot of '", mission_id, "'"));
     });
   }
 
@@ -180,7 +180,7 @@ class SqliteStore final : public MissionStore {
       Statement s(db_, "DELETE FROM missions WHERE id = ?");
       OAIPP_RETURN_IF_ERROR(s.prepared("delete"));
       s.Bind(1, mission_id);
-      OAIPP_RETURN_IF_ERROR(Done(s, "delete"));
+      OAIPP_RETURN_IF_ERROR(s.Done("delete"));
       if (sqlite3_changes(db_) == 0) return NoMission(mission_id);
       if (request_id.empty()) return absl::OkStatus();
       Statement d(db_,
@@ -190,7 +190,7 @@ class SqliteStore final : public MissionStore {
       d.Bind(1, request_id);
       d.Bind(2, mission_id);
       d.Bind(3, NowUs());
-      return Done(d, "delete");
+      return d.Done("delete");
     });
   }
 
@@ -222,7 +222,7 @@ class SqliteStore final : public MissionStore {
       Statement s(db_, "UPDATE missions SET epoch = epoch + 1 WHERE id = ?");
       OAIPP_RETURN_IF_ERROR(s.prepared("claim"));
       s.Bind(1, mission_id);
-      OAIPP_RETURN_IF_ERROR(Done(s, "claim"));
+      OAIPP_RETURN_IF_ERROR(s.Done("claim"));
       if (sqlite3_changes(db_) == 0) return NoMission(mission_id);
       return LoadWhere(mission_id);
     }();
@@ -280,7 +280,7 @@ class SqliteStore final : public MissionStore {
       Statement s(db_, sql);
       OAIPP_RETURN_IF_ERROR(s.prepared("forget deletions"));
       s.Bind(1, unix_us);
-      OAIPP_RETURN_IF_ERROR(Done(s, "forget deletions"));
+      OAIPP_RETURN_IF_ERROR(s.Done("forget deletions"));
     }
     return absl::OkStatus();
   }
@@ -366,7 +366,7 @@ class SqliteStore final : public MissionStore {
       Statement write(db_, "INSERT INTO secrets(name, value) VALUES('page_tokens', ?)");
       OAIPP_RETURN_IF_ERROR(write.prepared("signing key"));
       write.Bind(1, key, /*blob=*/true);
-      return Done(write, "signing key");
+      return write.Done("signing key");
     }));
     return key;
   }
@@ -447,7 +447,7 @@ class SqliteStore final : public MissionStore {
     s.Bind(7, r.result, /*blob=*/true);
     s.Bind(8, r.planner_state, /*blob=*/true);
     s.Bind(9, r.write_time_unix_us != 0 ? r.write_time_unix_us : now);
-    absl::Status status = Done(s, what);
+    absl::Status status = s.Done(what);
     if (status.code() != absl::StatusCode::kAlreadyExists) return status;
     // A record of a mission that is not there breaks the foreign key.
     if (!Exists(mission_id)) return NoMission(mission_id);
@@ -538,10 +538,6 @@ class SqliteStore final : public MissionStore {
   absl::Status Exec(const char* sql, absl::string_view what) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
     const int code = sqlite3_exec(db_, sql, nullptr, nullptr, nullptr);
     return code == SQLITE_OK ? absl::OkStatus() : SqliteError(db_, code, what);
-  }
-  absl::Status Done(Statement& s, absl::string_view what) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
-    const int code = s.Step();
-    return code == SQLITE_DONE ? absl::OkStatus() : SqliteError(db_, code, what);
   }
   absl::StatusOr<std::int64_t> EpochLocked(const std::string& mission_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {

@@ -84,10 +84,7 @@ double Fly(std::uint32_t seed, bool sparse, double budget_s) {
         std::abort();
       }
     }
-    state.position_W = path->trajectory.Position(fly_s);
-    state.velocity_W_m_s = path->trajectory.Velocity(fly_s);
-    state.accel_W_m_s2 = path->trajectory.Acceleration(fly_s);
-    state.mission_time_s += fly_s;
+    state = StateAlong(path->trajectory, fly_s, state.mission_time_s);
     context.next_shot_mission_s = path->next_shot_mission_s;
   }
   if (!sparse) return (scene.map->Mean() - truth).norm();

@@ -126,10 +126,7 @@ TEST(LargeFieldTest, OaIppFliesASparseMapThroughItsWindowSafely) {
       ASSERT_TRUE(map->Update(*obs).ok());
       ++shots;
     }
-    state.position_W = path->trajectory.Position(duration);
-    state.velocity_W_m_s = path->trajectory.Velocity(duration);
-    state.accel_W_m_s2 = path->trajectory.Acceleration(duration);
-    state.mission_time_s += duration;
+    state = StateAlong(path->trajectory, duration, state.mission_time_s);
     context.next_shot_mission_s = path->next_shot_mission_s;
     farthest = std::max(farthest, (state.position_W.head<2>() - start.head<2>()).norm());
   }

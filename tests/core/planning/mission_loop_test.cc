@@ -50,10 +50,7 @@ double FlyMission(PlannerKind kind, std::uint32_t seed, double budget_s = 150.0)
       EXPECT_TRUE(scene.map->Update(*obs).ok());
       ++measurements;
     }
-    state.position_W = path->trajectory.Position(fly_s);
-    state.velocity_W_m_s = path->trajectory.Velocity(fly_s);
-    state.accel_W_m_s2 = path->trajectory.Acceleration(fly_s);
-    state.mission_time_s += fly_s;
+    state = StateAlong(path->trajectory, fly_s, state.mission_time_s);
     context.next_shot_mission_s = path->next_shot_mission_s;
   }
   EXPECT_GE(measurements, 20);  // 150 s at 0.15 Hz: 22 or 23 shots

@@ -116,11 +116,7 @@ TEST_P(PlannerSuiteTest, SafeFeasibleAndReproducible) {
     }
     EXPECT_EQ(a->objective, b->objective);
     // Replan where the path ends (docs/method.md §7.6).
-    const double t = a->trajectory.Duration();
-    state.position_W = a->trajectory.Position(t);
-    state.velocity_W_m_s = a->trajectory.Velocity(t);
-    state.accel_W_m_s2 = a->trajectory.Acceleration(t);
-    state.mission_time_s += t;
+    state = StateAlong(a->trajectory, a->trajectory.Duration(), state.mission_time_s);
     next_shot_mission_s = NextShotAfter(*a, state.mission_time_s);
   }
 }
