@@ -11,6 +11,8 @@ packages=(
   libeigen3-dev libfcl-dev libccd-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-imgcodecs-dev
   libopencv-videoio-dev
+  # the map pictures' PNG bytes (the server needs no OpenCV image codecs)
+  libpng-dev
   libpagmo-dev libboost-serialization-dev libtbb-dev
   # Owen's T function for the confirmation objective (Boost.Math, headers only)
   libboost-dev

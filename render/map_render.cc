@@ -9,8 +9,8 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
 #include "opencv2/core.hpp"
-#include "opencv2/imgcodecs.hpp"
 #include "opencv2/imgproc.hpp"
+#include "render/png.h"
 
 namespace oaipp::render {
 namespace {
@@ -647,11 +647,7 @@ absl::StatusOr<std::string> RenderMapPng(const MapGrid& grid, const MapLayers& l
     }
     DrawLegend(canvas, g);
 
-    std::vector<std::uint8_t> bytes;
-    if (!cv::imencode(".png", canvas, bytes)) {
-      return absl::InternalError("map png: OpenCV could not encode the image");
-    }
-    return std::string(bytes.begin(), bytes.end());
+    return EncodePngBgr(canvas.ptr<std::uint8_t>(), canvas.cols, canvas.rows, canvas.step);
   } catch (const cv::Exception& e) {
     return absl::InternalError(absl::StrCat("map png: ", e.what()));
   }

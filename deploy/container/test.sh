@@ -1,23 +1,22 @@
 #!/usr/bin/env bash
-# End-to-end test of the service image: builds it (with its debootstrap
-# base), starts it with a named volume and the gRPC and metrics ports
-# published on 127.0.0.1 only, checks health from the host and from the
-# image's own HEALTHCHECK, checks that the image's default refuses to start
-# without a tenants' token file and that a call without a token is refused,
-# flies the E1 scenario with the host's client (with a token),
-# restarts the container and checks that the mission came back from the
-# SQLite store on the volume. The container and the volume are removed
-# whatever happens.
+# End-to-end test of the service images: builds the server image and the
+# client image (with their debootstrap base), checks the server image's size
+# (at most 250 MB), starts it with a named volume and the gRPC and metrics
+# ports published on 127.0.0.1 only, checks health with the client image and
+# with the server image's own HEALTHCHECK, checks that the image's default
+# refuses to start without a tenants' token file and that a call without a
+# token is refused, flies the E1 scenario with the client image (with a
+# token), restarts the server container and checks that the mission came
+# back from the SQLite store on the volume. The container and the volume
+# are removed whatever happens.
 #
 #   sudo deploy/container/test.sh
 #
 # Environment:
-#   OAIPP_CLIENT   host client binary, relative to the repository root or
-#                  absolute (default build/client/oaipp-client)
-#   OAIPP_IMAGE    tag to build (default localhost/oaipp:latest)
-#   JOBS           compile jobs in the image build (default 2)
-#   OAIPP_CLIENT_WAIT_S  how long to wait for the host client to appear when
-#                  a build of it is still running (default 1800)
+#   OAIPP_IMAGE         the server image's tag (default localhost/oaipp:latest)
+#   OAIPP_CLIENT_IMAGE  the client image's tag (default
+#                       localhost/oaipp-client:latest)
+#   JOBS                compile jobs in the image build (default 2)
 set -euo pipefail
 
 SECONDS=0
@@ -27,9 +26,9 @@ cd "$repo"
 . deploy/container/podman-env.sh
 
 IMAGE=${OAIPP_IMAGE:-localhost/oaipp:latest}
+CLIENT_IMAGE=${OAIPP_CLIENT_IMAGE:-localhost/oaipp-client:latest}
 JOBS=${JOBS:-2}
-client=${OAIPP_CLIENT:-build/client/oaipp-client}
-case "$client" in /*) ;; *) client="$repo/$client" ;; esac
+max_server_mb=250
 
 if [ "$(id -u)" -ne 0 ]; then
   echo "test.sh: run as root (rootful podman; rootless needs subuids this host lacks)" >&2
@@ -58,7 +57,17 @@ finish() {
 }
 trap finish EXIT
 
-# Polls the server with the host client until it answers SERVING; fails if
+# oaipp-client from the client image, on the host's network (so 127.0.0.1
+# is the published port), with the token if one is set and $tmp/out as
+# /out for what it writes. The first argument is a time limit in seconds.
+client() {
+  local limit=$1
+  shift
+  timeout "$limit" podman --runtime /usr/sbin/runc run --rm --network host \
+    ${OAIPP_TOKEN:+-e OAIPP_TOKEN} -v "$tmp/out:/out" "$CLIENT_IMAGE" "$@"
+}
+
+# Polls the server with the client image until it answers SERVING; fails if
 # the container exits or the time runs out.
 wait_serving() {
   local what=$1 limit=$2 t0=$SECONDS
@@ -67,7 +76,7 @@ wait_serving() {
       fail "$what: container is not running"
       return 1
     fi
-    if timeout 10 "$client" health --server="127.0.0.1:$port" >"$tmp/health.out" 2>&1; then
+    if client 20 health --server="127.0.0.1:$port" >"$tmp/health.out" 2>&1; then
       pass "$what: SERVING after $((SECONDS - t0)) s ($(cat "$tmp/health.out"))"
       return 0
     fi
@@ -99,21 +108,42 @@ echo "podman $(pm version --format '{{.Client.Version}}'), runtime runc $(runc -
 echo "=== base image"
 timeout 1800 deploy/container/make-base-image.sh
 
-echo "=== image build ($IMAGE, JOBS=$JOBS; log in $tmp/build.log while it runs)"
-t0=$SECONDS
-# nice: the image build must not starve other work on a small machine.
-if ! timeout 3600 nice -n 19 podman --runtime /usr/sbin/runc build --format docker \
-  -f deploy/container/Containerfile --build-arg JOBS="$JOBS" -t "$IMAGE" . >"$tmp/build.log" 2>&1; then
-  tail -n 40 "$tmp/build.log"
-  fail "image build (see the log above)"
-  exit 1
-fi
-cached=$(grep -c -- '--> Using cache' "$tmp/build.log" || true)
-steps=$(grep -c '^\[[0-9]/[0-9]\] STEP' "$tmp/build.log" || true)
-pass "image build in $((SECONDS - t0)) s ($steps steps, $cached from cache)"
+build_image() {
+  local what=$1 tag=$2 t0=$SECONDS
+  shift 2
+  echo "=== $what image build ($tag, JOBS=$JOBS; log in $tmp/build-$what.log while it runs)"
+  # nice: the image build must not starve other work on a small machine.
+  if ! timeout 3600 nice -n 19 podman --runtime /usr/sbin/runc build --format docker \
+    -f deploy/container/Containerfile --build-arg JOBS="$JOBS" "$@" -t "$tag" . \
+    >"$tmp/build-$what.log" 2>&1; then
+    tail -n 40 "$tmp/build-$what.log"
+    fail "$what image build (see the log above)"
+    exit 1
+  fi
+  local cached steps
+  cached=$(grep -c -- '--> Using cache' "$tmp/build-$what.log" || true)
+  steps=$(grep -c '^\[[0-9]/[0-9]\] STEP' "$tmp/build-$what.log" || true)
+  pass "$what image build in $((SECONDS - t0)) s ($steps steps, $cached from cache)"
+}
+build_image server "$IMAGE"
+build_image client "$CLIENT_IMAGE" --target client
 size=$(pm image inspect --format '{{.Size}}' "$IMAGE")
-echo "image size: $size bytes ($((size / 1000000)) MB)"
-pm images --filter reference="$IMAGE" --filter reference=localhost/oaipp-base --format '{{.Repository}}:{{.Tag}} {{.ID}} {{.Size}}'
+client_size=$(pm image inspect --format '{{.Size}}' "$CLIENT_IMAGE")
+pm images --filter reference="$IMAGE" --filter reference="$CLIENT_IMAGE" \
+  --filter reference=localhost/oaipp-base --format '{{.Repository}}:{{.Tag}} {{.ID}} {{.Size}}'
+if [ "$size" -le $((max_server_mb * 1000000)) ]; then
+  pass "server image size: $((size / 1000000)) MB ($size bytes; at most $max_server_mb MB)"
+else
+  fail "server image size: $((size / 1000000)) MB ($size bytes), over $max_server_mb MB"
+fi
+echo "client image size: $((client_size / 1000000)) MB ($client_size bytes)"
+if pm run --rm --entrypoint /bin/sh "$IMAGE" -c \
+  'ls /usr/lib/*/libopencv_imgcodecs* /usr/lib/*/libopencv_videoio* /usr/lib/*/libgdal* 2>/dev/null' |
+  grep -q .; then
+  fail "the server image carries OpenCV's codecs, video or GDAL"
+else
+  pass "the server image carries no OpenCV imgcodecs, videoio or GDAL"
+fi
 health_cfg=$(pm image inspect --format '{{json .HealthCheck}}' "$IMAGE")
 if [ "$health_cfg" = null ] || [ -z "$health_cfg" ]; then
   fail "image has a HEALTHCHECK"
@@ -122,21 +152,7 @@ else
 fi
 user=$(pm image inspect --format '{{.Config.User}}' "$IMAGE")
 if [ "$user" = oaipp:oaipp ]; then pass "image runs as $user"; else fail "image user is '$user', not oaipp:oaipp"; fi
-
-echo "=== host client"
-t0=$SECONDS
-limit=${OAIPP_CLIENT_WAIT_S:-1800}
-# A client still being linked exists before it runs; wait until it prints
-# its usage (exit 2) like a finished one.
-until [ -x "$client" ] && { "$client" >/dev/null 2>&1; [ $? -eq 2 ]; }; do
-  if [ $((SECONDS - t0)) -ge "$limit" ]; then
-    fail "host client $client not there within $limit s (build it, or set OAIPP_CLIENT)"
-    exit 1
-  fi
-  if [ $((SECONDS - t0)) -eq 0 ]; then echo "waiting for $client ..."; fi
-  sleep 10
-done
-echo "host client: $client"
+install -d -m 0777 "$tmp/out"
 
 echo "=== no token file"
 # The image's default serves nobody without tenants: it must not start.
@@ -182,19 +198,20 @@ fi
 
 echo "=== tokens"
 rc=0
-timeout 20 "$client" map missions/none --png="$tmp/none.png" --server="127.0.0.1:$port" >"$tmp/anon.out" 2>&1 || rc=$?
+client 30 map missions/none --png=/out/none.png --server="127.0.0.1:$port" >"$tmp/anon.out" 2>&1 || rc=$?
 if [ "$rc" != 0 ] && grep -qi 'unauthenticated' "$tmp/anon.out"; then
   pass "a call without a token is refused: $(head -n 1 "$tmp/anon.out" | cut -c1-100)"
 else
   fail "a call without a token: exit $rc, $(head -n 2 "$tmp/anon.out")"
 fi
-# The client reads it from the environment (not the process list).
+# The client reads it from the environment (not the process list), which
+# client() passes into its container.
 export OAIPP_TOKEN=$token
 
 echo "=== E1 mission"
 t0=$SECONDS
-if timeout 1200 "$client" run client/scenarios/e1.json --server="127.0.0.1:$port" --keep \
-  --out="$tmp/e1" >"$tmp/run.out" 2>&1; then
+if client 1200 run /usr/share/oaipp/scenarios/e1.json --server="127.0.0.1:$port" --keep \
+  --out=/out/e1 >"$tmp/run.out" 2>&1; then
   sed 's/^/  /' "$tmp/run.out"
   pass "E1 flown in $((SECONDS - t0)) s: $(grep '^done:' "$tmp/run.out" | cut -c1-100)"
 else
@@ -214,7 +231,7 @@ if [ -z "$mission" ]; then
   fail "mission name of the run not found"
   exit 1
 fi
-if "$client" map "$mission" --server="127.0.0.1:$port" --png="$tmp/before.png" >"$tmp/map1.out" 2>&1; then
+if client 60 map "$mission" --server="127.0.0.1:$port" --png=/out/before.png >"$tmp/map1.out" 2>&1; then
   pass "$mission readable before restart: $(cat "$tmp/map1.out")"
 else
   fail "$mission before restart: $(cat "$tmp/map1.out")"
@@ -227,8 +244,8 @@ echo "restarted in $((SECONDS - t0)) s"
 wait_serving "after restart" 120 || exit 1
 recovered=$(pm logs "$name" 2>&1 | grep -o 'store: recovered [0-9]* missions.*' | tail -n 1 || true)
 echo "server log: $recovered"
-if "$client" map "$mission" --server="127.0.0.1:$port" --png="$tmp/after.png" >"$tmp/map2.out" 2>&1 &&
-  [ -s "$tmp/after.png" ]; then
+if client 60 map "$mission" --server="127.0.0.1:$port" --png=/out/after.png >"$tmp/map2.out" 2>&1 &&
+  [ -s "$tmp/out/after.png" ]; then
   trace_before=$(grep -o 'Tr(P) = [0-9.]*' "$tmp/map1.out" || true)
   trace_after=$(grep -o 'Tr(P) = [0-9.]*' "$tmp/map2.out" || true)
   if [ -n "$trace_after" ] && [ "$trace_before" = "$trace_after" ]; then
