@@ -64,21 +64,25 @@ Mission::Mission(std::string id, MissionConfig config, Environment env, std::sha
       map_(std::move(map)),
       planner_(std::move(planner)) {}
 
+absl::StatusOr<Environment> Mission::BuildWorld(const MissionConfig& config,
+                                                const std::string& world_key,
+                                                const SiteCaches& caches) {
+  if (caches.worlds == nullptr) return config.MakeEnvironment();
+  // A world built for the cache joins the ESDF pool as it is built, once:
+  // its clones then find their grid in the pool by identity, instead of
+  // each hashing 16 MB when a fleet's missions are created at once.
+  return caches.worlds->Get(world_key, [&]() -> absl::StatusOr<Environment> {
+    OAIPP_ASSIGN_OR_RETURN(Environment built, config.MakeEnvironment());
+    if (caches.esdfs != nullptr) built.ShareEsdf(*caches.esdfs);
+    return built;
+  });
+}
+
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
                                                          const SiteCaches& caches) {
   std::string world_key;
   if (caches.worlds != nullptr || caches.start_maps != nullptr) world_key = WorldKey(config);
-  // A world built for the cache joins the ESDF pool as it is built, once:
-  // its clones then find their grid in the pool by identity, instead of
-  // each hashing 16 MB when a fleet's missions are created at once.
-  auto build = [&]() -> absl::StatusOr<Environment> {
-    OAIPP_ASSIGN_OR_RETURN(Environment built, config.MakeEnvironment());
-    if (caches.esdfs != nullptr) built.ShareEsdf(*caches.esdfs);
-    return built;
-  };
-  OAIPP_ASSIGN_OR_RETURN(Environment env, caches.worlds != nullptr
-                                              ? caches.worlds->Get(world_key, build)
-                                              : config.MakeEnvironment());
+  OAIPP_ASSIGN_OR_RETURN(Environment env, BuildWorld(config, world_key, caches));
   // The UAV must start where it may fly: clear of every obstacle by half
   // its radius, as PlanPath asks of every state (exact distance).
   const Vec3& start = config.start.position_W;

@@ -95,8 +95,9 @@ class Mission {
   // obstacles, map, counters, planner state and request_id answers; its log
   // goes on at state.sequence + 1. InvalidArgument when the state does not
   // fit the config (another grid, a planner state the planner refuses).
-  // Of the caches only esdfs and worlds are used (the world is built from
-  // the state's obstacles, not cloned; the map is the state's).
+  // Of the caches only esdfs and worlds are used (the world of the state's
+  // obstacles, cloned when missions over the same world built it already, as
+  // on a replica taking over a site's missions; the map is the state's).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(
       std::string id, MissionConfig config, MissionState state, const SiteCaches& caches = {});
   // A fresh mission with `log` applied in order (what persistence would do).
@@ -248,6 +249,11 @@ class Mission {
  private:
   Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
           std::unique_ptr<Planner> planner, const SiteCaches& caches);
+  // config.MakeEnvironment(), or a clone of the world cache's copy under
+  // `world_key` (WorldKey(config)) when the caches have a world cache.
+  static absl::StatusOr<Environment> BuildWorld(const MissionConfig& config,
+                                                const std::string& world_key,
+                                                const SiteCaches& caches);
   // Fuses, once, the cells under obstacles that were not fused before.
   absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The map, to change: copied first when a plan still reads it.

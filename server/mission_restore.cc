@@ -7,14 +7,22 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
+#include "server/site_caches.h"
 
 namespace oaipp::server {
 
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, MissionConfig config,
                                                           MissionState state,
                                                           const SiteCaches& caches) {
-  OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(config.FlightVolume(), config.esdf));
-  OAIPP_RETURN_IF_ERROR(env.Apply({.add = state.obstacles}));
+  // The world as the snapshot saw it: the spec's field and flight settings
+  // with the state's obstacles, built as a new mission's world is (a
+  // takeover by a replica that holds missions over the same world clones
+  // theirs instead of computing the ESDF again).
+  MissionConfig stored_world = config;
+  stored_world.obstacles = state.obstacles;
+  OAIPP_ASSIGN_OR_RETURN(
+      Environment env,
+      BuildWorld(stored_world, caches.worlds != nullptr ? WorldKey(stored_world) : "", caches));
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
   if (state.mean.size() != grid.num_cells() || state.covariance.rows() != grid.num_cells() ||
       state.covariance.cols() != grid.num_cells()) {

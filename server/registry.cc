@@ -12,13 +12,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/time/time.h"
-#include "api/geometry.h"
-#include "api/measurement.h"
-#include "api/plan.h"
 #include "api/spec.h"
 #include "api/status.h"
 #include "core/common/status_macros.h"
-#include "server/store/state_codec.h"
 
 namespace oaipp::server {
 namespace {
@@ -291,86 +287,6 @@ std::int64_t MissionRegistry::ReservedBytes() const {
   }
   for (const auto& [key, bytes] : building_bytes_) total += bytes;
   return total;
-}
-
-namespace {
-
-// One stored record applied to a mission being rebuilt, as the original call
-// was: the request read back and converted by api/.
-absl::Status Replay(Mission& mission, const LogRecord& record) {
-  switch (record.kind) {
-    case RecordKind::kObstacles: {
-      v1::UpdateObstaclesRequest request;
-      if (!request.ParseFromString(record.payload)) break;
-      OAIPP_ASSIGN_OR_RETURN(ObstacleChange change, api::ObstacleChangeFromProto(request));
-      return mission.UpdateObstacles(change, {record.request_id, record.fingerprint}).status();
-    }
-    case RecordKind::kMeasurement: {
-      v1::AddMeasurementRequest request;
-      if (!request.ParseFromString(record.payload)) break;
-      OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, api::MeasurementFromProto(request));
-      return mission.AddMeasurement(input, {record.request_id, record.fingerprint}).status();
-    }
-    case RecordKind::kPlan: {
-      v1::PlanPathResponse response;
-      if (!response.ParseFromString(record.result)) break;
-      OAIPP_ASSIGN_OR_RETURN(PlannedPath path, api::PlannedPathFromProto(response));
-      return mission.RestorePlan({record.request_id, record.fingerprint}, std::move(path),
-                                 record.planner_state);
-    }
-  }
-  return absl::DataLossError("the record does not parse");
-}
-
-}  // namespace
-
-absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Rebuild(const StoredMission& m) {
-  v1::MissionSpec spec;
-  if (!spec.ParseFromString(m.spec)) return absl::DataLossError("spec: does not parse");
-  absl::StatusOr<MissionConfig> config = api::MissionSpecToConfig(spec);
-  if (!config.ok()) return absl::DataLossError(absl::StrCat("spec: ", config.status().message()));
-  ApplyServerSettings(*config);
-  absl::StatusOr<std::shared_ptr<Mission>> mission;
-  std::int64_t last_write_us = m.create_time_unix_us;
-  if (m.snapshot.has_value()) {
-    absl::StatusOr<MissionState> state = DecodeMissionState(m.snapshot->state);
-    if (!state.ok()) return state.status();
-    if (state->sequence != m.snapshot->sequence) {
-      return absl::DataLossError(absl::StrCat("snapshot: covers record ", state->sequence,
-                                              ", stored as covering ", m.snapshot->sequence));
-    }
-    mission = Mission::Restore(m.id, *std::move(config), *std::move(state), caches_);
-    if (!mission.ok()) {
-      return absl::DataLossError(absl::StrCat("snapshot: ", mission.status().message()));
-    }
-    last_write_us = std::max(last_write_us, m.snapshot->write_time_unix_us);
-  } else {
-    mission = Mission::Create(m.id, *std::move(config), caches_);
-    if (!mission.ok()) {
-      return absl::Status(mission.status().code(),
-                          absl::StrCat("creating: ", mission.status().message()));
-    }
-  }
-  for (const LogRecord& record : m.log) {
-    const auto failed = [&](const absl::Status& status) {
-      return absl::Status(status.code(),
-                          absl::StrCat("record ", record.sequence, ": ", status.message()));
-    };
-    if (record.sequence != (*mission)->next_sequence()) {
-      return failed(
-          absl::DataLossError(absl::StrCat("expected sequence ", (*mission)->next_sequence())));
-    }
-    if (absl::Status status = Replay(**mission, record); !status.ok()) return failed(status);
-    last_write_us = std::max(last_write_us, record.write_time_unix_us);
-  }
-  // Set after the replay: what was stored is rebuilt even if the limit has
-  // shrunk since.
-  (*mission)->set_log_limit(LogLimit(EstimateMissionBytes((*mission)->config()).total()));
-  (*mission)->set_create_time(absl::FromUnixMicros(m.create_time_unix_us));
-  (*mission)->set_epoch(m.epoch);
-  (*mission)->set_last_change_time(absl::FromUnixMicros(last_write_us));
-  WatchForSnapshots(**mission);
-  return mission;
 }
 
 absl::StatusOr<int> MissionRegistry::Recover() {

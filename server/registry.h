@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -247,7 +248,22 @@ class MissionRegistry {
  private:
   // A mission rebuilt from what the store holds: its snapshot (if any),
   // then the records after it replayed; it writes at stored.epoch.
+  // = ReadBackBase, ReplayRecords, Finish (registry_rebuild.cc).
   absl::StatusOr<std::shared_ptr<Mission>> Rebuild(const StoredMission& stored);
+  // A mission on its way back from the store, not yet held by anyone.
+  struct ReadBack {
+    std::shared_ptr<Mission> mission = nullptr;
+    std::int64_t last_write_us = 0;  // the latest write time of what it was read from
+  };
+  // The stored snapshot restored, or without one a new mission from the spec.
+  absl::StatusOr<ReadBack> ReadBackBase(const StoredMission& stored);
+  // `log` replayed onto it in order (it must go on from its next sequence).
+  absl::Status ReplayRecords(ReadBack& read, const std::vector<LogRecord>& log);
+  // Ready to serve: the epoch, creation time and log limit of `stored`.
+  std::shared_ptr<Mission> Finish(ReadBack read, const StoredMission& stored);
+  // Takeover: the mission as the store holds it now, read and rebuilt
+  // while the lease is still its silent holder's (TakeOver).
+  absl::StatusOr<ReadBack> Prefetch(const std::string& key);
   // Gives a mission's config this server's settings (RegistryLimits).
   void ApplyServerSettings(MissionConfig& config) const;
   // The mission held under `key`, or nullptr.
@@ -267,8 +283,12 @@ class MissionRegistry {
   static std::string LeaseName(const std::string& key);
   // Takes the mission's lease for this server, waiting up to
   // limits_.silent_after for a live holder to fall silent; UNAVAILABLE
-  // (naming `name`) while another live server holds it.
-  absl::Status AcquireLease(const std::string& key, absl::string_view name);
+  // (naming `name`) while another live server holds it. Calls
+  // `holder_failing` once when the holder has missed heartbeats (its alive
+  // time runs out within 3/5 of silent_after: two heartbeats missed), so
+  // that the wait can be put to use.
+  absl::Status AcquireLease(const std::string& key, absl::string_view name,
+                            const std::function<void()>& holder_failing);
   // Renews the lease of a mission this server serves when a quarter of it
   // has passed since it was last renewed (so calls cost a write at most
   // every mission_lease / 4); best effort: a failure is logged.

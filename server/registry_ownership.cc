@@ -5,6 +5,8 @@
 // over.
 #include "server/registry.h"
 
+#include <functional>
+#include <future>
 #include <memory>
 #include <string>
 #include <vector>
@@ -68,15 +70,35 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
   }
   const absl::Time started = absl::Now();
   takeover->result = [&]() -> absl::StatusOr<std::shared_ptr<Mission>> {
-    OAIPP_RETURN_IF_ERROR(AcquireLease(key, name));
+    // A killed holder is found silent only silent_after after its last
+    // heartbeat. Once it has missed two, the mission is read and rebuilt
+    // meanwhile from what the store holds (its snapshot, megabytes, and the
+    // records after it), and the claim then reads and replays only what was
+    // written since. A live holder's missions are never read this way.
+    std::future<absl::StatusOr<ReadBack>> early;
+    OAIPP_RETURN_IF_ERROR(AcquireLease(key, name, [&] {
+      early = std::async(std::launch::async, [this, &key] { return Prefetch(key); });
+    }));
     const absl::Time leased = absl::Now();
-    absl::StatusOr<StoredMission> claimed = store_->Claim(key);
+    absl::StatusOr<ReadBack> prefetched =
+        early.valid() ? early.get() : absl::StatusOr<ReadBack>(absl::UnavailableError(""));
+    const std::int64_t have_through =
+        prefetched.ok() ? prefetched->mission->next_sequence() - 1 : 0;
+    absl::StatusOr<StoredMission> claimed = store_->Claim(key, have_through);
     const absl::Time read = absl::Now();
     if (claimed.status().code() == absl::StatusCode::kNotFound) {
       return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
     }
     OAIPP_RETURN_IF_ERROR(claimed.status());
-    absl::StatusOr<std::shared_ptr<Mission>> mission = Rebuild(*claimed);
+    // The claim left out what the early read has unless a later snapshot
+    // was stored since; then it is a whole mission, rebuilt as usual.
+    const bool continued = have_through > 0 && !claimed->snapshot.has_value();
+    absl::StatusOr<std::shared_ptr<Mission>> mission =
+        continued ? [&]() -> absl::StatusOr<std::shared_ptr<Mission>> {
+          OAIPP_RETURN_IF_ERROR(ReplayRecords(*prefetched, claimed->log));
+          return Finish(*std::move(prefetched), *claimed);
+        }()
+                  : Rebuild(*claimed);
     if (!mission.ok()) {
       return absl::Status(mission.status().code(), absl::StrCat("taking over mission '", name,
                                                                 "': ", mission.status().message()));
@@ -96,10 +118,12 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
     }
     // ms: the whole takeover; waiting for the lease, reading the mission
     // (the claim) and rebuilding it are its three parts.
+    // read_early: whether the mission was read while waiting for the lease
+    // (records: then those written since).
     spdlog::info(
-        "mission event=taken_over name={} epoch={} records={} ms={:.1f} lease_ms={:.1f} "
-        "claim_ms={:.1f} rebuild_ms={:.1f}",
-        std::string(name), claimed->epoch, claimed->log.size(),
+        "mission event=taken_over name={} epoch={} read_early={} records={} ms={:.1f} "
+        "lease_ms={:.1f} claim_ms={:.1f} rebuild_ms={:.1f}",
+        std::string(name), claimed->epoch, continued, claimed->log.size(),
         absl::ToDoubleMilliseconds(absl::Now() - started),
         absl::ToDoubleMilliseconds(leased - started), absl::ToDoubleMilliseconds(read - leased),
         absl::ToDoubleMilliseconds(absl::Now() - read));
@@ -117,8 +141,17 @@ std::string MissionRegistry::LeaseName(const std::string& key) {
   return absl::StrCat("mission/", absl::BytesToHexString(key));
 }
 
-absl::Status MissionRegistry::AcquireLease(const std::string& key, absl::string_view name) {
+absl::StatusOr<MissionRegistry::ReadBack> MissionRegistry::Prefetch(const std::string& key) {
+  OAIPP_ASSIGN_OR_RETURN(StoredMission stored, store_->Load(key));
+  OAIPP_ASSIGN_OR_RETURN(ReadBack read, ReadBackBase(stored));
+  OAIPP_RETURN_IF_ERROR(ReplayRecords(read, stored.log));
+  return read;
+}
+
+absl::Status MissionRegistry::AcquireLease(const std::string& key, absl::string_view name,
+                                           const std::function<void()>& holder_failing) {
   const absl::Time deadline = absl::Now() + limits_.silent_after;
+  bool told = false;
   while (true) {
     const absl::Time now = absl::Now();
     absl::StatusOr<bool> held =
@@ -126,6 +159,18 @@ absl::Status MissionRegistry::AcquireLease(const std::string& key, absl::string_
                          absl::ToUnixMicros(now + limits_.mission_lease), true);
     OAIPP_RETURN_IF_ERROR(held.status());
     if (*held) return absl::OkStatus();
+    if (!told) {
+      // A live holder says "alive for silent_after" every silent_after / 5,
+      // so what is left of its time stays above 4/5 of it; below 3/5 it has
+      // missed two heartbeats.
+      const absl::StatusOr<std::int64_t> alive_until =
+          store_->LeaseHolderAliveUntil(LeaseName(key));
+      if (alive_until.ok() &&
+          absl::FromUnixMicros(*alive_until) - now < limits_.silent_after * 3 / 5) {
+        told = true;
+        holder_failing();
+      }
+    }
     // Another server holds it and was alive when asked: a holder that just
     // died is found silent within silent_after, so a short wait here saves
     // the caller a retry; a live holder keeps its mission.

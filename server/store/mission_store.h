@@ -96,6 +96,15 @@ struct MissionListing {
   std::int64_t create_time_unix_us = 0;
 };
 
+// `m` as Load gave it, less what a reader that holds the mission through
+// record `have_through` has already: the snapshot when it covers no later
+// record, and the records up to have_through (MissionStore::Claim).
+inline void KeepOnlyAfter(StoredMission& m, std::int64_t have_through) {
+  if (have_through <= 0) return;
+  if (m.snapshot.has_value() && m.snapshot->sequence <= have_through) m.snapshot.reset();
+  std::erase_if(m.log, [&](const LogRecord& r) { return r.sequence <= have_through; });
+}
+
 class MissionStore {
  public:
   virtual ~MissionStore() = default;
@@ -132,7 +141,12 @@ class MissionStore {
   // with `epoch` the new one. From then on, writes of earlier epochs are
   // refused, so what was returned is all a previous owner will ever have
   // written. NotFound for an unknown mission.
-  [[nodiscard]] virtual absl::StatusOr<StoredMission> Claim(const std::string& mission_id) = 0;
+  // have_through > 0: the caller already holds the mission as a Load gave
+  // it, through record have_through; what it holds is left out
+  // (KeepOnlyAfter): the snapshot unless a later one was stored since, and
+  // the records up to have_through. Snapshots are megabytes.
+  [[nodiscard]] virtual absl::StatusOr<StoredMission> Claim(const std::string& mission_id,
+                                                            std::int64_t have_through) = 0;
   // The mission's current epoch (one cheap read). NotFound for an unknown
   // mission.
   [[nodiscard]] virtual absl::StatusOr<std::int64_t> Epoch(const std::string& mission_id) = 0;
@@ -169,6 +183,12 @@ class MissionStore {
                                                       const std::string& holder,
                                                       std::int64_t now_us, std::int64_t until_us,
                                                       bool free_if_holder_silent) = 0;
+  // Until when the holder of lease `name` said it is alive (Heartbeat; unix
+  // microseconds, its clock), or 0 when nobody holds the lease or its
+  // holder never said so or retired. A server waiting for a lease reads
+  // this to tell a holder that missed heartbeats from a live one.
+  [[nodiscard]] virtual absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(
+      const std::string& name) = 0;
   // `holder` is alive until `until_us` (its clock): a server sharing the
   // store says so every fraction of that time. A holder that never said so,
   // whose time has passed, or that retired is not alive.

@@ -1,5 +1,7 @@
 #include "server/store/postgres_connection.h"
 
+#include <libpq-fe.h>
+
 #include <exception>
 #include <string>
 
@@ -15,7 +17,54 @@ namespace {
 
 constexpr absl::string_view kConnectTimeout = "connect_timeout=10";
 
+// libpqxx 6.4 keeps a transaction's libpq connection to itself; its large
+// object class hands it to subclasses, for calls libpqxx does not wrap.
+class RawConnection : public pqxx::largeobject {
+ public:
+  static PGconn* Of(const pqxx::dbtransaction& tx) { return raw_connection(tx); }
+};
+
+using ResultPtr = std::unique_ptr<PGresult, decltype(&PQclear)>;
+
 }  // namespace
+
+std::vector<std::vector<std::optional<std::string>>> ExecBinary(const pqxx::dbtransaction& tx,
+                                                                const char* sql,
+                                                                const std::vector<Param>& params) {
+  PGconn* conn = RawConnection::Of(tx);
+  std::vector<const char*> values;
+  std::vector<int> lengths, formats;
+  for (const Param& p : params) {
+    values.push_back(p.value.c_str());  // text parameters end at their NUL
+    lengths.push_back(static_cast<int>(p.value.size()));
+    formats.push_back(p.binary ? 1 : 0);
+  }
+  const ResultPtr result(PQexecParams(conn, sql, static_cast<int>(params.size()), nullptr,
+                                      values.data(), lengths.data(), formats.data(),
+                                      /*resultFormat=*/1),
+                         &PQclear);
+  if (result == nullptr || PQstatus(conn) != CONNECTION_OK) {
+    throw pqxx::broken_connection(PQerrorMessage(conn));
+  }
+  if (PQresultStatus(result.get()) != PGRES_TUPLES_OK) {
+    const char* sqlstate = PQresultErrorField(result.get(), PG_DIAG_SQLSTATE);
+    throw pqxx::sql_error(PQresultErrorMessage(result.get()), sql,
+                          sqlstate != nullptr ? sqlstate : "");
+  }
+  std::vector<std::vector<std::optional<std::string>>> rows(
+      static_cast<std::size_t>(PQntuples(result.get())));
+  for (int r = 0; r < PQntuples(result.get()); ++r) {
+    for (int c = 0; c < PQnfields(result.get()); ++c) {
+      if (PQgetisnull(result.get(), r, c)) {
+        rows[r].emplace_back(std::nullopt);
+      } else {
+        rows[r].emplace_back(std::string(PQgetvalue(result.get(), r, c),
+                                         static_cast<std::size_t>(PQgetlength(result.get(), r, c))));
+      }
+    }
+  }
+  return rows;
+}
 
 std::string WithConnectTimeout(const std::string& uri) {
   if (absl::StrContains(uri, "connect_timeout")) return uri;

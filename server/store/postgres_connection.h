@@ -7,6 +7,7 @@
 #include <poll.h>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 
 #include "absl/base/thread_annotations.h"
 #include "absl/status/status.h"
+#include "absl/strings/escaping.h"
 #include "absl/strings/string_view.h"
 #include "absl/synchronization/mutex.h"
 
@@ -31,6 +33,14 @@ namespace oaipp::server::postgres {
 
 [[nodiscard]] absl::Status NoMission(absl::string_view what);
 
+// libpqxx sends a std::string parameter as text, which libpq ends at the
+// first NUL byte; a binarystring goes as a binary parameter, byte for byte.
+inline pqxx::binarystring Blob(const std::string& bytes) { return pqxx::binarystring(bytes); }
+inline std::string ReadBytes(const pqxx::field& field) { return pqxx::binarystring(field).str(); }
+
+// A mission id as it appears in messages (ids are bytes to the store).
+inline std::string Printable(absl::string_view id) { return absl::CHexEscape(id); }
+
 // Unavailable, and maybe stored: the writer must read back before it writes
 // again (mission_store.h).
 [[nodiscard]] absl::Status InDoubt(absl::string_view what, absl::string_view cause);
@@ -39,6 +49,23 @@ namespace oaipp::server::postgres {
 // block). A refused key, a missing mission and a full disk have codes of
 // their own; anything else means the store cannot be used now: Unavailable.
 [[nodiscard]] absl::Status CurrentError(absl::string_view what, bool committing);
+
+// A parameter of ExecBinary: its bytes, sent as they are (binary: a bytea
+// byte for byte) or as text (a number in decimal).
+struct Param {
+  std::string value;
+  bool binary = false;
+};
+
+// Runs `sql` inside the open transaction `tx` and returns its rows' values
+// (nullopt for NULL) in PostgreSQL's binary format. libpqxx 6.4 asks for text
+// results only, in which a bytea travels as hexadecimal: twice its size,
+// encoded by the server and decoded here. Snapshots are megabytes, and
+// a takeover waits for one, so they are read this way. Throws as libpqxx
+// does (pqxx::broken_connection, pqxx::sql_error with the SQLSTATE), so
+// CurrentError maps its failures like any other.
+[[nodiscard]] std::vector<std::vector<std::optional<std::string>>> ExecBinary(
+    const pqxx::dbtransaction& tx, const char* sql, const std::vector<Param>& params);
 
 // One connection and the sink for its notices: libpqxx prints notices (the
 // server's, and its own about transactions it aborts on a lost connection)

@@ -26,6 +26,7 @@
 #include "absl/time/time.h"
 #include "core/common/status_macros.h"
 #include "server/store/postgres_connection.h"
+#include "server/store/postgres_load.h"
 #include "server/store/postgres_schema.h"
 
 namespace oaipp::server {
@@ -33,24 +34,20 @@ namespace {
 
 using postgres::Connection;
 using postgres::ConnectionPool;
+using postgres::Blob;
 using postgres::CurrentError;
 using postgres::FirstLine;
 using postgres::InDoubt;
+using postgres::LoadMissions;
 using postgres::kSchema;
 using postgres::kSchemaLockKey;
 using postgres::kSchemaVersion;
 using postgres::NoMission;
+using postgres::Printable;
+using postgres::ReadBytes;
 using postgres::WithConnectTimeout;
 
 std::int64_t NowUs() { return absl::ToUnixMicros(absl::Now()); }
-
-// libpqxx sends a std::string parameter as text, which libpq ends at the
-// first NUL byte; a binarystring goes as a binary parameter, byte for byte.
-pqxx::binarystring Blob(const std::string& bytes) { return pqxx::binarystring(bytes); }
-std::string ReadBytes(const pqxx::field& field) { return pqxx::binarystring(field).str(); }
-
-// A mission id as it appears in messages (ids are bytes to the store).
-std::string Printable(absl::string_view id) { return absl::CHexEscape(id); }
 
 class PostgresStore final : public MissionStore {
  public:
@@ -269,7 +266,8 @@ class PostgresStore final : public MissionStore {
     });
   }
 
-  absl::StatusOr<StoredMission> Claim(const std::string& mission_id) override {
+  absl::StatusOr<StoredMission> Claim(const std::string& mission_id,
+                                      std::int64_t have_through) override {
     const std::string what = absl::StrCat("claim mission '", Printable(mission_id), "'");
     return Call(
         what, [&](pqxx::connection& conn, CallState& state) -> absl::StatusOr<StoredMission> {
@@ -281,7 +279,8 @@ class PostgresStore final : public MissionStore {
               tx.exec_params("UPDATE missions SET epoch = epoch + 1 WHERE id = $1 RETURNING epoch",
                              Blob(mission_id));
           if (claimed.empty()) return NoMission(what);
-          OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found, LoadMissions(tx, &mission_id));
+          OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found,
+                                 LoadMissions(tx, &mission_id, have_through));
           if (found.empty()) return NoMission(what);
           Commit(tx, state);
           return std::move(found.front());
@@ -386,6 +385,18 @@ class PostgresStore final : public MissionStore {
       Commit(tx, state);
       return !held.empty();
     });
+  }
+
+  absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(const std::string& name) override {
+    return Call("lease holder",
+                [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<std::int64_t> {
+                  pqxx::nontransaction tx(conn);
+                  const pqxx::result found = tx.exec_params(
+                      "SELECT coalesce(a.until_us, 0) FROM store_leases l LEFT JOIN store_alive a "
+                      "ON a.holder = l.holder WHERE l.name = $1",
+                      name);
+                  return found.empty() ? 0 : found[0][0].as<std::int64_t>();
+                });
   }
 
   absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
@@ -512,66 +523,6 @@ class PostgresStore final : public MissionStore {
     }();
     pool.Return(std::move(connection));
     return result;
-  }
-
-  // Missions (all, or the one with id *only) with their snapshot and the
-  // records after it, in the order LoadAll promises.
-  // Tx: ReadOnly, or the claim's read-write transaction.
-  template <typename Tx>
-  static absl::StatusOr<std::vector<StoredMission>> LoadMissions(Tx& tx, const std::string* only) {
-    constexpr absl::string_view kMissions =
-        "SELECT m.id, m.spec, m.request_id, m.fingerprint, m.create_time_us, "
-        "s.sequence, s.state, s.write_time_us, m.epoch "
-        "FROM missions m LEFT JOIN snapshots s ON s.mission_id = m.id ";
-    constexpr absl::string_view kRecords =
-        "SELECT r.mission_id, r.sequence, r.kind, r.payload, r.request_id, r.fingerprint, "
-        "r.result, r.planner_state, r.write_time_us "
-        "FROM records r JOIN missions m ON m.id = r.mission_id "
-        "LEFT JOIN snapshots s ON s.mission_id = r.mission_id "
-        "WHERE r.sequence > coalesce(s.sequence, 0) ";
-    const pqxx::result missions =
-        only == nullptr ? tx.exec(absl::StrCat(kMissions, "ORDER BY m.create_time_us, m.id"))
-                        : tx.exec_params(absl::StrCat(kMissions, "WHERE m.id = $1"), Blob(*only));
-    std::vector<StoredMission> out;
-    out.reserve(missions.size());
-    for (const pqxx::row& row : missions) {
-      StoredMission& m =
-          out.emplace_back(StoredMission{.id = ReadBytes(row[0]),
-                                         .spec = ReadBytes(row[1]),
-                                         .request_id = ReadBytes(row[2]),
-                                         .fingerprint = ReadBytes(row[3]),
-                                         .create_time_unix_us = row[4].as<std::int64_t>(),
-                                         .epoch = row[8].as<std::int64_t>()});
-      if (!row[5].is_null()) {
-        m.snapshot = StoredSnapshot{.sequence = row[5].as<std::int64_t>(),
-                                    .state = ReadBytes(row[6]),
-                                    .write_time_unix_us = row[7].as<std::int64_t>()};
-      }
-    }
-    const pqxx::result records =
-        only == nullptr
-            ? tx.exec(absl::StrCat(kRecords, "ORDER BY m.create_time_us, m.id, r.sequence"))
-            : tx.exec_params(absl::StrCat(kRecords, "AND m.id = $1 ORDER BY r.sequence"),
-                             Blob(*only));
-    // Both results come in the same mission order: one walk pairs them.
-    std::size_t i = 0;
-    for (const pqxx::row& row : records) {
-      const std::string mission_id = ReadBytes(row[0]);
-      while (i < out.size() && out[i].id != mission_id) ++i;
-      if (i == out.size()) {
-        return absl::InternalError(
-            absl::StrCat("store: load: a record of '", Printable(mission_id), "' out of order"));
-      }
-      out[i].log.push_back({.sequence = row[1].as<std::int64_t>(),
-                            .kind = static_cast<RecordKind>(row[2].as<int>()),
-                            .payload = ReadBytes(row[3]),
-                            .request_id = ReadBytes(row[4]),
-                            .fingerprint = ReadBytes(row[5]),
-                            .result = ReadBytes(row[6]),
-                            .planner_state = ReadBytes(row[7]),
-                            .write_time_unix_us = row[8].as<std::int64_t>()});
-    }
-    return out;
   }
 
   const std::string uri_;

@@ -28,6 +28,18 @@ absl::StatusOr<bool> TryLease(sqlite3* db, const std::string& name, const std::s
   return code == SQLITE_ROW;
 }
 
+absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(sqlite3* db, const std::string& name) {
+  Statement s(db,
+              "SELECT coalesce(a.until_us, 0) FROM leases l LEFT JOIN alive a "
+              "ON a.holder = l.holder WHERE l.name = ?1");
+  OAIPP_RETURN_IF_ERROR(s.prepared("lease holder"));
+  s.Bind(1, name);
+  const int code = s.Step();
+  if (code == SQLITE_DONE) return 0;  // nobody holds it
+  if (code != SQLITE_ROW) return SqliteError(db, code, "lease holder");
+  return s.Int(0);
+}
+
 absl::Status Heartbeat(sqlite3* db, const std::string& holder, std::int64_t until_us) {
   Statement s(db,
               "INSERT INTO alive(holder, until_us) VALUES(?1, ?2) "

@@ -1,5 +1,5 @@
 // The SQLite store's leases and heartbeats (MissionStore::TryLease,
-// Heartbeat, Retire) on its connection: the rows servers sharing a store
+// LeaseHolderAliveUntil, Heartbeat, Retire) on its connection: the rows servers sharing a store
 // agree with on who sweeps it and who serves each mission. Internal to
 // server/store/; the caller holds the connection's lock.
 #pragma once
@@ -17,6 +17,8 @@ namespace oaipp::server::sqlite {
 [[nodiscard]] absl::StatusOr<bool> TryLease(sqlite3* db, const std::string& name,
                                             const std::string& holder, std::int64_t now_us,
                                             std::int64_t until_us, bool free_if_holder_silent);
+[[nodiscard]] absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(sqlite3* db,
+                                                                const std::string& name);
 [[nodiscard]] absl::Status Heartbeat(sqlite3* db, const std::string& holder, std::int64_t until_us);
 [[nodiscard]] absl::Status Retire(sqlite3* db, const std::string& holder);
 

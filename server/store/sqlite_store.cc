@@ -214,7 +214,8 @@ class SqliteStore final : public MissionStore {
     return std::move(out->front());
   }
 
-  absl::StatusOr<StoredMission> Claim(const std::string& mission_id) override {
+  absl::StatusOr<StoredMission> Claim(const std::string& mission_id,
+                                      std::int64_t have_through) override {
     absl::MutexLock lock(&mu_);
     OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "claim"));
     absl::StatusOr<std::vector<StoredMission>> out =
@@ -234,6 +235,7 @@ class SqliteStore final : public MissionStore {
       (void)Exec("ROLLBACK", "claim");
       return committed;
     }
+    KeepOnlyAfter(out->front(), have_through);  // a local file: nothing to save in the read
     return std::move(out->front());
   }
 
@@ -317,6 +319,10 @@ class SqliteStore final : public MissionStore {
                                 bool free_if_holder_silent) override {
     absl::MutexLock lock(&mu_);
     return sqlite::TryLease(db_, name, holder, now_us, until_us, free_if_holder_silent);
+  }
+  absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(const std::string& name) override {
+    absl::MutexLock lock(&mu_);
+    return sqlite::LeaseHolderAliveUntil(db_, name);
   }
   absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
     absl::MutexLock lock(&mu_);

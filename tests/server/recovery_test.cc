@@ -295,9 +295,12 @@ class FailingStore final : public MissionStore {
                              std::int64_t epoch) override {
     return fail ? Down() : store_->DeleteMission(id, request_id, epoch);
   }
-  absl::StatusOr<StoredMission> Claim(const std::string& id) override {
+  absl::StatusOr<StoredMission> Claim(const std::string& id, std::int64_t have_through) override {
     if (fail) return Down();
-    return store_->Claim(id);
+    return store_->Claim(id, have_through);
+  }
+  absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(const std::string& name) override {
+    return store_->LeaseHolderAliveUntil(name);
   }
   absl::StatusOr<std::int64_t> Epoch(const std::string& id) override { return store_->Epoch(id); }
   absl::StatusOr<StoredMission> CreatedBy(const std::string& r) override {

@@ -186,14 +186,18 @@ TEST_P(StoreTest, ALeaseOfASilentHolderIsFreeToThoseWhoAskSo) {
     EXPECT_TRUE(held.ok()) << held.status();
     return held.value_or(false);
   };
+  EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 0);  // nobody holds it
   ASSERT_TRUE(store->Heartbeat("a", 500).ok());
   EXPECT_TRUE(lease("a", 100, true));    // a's until 1100, a alive until 500
+  EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 500);
   EXPECT_FALSE(lease("b", 200, true));   // a is alive
   EXPECT_FALSE(lease("b", 600, false));  // a is silent, but b did not ask for that
   EXPECT_TRUE(lease("b", 600, true));    // a is silent: b's until 1600
+  EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 0);  // b never said it is alive
   ASSERT_TRUE(store->Heartbeat("a", 2000).ok());
   ASSERT_TRUE(store->Heartbeat("b", 2000).ok());
   EXPECT_FALSE(lease("a", 700, true));  // b is alive and its lease runs
+  EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 2000);
   EXPECT_TRUE(lease("a", 1700, true));  // b's lease lapsed at 1600
   ASSERT_TRUE(store->Retire("a").ok());
   EXPECT_TRUE(lease("b", 1800, false));  // a retired: its lease is gone
@@ -299,7 +303,10 @@ TEST_P(StoreTest, ASnapshotReplacesTheRecordsItCovers) {
   std::unique_ptr<MissionStore> store = Open();
   ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s"}).ok());
   for (int i = 1; i <= 5; ++i) ASSERT_TRUE(store->Append("m1", Record(i, "x")).ok());
-  const std::string state("state\0\xff", 7);
+  // Every byte value, NULs among them, and megabytes, as a map's snapshot
+  // is: it must come back byte for byte whatever format carries it.
+  std::string state("state\0\xff", 7);
+  for (int i = 0; i < (1 << 20); ++i) state.push_back(static_cast<char>((i * 131 + i / 256) & 0xff));
   ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 3, .state = state}).ok());
   // An older snapshot (a slow writer) does not replace a newer one.
   ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 2, .state = "old"}).ok());
@@ -368,7 +375,7 @@ TEST_P(StoreTest, AClaimFencesEveryWriteOfTheOldOwner) {
   EXPECT_EQ(*store->Epoch("m1"), kFirstEpoch);
   ASSERT_TRUE(store->Append("m1", Record(1, "old owner")).ok());
 
-  absl::StatusOr<StoredMission> claimed = store->Claim("m1");
+  absl::StatusOr<StoredMission> claimed = store->Claim("m1", 0);
   ASSERT_TRUE(claimed.ok()) << claimed.status();
   EXPECT_EQ(claimed->epoch, kFirstEpoch + 1);
   EXPECT_EQ(*store->Epoch("m1"), kFirstEpoch + 1);
@@ -395,7 +402,7 @@ TEST_P(StoreTest, AClaimFencesEveryWriteOfTheOldOwner) {
 
   // A second claim (a third server) sees both owners' records, via the
   // snapshot, and fences the second owner in turn.
-  absl::StatusOr<StoredMission> again = store->Claim("m1");
+  absl::StatusOr<StoredMission> again = store->Claim("m1", 0);
   ASSERT_TRUE(again.ok()) << again.status();
   EXPECT_EQ(again->epoch, kFirstEpoch + 2);
   ASSERT_TRUE(again->snapshot.has_value());
@@ -412,11 +419,52 @@ TEST_P(StoreTest, AClaimFencesEveryWriteOfTheOldOwner) {
   EXPECT_EQ(created->fingerprint, "fc");
   EXPECT_EQ(created->epoch, kFirstEpoch + 2);
   EXPECT_EQ(store->CreatedBy("c2").status().code(), absl::StatusCode::kNotFound);
-  EXPECT_EQ(store->Claim("nope").status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ(store->Claim("nope", 0).status().code(), absl::StatusCode::kNotFound);
   EXPECT_EQ(store->Epoch("nope").status().code(), absl::StatusCode::kNotFound);
 
   ASSERT_TRUE(store->DeleteMission("m1", "del", again->epoch).ok());
   EXPECT_EQ(*store->DeletedBy("del"), "m1");
+}
+
+// A claim by a reader that already holds the mission through a record
+// leaves out what it holds: the snapshot unless a later one was stored, and
+// the records up to that one. Put together, the reader has what a whole
+// claim gives.
+TEST_P(StoreTest, AClaimLeavesOutWhatTheReaderHolds) {
+  std::unique_ptr<MissionStore> store = Open();
+  ASSERT_TRUE(store->CreateMission({.id = "m1", .spec = "s"}).ok());
+  for (int i = 1; i <= 3; ++i) ASSERT_TRUE(store->Append("m1", Record(i, "x")).ok());
+  const std::string state(1 << 16, '\x7f');
+  ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 2, .state = state}).ok());
+  for (int i = 4; i <= 6; ++i) ASSERT_TRUE(store->Append("m1", Record(i, "y")).ok());
+
+  // Held through record 4 (the snapshot at 2, then records 3 and 4):
+  // records 5 and 6, no snapshot.
+  absl::StatusOr<StoredMission> after = store->Claim("m1", 4);
+  ASSERT_TRUE(after.ok()) << after.status();
+  EXPECT_EQ(after->epoch, kFirstEpoch + 1);
+  EXPECT_EQ(after->spec, "s");
+  EXPECT_FALSE(after->snapshot.has_value());
+  ASSERT_EQ(after->log.size(), 2u);
+  EXPECT_EQ(after->log[0].sequence, 5);
+  EXPECT_EQ(after->log[1].sequence, 6);
+
+  // Held through record 1 only, and the snapshot covers 2: the snapshot
+  // and the records after it, as a whole claim gives them.
+  absl::StatusOr<StoredMission> behind = store->Claim("m1", 1);
+  ASSERT_TRUE(behind.ok()) << behind.status();
+  ASSERT_TRUE(behind->snapshot.has_value());
+  EXPECT_EQ(behind->snapshot->sequence, 2);
+  EXPECT_EQ(behind->snapshot->state, state);
+  ASSERT_EQ(behind->log.size(), 4u);
+  EXPECT_EQ(behind->log.front().sequence, 3);
+
+  // Held through the last record: nothing to read but the mission itself.
+  absl::StatusOr<StoredMission> all = store->Claim("m1", 6);
+  ASSERT_TRUE(all.ok()) << all.status();
+  EXPECT_EQ(all->epoch, kFirstEpoch + 3);
+  EXPECT_FALSE(all->snapshot.has_value());
+  EXPECT_TRUE(all->log.empty());
 }
 
 // Claims racing appends: whatever the interleaving, every append the store
@@ -459,7 +507,7 @@ TEST_P(StoreTest, ClaimsRacingAppendsLoseNoAcknowledgedRecord) {
       std::lock_guard<std::mutex> lock(acked_mu);
       before = acked;
     }
-    absl::StatusOr<StoredMission> claimed = store->Claim("m1");
+    absl::StatusOr<StoredMission> claimed = store->Claim("m1", 0);
     ASSERT_TRUE(claimed.ok()) << claimed.status();
     epoch = claimed->epoch;
     std::set<std::int64_t> in_claim;

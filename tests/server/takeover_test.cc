@@ -7,10 +7,16 @@
 // other reads. With the lease (the default), a live holder keeps its
 // mission and a call that reaches the other server rebuilds nothing.
 #include <filesystem>
+#include <thread>
 
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
+#include "api/measurement.h"
+#include "api/spec.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
+#include "server/registry.h"
+#include "server/service_internal.h"
 #include "server/store/sqlite_store.h"
 #include "tests/server/service_fixture.h"
 
@@ -210,6 +216,75 @@ TEST_F(TakeoverTest, ALiveHolderKeepsItsMissionUntilItStops) {
   a_.reset();                                      // a graceful stop: A retires
   EXPECT_EQ(Get(*b_).measurements_fused(), 2);
   EXPECT_EQ(b_->registry().takeovers(), 1);
+}
+
+// A holder that dies (its heartbeats stop) while a call for its mission
+// reaches another server: that server reads and rebuilds the mission while
+// it waits for the holder to be found silent, then claims only what was
+// written since, here a measurement the dying holder still stored after
+// the early read. Two registries on one store, without servers, so that
+// the test says when "a" heartbeats (once) and what it writes.
+TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / absl::StrCat("oaipp-early-read-", getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  absl::StatusOr<std::unique_ptr<MissionStore>> store =
+      OpenSqliteStore((dir / "missions.db").string());
+  ASSERT_TRUE(store.ok()) << store.status();
+  const RegistryLimits limits{.max_missions = 8,
+                              .max_cells_per_mission = 1600,
+                              .shared_store = true};
+  RegistryLimits a_limits = limits, b_limits = limits;
+  a_limits.holder = "a";
+  b_limits.holder = "b";
+  MissionRegistry a(a_limits, store->get()), b(b_limits, store->get());
+
+  // "a" says it is alive for silent_after, once, and creates the mission.
+  ASSERT_TRUE((*store)->Heartbeat("a", absl::ToUnixMicros(absl::Now() + limits.silent_after)).ok());
+  absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(testing::SmallSpec());
+  ASSERT_TRUE(config.ok()) << config.status();
+  absl::StatusOr<std::shared_ptr<Mission>> held = a.Create("m", *config, "create-m");
+  ASSERT_TRUE(held.ok()) << held.status();
+  const auto measure = [&](int k) {
+    v1::AddMeasurementRequest request =
+        testing::LabelMeasurement("missions/m", -6.0 + 3 * k, 1.0, 8.0, 2.0 * k, k % 2);
+    request.set_request_id(absl::StrCat("r", k));
+    absl::StatusOr<MeasurementInput> input = api::MeasurementFromProto(request);
+    ASSERT_TRUE(input.ok()) << input.status();
+    const std::string fingerprint = absl::StrCat("f", k);
+    ASSERT_TRUE((*held)
+                    ->AddMeasurement(*input, {request.request_id(), fingerprint},
+                                     service_internal::Recorder(store->get(), **held,
+                                                                RecordKind::kMeasurement,
+                                                                request, fingerprint))
+                    .ok());
+  };
+  for (int k = 0; k < 3; ++k) measure(k);
+
+  // A call reaches "b" while "a" is still alive on paper: "b" waits for
+  // it to fall silent, reading the mission once "a" has missed two
+  // heartbeats (after 2/5 of silent_after). "a" stores one more
+  // measurement after that, before it is found silent.
+  absl::StatusOr<std::shared_ptr<Mission>> taken;
+  std::thread call([&] { taken = b.Get("missions/m"); });
+  absl::SleepFor(limits.silent_after * 7 / 10);
+  measure(3);
+  call.join();
+  ASSERT_TRUE(taken.ok()) << taken.status();
+  EXPECT_EQ(b.takeovers(), 1);
+  EXPECT_EQ((*taken)->epoch(), kFirstEpoch + 1);
+
+  // Everything "a" stored, in "b"'s copy: the same map, bit for bit.
+  EXPECT_EQ((*taken)->Snapshot().measurements_fused, 4);
+  EXPECT_EQ((*taken)->next_sequence(), (*held)->next_sequence());
+  (*held)->ReadMap([&](const GpMap& want) {
+    (*taken)->ReadMap([&](const GpMap& got) {
+      EXPECT_EQ(got.Mean(), want.Mean());
+      EXPECT_EQ(got.Covariance(), want.Covariance());
+    });
+  });
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

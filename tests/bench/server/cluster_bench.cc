@@ -58,7 +58,10 @@ client::ClientOptions Patient() {
 bool StartCluster(LocalCluster& cluster, int replicas) {
   return cluster.Start(
       {.replicas = replicas,
-       .replica_flags = {"--planning_queue=256", "--max_missions=256", "--worker_threads=64"}});
+       // The server's own dense backend (LocalCluster gives the tests Eigen,
+       // to match their in-process twins bit for bit).
+       .replica_flags = {"--planning_queue=256", "--max_missions=256", "--worker_threads=64",
+                         "--dense_backend=openblas"}});
 }
 
 void Load(int replicas) {
