@@ -55,13 +55,13 @@ client::ClientOptions Patient() {
   return PatientClient(100, absl::Milliseconds(20), absl::Milliseconds(100));
 }
 
-bool StartCluster(LocalCluster& cluster, int replicas) {
-  return cluster.Start(
-      {.replicas = replicas,
-       // The server's own dense backend (LocalCluster gives the tests Eigen,
-       // to match their in-process twins bit for bit).
-       .replica_flags = {"--planning_queue=256", "--max_missions=256", "--worker_threads=64",
-                         "--dense_backend=openblas"}});
+// more_flags: after the others, so they win.
+bool StartCluster(LocalCluster& cluster, int replicas,
+                  const std::vector<std::string>& more_flags = {}) {
+  std::vector<std::string> flags = {"--planning_queue=256", "--max_missions=256",
+                                    "--worker_threads=64"};
+  flags.insert(flags.end(), more_flags.begin(), more_flags.end());
+  return cluster.Start({.replicas = replicas, .replica_flags = flags});
 }
 
 void Load(int replicas) {
@@ -130,7 +130,9 @@ void Proxy() {
 
 void Takeover() {
   LocalCluster cluster;
-  if (!StartCluster(cluster, 3)) std::exit(1);
+  // The server's own dense backend for the rebuilds' replays (LocalCluster
+  // gives the tests Eigen, to match their in-process twins bit for bit).
+  if (!StartCluster(cluster, 3, {"--dense_backend=openblas"})) std::exit(1);
   const int missions = absl::GetFlag(FLAGS_missions);
   // Each mission with a snapshot and a tail behind it: 20 measurements
   // (snapshots every 16).
