@@ -6,11 +6,15 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "absl/strings/match.h"
@@ -250,6 +254,115 @@ TEST(ServerBinaryTest, LongRequestIdsAreRefusedWithoutGrowingTheServer) {
   v1::ListMissionsResponse missions;
   ASSERT_TRUE(stub->ListMissions(&context, list, &missions).ok());
   EXPECT_EQ(missions.missions_size(), 1);  // "other" was not created, "ids" not deleted
+}
+
+// Measurements as several UAVs' radio links deliver them: half of them late
+// by up to 2 s (so out of order), a fifth twice (a retry with the same
+// request_id), from many senders at once. The real server fuses each one
+// once, and the map equals the map of the same measurements delivered in
+// order, one by one, to 1e-9: the map's update is a Kalman update of a
+// static field, whose posterior does not depend on the order of fusion.
+TEST(ServerBinaryTest, LateReorderedAndRepeatedMeasurementsGiveTheInOrderMap) {
+  const std::filesystem::path data =
+      std::filesystem::temp_directory_path() / ("oaipp-any-order-" + std::to_string(getpid()));
+  std::filesystem::remove_all(data);
+  const int port = testing::FreePort();
+  testing::ChildProcess server({OAIPP_SERVER_BINARY, "--listen=127.0.0.1:" + std::to_string(port),
+                                "--data_dir=" + data.string(), "--metrics_listen="},
+                               port);
+  ASSERT_TRUE(server.Start()) << "oaipp-server did not start on " << server.address();
+  auto stub = v1::MissionService::NewStub(testing::QuickReconnectChannel(server.address()));
+  testing::CreateSmall(*stub, "in-order");
+  testing::CreateSmall(*stub, "any-order");
+
+  constexpr int kShots = 40;
+  std::mt19937 rng(20261129);
+  std::vector<v1::AddMeasurementRequest> shots;
+  for (int k = 0; k < kShots; ++k) {
+    const double x = std::uniform_real_distribution<double>(-6.5, 6.5)(rng);
+    const double y = std::uniform_real_distribution<double>(-6.5, 6.5)(rng);
+    const double label = std::bernoulli_distribution(0.3)(rng) ? 1.0 : 0.0;
+    v1::AddMeasurementRequest shot = testing::LabelMeasurement("", x, y, 8.0, 0.5 * k, label);
+    shot.set_request_id("shot-" + std::to_string(k));
+    shots.push_back(shot);
+  }
+  const auto send = [&](v1::AddMeasurementRequest shot, const std::string& mission) {
+    shot.set_name("missions/" + mission);
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(60));
+    v1::AddMeasurementResponse out;
+    return stub->AddMeasurement(&context, shot, &out);
+  };
+  for (const v1::AddMeasurementRequest& shot : shots) {
+    ASSERT_TRUE(send(shot, "in-order").ok());
+  }
+
+  // Shot k leaves at k * 25 ms; half of the deliveries wait up to 2 s more,
+  // and a fifth of the shots are delivered a second time.
+  struct Delivery {
+    int shot;
+    int at_ms;
+  };
+  std::vector<Delivery> deliveries;
+  int late = 0, twice = 0;
+  for (int k = 0; k < kShots; ++k) {
+    const int copies = std::bernoulli_distribution(0.2)(rng) ? 2 : 1;
+    twice += copies - 1;
+    for (int c = 0; c < copies; ++c) {
+      int at_ms = 25 * k;
+      if (std::bernoulli_distribution(0.5)(rng)) {
+        at_ms += std::uniform_int_distribution<int>(0, 2000)(rng);
+        ++late;
+      }
+      deliveries.push_back({k, at_ms});
+    }
+  }
+  std::atomic<int> failed{0};
+  std::vector<std::thread> senders;
+  const auto start = std::chrono::steady_clock::now();
+  for (const Delivery& d : deliveries) {
+    senders.emplace_back([&, d] {
+      std::this_thread::sleep_until(start + std::chrono::milliseconds(d.at_ms));
+      if (!send(shots[d.shot], "any-order").ok()) ++failed;
+    });
+  }
+  for (std::thread& t : senders) t.join();
+  EXPECT_EQ(failed.load(), 0);
+  // The schedule did what it says: deliveries late, out of order, repeated.
+  EXPECT_GE(late, deliveries.size() / 3);
+  EXPECT_GE(twice, 3);
+
+  v1::GetMapResponse want, got;
+  for (auto [mission, map] : {std::pair{"in-order", &want}, std::pair{"any-order", &got}}) {
+    grpc::ClientContext context;
+    v1::GetMapRequest request;
+    request.set_name(std::string("missions/") + mission);
+    request.set_include_cells(true);
+    ASSERT_TRUE(stub->GetMap(&context, request, map).ok()) << mission;
+    grpc::ClientContext c2;
+    v1::GetMissionRequest get;
+    get.set_name(std::string("missions/") + mission);
+    v1::Mission m;
+    ASSERT_TRUE(stub->GetMission(&c2, get, &m).ok());
+    EXPECT_EQ(m.measurements_fused(), kShots) << mission << ": each shot fused once";
+  }
+  ASSERT_EQ(got.mean_size(), want.mean_size());
+  ASSERT_EQ(got.variance_size(), want.variance_size());
+  double mean_error = 0, variance_error = 0;
+  for (int i = 0; i < want.mean_size(); ++i) {
+    mean_error = std::max(mean_error, std::abs(got.mean(i) - want.mean(i)) /
+                                          (1.0 + std::abs(want.mean(i))));
+    variance_error =
+        std::max(variance_error, std::abs(got.variance(i) - want.variance(i)) / want.variance(i));
+  }
+  EXPECT_LE(mean_error, 1e-9);
+  EXPECT_LE(variance_error, 1e-9);
+  EXPECT_NEAR(got.trace(), want.trace(), 1e-9 * want.trace());
+  // Not the same map as the prior: the shots changed it.
+  EXPECT_LT(want.trace(), 0.99 * testing::CreateSmall(*stub, "prior").trace());
+  const int status = server.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
+  std::filesystem::remove_all(data);
 }
 
 // Kubernetes stops a pod with SIGTERM, and operators set OPENBLAS_CORETYPE:
