@@ -3,7 +3,8 @@
 // the benchmark starts on loopback, as the tests do) and with missions in
 // memory, in turn in the same run; a bare store append (the fsync, or the
 // round trip and commit); appends of many missions at once (group commit);
-// and how long recovery takes with snapshots.
+// how long recovery takes with snapshots; and what restoring one mission
+// from its snapshot costs (a takeover's share of CPU once the bytes are read).
 //
 //   build/tests/bench/server/store_bench --benchmark_repetitions=5
 //     (add --benchmark_report_aggregates_only=true for medians only)
@@ -21,6 +22,8 @@
 #include "server/service.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
+#include "server/store/state_codec.h"
+#include "api/spec.h"
 #include "tests/bench/server/e1_mission.h"
 #include "tests/server/postgres_instance.h"
 
@@ -222,6 +225,44 @@ void BM_Recover(benchmark::State& state) {
   std::filesystem::remove_all(dir);
 }
 BENCHMARK(BM_Recover)->Args({1, 2000})->Args({100, 22})->Iterations(1)->Unit(benchmark::kSecond);
+
+// What a takeover spends on one E1 mission once its snapshot's bytes are in
+// hand: decoding the snapshot, and restoring the mission from it (the world
+// from the site's cache, as on a replica holding missions over the same
+// site). Counters: milliseconds of each, medians over the iterations.
+void BM_RestoreFromSnapshot(benchmark::State& state) {
+  EsdfPool esdfs;
+  WorldCache worlds;
+  const server::SiteCaches caches{.esdfs = &esdfs, .worlds = &worlds};
+  absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(bench::E1Spec());
+  if (!config.ok()) {
+    state.SkipWithError("E1 spec");
+    return;
+  }
+  absl::StatusOr<std::shared_ptr<server::Mission>> mission =
+      server::Mission::Create("e1", *config, caches);
+  if (!mission.ok()) {
+    state.SkipWithError("create");
+    return;
+  }
+  const std::string bytes = server::EncodeMissionState((*mission)->CaptureState());
+  std::vector<double> decode_ms, restore_ms;
+  for (auto _ : state) {
+    const auto t0 = Clock::now();
+    absl::StatusOr<server::MissionState> decoded = server::DecodeMissionState(bytes);
+    const auto t1 = Clock::now();
+    absl::StatusOr<std::shared_ptr<server::Mission>> restored =
+        server::Mission::Restore("e1", *config, *std::move(decoded), caches);
+    const auto t2 = Clock::now();
+    if (!restored.ok()) state.SkipWithError("restore");
+    decode_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    restore_ms.push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+  }
+  state.counters["snapshot_mb"] = static_cast<double>(bytes.size()) / 1e6;
+  state.counters["decode_ms"] = Median(decode_ms);
+  state.counters["restore_ms"] = Median(restore_ms);
+}
+BENCHMARK(BM_RestoreFromSnapshot)->Iterations(20)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace oaipp
