@@ -248,13 +248,18 @@ def render(folder, root):
             docs = [d for d in yaml.safe_load_all(patch["patch"]) if d is not None]
         else:
             raise Unsupported(f"{os.path.relpath(path, root)}: a patch without path or patch")
-        if patch.get("options"):
-            raise Unsupported(f"{label}: patch options")
+        options = patch.get("options") or {}
+        if set(options) - {"allowKindChange"}:
+            raise Unsupported(f"{label}: patch options {sorted(set(options) - {'allowKindChange'})}")
         if len(docs) == 1 and isinstance(docs[0], list):
             # JSON 6902 operations, applied to the target.
             target = patch.get("target")
             if not target:
                 raise Unsupported(f"{label}: JSON 6902 patch without a target")
+            if any(op.get("path") == "/kind" for op in docs[0]) and \
+                    not options.get("allowKindChange"):
+                # kustomize refuses such a patch without the option.
+                raise ValueError(f"{label}: changes /kind without options.allowKindChange")
             hits = [r for r in out if matches_target(r.doc, target)]
             if not hits:
                 raise ValueError(f"{label}: the target {target} matches no resource")
@@ -1154,6 +1159,44 @@ def check_cluster(ov):
     return errors
 
 
+def check_server_line(ov, cfg, sv, options, host, swhere, ids):
+    """A proxy's `server` line: a fixed id, and a name that stays the same
+    replica's (a StatefulSet pod's DNS name under its headless Service)."""
+    errors = []
+    sid = option_value(sv[3:], "id")
+    if sid is None:
+        errors.append(f"{swhere}: no id: HAProxy numbers servers in the order of the file, so "
+                      "proxies that list them in another order disagree on the hash ring")
+    elif sid in ids:
+        errors.append(f"{swhere}: id {sid} is also {ids[sid]}'s")
+    else:
+        ids[sid] = sv[1]
+    if re.fullmatch(r"[0-9.]+|\[[0-9a-fA-F:]*\]", host or ""):
+        return errors  # an address: the same replica for every proxy
+    resolvers = option_value(options, "resolvers")
+    if resolvers is None or ("resolvers", resolvers) not in cfg:
+        errors.append(f"{swhere}: resolvers {resolvers!r} is not defined")
+    labels = (host or "").split(".")
+    pod, service = labels[0], labels[1] if len(labels) > 1 else ""
+    s = ov.server
+    sts = (s.doc.get("metadata") or {}).get("name") if s else None
+    if s is None or s.doc.get("kind") != "StatefulSet":
+        errors.append(f"{swhere}: {host} names a pod, but the replicas are a "
+                      f"{s.doc.get('kind') if s else 'missing workload'}, whose pods have no "
+                      "stable names")
+        return errors
+    if not re.fullmatch(rf"{re.escape(sts)}-[0-9]+", pod):
+        errors.append(f"{swhere}: {pod} is not a pod of the StatefulSet {sts}")
+    if (s.doc.get("spec") or {}).get("serviceName") != service:
+        errors.append(f"{swhere}: {service} is not the StatefulSet's serviceName, so {host} "
+                      "does not resolve")
+    r = find(ov.resources, "Service", service)
+    if r is None or (r.doc.get("spec") or {}).get("clusterIP") != "None" or \
+            not selects((r.doc.get("spec") or {}).get("selector"), pod_labels(s.doc)):
+        errors.append(f"{swhere}: {service} is not a headless Service selecting the replicas")
+    return errors
+
+
 def check_proxy(ov):
     errors = []
     for w in ov.proxies:
@@ -1232,6 +1275,8 @@ def check_proxy(ov):
         if not servers:
             errors.append(f"{bwhere}: no server or server-template")
         listen_port = host_port(ov.server.get("listen"))[1] if ov.server else None
+        running = sum(replicas(p) for p in ov.proxies)
+        ids = {}
         for sv in servers:
             template = sv[0] == "server-template"
             address = sv[3] if template else sv[2]
@@ -1245,6 +1290,13 @@ def check_proxy(ov):
             if port != listen_port:
                 errors.append(f"{swhere}: port {port}, but the server's --listen port is "
                               f"{listen_port}")
+            if template and running > 1:
+                errors.append(f"{swhere}: {running} proxies with a server-template: each numbers "
+                              "its slots in the order its DNS answers come, so they disagree on "
+                              "the hash ring and route a mission to different replicas; list the "
+                              "StatefulSet's pods, one server line each with a fixed id")
+            if not template:
+                errors.extend(check_server_line(ov, cfg, sv, options, host, swhere, ids))
             if template:
                 resolvers = option_value(sv, "resolvers")
                 if resolvers is None or ("resolvers", resolvers) not in cfg:
@@ -1583,15 +1635,26 @@ FAULTS = [
     ("cluster", "hash-type consistent dropped", "proxy",
      lambda rs: proxy_cfg(rs, lambda t: t.replace("hash-type consistent", "hash-type map-based"))),
     ("cluster", "proto h2 dropped from the servers", "proxy",
-     lambda rs: proxy_cfg(rs, lambda t: re.sub(r"(server-template .*) proto h2", r"\1", t))),
+     lambda rs: proxy_cfg(rs, lambda t: t.replace("default-server proto h2", "default-server"))),
     ("cluster", "proto h2 dropped from the bind", "proxy",
      lambda rs: proxy_cfg(rs, lambda t: re.sub(r"(bind :50051.*) proto h2", r"\1", t))),
     ("cluster", "no health checks on the servers", "proxy",
-     lambda rs: proxy_cfg(rs, lambda t: re.sub(r"(server-template .*) check\b", r"\1", t))),
+     lambda rs: proxy_cfg(rs, lambda t: re.sub(r"(default-server .*) check\b", r"\1", t))),
     ("cluster", "option redispatch dropped", "proxy",
      lambda rs: proxy_cfg(rs, lambda t: t.replace("option redispatch", ""))),
-    ("cluster", "servers from a ClusterIP name", "proxy",
+    ("cluster", "servers named under a ClusterIP Service", "proxy",
      lambda rs: proxy_cfg(rs, lambda t: t.replace("oaipp-server-replicas.", "oaipp."))),
+    ("cluster", "two proxies with a server-template", "proxy",
+     lambda rs: proxy_cfg(rs, lambda t: re.sub(
+         r"( *server replica-.*\n)+",
+         "    server-template replica 8 "
+         "oaipp-server-replicas.${POD_NAMESPACE}.svc.cluster.local:50051\n", t))),
+    ("cluster", "server lines without ids", "proxy",
+     lambda rs: proxy_cfg(rs, lambda t: re.sub(r" id [0-9]+\n", "\n", t))),
+    ("cluster", "two server lines with one id", "proxy",
+     lambda rs: proxy_cfg(rs, lambda t: t.replace(" id 2\n", " id 1\n"))),
+    ("cluster", "the replicas as a Deployment (no stable pod names)", "proxy",
+     lambda rs: server_doc(rs).__setitem__("kind", "Deployment")),
     ("cluster", "a resolvers section that is not there", "proxy",
      lambda rs: proxy_cfg(rs, lambda t: t.replace("resolvers kube-dns init",
                                                   "resolvers dns init"))),
