@@ -93,12 +93,14 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
     // The claim left out what the early read has unless a later snapshot
     // was stored since; then it is a whole mission, rebuilt as usual.
     const bool continued = have_through > 0 && !claimed->snapshot.has_value();
-    absl::StatusOr<std::shared_ptr<Mission>> mission =
-        continued ? [&]() -> absl::StatusOr<std::shared_ptr<Mission>> {
-          OAIPP_RETURN_IF_ERROR(ReplayRecords(*prefetched, claimed->log));
-          return Finish(*std::move(prefetched), *claimed);
-        }()
-                  : Rebuild(*claimed);
+    absl::StatusOr<std::shared_ptr<Mission>> mission = absl::UnknownError("not rebuilt");
+    if (!continued) {
+      mission = Rebuild(*claimed);
+    } else if (absl::Status replayed = ReplayRecords(*prefetched, claimed->log); !replayed.ok()) {
+      mission = replayed;
+    } else {
+      mission = Finish(*std::move(prefetched), *claimed);
+    }
     if (!mission.ok()) {
       return absl::Status(mission.status().code(), absl::StrCat("taking over mission '", name,
                                                                 "': ", mission.status().message()));

@@ -58,8 +58,9 @@ std::vector<std::vector<std::optional<std::string>>> ExecBinary(const pqxx::dbtr
       if (PQgetisnull(result.get(), r, c)) {
         rows[r].emplace_back(std::nullopt);
       } else {
-        rows[r].emplace_back(std::string(PQgetvalue(result.get(), r, c),
-                                         static_cast<std::size_t>(PQgetlength(result.get(), r, c))));
+        rows[r].emplace_back(
+            std::string(PQgetvalue(result.get(), r, c),
+                        static_cast<std::size_t>(PQgetlength(result.get(), r, c))));
       }
     }
   }

@@ -49,8 +49,8 @@ absl::StatusOr<std::vector<StoredMission>> LoadMissions(pqxx::dbtransaction& tx,
           tx, "SELECT state FROM snapshots WHERE mission_id = $1 AND sequence = $2::bigint",
           {{.value = m.id, .binary = true}, {.value = absl::StrCat(m.snapshot->sequence)}});
       if (state.size() != 1 || !state[0][0].has_value()) {
-        return absl::UnavailableError(absl::StrCat(
-            "store: load: the snapshot of '", Printable(m.id), "' changed while read; retry"));
+        return absl::UnavailableError(absl::StrCat("store: load: the snapshot of '",
+                                                   Printable(m.id), "' changed while read; retry"));
       }
       m.snapshot->state = *std::move(state[0][0]);
     }

@@ -32,16 +32,16 @@
 namespace oaipp::server {
 namespace {
 
+using postgres::Blob;
 using postgres::Connection;
 using postgres::ConnectionPool;
-using postgres::Blob;
 using postgres::CurrentError;
 using postgres::FirstLine;
 using postgres::InDoubt;
-using postgres::LoadMissions;
 using postgres::kSchema;
 using postgres::kSchemaLockKey;
 using postgres::kSchemaVersion;
+using postgres::LoadMissions;
 using postgres::NoMission;
 using postgres::Printable;
 using postgres::ReadBytes;

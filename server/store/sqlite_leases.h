@@ -18,7 +18,7 @@ namespace oaipp::server::sqlite {
                                             const std::string& holder, std::int64_t now_us,
                                             std::int64_t until_us, bool free_if_holder_silent);
 [[nodiscard]] absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(sqlite3* db,
-                                                                const std::string& name);
+                                                                 const std::string& name);
 [[nodiscard]] absl::Status Heartbeat(sqlite3* db, const std::string& holder, std::int64_t until_us);
 [[nodiscard]] absl::Status Retire(sqlite3* db, const std::string& holder);
 

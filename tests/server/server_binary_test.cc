@@ -350,8 +350,8 @@ TEST(ServerBinaryTest, LateReorderedAndRepeatedMeasurementsGiveTheInOrderMap) {
   ASSERT_EQ(got.variance_size(), want.variance_size());
   double mean_error = 0, variance_error = 0;
   for (int i = 0; i < want.mean_size(); ++i) {
-    mean_error = std::max(mean_error, std::abs(got.mean(i) - want.mean(i)) /
-                                          (1.0 + std::abs(want.mean(i))));
+    mean_error =
+        std::max(mean_error, std::abs(got.mean(i) - want.mean(i)) / (1.0 + std::abs(want.mean(i))));
     variance_error =
         std::max(variance_error, std::abs(got.variance(i) - want.variance(i)) / want.variance(i));
   }

@@ -188,7 +188,7 @@ TEST_P(StoreTest, ALeaseOfASilentHolderIsFreeToThoseWhoAskSo) {
   };
   EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 0);  // nobody holds it
   ASSERT_TRUE(store->Heartbeat("a", 500).ok());
-  EXPECT_TRUE(lease("a", 100, true));    // a's until 1100, a alive until 500
+  EXPECT_TRUE(lease("a", 100, true));  // a's until 1100, a alive until 500
   EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 500);
   EXPECT_FALSE(lease("b", 200, true));   // a is alive
   EXPECT_FALSE(lease("b", 600, false));  // a is silent, but b did not ask for that
@@ -306,7 +306,8 @@ TEST_P(StoreTest, ASnapshotReplacesTheRecordsItCovers) {
   // Every byte value, NULs among them, and megabytes, as a map's snapshot
   // is: it must come back byte for byte whatever format carries it.
   std::string state("state\0\xff", 7);
-  for (int i = 0; i < (1 << 20); ++i) state.push_back(static_cast<char>((i * 131 + i / 256) & 0xff));
+  for (int i = 0; i < (1 << 20); ++i)
+    state.push_back(static_cast<char>((i * 131 + i / 256) & 0xff));
   ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 3, .state = state}).ok());
   // An older snapshot (a slow writer) does not replace a newer one.
   ASSERT_TRUE(store->PutSnapshot("m1", {.sequence = 2, .state = "old"}).ok());

@@ -232,9 +232,8 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
   absl::StatusOr<std::unique_ptr<MissionStore>> store =
       OpenSqliteStore((dir / "missions.db").string());
   ASSERT_TRUE(store.ok()) << store.status();
-  const RegistryLimits limits{.max_missions = 8,
-                              .max_cells_per_mission = 1600,
-                              .shared_store = true};
+  const RegistryLimits limits{
+      .max_missions = 8, .max_cells_per_mission = 1600, .shared_store = true};
   RegistryLimits a_limits = limits, b_limits = limits;
   a_limits.holder = "a";
   b_limits.holder = "b";
@@ -254,10 +253,10 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
     ASSERT_TRUE(input.ok()) << input.status();
     const std::string fingerprint = absl::StrCat("f", k);
     ASSERT_TRUE((*held)
-                    ->AddMeasurement(*input, {request.request_id(), fingerprint},
-                                     service_internal::Recorder(store->get(), **held,
-                                                                RecordKind::kMeasurement,
-                                                                request, fingerprint))
+                    ->AddMeasurement(
+                        *input, {request.request_id(), fingerprint},
+                        service_internal::Recorder(store->get(), **held, RecordKind::kMeasurement,
+                                                   request, fingerprint))
                     .ok());
   };
   for (int k = 0; k < 3; ++k) measure(k);

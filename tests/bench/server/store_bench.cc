@@ -17,13 +17,13 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "api/spec.h"
 #include "grpcpp/grpcpp.h"
 #include "server/server.h"
 #include "server/service.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
 #include "server/store/state_codec.h"
-#include "api/spec.h"
 #include "tests/bench/server/e1_mission.h"
 #include "tests/server/postgres_instance.h"
 
