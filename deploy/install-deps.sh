@@ -25,7 +25,7 @@ packages=(
   # durable missions: the embedded store and its command-line tool for backups;
   # PostgreSQL for several servers (the server library, and PostgreSQL 15 itself,
   # which the tests start in a temporary folder)
-  libsqlite3-dev sqlite3 libpqxx-dev postgresql-15 postgresql-client-15
+  libsqlite3-dev sqlite3 libpqxx-dev libpq-dev postgresql-15 postgresql-client-15
   # who gets in: token hashes (libssl's SHA-256), and openssl to make test certificates
   libssl-dev openssl
   # a fleet past one machine: the gRPC-aware proxy in front of the replicas

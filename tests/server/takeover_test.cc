@@ -232,15 +232,18 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
   absl::StatusOr<std::unique_ptr<MissionStore>> store =
       OpenSqliteStore((dir / "missions.db").string());
   ASSERT_TRUE(store.ok()) << store.status();
-  const RegistryLimits limits{
-      .max_missions = 8, .max_cells_per_mission = 1600, .shared_store = true};
+  // silent_after longer than a server's 500 ms, so that the steps below
+  // keep their order under the sanitizers' slowness too.
+  const RegistryLimits limits{.max_missions = 8,
+                              .max_cells_per_mission = 1600,
+                              .shared_store = true,
+                              .silent_after = absl::Seconds(2)};
   RegistryLimits a_limits = limits, b_limits = limits;
   a_limits.holder = "a";
   b_limits.holder = "b";
   MissionRegistry a(a_limits, store->get()), b(b_limits, store->get());
 
-  // "a" says it is alive for silent_after, once, and creates the mission.
-  ASSERT_TRUE((*store)->Heartbeat("a", absl::ToUnixMicros(absl::Now() + limits.silent_after)).ok());
+  // "a" creates the mission and stores three measurements.
   absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(testing::SmallSpec());
   ASSERT_TRUE(config.ok()) << config.status();
   absl::StatusOr<std::shared_ptr<Mission>> held = a.Create("m", *config, "create-m");
@@ -261,13 +264,14 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
   };
   for (int k = 0; k < 3; ++k) measure(k);
 
-  // A call reaches "b" while "a" is still alive on paper: "b" waits for
-  // it to fall silent, reading the mission once "a" has missed two
-  // heartbeats (after 2/5 of silent_after). "a" stores one more
-  // measurement after that, before it is found silent.
+  // "a" says once that it is alive for silent_after, and a call reaches
+  // "b": "b" waits for "a" to fall silent, reading the mission once "a" has
+  // missed two heartbeats (after 2/5 of silent_after). "a" stores one more
+  // measurement after that (at 3/5), before it is found silent.
+  ASSERT_TRUE((*store)->Heartbeat("a", absl::ToUnixMicros(absl::Now() + limits.silent_after)).ok());
   absl::StatusOr<std::shared_ptr<Mission>> taken;
   std::thread call([&] { taken = b.Get("missions/m"); });
-  absl::SleepFor(limits.silent_after * 7 / 10);
+  absl::SleepFor(limits.silent_after * 3 / 5);
   measure(3);
   call.join();
   ASSERT_TRUE(taken.ok()) << taken.status();
