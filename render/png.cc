@@ -30,14 +30,9 @@ absl::StatusOr<std::string> EncodePngBgr(const std::uint8_t* bgr, int width, int
   // libpng counts the stride in components (bytes here).
   const auto stride = static_cast<png_int_32>(row_stride);
 
-  // First the size, then the bytes: the simplified API writes to memory in
-  // two calls rather than through callbacks and setjmp.
-  png_alloc_size_t size = 0;
-  if (png_image_write_to_memory(&image, nullptr, &size, 0, bgr, stride, nullptr) == 0) {
-    const std::string why = image.message;
-    png_image_free(&image);
-    return absl::InternalError(absl::StrCat("png: ", why));
-  }
+  // One pass into a buffer of libpng's bound for this image (the raw rows
+  // plus zlib's and the format's worst-case overhead), trimmed after.
+  png_alloc_size_t size = PNG_IMAGE_PNG_SIZE_MAX(image);
   std::string bytes(size, '\0');
   if (png_image_write_to_memory(&image, bytes.data(), &size, 0, bgr, stride, nullptr) == 0) {
     const std::string why = image.message;

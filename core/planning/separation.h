@@ -1,4 +1,4 @@
-// Keeping the UAVs of one mission apart (docs/method.md §7.9).
+// Keeping the UAVs of one mission apart (docs/method.md §7.8).
 //
 // One distance rule serves the optimiser and the final check alike: two
 // UAVs are separated at an instant when their centres are at least
