@@ -31,7 +31,18 @@ struct GeoPoint {
   friend bool operator==(const GeoPoint&, const GeoPoint&) = default;
 };
 
+// How a mission holds its map (proto MapBackend).
+enum class MapBackend {
+  kAuto,    // the server chooses by the field's size (ResolveMapBackend)
+  kDense,   // GpMap: the covariance, 8 n^2 bytes
+  kSparse,  // SparseGpMap: a sparse precision, a few KB a cell
+};
+
 struct MissionConfig {
+  // Fields of up to this many cells get a dense map unless they ask
+  // otherwise (the server's --max_dense_cells, by default).
+  static constexpr std::int64_t kDefaultMaxDenseCells = 4096;
+
   // Altitude of the default start (over the field's centre, at rest), m.
   static constexpr double kDefaultStartAltitude_m = 10.0;
   // Image size assumed for detections sent without intrinsics, pixels.
@@ -43,6 +54,7 @@ struct MissionConfig {
   Vec2 field_min_W = Vec2(-15, -15);
   Vec2 field_max_W = Vec2(15, 15);
   double resolution_m = 0.75;
+  MapBackend map_backend = MapBackend::kAuto;
   GpParams gp = GpParams::PaperPreset(0.75);
   DownwardCamera camera;
   SensorNoise noise;
@@ -66,6 +78,12 @@ struct MissionConfig {
   [[nodiscard]] double sensor_rate_hz() const { return camera.rate_hz; }
   // The field's cells. Errors as FieldGrid::FromBounds.
   [[nodiscard]] absl::StatusOr<FieldGrid> MakeGrid() const;
+  // The field's number of cells, from the corners and resolution (as the
+  // grid would count them; for limits checked before a grid is made).
+  [[nodiscard]] double CellCount() const;
+  // map_backend, or for kAuto: dense up to max_dense_cells, sparse above.
+  [[nodiscard]] MapBackend ResolveMapBackend(
+      std::int64_t max_dense_cells = kDefaultMaxDenseCells) const;
   // The flight volume with the mission's obstacles and its ESDF. Errors as
   // Environment::Create and Environment::Apply.
   [[nodiscard]] absl::StatusOr<Environment> MakeEnvironment() const;

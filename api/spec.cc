@@ -44,6 +44,21 @@ absl::Status FillField(const v1::FieldSpec& f, MissionConfig& c) {
   OAIPP_ASSIGN_OR_RETURN(c.field_max_W, FieldCorner(f, /*max_corner=*/true));
   c.resolution_m = OrDefault(f.has_resolution_m(), f.resolution_m(), kDefaults.resolution_m);
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.field.resolution_m", c.resolution_m));
+  switch (f.map_backend()) {
+    case v1::MAP_BACKEND_UNSPECIFIED:
+      c.map_backend = MapBackend::kAuto;
+      break;
+    case v1::MAP_BACKEND_DENSE:
+      c.map_backend = MapBackend::kDense;
+      break;
+    case v1::MAP_BACKEND_SPARSE:
+      c.map_backend = MapBackend::kSparse;
+      break;
+    default:
+      return absl::InvalidArgumentError(
+          absl::StrCat("spec.field.map_backend: unknown value ", static_cast<int>(f.map_backend()),
+                       " (expected MAP_BACKEND_DENSE or MAP_BACKEND_SPARSE)"));
+  }
   for (int a = 0; a < 2; ++a) {
     if (!(c.field_max_W[a] > c.field_min_W[a])) {
       const char* axis = a == 0 ? "x" : "y";
@@ -359,6 +374,9 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   f.set_x_max_m(c.field_max_W.x());
   f.set_y_max_m(c.field_max_W.y());
   f.set_resolution_m(c.resolution_m);
+  f.set_map_backend(c.map_backend == MapBackend::kDense    ? v1::MAP_BACKEND_DENSE
+                    : c.map_backend == MapBackend::kSparse ? v1::MAP_BACKEND_SPARSE
+                                                           : v1::MAP_BACKEND_UNSPECIFIED);
 
   v1::GpSpec& g = *spec.mutable_gp();
   g.set_length_scale_m(c.gp.length_scale_m);

@@ -32,6 +32,7 @@ struct MeasurementResult {
   int cells_fused = 0;
   double trace = 0.0;
   std::int64_t measurements_fused = 0;
+  std::int64_t trace_measurements_fused = 0;  // the measurements `trace` includes
 };
 
 // The first answer to a request_id.

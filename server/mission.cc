@@ -51,18 +51,26 @@ std::int64_t LogEntryBytes(const LogEntry& entry) {
 
 }  // namespace
 
-Mission::Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
+Mission::Mission(std::string id, MissionConfig config, FieldGrid grid, Environment env,
+                 std::shared_ptr<GpMap> map, std::unique_ptr<LargeFieldMap> large,
                  std::unique_ptr<Planner> planner, const SiteCaches& caches)
     : id_(std::move(id)),
       config_(std::move(config)),
+      grid_(std::move(grid)),
       create_time_(absl::FromUnixMicros(absl::ToUnixMicros(absl::Now()))),  // as stored
-      map_bytes_(8 * static_cast<std::int64_t>(map->num_cells()) *
-                 (static_cast<std::int64_t>(map->num_cells()) + 1)),
+      map_bytes_(map == nullptr ? 0
+                                : 8 * static_cast<std::int64_t>(map->num_cells()) *
+                                      (static_cast<std::int64_t>(map->num_cells()) + 1)),
       esdfs_(caches.esdfs),
       worlds_(caches.worlds),
       env_(Shared(std::move(env), caches.esdfs)),
       map_(std::move(map)),
-      planner_(std::move(planner)) {}
+      large_(std::move(large)),
+      planner_(std::move(planner)) {
+  if (large_ != nullptr) {
+    added_ = std::make_shared<SparseGpMap::Additions>(SparseGpMap::NoAdditions(grid_.num_cells()));
+  }
+}
 
 absl::StatusOr<Environment> Mission::BuildWorld(const MissionConfig& config,
                                                 const std::string& world_key,
@@ -98,6 +106,27 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
         needed));
   }
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
+  OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
+  if (config.ResolveMapBackend() == api::MapBackend::kSparse) {
+    // Its own prior: the sparse maps of a site are not shared (yet).
+    OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<LargeFieldMap> large,
+                           LargeFieldMap::Create(grid, config.gp));
+    std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), grid,
+                                                 std::move(env), nullptr, std::move(large),
+                                                 std::move(planner), caches));
+    LargeFieldMap::Target first;
+    {
+      absl::MutexLock lock(&mission->mu_);
+      OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
+      mission->mission_time_s_ = mission->config_.start.mission_time_s;
+      first = mission->SparseTarget();
+    }
+    // The first variance map, so that the mission reports its trace.
+    OAIPP_RETURN_IF_ERROR(mission->large_->Read(first).status());
+    absl::MutexLock lock(&mission->mu_);
+    mission->Publish();
+    return mission;
+  }
   // The map's updates run on the backend the objective's products run on
   // (the server's --dense_backend).
   auto prior = [&]() -> absl::StatusOr<GpMap> {
@@ -130,9 +159,9 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
     OAIPP_ASSIGN_OR_RETURN(GpMap fresh, prior());
     map = std::make_shared<GpMap>(std::move(fresh));
   }
-  OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
-  std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::move(map), std::move(planner), caches));
+  std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(grid),
+                                               std::move(env), std::move(map), nullptr,
+                                               std::move(planner), caches));
   absl::MutexLock lock(&mission->mu_);
   mission->start_map_ = std::move(start_map);
   mission->covered_cells_.insert(covered.begin(), covered.end());
@@ -144,38 +173,17 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
 
 absl::Status Mission::FuseCoveredCells() {
   std::vector<int> fresh;
-  for (int c : CellsUnder(map_->grid(), *env_)) {
+  for (int c : CellsUnder(grid_, *env_)) {
     if (!covered_cells_.contains(c)) fresh.push_back(c);
   }
   if (fresh.empty()) return absl::OkStatus();
-  OAIPP_RETURN_IF_ERROR(MutableMap().FuseNearCertainZeros(fresh));
+  if (large_ != nullptr) {
+    OAIPP_RETURN_IF_ERROR(FuseIntoMap(SparseGpMap::NearCertainZeros(fresh), /*defer=*/false));
+  } else {
+    OAIPP_RETURN_IF_ERROR(MutableMap().FuseNearCertainZeros(fresh));
+  }
   covered_cells_.insert(fresh.begin(), fresh.end());
   return absl::OkStatus();
-}
-
-std::int64_t Mission::MemoryBytes() const {
-  std::shared_ptr<const Environment> env;
-  {
-    absl::MutexLock lock(&summary_mu_);
-    env = summary_.env;
-  }
-  if (env == nullptr) return map_bytes_;
-  const Esdf& esdf = env->esdf();
-  std::int64_t users = esdf.SharedBy();
-  if (worlds_ != nullptr && worlds_->HoldsGrid(esdf.values().data())) --users;
-  return map_bytes_ +
-         static_cast<std::int64_t>(esdf.MemoryBytes()) / std::max<std::int64_t>(1, users);
-}
-
-GpMap& Mission::MutableMap() {
-  // Only holders of mu_ copy map_, and this one holds it for writing: a
-  // count of 1 cannot grow under us. A plan that lets go meanwhile costs
-  // one needless copy, no harm.
-  // The shared start map and its conditionings are no longer this
-  // mission's (a plan in progress keeps what it holds).
-  start_map_.reset();
-  if (map_.use_count() > 1) map_ = std::make_shared<GpMap>(map_->Clone());
-  return *map_;
 }
 
 void Mission::Publish(bool obstacles_changed) {
@@ -189,10 +197,25 @@ void Mission::Publish(bool obstacles_changed) {
     next.obstacles = summary_.obstacles;  // shared, not copied
   }
   next.env = env_;
-  next.trace = map_->Trace();
+  if (large_ != nullptr) {
+    // The newest variance map; SettleMap brings it up to date.
+    const std::shared_ptr<const LargeFieldMap::Reading> reading = large_->latest();
+    next.trace = reading->trace;
+    next.trace_measurements_fused = reading->measurements_fused;
+    next.trace_version = reading->version;
+  } else {
+    next.trace = map_->Trace();
+    next.trace_measurements_fused = measurements_fused_;
+  }
   next.measurements_fused = measurements_fused_;
   next.mission_time_s = mission_time_s_;
   absl::MutexLock lock(&summary_mu_);
+  // A background refresh may have published a newer variance map.
+  if (large_ != nullptr && summary_.trace_version > next.trace_version) {
+    next.trace = summary_.trace;
+    next.trace_measurements_fused = summary_.trace_measurements_fused;
+    next.trace_version = summary_.trace_version;
+  }
   summary_ = std::move(next);
 }
 
@@ -242,7 +265,7 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
 
 absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
     const MeasurementInput& input) const {
-  const FieldGrid& grid = map_->grid();
+  const FieldGrid& grid = grid_;
   const Vec3& p = input.pose.p_WC;
   if (!env_->flight_volume().Contains(p, 1e-6)) {
     return absl::InvalidArgumentError(absl::StrCat("camera_position_m: (", p.x(), ", ", p.y(), ", ",
@@ -295,15 +318,19 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     // Durable first: a failed write leaves the mission as it was.
     OAIPP_RETURN_IF_ERROR(Persist(persist));
     absl::MutexLock lock(&mu_);
-    GpMap& map = MutableMap();
-    OAIPP_RETURN_IF_ERROR(map.UpdateDeferred(observations));
+    OAIPP_RETURN_IF_ERROR(FuseIntoMap(observations, /*defer=*/true));
     ++measurements_fused_;
     mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
-    result =
-        MeasurementResult{static_cast<int>(observations.size()), map.Trace(), measurements_fused_};
     log_.push_back(input);
     log_bytes_ += entry_bytes;
     Publish(/*obstacles_changed=*/false);
+    {
+      absl::MutexLock summary_lock(&summary_mu_);
+      result = MeasurementResult{.cells_fused = static_cast<int>(observations.size()),
+                                 .trace = summary_.trace,
+                                 .measurements_fused = measurements_fused_,
+                                 .trace_measurements_fused = summary_.trace_measurements_fused};
+    }
     answers_.Remember(request, result);
   }
   std::vector<int> detected;
@@ -313,9 +340,9 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
   std::sort(detected.begin(), detected.end());
   detected.erase(std::unique(detected.begin(), detected.end()), detected.end());
   track_.Add(input.pose.p_WC, detected, nullptr);
-  events_.Emit(MissionEventData::MeasurementFused{input.mission_time_s, result.cells_fused,
-                                                  result.trace, input.pose.p_WC,
-                                                  std::move(detected)});
+  events_.Emit(MissionEventData::MeasurementFused{
+      input.mission_time_s, result.cells_fused, result.trace, input.pose.p_WC, std::move(detected),
+      result.trace_measurements_fused});
   MaybeWantSnapshot();
   return result;
 }
@@ -342,18 +369,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   // The world and map as they are now; changes made while planning go to
   // copies (MutableMap) and count from the next plan.
   std::shared_ptr<const Environment> env;
-  std::shared_ptr<const GpMap> map;
-  std::shared_ptr<ConditionedCache> conditioned;
-  {
-    // Settled and taken under one lock, so no measurement leaves it pending
-    // in between.
-    absl::MutexLock lock(&mu_);
-    map_->Settle();
-    env = env_;
-    map = map_;
-    // MutableMap lets go of start_map_ at the map's first change.
-    if (start_map_ != nullptr && start_map_->map == map_) conditioned = start_map_->conditioned;
-  }
+  OAIPP_ASSIGN_OR_RETURN(PlanMap plan_map, MapForPlan(state.position_W.head<2>(), &env));
+  std::shared_ptr<const GpMap> map = std::move(plan_map.map);
+  std::shared_ptr<ConditionedCache> conditioned = std::move(plan_map.conditioned);
   // The planning budget counts from here: a caller that queued the plan
   // calls this once a planner is free, and neither waiting nor settling the
   // last measurement's downdate is planning.
@@ -441,8 +459,13 @@ MissionState Mission::CaptureState() const {
   state.sequence = next_sequence() - 1;
   for (const auto& [id, o] : env_->obstacles()) state.obstacles.push_back(o);
   state.covered_cells.assign(covered_cells_.begin(), covered_cells_.end());
-  state.mean = map_->Mean();
-  state.covariance = map_->Covariance();
+  if (large_ != nullptr) {
+    state.added_precision = added_->precision;
+    state.added_information = added_->information;
+  } else {
+    state.mean = map_->Mean();
+    state.covariance = map_->Covariance();
+  }
   state.measurements_fused = measurements_fused_;
   state.mission_time_s = mission_time_s_;
   state.paths_planned = paths_planned_.load();
@@ -510,36 +533,13 @@ MissionSnapshot Mission::Snapshot() const {
     absl::MutexLock lock(&summary_mu_);
     s.obstacles = *summary_.obstacles;
     s.trace = summary_.trace;
+    s.trace_measurements_fused = summary_.trace_measurements_fused;
     s.measurements_fused = summary_.measurements_fused;
     s.mission_time_s = summary_.mission_time_s;
   }
   s.memory_bytes = MemoryBytes();
   s.paths_planned = paths_planned_.load();
   return s;
-}
-
-void Mission::ReadMap(const std::function<void(const GpMap&)>& reader) const {
-  SettleMap();
-  {
-    absl::ReaderMutexLock lock(&mu_);
-    if (map_->settled()) {
-      reader(*map_);
-      return;
-    }
-  }
-  // A measurement came in between: settle and read under one lock, so that
-  // a steady stream of them cannot keep the reader waiting.
-  absl::MutexLock lock(&mu_);
-  map_->Settle();
-  reader(*map_);
-}
-
-void Mission::SettleMap() const {
-  absl::MutexLock lock(&mu_);
-  // Settling changes how the map is stored, not what it holds: no reader
-  // holds a map with a downdate pending (they settle it first), so this is
-  // the only copy.
-  map_->Settle();
 }
 
 absl::Status Mission::CheckLogRoom(std::int64_t bytes) const {

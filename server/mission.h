@@ -32,6 +32,7 @@
 #include <memory>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <variant>
 #include <vector>
@@ -40,6 +41,7 @@
 #include "absl/status/statusor.h"
 #include "absl/synchronization/mutex.h"
 #include "absl/time/time.h"
+#include "api/map.h"
 #include "api/mission_config.h"
 #include "core/environment/environment.h"
 #include "core/environment/world_cache.h"
@@ -47,6 +49,7 @@
 #include "core/planning/planners.h"
 #include "server/flight_track.h"
 #include "server/idempotency_memo.h"
+#include "server/large_field_map.h"
 #include "server/mission_events.h"
 #include "server/mission_state.h"
 #include "server/site_caches.h"
@@ -67,6 +70,9 @@ struct MissionSnapshot {
   std::vector<Obstacle> obstacles;
   double trace = 0.0;
   std::int64_t measurements_fused = 0;
+  // The measurements `trace` includes (fewer than measurements_fused while
+  // a sparse map's variances are computed).
+  std::int64_t trace_measurements_fused = 0;
   std::int64_t paths_planned = 0;
   double mission_time_s = 0.0;
   std::int64_t memory_bytes = 0;
@@ -186,15 +192,24 @@ class Mission {
   // RESOURCE_EXHAUSTED before anything is applied or stored. The registry
   // sets it from the mission's memory budget; no limit until then.
   void set_log_limit(std::int64_t bytes) { log_limit_.store(bytes); }
-  // Reads the map under the reader lock (settled first, see SettleMap).
+  // Reads a dense map under the reader lock (settled first, see
+  // SettleMap); on a sparse map (config().map_backend) it calls nothing.
   void ReadMap(const std::function<void(const GpMap&)>& reader) const;
+  // Reads the whole map as it is now, dense or sparse: for a sparse map
+  // its mean and variances, computed when they are not current (seconds on
+  // a large field; the mission's changes do not wait for it). Errors:
+  // Internal when the sparse map's factorisation fails.
+  [[nodiscard]] absl::Status ReadMapView(
+      const std::function<void(const api::MapView&)>& reader) const;
   // AddMeasurement answers once the measurement is durable and fused into
   // the map's mean and trace; the covariance's rank-m downdate, most of a
   // small shot's work, is left pending (GpMap::UpdateDeferred). Everything
   // that reads the covariance (a plan, ReadMap, a snapshot, the next update)
   // settles it first, so no reader sees the difference; this applies it
   // early, off the caller's path (the server calls it right after
-  // answering).
+  // answering). On a sparse map it computes the variance map of the
+  // mission as it is now, for the trace the mission reports (nothing when
+  // that is current).
   void SettleMap() const;
   [[nodiscard]] std::vector<LogEntry> Log() const;
   [[nodiscard]] const std::string& id() const { return id_; }
@@ -247,8 +262,23 @@ class Mission {
   void NoteTookOff() { grounded_since_ns_.store(kNotGrounded); }
 
  private:
-  Mission(std::string id, MissionConfig config, Environment env, std::shared_ptr<GpMap> map,
+  // Exactly one of `map` (dense) and `large` (sparse) is set.
+  Mission(std::string id, MissionConfig config, FieldGrid grid, Environment env,
+          std::shared_ptr<GpMap> map, std::unique_ptr<LargeFieldMap> large,
           std::unique_ptr<Planner> planner, const SiteCaches& caches);
+  // A sparse map's state now, for LargeFieldMap.
+  LargeFieldMap::Target SparseTarget() const ABSL_SHARED_LOCKS_REQUIRED(mu_);
+  // Fuses into the map, dense or sparse (the dense one's downdate deferred
+  // when `defer`).
+  absl::Status FuseIntoMap(std::span<const CellObservation> observations, bool defer)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // For a plan: the dense map, or a sparse map's window around
+  // `centre_W`, as of now (the latter built without holding mu_).
+  struct PlanMap {
+    std::shared_ptr<const GpMap> map;
+    std::shared_ptr<ConditionedCache> conditioned;
+  };
+  absl::StatusOr<PlanMap> MapForPlan(const Vec2& centre_W, std::shared_ptr<const Environment>* env);
   // config.MakeEnvironment(), or a clone of the world cache's copy under
   // `world_key` (WorldKey(config)) when the caches have a world cache.
   static absl::StatusOr<Environment> BuildWorld(const MissionConfig& config,
@@ -272,8 +302,9 @@ class Mission {
 
   const std::string id_;
   const MissionConfig config_;
+  const FieldGrid grid_;
   absl::Time create_time_;  // set by the constructor, or by recovery before the mission is shared
-  const std::int64_t map_bytes_;  // mean and covariance
+  const std::int64_t map_bytes_;  // a dense map's mean and covariance
   // Where equal ESDFs are shared (nullptr: not shared), and the worlds a
   // new mission clones (their hold on a grid is not a mission's share).
   EsdfPool* const esdfs_;
@@ -292,7 +323,12 @@ class Mission {
   // Shared with plans in progress; replaced, never changed in place, while
   // a plan holds them.
   std::shared_ptr<const Environment> env_ ABSL_GUARDED_BY(mu_);
-  std::shared_ptr<GpMap> map_ ABSL_GUARDED_BY(mu_);
+  std::shared_ptr<GpMap> map_ ABSL_GUARDED_BY(mu_);  // dense (else nullptr)
+  // Sparse: the map, read off mu_, and what was fused into it (copied
+  // before a change while a reader holds it) with the count of fusions.
+  const std::unique_ptr<LargeFieldMap> large_;
+  std::shared_ptr<SparseGpMap::Additions> added_ ABSL_GUARDED_BY(mu_);
+  std::int64_t map_version_ ABSL_GUARDED_BY(mu_) = 0;
   // The shared map this mission started from, until its map changes
   // (MutableMap): plans share its conditioned covariances.
   std::shared_ptr<const StartMap> start_map_ ABSL_GUARDED_BY(mu_);
@@ -314,11 +350,13 @@ class Mission {
     // The world as of this summary, for its ESDF's share of the memory.
     std::shared_ptr<const Environment> env;
     double trace = 0.0;
+    std::int64_t trace_measurements_fused = 0;
+    std::int64_t trace_version = 0;  // a sparse map's version of `trace`
     std::int64_t measurements_fused = 0;
     double mission_time_s = 0.0;
   };
   mutable absl::Mutex summary_mu_;
-  Summary summary_ ABSL_GUARDED_BY(summary_mu_);
+  mutable Summary summary_ ABSL_GUARDED_BY(summary_mu_);  // SettleMap sets a sparse trace
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
   // Not under planner_mu_: that is held for a whole plan, and Snapshot
   // must not wait for one.

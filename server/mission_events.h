@@ -33,7 +33,8 @@ struct MissionEventData {
     int cells_fused = 0;
     double trace = 0.0;
     Vec3 camera_position_W = Vec3::Zero();
-    std::vector<int> detected_cells;  // labelled >= kDetectedLabel
+    std::vector<int> detected_cells;            // labelled >= kDetectedLabel
+    std::int64_t trace_measurements_fused = 0;  // the measurements `trace` includes
   };
   struct ObstaclesChanged {
     int obstacle_count = 0;

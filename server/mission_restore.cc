@@ -24,11 +24,17 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
       Environment env,
       BuildWorld(stored_world, caches.worlds != nullptr ? WorldKey(stored_world) : "", caches));
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
-  if (state.mean.size() != grid.num_cells() || state.covariance.rows() != grid.num_cells() ||
-      state.covariance.cols() != grid.num_cells()) {
-    return absl::InvalidArgumentError(absl::StrCat("state: a map of ", state.mean.size(),
-                                                   " cells does not fit the ", grid.num_cells(),
-                                                   "-cell field of the spec"));
+  const bool sparse = config.ResolveMapBackend() == api::MapBackend::kSparse;
+  const Eigen::Index n = grid.num_cells();
+  const bool fits = sparse ? state.added_precision.size() == n &&
+                                 state.added_information.size() == n && state.mean.size() == 0
+                           : state.mean.size() == n && state.covariance.rows() == n &&
+                                 state.covariance.cols() == n && state.added_precision.size() == 0;
+  if (!fits) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("state: the snapshot's map (", state.mean.size(), " means, ",
+                     state.added_precision.size(), " sparse additions) does not fit the spec's ",
+                     sparse ? "sparse" : "dense", " map of ", n, " cells"));
   }
   for (int cell : state.covered_cells) {
     if (!grid.IsValidCell(cell)) {
@@ -36,19 +42,42 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
           absl::StrCat("state: covered cell ", cell, " is outside the field"));
     }
   }
-  OAIPP_ASSIGN_OR_RETURN(
-      GpMap map, GpMap::FromPrior(grid, std::move(state.mean), std::move(state.covariance)));
-  map.set_dense_backend(config.planner.common.information.dense_backend);
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
-  std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), std::move(env),
-                                               std::make_shared<GpMap>(std::move(map)),
-                                               std::move(planner), caches));
+  std::shared_ptr<Mission> mission;
+  if (sparse) {
+    OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<LargeFieldMap> large,
+                           LargeFieldMap::Create(grid, config.gp));
+    mission.reset(new Mission(std::move(id), std::move(config), std::move(grid), std::move(env),
+                              nullptr, std::move(large), std::move(planner), caches));
+  } else {
+    OAIPP_ASSIGN_OR_RETURN(
+        GpMap map, GpMap::FromPrior(grid, std::move(state.mean), std::move(state.covariance)));
+    map.set_dense_backend(config.planner.common.information.dense_backend);
+    mission.reset(new Mission(std::move(id), std::move(config), std::move(grid), std::move(env),
+                              std::make_shared<GpMap>(std::move(map)), nullptr, std::move(planner),
+                              caches));
+  }
+  LargeFieldMap::Target restored;
   {
     absl::MutexLock lock(&mission->mu_);
     mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
     mission->measurements_fused_ = state.measurements_fused;
     mission->mission_time_s_ = state.mission_time_s;
+    if (sparse) {
+      mission->added_ = std::make_shared<SparseGpMap::Additions>(
+          SparseGpMap::Additions{.precision = std::move(state.added_precision),
+                                 .information = std::move(state.added_information)});
+      // Any version past the prior's: versions only order one copy's maps.
+      mission->map_version_ = 1;
+      restored = mission->SparseTarget();
+    }
+  }
+  // The variance map of the state, for the trace the mission reports
+  // (InvalidArgument for additions that are negative or not finite).
+  if (sparse) OAIPP_RETURN_IF_ERROR(mission->large_->Read(restored).status());
+  {
+    absl::MutexLock lock(&mission->mu_);
     mission->Publish();
   }
   {

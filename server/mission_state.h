@@ -20,8 +20,13 @@ struct MissionState {
   std::int64_t sequence = 0;
   std::vector<Obstacle> obstacles = {};
   std::vector<int> covered_cells = {};  // fused as near-certain zeros
+  // A dense map: its mean and covariance.
   Eigen::VectorXd mean = {};
   Eigen::MatrixXd covariance = {};
+  // A sparse map instead: what was fused into it, per cell
+  // (SparseGpMap::Additions).
+  Eigen::VectorXd added_precision = {};
+  Eigen::VectorXd added_information = {};
   std::int64_t measurements_fused = 0;
   double mission_time_s = 0.0;
   std::int64_t paths_planned = 0;

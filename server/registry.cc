@@ -78,14 +78,22 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     return absl::InvalidArgumentError(
         absl::StrCat("mission_id: must match [a-z0-9-]{1,63}, got ", api::EchoInput(mission_id)));
   }
-  const double nx = (config.field_max_W.x() - config.field_min_W.x()) / config.resolution_m;
-  const double ny = (config.field_max_W.y() - config.field_min_W.y()) / config.resolution_m;
-  const double cells = std::round(nx) * std::round(ny);
+  const double cells = config.CellCount();
   if (cells > static_cast<double>(limits_.max_cells_per_mission)) {
     return absl::ResourceExhaustedError(absl::StrFormat(
-        "spec.field: %.0f cells exceed this server's limit of %d per mission (the covariance "
-        "would take %.0f MB); use a coarser resolution_m or a smaller field",
-        cells, limits_.max_cells_per_mission, 8.0 * cells * cells / 1e6));
+        "spec.field: %.0f cells exceed this server's limit of %d per mission; use a coarser "
+        "resolution_m or a smaller field",
+        cells, limits_.max_cells_per_mission));
+  }
+  // The spec as stored names the map it got, so that every server that
+  // reads the mission back holds the same map.
+  config.map_backend = config.ResolveMapBackend(limits_.max_dense_cells);
+  if (config.map_backend == api::MapBackend::kDense &&
+      cells > static_cast<double>(limits_.max_dense_cells)) {
+    return absl::ResourceExhaustedError(absl::StrFormat(
+        "spec.field.map_backend: a dense map of %.0f cells (its covariance would take %.0f MB) "
+        "exceeds this server's limit of %d; ask for MAP_BACKEND_SPARSE or leave it unspecified",
+        cells, 8.0 * cells * cells / 1e6, limits_.max_dense_cells));
   }
   OAIPP_ASSIGN_OR_RETURN(const std::int64_t estimate, AdmitMemory(config));
   // request_ids, like mission ids, are the tenant's own.
@@ -244,12 +252,16 @@ std::shared_ptr<Mission> MissionRegistry::Find(const std::string& key) const {
 
 MemoryEstimate EstimateMissionBytes(const MissionConfig& config) {
   MemoryEstimate e;
-  const double nx =
-      std::round((config.field_max_W.x() - config.field_min_W.x()) / config.resolution_m);
-  const double ny =
-      std::round((config.field_max_W.y() - config.field_min_W.y()) / config.resolution_m);
-  const double cells = std::max(0.0, nx * ny);
-  e.map_bytes = static_cast<std::int64_t>(2.0 * 8.0 * cells * (cells + 1.0));
+  const double cells = config.CellCount();
+  if (config.ResolveMapBackend() == api::MapBackend::kSparse) {
+    // The sparse map's factor grows as n log n: 4.1 KB a cell were measured
+    // at 90,000 cells and 4.6 KB at 250,000 (docs/benchmarks.md); this
+    // counts about 30 % more, and the planner's dense window of 41 x 41
+    // cells (its covariance and the objective's copies).
+    e.map_bytes = static_cast<std::int64_t>(330.0 * cells * std::log2(std::max(2.0, cells)) + 64e6);
+  } else {
+    e.map_bytes = static_cast<std::int64_t>(2.0 * 8.0 * cells * (cells + 1.0));
+  }
   // The ESDF: 4 bytes a voxel.
   const double voxels = static_cast<double>(Esdf::VoxelCount(config.FlightVolume(), config.esdf));
   e.esdf_bytes = static_cast<std::int64_t>(std::min(2.0 * 4.0 * voxels, 1e18));

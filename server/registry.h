@@ -33,9 +33,12 @@ namespace oaipp::server {
 struct RegistryLimits {
   // Missions held at once. Valid: >= 1.
   int max_missions = 64;
-  // Cells of one mission's map: its covariance costs 8 n^2 bytes (1600 cells:
-  // 20 MB; 4096 cells: 134 MB). Valid: >= 1.
-  std::int64_t max_cells_per_mission = 4096;
+  // Cells of one mission's map. Valid: >= 1.
+  std::int64_t max_cells_per_mission = 250'000;
+  // Cells of the largest dense map (its covariance costs 8 n^2 bytes: 1600
+  // cells, 20 MB; 4096 cells, 134 MB), and the field size above which a
+  // spec that names no map_backend gets the sparse map. Valid: >= 1.
+  std::int64_t max_dense_cells = 4096;
   // Prior covariances kept for missions over the same kind of field, and
   // starting maps (the prior with the ground under a site's obstacles
   // fused) for missions over the same site, each as many (8 n^2 bytes

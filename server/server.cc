@@ -131,6 +131,7 @@ absl::StatusOr<ServerParts> Server::PartsFromOptions() {
   spdlog::info("store: {}", DescribeStore(o.store, o.data_dir));
   return ServerParts{.registry = {.max_missions = o.max_missions,
                                   .max_cells_per_mission = o.max_cells,
+                                  .max_dense_cells = o.max_dense_cells,
                                   .prior_cache = o.prior_cache,
                                   .snapshot_every = o.snapshot_every,
                                   .recovery_threads = o.recovery_threads,

@@ -81,6 +81,7 @@ absl::Status ServerOptions::Validate() const {
 
   p.AtLeast("max_missions", max_missions, 1);
   p.AtLeast("max_cells", max_cells, std::int64_t{1});
+  p.AtLeast("max_dense_cells", max_dense_cells, std::int64_t{1});
   p.AtLeast("prior_cache", prior_cache, 0);
   p.AtLeast("max_missions_per_tenant", max_missions_per_tenant, 0);
   // MB to bytes must not overflow.

@@ -52,7 +52,8 @@ struct ServerOptions {
 
   // --- missions and memory
   int max_missions = 64;                      // >= 1
-  std::int64_t max_cells = 4096;              // >= 1
+  std::int64_t max_cells = 250'000;           // >= 1
+  std::int64_t max_dense_cells = 4096;        // >= 1
   int prior_cache = 4;                        // >= 0
   int max_missions_per_tenant = 0;            // >= 0; 0: only max_missions
   std::int64_t max_memory_mb = 0;             // >= 0; 0: half of the machine's memory

@@ -111,6 +111,7 @@ void FillMission(const Mission& mission, v1::Mission* out) {
   for (const Obstacle& o : s.obstacles) *out->add_obstacles() = ObstacleToProto(o);
   out->set_trace(s.trace);
   out->set_measurements_fused(s.measurements_fused);
+  out->set_trace_measurements_fused(s.trace_measurements_fused);
   out->set_paths_planned(s.paths_planned);
   out->set_mission_time_s(s.mission_time_s);
   out->set_map_bytes(s.memory_bytes);
@@ -270,6 +271,7 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
           response->set_cells_fused(result.cells_fused);
           response->set_trace(result.trace);
           response->set_measurements_fused(result.measurements_fused);
+          response->set_trace_measurements_fused(result.trace_measurements_fused);
           (void)settlers_.Submit(mission->id(), [mission] { mission->SettleMap(); });
           return absl::OkStatus();
         });
@@ -302,16 +304,16 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
     render::MapLayers layers;
-    mission->ReadMap([&](const GpMap& map) {
+    OAIPP_RETURN_IF_ERROR(mission->ReadMapView([&](const api::MapView& map) {
       MapToProto(map, request->include_cells(), response);
       if (!request->include_png()) return;
       // Copied under the lock, drawn outside it.
-      layers.mean.assign(map.Mean().begin(), map.Mean().end());
-      layers.std_dev.resize(static_cast<std::size_t>(map.num_cells()));
-      for (int i = 0; i < map.num_cells(); ++i) {
-        layers.std_dev[static_cast<std::size_t>(i)] = std::sqrt(std::max(0.0, map.Variance(i)));
+      layers.mean.assign(map.mean->begin(), map.mean->end());
+      layers.std_dev.resize(static_cast<std::size_t>(map.variances->size()));
+      for (Eigen::Index i = 0; i < map.variances->size(); ++i) {
+        layers.std_dev[static_cast<std::size_t>(i)] = std::sqrt(std::max(0.0, (*map.variances)[i]));
       }
-    });
+    }));
     if (!request->include_png()) return absl::OkStatus();
     const MissionSnapshot snapshot = mission->Snapshot();
     render::Overlay overlay;

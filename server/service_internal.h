@@ -121,6 +121,7 @@ inline void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
     f->set_mission_time_s(m->mission_time_s);
     f->set_cells_fused(m->cells_fused);
     f->set_trace(m->trace);
+    f->set_trace_measurements_fused(m->trace_measurements_fused);
     *f->mutable_camera_position_m() = ToProto(m->camera_position_W);
     f->mutable_detected_cells()->Add(m->detected_cells.begin(), m->detected_cells.end());
   } else if (const auto* o = std::get_if<MissionEventData::ObstaclesChanged>(&e.event)) {

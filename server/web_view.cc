@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 #include <utility>
 #include <vector>
 
@@ -13,6 +14,7 @@
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "api/map.h"
+#include "core/common/status_macros.h"
 #include "httplib.h"
 #include "nlohmann/json.hpp"
 #include "openssl/rand.h"
@@ -27,6 +29,8 @@ using nlohmann::json;
 
 constexpr int kThreads = WebView::kMaxStreams + 4;  // streams hold a thread each
 constexpr const char* kJson = "application/json";
+// A large field's map is shown in blocks, at most this many a side.
+constexpr int kMaxShownSide = 160;
 constexpr const char* kSessionCookie = "oaipp_session";
 // Numbers in the JSON: enough digits for a picture, a quarter of the bytes.
 double Short(double v) { return std::round(v * 1e4) / 1e4; }
@@ -199,19 +203,55 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
   const std::int64_t sequence = mission.last_event_sequence();
   const MissionSnapshot s = mission.Snapshot();
   const MissionTrack track = mission.Track();
-  v1::GetMapResponse grid;
+  // A large field is shown in blocks of k x k cells, at most
+  // kMaxShownSide a side: each block's mean of the means and root-mean-square
+  // standard deviation; found cells and detections by their block.
+  int nx = 0, ny = 0, k = 1;
+  double x_min = 0.0, y_min = 0.0, resolution = 0.0;
+  std::vector<double> mean_sum, variance_sum;
+  std::vector<int> cells_in;
+  std::set<int> found_blocks;
+  const auto block_of = [&](int cell) {
+    return (cell / (nx * k)) / k * ((nx + k - 1) / k) + (cell % nx) / k;
+  };
+  OAIPP_RETURN_IF_ERROR(mission.ReadMapView([&](const api::MapView& map) {
+    nx = map.grid->nx();
+    ny = map.grid->ny();
+    x_min = map.grid->min_W().x();
+    y_min = map.grid->min_W().y();
+    resolution = map.grid->resolution_m();
+    k = (std::max(nx, ny) + kMaxShownSide - 1) / kMaxShownSide;
+    const std::size_t blocks =
+        static_cast<std::size_t>((nx + k - 1) / k) * static_cast<std::size_t>((ny + k - 1) / k);
+    mean_sum.assign(blocks, 0.0);
+    variance_sum.assign(blocks, 0.0);
+    cells_in.assign(blocks, 0);
+    for (int i = 0; i < nx * ny; ++i) {
+      const auto b = static_cast<std::size_t>(block_of(i));
+      const double m = (*map.mean)[i];
+      mean_sum[b] += m;
+      variance_sum[b] += std::max(0.0, (*map.variances)[i]);
+      ++cells_in[b];
+      if (m >= kDetectedLabel) found_blocks.insert(static_cast<int>(b));
+    }
+  }));
   json mean = json::array();
   json std_dev = json::array();
-  json found_cells = json::array();
-  mission.ReadMap([&](const GpMap& map) {
-    api::MapToProto(map, /*include_cells=*/false, &grid);
-    for (int i = 0; i < map.num_cells(); ++i) {
-      const double m = map.Mean()(i);
-      mean.push_back(Short(m));
-      std_dev.push_back(Short(std::sqrt(std::max(0.0, map.Variance(i)))));
-      if (m >= kDetectedLabel) found_cells.push_back(i);
+  for (std::size_t b = 0; b < mean_sum.size(); ++b) {
+    mean.push_back(Short(mean_sum[b] / cells_in[b]));
+    std_dev.push_back(Short(std::sqrt(variance_sum[b] / cells_in[b])));
+  }
+  json found_cells = std::vector<int>(found_blocks.begin(), found_blocks.end());
+  json detections = json::array();
+  if (k == 1) {
+    detections = track.detected_cells;
+  } else {
+    std::set<int> detected;
+    for (int cell : track.detected_cells) {
+      if (cell >= 0 && cell < nx * ny) detected.insert(block_of(cell));
     }
-  });
+    detections = std::vector<int>(detected.begin(), detected.end());
+  }
   json obstacles = json::array();
   for (const Obstacle& o : s.obstacles) {
     json polygon = json::array();
@@ -248,17 +288,18 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
                     {"mission_time_s", Short(s.mission_time_s)},
                     {"finished", mission.finished()},
                     {"field",
-                     {{"nx", grid.nx()},
-                      {"ny", grid.ny()},
-                      {"x_min_m", grid.x_min_m()},
-                      {"y_min_m", grid.y_min_m()},
-                      {"resolution_m", grid.resolution_m()}}},
+                     {{"nx", (nx + k - 1) / k},
+                      {"ny", (ny + k - 1) / k},
+                      {"x_min_m", x_min},
+                      {"y_min_m", y_min},
+                      {"resolution_m", resolution * k},
+                      {"cells_per_block", k}}},
                     {"mean", std::move(mean)},
                     {"std", std::move(std_dev)},
                     {"obstacles", std::move(obstacles)},
                     {"planned", std::move(planned)},
                     {"flown", std::move(flown)},
-                    {"detections", track.detected_cells},
+                    {"detections", std::move(detections)},
                     {"found", std::move(found_cells)},
                     {"geo_origin", std::move(geo)}};
   return out.dump();

@@ -243,16 +243,41 @@ absl::Status SparseGpMap::Update(std::span<const CellObservation> observations) 
   return absl::OkStatus();
 }
 
-absl::Status SparseGpMap::FuseNearCertainZeros(std::span<const int> cells) {
-  std::vector<CellObservation> zeros;
-  zeros.reserve(cells.size());
+std::vector<CellObservation> SparseGpMap::NearCertainZeros(std::span<const int> cells) {
   std::vector<int> sorted(cells.begin(), cells.end());
   std::sort(sorted.begin(), sorted.end());
   sorted.erase(std::unique(sorted.begin(), sorted.end()), sorted.end());
+  std::vector<CellObservation> zeros;
+  zeros.reserve(sorted.size());
   for (int cell : sorted) {
     zeros.push_back({.cell = cell, .value = 0.0, .variance = GpMap::kNearCertainVariance});
   }
-  return Update(zeros);
+  return zeros;
+}
+
+absl::Status SparseGpMap::FuseNearCertainZeros(std::span<const int> cells) {
+  return Update(NearCertainZeros(cells));
+}
+
+SparseGpMap::Additions SparseGpMap::NoAdditions(int num_cells) {
+  return {.precision = Eigen::VectorXd::Zero(num_cells),
+          .information = Eigen::VectorXd::Zero(num_cells)};
+}
+
+absl::Status SparseGpMap::Accumulate(std::span<const CellObservation> observations,
+                                     Additions& added) {
+  if (added.precision.size() != added.information.size()) {
+    return absl::InvalidArgumentError("added: precision and information differ in size");
+  }
+  OAIPP_ASSIGN_OR_RETURN(std::vector<CellObservation> merged,
+                         MergeObservations(observations, static_cast<int>(added.precision.size())));
+  // As Update does, one cell at a time.
+  for (const CellObservation& o : merged) {
+    const double precision = 1.0 / o.variance;
+    added.precision[o.cell] += precision;
+    added.information[o.cell] += o.value * precision;
+  }
+  return absl::OkStatus();
 }
 
 absl::StatusOr<Eigen::VectorXd> SparseGpMap::Mean() const {

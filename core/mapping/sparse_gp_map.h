@@ -27,6 +27,7 @@
 
 #include <memory>
 #include <span>
+#include <vector>
 
 #include "Eigen/Core"
 #include "absl/status/status.h"
@@ -63,6 +64,22 @@ class SparseGpMap {
   // Value 0 with variance GpMap::kNearCertainVariance at each of `cells`
   // (the ground under obstacles), repeated cells counted once.
   [[nodiscard]] absl::Status FuseNearCertainZeros(std::span<const int> cells);
+  // Those observations, one per distinct cell, in cell order.
+  [[nodiscard]] static std::vector<CellObservation> NearCertainZeros(std::span<const int> cells);
+
+  // What fusing adds, for a holder that keeps only that and brings a map
+  // to it when it needs one (Restore): AddedPrecision and AddedInformation.
+  struct Additions {
+    Eigen::VectorXd precision;
+    Eigen::VectorXd information;
+  };
+  // Zero additions over `num_cells` cells.
+  [[nodiscard]] static Additions NoAdditions(int num_cells);
+  // Adds to `added` what Update(observations) adds to the map's own: a map
+  // restored from `added` then equals one updated in the same order.
+  // Validated first (InvalidArgument as Update); on error nothing changes.
+  [[nodiscard]] static absl::Status Accumulate(std::span<const CellObservation> observations,
+                                               Additions& added);
 
   [[nodiscard]] const FieldGrid& grid() const { return grid_; }
   [[nodiscard]] int num_cells() const { return grid_.num_cells(); }

@@ -17,6 +17,7 @@ ABSL_DECLARE_FLAG(int, planning_queue);
 ABSL_DECLARE_FLAG(int, planning_nice);
 ABSL_DECLARE_FLAG(int, max_missions);
 ABSL_DECLARE_FLAG(int64_t, max_cells);
+ABSL_DECLARE_FLAG(int64_t, max_dense_cells);
 ABSL_DECLARE_FLAG(int, prior_cache);
 ABSL_DECLARE_FLAG(std::string, log_level);
 ABSL_DECLARE_FLAG(std::string, metrics_listen);
@@ -64,6 +65,7 @@ ServerOptions ServerOptionsFromFlags() {
   options.planning_nice = absl::GetFlag(FLAGS_planning_nice);
   options.max_missions = absl::GetFlag(FLAGS_max_missions);
   options.max_cells = absl::GetFlag(FLAGS_max_cells);
+  options.max_dense_cells = absl::GetFlag(FLAGS_max_dense_cells);
   options.prior_cache = absl::GetFlag(FLAGS_prior_cache);
   options.log_level = absl::GetFlag(FLAGS_log_level);
   options.metrics_listen = absl::GetFlag(FLAGS_metrics_listen);

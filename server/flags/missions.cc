@@ -13,7 +13,10 @@ const oaipp::server::ServerOptions kDefaults;
 
 ABSL_FLAG(int, max_missions, kDefaults.max_missions, "missions held at once");
 ABSL_FLAG(int64_t, max_cells, kDefaults.max_cells,
-          "cells per mission map (its covariance takes 8 n^2 bytes: 4096 cells = 134 MB)");
+          "cells per mission map (250,000: 1 km^2 at 2 m, on the sparse map)");
+ABSL_FLAG(int64_t, max_dense_cells, kDefaults.max_dense_cells,
+          "cells of the largest dense map (its covariance takes 8 n^2 bytes: 4096 cells = 134 "
+          "MB); larger fields get the sparse map unless their spec asks for dense");
 ABSL_FLAG(int, prior_cache, kDefaults.prior_cache,
           "prior covariances kept for missions over the same kind of field, and as many starting "
           "maps (ground under buildings fused) for missions over the same site (8 n^2 bytes "

@@ -23,6 +23,20 @@ absl::Status Corrupt(absl::string_view what) {
   return absl::DataLossError(absl::StrCat("snapshot: ", what));
 }
 
+// The dense map of `in` (sizes checked) into state.mean and covariance.
+void DecodeDenseMap(const store::MissionState& in, std::int64_t n, MissionState& state) {
+  state.mean.resize(n);
+  std::memcpy(state.mean.data(), in.mean().data(), in.mean().size());
+  state.covariance.resize(n, n);
+  const char* lower = in.covariance_lower().data();
+  for (std::int64_t j = 0; j < n; ++j) {
+    const std::size_t count = static_cast<std::size_t>(n - j);
+    std::memcpy(state.covariance.data() + j * n + j, lower, count * sizeof(double));
+    lower += count * sizeof(double);
+    for (std::int64_t i = j + 1; i < n; ++i) state.covariance(j, i) = state.covariance(i, j);
+  }
+}
+
 }  // namespace
 
 std::string EncodeMissionState(const MissionState& state) {
@@ -30,8 +44,15 @@ std::string EncodeMissionState(const MissionState& state) {
   out.set_sequence(state.sequence);
   for (const Obstacle& o : state.obstacles) *out.add_obstacles() = api::ObstacleToProto(o);
   for (int c : state.covered_cells) out.add_covered_cells(c);
+  if (state.added_precision.size() > 0) {
+    // A sparse map: its additions only.
+    const auto n = static_cast<std::size_t>(state.added_precision.size());
+    out.set_num_cells(static_cast<int>(n));
+    AppendDoubles(state.added_precision.data(), n, out.mutable_added_precision());
+    AppendDoubles(state.added_information.data(), n, out.mutable_added_information());
+  }
   const auto n = static_cast<std::size_t>(state.mean.size());
-  out.set_num_cells(static_cast<int>(n));
+  if (n > 0) out.set_num_cells(static_cast<int>(n));
   AppendDoubles(state.mean.data(), n, out.mutable_mean());
   std::string* lower = out.mutable_covariance_lower();
   lower->reserve(n * (n + 1) / 2 * sizeof(double));
@@ -55,6 +76,7 @@ std::string EncodeMissionState(const MissionState& state) {
       a->mutable_measurement()->set_cells_fused(m->cells_fused);
       a->mutable_measurement()->set_trace(m->trace);
       a->mutable_measurement()->set_measurements_fused(m->measurements_fused);
+      a->mutable_measurement()->set_trace_measurements_fused(m->trace_measurements_fused);
     } else {
       api::PlannedPathToProto(std::get<PlannedPath>(result), a->mutable_plan());
     }
@@ -66,10 +88,16 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
   store::MissionState in;
   if (!in.ParseFromString(bytes)) return Corrupt("does not parse");
   const std::int64_t n = in.num_cells();
-  if (n <= 0 || static_cast<std::size_t>(n) * sizeof(double) != in.mean().size() ||
-      static_cast<std::size_t>(n * (n + 1) / 2) * sizeof(double) != in.covariance_lower().size()) {
-    return Corrupt(absl::StrCat("the map's sizes disagree with its ", n, " cells"));
-  }
+  const auto bytes_of = [](std::int64_t count) { return static_cast<std::size_t>(count) * 8; };
+  const bool sparse = !in.added_precision().empty();
+  const bool sizes_agree =
+      n > 0 && (sparse ? bytes_of(n) == in.added_precision().size() &&
+                             bytes_of(n) == in.added_information().size() && in.mean().empty() &&
+                             in.covariance_lower().empty()
+                       : bytes_of(n) == in.mean().size() &&
+                             bytes_of(n * (n + 1) / 2) == in.covariance_lower().size() &&
+                             in.added_information().empty());
+  if (!sizes_agree) return Corrupt(absl::StrCat("the map's sizes disagree with its ", n, " cells"));
   MissionState state;
   state.sequence = in.sequence();
   for (int i = 0; i < in.obstacles_size(); ++i) {
@@ -79,15 +107,13 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
     state.obstacles.push_back(*std::move(o));
   }
   state.covered_cells.assign(in.covered_cells().begin(), in.covered_cells().end());
-  state.mean.resize(n);
-  std::memcpy(state.mean.data(), in.mean().data(), in.mean().size());
-  state.covariance.resize(n, n);
-  const char* lower = in.covariance_lower().data();
-  for (std::int64_t j = 0; j < n; ++j) {
-    const std::size_t count = static_cast<std::size_t>(n - j);
-    std::memcpy(state.covariance.data() + j * n + j, lower, count * sizeof(double));
-    lower += count * sizeof(double);
-    for (std::int64_t i = j + 1; i < n; ++i) state.covariance(j, i) = state.covariance(i, j);
+  if (sparse) {
+    state.added_precision.resize(n);
+    state.added_information.resize(n);
+    std::memcpy(state.added_precision.data(), in.added_precision().data(), bytes_of(n));
+    std::memcpy(state.added_information.data(), in.added_information().data(), bytes_of(n));
+  } else {
+    DecodeDenseMap(in, n, state);
   }
   state.measurements_fused = in.measurements_fused();
   state.mission_time_s = in.mission_time_s();
@@ -108,9 +134,14 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
             a.request_id(),
             RememberedAnswer{
                 a.fingerprint(),
-                MeasurementResult{.cells_fused = a.measurement().cells_fused(),
-                                  .trace = a.measurement().trace(),
-                                  .measurements_fused = a.measurement().measurements_fused()}});
+                MeasurementResult{
+                    .cells_fused = a.measurement().cells_fused(),
+                    .trace = a.measurement().trace(),
+                    .measurements_fused = a.measurement().measurements_fused(),
+                    // Written before sparse maps: a dense map's trace is current.
+                    .trace_measurements_fused = a.measurement().trace_measurements_fused() > 0
+                                                    ? a.measurement().trace_measurements_fused()
+                                                    : a.measurement().measurements_fused()}});
         break;
       case store::Answer::kPlan: {
         absl::StatusOr<PlannedPath> path = api::PlannedPathFromProto(a.plan());

@@ -404,7 +404,10 @@ constexpr bool kAddressSanitizer = false;
 // ALREADY_EXISTS on create, NOT_FOUND on get, and a slot gone.
 TEST(HardeningTest, ACreationThatFailsInsideReleasesItsId) {
   if (kAddressSanitizer) GTEST_SKIP() << "AddressSanitizer aborts on a failed huge allocation";
-  InProcessService s({.max_missions = 1, .max_cells_per_mission = 1 << 30, .prior_cache = 0});
+  InProcessService s({.max_missions = 1,
+                      .max_cells_per_mission = 1 << 30,
+                      .max_dense_cells = 1 << 30,
+                      .prior_cache = 0});
   v1::CreateMissionRequest huge;
   huge.set_mission_id("m");
   *huge.mutable_spec() = SmallSpec();
@@ -412,6 +415,8 @@ TEST(HardeningTest, ACreationThatFailsInsideReleasesItsId) {
   huge.mutable_spec()->mutable_field()->set_x_max_m(442.5);  // 450 x 450 m at 0.75 m: 360,000 cells
   huge.mutable_spec()->mutable_field()->set_y_max_m(442.5);
   huge.mutable_spec()->mutable_flight()->set_esdf_voxel_m(1.0);  // a small ESDF
+  // Too large for the core's dense map, which the registry does not know.
+  huge.mutable_spec()->mutable_field()->set_map_backend(v1::MAP_BACKEND_DENSE);
   grpc::ClientContext context;
   v1::Mission mission;
   const grpc::Status status = s.stub().CreateMission(&context, huge, &mission);

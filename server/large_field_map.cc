@@ -1,0 +1,69 @@
+#include "server/large_field_map.h"
+
+#include <algorithm>
+#include <utility>
+
+#include "core/common/status_macros.h"
+#include "core/mapping/field_window.h"
+
+namespace oaipp::server {
+
+absl::StatusOr<std::unique_ptr<LargeFieldMap>> LargeFieldMap::Create(const FieldGrid& grid,
+                                                                     const GpParams& params) {
+  OAIPP_ASSIGN_OR_RETURN(SparseGpMap map, SparseGpMap::Create(grid, params));
+  std::unique_ptr<LargeFieldMap> large(new LargeFieldMap(grid, std::move(map)));
+  OAIPP_RETURN_IF_ERROR(large->Read({.added = nullptr, .version = 0}).status());
+  return large;
+}
+
+LargeFieldMap::LargeFieldMap(FieldGrid grid, SparseGpMap map)
+    : grid_(std::move(grid)), map_(std::move(map)) {}
+
+absl::Status LargeFieldMap::BringTo(const Target& target) {
+  if (target.version == version_) return absl::OkStatus();
+  if (target.added == nullptr) {
+    OAIPP_RETURN_IF_ERROR(map_.Restore(Eigen::VectorXd::Zero(grid_.num_cells()),
+                                       Eigen::VectorXd::Zero(grid_.num_cells())));
+  } else {
+    OAIPP_RETURN_IF_ERROR(map_.Restore(target.added->precision, target.added->information));
+  }
+  version_ = target.version;
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::shared_ptr<const LargeFieldMap::Reading>> LargeFieldMap::Read(
+    const Target& target) {
+  if (std::shared_ptr<const Reading> last = latest();
+      last != nullptr && last->version == target.version) {
+    return last;
+  }
+  absl::MutexLock lock(&mu_);
+  OAIPP_RETURN_IF_ERROR(BringTo(target));
+  auto reading = std::make_shared<Reading>();
+  reading->version = target.version;
+  reading->measurements_fused = target.measurements_fused;
+  OAIPP_ASSIGN_OR_RETURN(reading->mean, map_.Mean());
+  OAIPP_ASSIGN_OR_RETURN(reading->variances, map_.Variances());
+  reading->trace = reading->variances.sum();
+  // The factor and, while the variances were computed, Z in its layout.
+  bytes_.store(std::max(bytes_.load(), map_.bytes()));
+  absl::MutexLock latest_lock(&latest_mu_);
+  // Readers may finish out of order: the newest stays.
+  if (latest_ == nullptr || latest_->version < reading->version) latest_ = reading;
+  return std::shared_ptr<const Reading>(std::move(reading));
+}
+
+absl::StatusOr<GpMap> LargeFieldMap::Window(const Target& target, const Vec2& centre_W,
+                                            const LargeFieldPlanning& options) {
+  absl::MutexLock lock(&mu_);
+  OAIPP_RETURN_IF_ERROR(BringTo(target));
+  OAIPP_ASSIGN_OR_RETURN(FieldWindow window, WindowAround(grid_, centre_W, options.half_width_m));
+  return WindowMap(map_, window, options.window, options.backend);
+}
+
+std::shared_ptr<const LargeFieldMap::Reading> LargeFieldMap::latest() const {
+  absl::MutexLock lock(&latest_mu_);
+  return latest_;
+}
+
+}  // namespace oaipp::server
