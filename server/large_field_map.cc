@@ -38,6 +38,11 @@ absl::StatusOr<std::shared_ptr<const LargeFieldMap::Reading>> LargeFieldMap::Rea
     return last;
   }
   absl::MutexLock lock(&mu_);
+  // Another reader may have computed it while this one waited.
+  if (std::shared_ptr<const Reading> last = latest();
+      last != nullptr && last->version == target.version) {
+    return last;
+  }
   OAIPP_RETURN_IF_ERROR(BringTo(target));
   auto reading = std::make_shared<Reading>();
   reading->version = target.version;

@@ -212,7 +212,7 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
   std::vector<int> cells_in;
   std::set<int> found_blocks;
   const auto block_of = [&](int cell) {
-    return (cell / (nx * k)) / k * ((nx + k - 1) / k) + (cell % nx) / k;
+    return (cell / nx) / k * ((nx + k - 1) / k) + (cell % nx) / k;
   };
   OAIPP_RETURN_IF_ERROR(mission.ReadMapView([&](const api::MapView& map) {
     nx = map.grid->nx();

@@ -222,6 +222,64 @@ TEST_F(WebViewTest, TheEventStreamNamesWhatHappened) {
   EXPECT_TRUE(absl::StrContains(received, R"("sequence":1)")) << received;
 }
 
+// A field of more than 160 cells a side (200 x 170 cells at 1 m, on the
+// sparse map) is shown in blocks of 2 x 2 cells: each block the mean of its
+// cells' means and the root mean square of their standard deviations, as
+// computed here from the map itself; a detection marks its block.
+TEST(WebViewBlocksTest, ALargeFieldIsShownInBlocks) {
+  const Authenticator auth =
+      *Authenticator::FromText(absl::StrCat("alpha ", Authenticator::HashToken("token-a"), "\n"));
+  MissionRegistry registry({.max_missions = 2, .max_cells_per_mission = 40000});
+  WebView view(&registry, &auth);
+  v1::MissionSpec spec;
+  spec.mutable_field()->set_x_min_m(0);
+  spec.mutable_field()->set_y_min_m(0);
+  spec.mutable_field()->set_x_max_m(200);
+  spec.mutable_field()->set_y_max_m(170);
+  spec.mutable_field()->set_resolution_m(1.0);
+  const std::shared_ptr<Mission> big =
+      *registry.Create("big", *api::MissionSpecToConfig(spec), "", "", "alpha");
+  ASSERT_EQ(big->config().map_backend, api::MapBackend::kSparse);
+  ASSERT_TRUE(view.Start(WebViewOptions{}).ok());
+  const int seen = 101 * 200 + 151;  // row 101, column 151: block (50, 75)
+  api::MeasurementInput input;
+  input.mission_time_s = 1.0;
+  input.pose.p_WC = Vec3(151.5, 101.5, 10.0);
+  input.labels = CellLabels{{seen, seen - 1, seen - 200}, {1.0, 1.0, 1.0}};
+  ASSERT_TRUE(big->AddMeasurement(input, "").ok());
+  ASSERT_TRUE(big->AddMeasurement(input, "").ok());
+
+  httplib::Client client("127.0.0.1", view.port());
+  client.set_read_timeout(30, 0);
+  httplib::Result r = client.Get("/api/missions/big", {{"Authorization", "Bearer token-a"}});
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const json m = json::parse(r->body);
+  EXPECT_EQ(m.at("field").at("nx"), 100);
+  EXPECT_EQ(m.at("field").at("ny"), 85);
+  EXPECT_EQ(m.at("field").at("resolution_m"), 2.0);
+  ASSERT_EQ(m.at("mean").size(), 8500u);
+  ASSERT_EQ(m.at("std").size(), 8500u);
+  const int block = 50 * 100 + 75;
+  EXPECT_EQ(m.at("detections"), json::array({block}));
+  ASSERT_TRUE(big->ReadMapView([&](const api::MapView& map) {
+                   for (const int b : {0, block, 8499}) {
+                     const int row = b / 100, col = b % 100;
+                     double mean = 0.0, variance = 0.0;
+                     for (const int cell :
+                          {2 * row * 200 + 2 * col, 2 * row * 200 + 2 * col + 1,
+                           (2 * row + 1) * 200 + 2 * col, (2 * row + 1) * 200 + 2 * col + 1}) {
+                       mean += (*map.mean)[cell] / 4.0;
+                       variance += (*map.variances)[cell] / 4.0;
+                     }
+                     EXPECT_NEAR(m.at("mean")[b].get<double>(), mean, 1e-4) << b;
+                     EXPECT_NEAR(m.at("std")[b].get<double>(), std::sqrt(variance), 1e-4) << b;
+                   }
+                 })
+                  .ok());
+  view.Stop();
+}
+
 TEST(WebViewStartTest, BeyondLoopbackOnlyWithTokensAndTls) {
   MissionRegistry registry({.max_missions = 1, .max_cells_per_mission = 1600});
   Authenticator anyone;

@@ -3,6 +3,8 @@
 // server wrote are refused with DataLoss, not restored.
 #include "server/store/state_codec.h"
 
+#include "oaipp/store/mission_state.pb.h"
+
 #include "gtest/gtest.h"
 
 namespace oaipp::server {
@@ -55,6 +57,45 @@ TEST(StateCodecTest, BytesThatAreNotAStateAreDataLoss) {
   const std::string bytes = EncodeMissionState(SomeState());
   EXPECT_EQ(DecodeMissionState("not a snapshot").status().code(), absl::StatusCode::kDataLoss);
   EXPECT_EQ(DecodeMissionState(bytes.substr(0, bytes.size() / 2)).status().code(),
+            absl::StatusCode::kDataLoss);
+}
+
+// A sparse map's state: the two vectors of additions, no mean or
+// covariance, and an answer that says how far its trace lagged.
+TEST(StateCodecTest, ASparseMapsStateComesBackExactly) {
+  MissionState s = SomeState();
+  s.mean.resize(0);
+  s.covariance.resize(0, 0);
+  s.added_precision = Eigen::VectorXd::LinSpaced(6, 0.0, 2.5);
+  s.added_information = Eigen::VectorXd::LinSpaced(6, -1.0, 1.0 / 3.0);
+  std::get<MeasurementResult>(s.answers[0].second.result).trace_measurements_fused = 0;
+  s.answers.emplace_back("m2",
+                         RememberedAnswer{"", MeasurementResult{.cells_fused = 3,
+                                                                .trace = 2.0,
+                                                                .measurements_fused = 9,
+                                                                .trace_measurements_fused = 7}});
+  const std::string bytes = EncodeMissionState(s);
+  absl::StatusOr<MissionState> back = DecodeMissionState(bytes);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->mean.size(), 0);
+  EXPECT_EQ(back->covariance.size(), 0);
+  EXPECT_TRUE(back->added_precision == s.added_precision);
+  EXPECT_TRUE(back->added_information == s.added_information);
+  EXPECT_EQ(std::get<MeasurementResult>(back->answers[2].second.result).trace_measurements_fused,
+            7);
+  // Written before the field existed (0): a dense map's trace was current.
+  EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second.result).trace_measurements_fused,
+            1);
+
+  // The two vectors must match the cell count, and a state holds one map.
+  store::MissionState bad;
+  ASSERT_TRUE(bad.ParseFromString(bytes));
+  bad.mutable_added_information()->resize(5 * 8);
+  EXPECT_EQ(DecodeMissionState(bad.SerializeAsString()).status().code(),
+            absl::StatusCode::kDataLoss);
+  ASSERT_TRUE(bad.ParseFromString(bytes));
+  bad.set_mean(std::string(6 * 8, '\0'));
+  EXPECT_EQ(DecodeMissionState(bad.SerializeAsString()).status().code(),
             absl::StatusCode::kDataLoss);
 }
 
