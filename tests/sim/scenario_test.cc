@@ -106,7 +106,7 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 11);
+  EXPECT_EQ(files, 13);
   auto base = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
   auto low = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/ceiling12-n4.json");
   ASSERT_TRUE(base.ok() && low.ok());
