@@ -372,6 +372,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   OAIPP_ASSIGN_OR_RETURN(PlanMap plan_map, MapForPlan(state.position_W.head<2>(), &env));
   std::shared_ptr<const GpMap> map = std::move(plan_map.map);
   std::shared_ptr<ConditionedCache> conditioned = std::move(plan_map.conditioned);
+  const FieldGrid* field = plan_map.field;
   // The planning budget counts from here: a caller that queued the plan
   // calls this once a planner is free, and neither waiting nor settling the
   // last measurement's downdate is planning.
@@ -386,7 +387,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .remaining_budget_s = config_.budget_s - elapsed,
                                 .cancelled = call.cancelled,
                                 .search_fraction = call.search_fraction,
-                                .conditioned = conditioned.get()};
+                                .conditioned = conditioned.get(),
+                                .field = field};
   absl::StatusOr<PlannedPath> path = planner_->Plan(context, state, deadline);
   env.reset();
   map.reset();

@@ -277,6 +277,7 @@ class Mission {
   struct PlanMap {
     std::shared_ptr<const GpMap> map;
     std::shared_ptr<ConditionedCache> conditioned;
+    const FieldGrid* field = nullptr;  // the whole field, when map is a window
   };
   absl::StatusOr<PlanMap> MapForPlan(const Vec2& centre_W, std::shared_ptr<const Environment>* env);
   // config.MakeEnvironment(), or a clone of the world cache's copy under

@@ -86,6 +86,7 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
                                    .backend = config_.planner.common.information.dense_backend};
   OAIPP_ASSIGN_OR_RETURN(GpMap window, large_->Window(target, centre_W, options));
   plan.map = std::make_shared<const GpMap>(std::move(window));
+  plan.field = &grid_;
   return plan;
 }
 

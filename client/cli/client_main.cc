@@ -48,7 +48,8 @@ ABSL_FLAG(double, plan_budget_s, 0.0,
           "budget); the planner is anytime and returns its best path at the budget");
 ABSL_FLAG(
     std::string, scenario, "",
-    "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json for E4, E5)");
+    "eval: the scenario file (default client/scenarios/e1.json; e4.json, e5.json, e6.json for "
+    "E4, E5, E6)");
 ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
 ABSL_FLAG(double, confirmation_weight, 0.0,
           "eval E1, E4, E5: > 0 adds the variant oaipp_confirm, OA-IPP with the confirmation "
@@ -114,14 +115,16 @@ Commands:
                       (QGroundControl), mission_items.csv (MAVLink mission
                       items, MAVSDK MissionRaw fields) and setpoints.csv
                       (NED offboard setpoints at --setpoint_rate_hz)
-  eval E1|E2|E3|E4|E5 many trials as concurrent missions (with a progress bar
+  eval E1|...|E6      many trials as concurrent missions (with a progress bar
                       and an ETA); trial k uses seed k:
                       E1 = OA-IPP, lawnmower and random on the E1 world;
                       E2 = adaptive against non-adaptive OA-IPP on E1;
                       E3 = OA-IPP over random worlds, low-/high-rise 4 x 4 m
                            buildings at densities 5, 10, 15 (trial k flies
                            world k), --e3_budget_s (300) each;
-                      E4, E5 = OA-IPP and lawnmower on e4.json / e5.json.
+                      E4, E5 = OA-IPP and lawnmower on e4.json / e5.json;
+                      E6 = OA-IPP, lawnmower and random on e6.json's
+                           300 x 300 m field (the sparse map).
                       --confirmation_weight=W (> 0) adds oaipp_confirm
                       to E1, E4 and E5: OA-IPP with the confirmation
                       objective at weight W, same seeds;
@@ -442,11 +445,14 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
              }});
       }
     }
+  } else if (name == "E6") {
+    e.variants = PlannerVariants(
+        scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower, PlannerKind::kRandom});
   } else if (name == "E4" || name == "E5") {
     e.variants = PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower});
   } else {
     return absl::InvalidArgumentError(
-        absl::StrCat("eval: unknown experiment '", name, "' (E1, E2, E3, E4 or E5)"));
+        absl::StrCat("eval: unknown experiment '", name, "' (E1, E2, E3, E4, E5 or E6)"));
   }
   oaipp::client::ConfirmationOptions confirm;
   OAIPP_ASSIGN_OR_RETURN(confirm.weight, NonNegativeFlag("--confirmation_weight",
@@ -507,6 +513,7 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
 std::string DefaultScenario(const std::string& experiment) {
   if (experiment == "E4") return "client/scenarios/e4.json";
   if (experiment == "E5") return "client/scenarios/e5.json";
+  if (experiment == "E6") return "client/scenarios/e6.json";
   return "client/scenarios/e1.json";
 }
 

@@ -139,7 +139,7 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
                            ? config_.start_corner
                            : static_cast<int>(MixSeed(common_.seed, 0.0) & 3U);
     pattern_ =
-        Pattern(scorer.grid(), scorer.waypoint_box(), mission.camera, config_.altitude_m, corner);
+        Pattern(scorer.field(), scorer.waypoint_box(), mission.camera, config_.altitude_m, corner);
   }
   // Back and forth: after the last point the pattern is flown in reverse.
   const int period = 2 * static_cast<int>(pattern_.size()) - 2;
@@ -278,8 +278,8 @@ absl::StatusOr<PlannedPath> RandomPlanner::Plan(const PlanningContext& mission,
   OAIPP_ASSIGN_OR_RETURN(PathScorer scorer, PathScorer::Create(mission, state, common_));
   std::mt19937_64 rng(MixSeed(common_.seed, state.mission_time_s));
   const Aabb& box = scorer.waypoint_box();
-  const Vec2 lo = scorer.grid().min_W().cwiseMax(box.min_W.head<2>());
-  const Vec2 hi = scorer.grid().max_W().cwiseMin(box.max_W.head<2>());
+  const Vec2 lo = scorer.field().min_W().cwiseMax(box.min_W.head<2>());
+  const Vec2 hi = scorer.field().max_W().cwiseMin(box.max_W.head<2>());
   std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y()),
       uz(box.min_W.z(), box.max_W.z());
   const double clearance = 0.5 * common_.limits.uav_radius_m;

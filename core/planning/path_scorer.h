@@ -114,6 +114,10 @@ class PathScorer {
   [[nodiscard]] const ScoreWeights& weights() const { return weights_; }
   [[nodiscard]] const Environment& environment() const { return *mission_.environment; }
   [[nodiscard]] const FieldGrid& grid() const { return mission_.map->grid(); }
+  // The whole field (PlanningContext::field, else grid()).
+  [[nodiscard]] const FieldGrid& field() const {
+    return mission_.field != nullptr ? *mission_.field : grid();
+  }
   // Where waypoints may go: the flight volume shrunk by r_uav / 2.
   [[nodiscard]] const Aabb& waypoint_box() const { return waypoint_box_; }
   // What every candidate's shots follow, unscored: the teammates' pending

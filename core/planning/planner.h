@@ -78,6 +78,10 @@ struct PlanningContext {
   // (the default) a plan is exactly what it would be without these fields.
   std::span<const Teammate> teammates = {};
   double min_separation_m = 4.0;
+  // The whole field when `map` is a window of it (a large field,
+  // docs/method.md §3.10): the lawnmower's pattern and the random planner's
+  // destinations cover it. nullptr: map's own grid.
+  const FieldGrid* field = nullptr;
 };
 
 // The UAV when planning starts: its kinematic state on the mission clock.

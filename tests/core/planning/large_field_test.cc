@@ -139,5 +139,49 @@ TEST(LargeFieldTest, OaIppFliesASparseMapThroughItsWindowSafely) {
               rse(), prior_rse);
 }
 
+// The lawnmower's pattern and the random planner's destinations cover the
+// whole field (PlanningContext::field) although they plan on a window: their
+// waypoints reach beyond it; without the field they stay inside it.
+TEST(LargeFieldTest, TheBaselinesCoverTheWholeFieldFromAWindow) {
+  const Vec3 start(0, 0, 8);
+  const World world = MakeWorld(11, start);
+  auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
+  ASSERT_TRUE(grid.ok());
+  auto map = SparseGpMap::Create(*grid, GpParams::PaperPreset(1.0));
+  ASSERT_TRUE(map.ok()) << map.status();
+  const LargeFieldPlanning large{};
+  const double window_reach = large.half_width_m + grid->resolution_m();
+  for (const PlannerKind kind : {PlannerKind::kLawnmower, PlannerKind::kRandom}) {
+    for (const bool whole_field : {false, true}) {
+      SCOPED_TRACE(absl::StrCat(kind == PlannerKind::kRandom ? "random" : "lawnmower",
+                                whole_field ? " with the field" : " on the window alone"));
+      PlannerConfig config{.kind = kind};
+      config.common.seed = 3;
+      auto planner = MakePlanner(config);
+      ASSERT_TRUE(planner.ok());
+      PlanningContext context{world.env.get(), nullptr, DownwardCamera(), SensorNoise(), 0.0};
+      if (whole_field) context.field = &*grid;
+      double farthest = 0.0;
+      for (double time_s : {0.0, 10.0}) {
+        UavState state;
+        state.position_W = start;
+        state.mission_time_s = time_s;
+        context.next_shot_mission_s = time_s;
+        absl::StatusOr<PlannedPath> path =
+            PlanInWindow(**planner, *map, context, state, absl::InfiniteFuture(), large);
+        ASSERT_TRUE(path.ok()) << path.status();
+        for (const Vec3& w : path->control_waypoints_W) {
+          farthest = std::max(farthest, (w.head<2>() - start.head<2>()).cwiseAbs().maxCoeff());
+        }
+      }
+      if (whole_field) {
+        EXPECT_GT(farthest, window_reach + 10.0);
+      } else {
+        EXPECT_LE(farthest, window_reach);
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace oaipp
