@@ -52,6 +52,10 @@
 # settings and under the 12 m ceiling with N = 4, each on seeds 1-400, and
 # E1 and E4
 # (out/eval/replan-on-detection-<experiment>[-seeds<first>-<last>]).
+# Not in the default list (hours on two cores): E6 flies OA-IPP, lawnmower
+# and random on the 300 x 300 m field of client/scenarios/e6.json
+# (E6_TRIALS each, default 10); E6-km2 flies one OA-IPP mission over the
+# 1 km^2 field of e6-km2.json at 2 m (250,000 cells) to out/e6-km2.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -210,6 +214,8 @@ for e in $experiments; do
         "${client[@]}" eval "$x" --trials="$trials" "${sharp_look[@]}" --confirmation_phase_s=45 \
           --variants=oaipp_confirm --replan_on_detection --out="out/eval/replan-on-detection-$x"
       done ;;
+    E6) "${client[@]}" eval E6 --trials="${E6_TRIALS:-10}" ;;
+    E6-km2) "${client[@]}" run client/scenarios/e6-km2.json --out=out/e6-km2 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done

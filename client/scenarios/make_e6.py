@@ -7,7 +7,7 @@ the same file.
 
     client/scenarios/make_e6.py > client/scenarios/e6.json
     client/scenarios/make_e6.py --name e6-km2 --half_m 500 --resolution_m 2 \
-        --buildings 400 --people 60 --esdf_voxel_m 1 > client/scenarios/e6-km2.json
+        --buildings 400 --people 60 --esdf_voxel_m 1 --budget_s 600 > client/scenarios/e6-km2.json
 """
 import argparse
 import json
