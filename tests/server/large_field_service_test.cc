@@ -17,10 +17,13 @@
 #include "gtest/gtest.h"
 #include "server/mission.h"
 #include "server/store/state_codec.h"
+#include "tests/core/mapping/gmrf_reference.h"
 #include "tests/server/service_fixture.h"
 
 namespace oaipp::server {
 namespace {
+
+using ::oaipp::testing::DenseFieldCovariance;
 
 using testing::Eventually;
 using ::testing::HasSubstr;
@@ -42,22 +45,6 @@ struct Shot {
 const Shot kShots[] = {{-4, 4, 8, 0.0},  {3, 3, 12, 1.0}, {-3.6, 4.2, 5, 0.0},
                        {0, -2, 22, 1.0}, {5, -5, 3, 0.0}, {3.2, 2.9, 6, 1.0}};
 constexpr std::int64_t kShotCount = std::ssize(kShots);
-
-// The prior's covariance over the field: the field's columns of Q^-1,
-// solved with Eigen's own sparse Cholesky (not CHOLMOD, which the server
-// uses).
-Eigen::MatrixXd DenseFieldCovariance(const GmrfPrior& prior) {
-  const Eigen::SparseMatrix<double> q = prior.precision.selfadjointView<Eigen::Lower>();
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
-  EXPECT_EQ(ldlt.info(), Eigen::Success);
-  const int n = static_cast<int>(prior.field_state.size());
-  Eigen::MatrixXd columns = Eigen::MatrixXd::Zero(q.rows(), n);
-  for (int j = 0; j < n; ++j) columns(prior.field_state[j], j) = 1.0;
-  columns = ldlt.solve(columns);
-  Eigen::MatrixXd field(n, n);
-  for (int i = 0; i < n; ++i) field.row(i) = columns.row(prior.field_state[i]);
-  return 0.5 * (field + field.transpose());
-}
 
 // The map the mission should hold after kShots: a dense Kalman filter
 // (GpMap) started at the sparse prior's mean and covariance, fed the

@@ -19,29 +19,16 @@
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/core/mapping/centred_grid.h"
+#include "tests/core/mapping/gmrf_reference.h"
 
 namespace oaipp {
 namespace {
 
+using testing::DenseFieldCovariance;
+
 using Eigen::MatrixXd;
 using Eigen::VectorXd;
 using ::testing::HasSubstr;
-
-// The prior's covariance over the field: the field's columns of Q^-1 (its
-// whole precision, margin included), solved with Eigen's own sparse
-// Cholesky (not CHOLMOD), and the field's rows of them.
-MatrixXd DenseFieldCovariance(const GmrfPrior& prior) {
-  const Eigen::SparseMatrix<double> q = prior.precision.selfadjointView<Eigen::Lower>();
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
-  EXPECT_EQ(ldlt.info(), Eigen::Success);
-  const int n = static_cast<int>(prior.field_state.size());
-  MatrixXd columns = MatrixXd::Zero(q.rows(), n);
-  for (int j = 0; j < n; ++j) columns(prior.field_state[j], j) = 1.0;
-  columns = ldlt.solve(columns);
-  MatrixXd field(n, n);
-  for (int i = 0; i < n; ++i) field.row(i) = columns.row(prior.field_state[i]);
-  return 0.5 * (field + field.transpose());
-}
 
 // Footprints of a downward camera at random places and heights, the
 // paper's noise model; some cells repeated.
