@@ -63,11 +63,14 @@ class LargeFieldMap {
   // (core/planning/large_field.h). Errors as Read and WindowMap.
   [[nodiscard]] absl::StatusOr<GpMap> Window(const Target& target, const Vec2& centre_W,
                                              const LargeFieldPlanning& options);
-  // The newest reading computed so far (the prior's after Create).
+  // The newest reading computed so far; nullptr until the first Read.
   [[nodiscard]] std::shared_ptr<const Reading> latest() const;
   // Bytes the map holds at its peak (SparseGpMap::bytes, with the factor).
   [[nodiscard]] std::int64_t bytes() const { return bytes_.load(); }
   [[nodiscard]] const FieldGrid& grid() const { return grid_; }
+  // The prior's variance at a cell (its fitted interior value), for
+  // WindowCentre.
+  [[nodiscard]] double prior_variance() const { return prior_variance_; }
 
  private:
   LargeFieldMap(FieldGrid grid, SparseGpMap map);
@@ -75,6 +78,7 @@ class LargeFieldMap {
   absl::Status BringTo(const Target& target) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const FieldGrid grid_;
+  const double prior_variance_;
   absl::Mutex mu_;
   SparseGpMap map_ ABSL_GUARDED_BY(mu_);
   std::int64_t version_ ABSL_GUARDED_BY(mu_) = 0;

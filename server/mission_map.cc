@@ -80,11 +80,20 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
     *env = env_;
     target = SparseTarget();
   }
-  // The planner's reach: 20 cells each way around the UAV (41 x 41 cells,
-  // docs/method.md §3.10), whatever the resolution.
-  const LargeFieldPlanning options{.half_width_m = 20.0 * grid_.resolution_m(),
-                                   .backend = config_.planner.common.information.dense_backend};
-  OAIPP_ASSIGN_OR_RETURN(GpMap window, large_->Window(target, centre_W, options));
+  // The planner's reach: 20 cells each way (41 x 41 cells, docs/method.md
+  // §3.10), whatever the resolution. OA-IPP's window leads towards the
+  // field's most uncertain square when its neighbourhood is spent; the
+  // baselines choose their destinations over the whole field themselves.
+  const bool oaipp = config_.planner.kind == PlannerKind::kOaIpp ||
+                     config_.planner.kind == PlannerKind::kOaIppNonAdaptive;
+  LargeFieldPlanning options{.half_width_m = 20.0 * grid_.resolution_m(),
+                             .backend = config_.planner.common.information.dense_backend};
+  if (!oaipp) options.lead_fraction = 0.0;
+  const Vec2 window_centre_W = target.added == nullptr
+                                   ? centre_W
+                                   : WindowCentre(grid_, target.added->precision,
+                                                  large_->prior_variance(), centre_W, options);
+  OAIPP_ASSIGN_OR_RETURN(GpMap window, large_->Window(target, window_centre_W, options));
   plan.map = std::make_shared<const GpMap>(std::move(window));
   plan.field = &grid_;
   return plan;

@@ -1,14 +1,67 @@
 #include "core/planning/large_field.h"
 
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <limits>
+#include <vector>
+
 #include "core/common/status_macros.h"
 
 namespace oaipp {
 
+Vec2 WindowCentre(const FieldGrid& field, const Eigen::VectorXd& added_precision,
+                  double prior_variance, const Vec2& uav_W, const LargeFieldPlanning& options) {
+  assert(added_precision.size() == field.num_cells());
+  assert(prior_variance > 0.0);
+  assert(options.lead_fraction >= 0.0 && options.lead_fraction < 1.0);
+  if (options.lead_fraction == 0.0) return uav_W;
+  const double side_m = options.half_width_m;
+  const int side = std::max(1, static_cast<int>(std::lround(side_m / field.resolution_m())));
+  const int bx = (field.nx() + side - 1) / side;
+  const int by = (field.ny() + side - 1) / side;
+  if (bx * by == 1) return uav_W;
+  struct Square {
+    double uncertainty = 0.0;
+    Vec2 sum_W = Vec2::Zero();
+    int cells = 0;
+  };
+  std::vector<Square> squares(static_cast<std::size_t>(bx) * by);
+  for (int r = 0; r < field.ny(); ++r) {
+    for (int c = 0; c < field.nx(); ++c) {
+      const int cell = field.Index(r, c);
+      Square& s = squares[static_cast<std::size_t>(r / side) * bx + c / side];
+      s.uncertainty += prior_variance / (1.0 + prior_variance * added_precision[cell]);
+      s.sum_W += field.CellCentreXY(cell);
+      ++s.cells;
+    }
+  }
+  double best_worth = -std::numeric_limits<double>::infinity();
+  Vec2 best_W = uav_W;
+  for (const Square& s : squares) {
+    const Vec2 centre_W = s.sum_W / s.cells;
+    const double worth = s.uncertainty / ((centre_W - uav_W).norm() + side_m);
+    if (worth > best_worth) {
+      best_worth = worth;
+      best_W = centre_W;
+    }
+  }
+  const double distance = (best_W - uav_W).norm();
+  if (distance <= side_m) return uav_W;
+  return uav_W + (best_W - uav_W) * (options.lead_fraction * side_m / distance);
+}
+
 absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,
                                          PlanningContext context, const UavState& state,
                                          absl::Time deadline, const LargeFieldPlanning& options) {
-  OAIPP_ASSIGN_OR_RETURN(FieldWindow window, WindowAround(map.grid(), state.position_W.head<2>(),
-                                                          options.half_width_m));
+  if (!(options.lead_fraction >= 0.0 && options.lead_fraction < 1.0)) {
+    return absl::InvalidArgumentError("options.lead_fraction: must lie in [0, 1)");
+  }
+  const Vec2 centre_W =
+      WindowCentre(map.grid(), map.AddedPrecision(), map.prior().fit.fitted_p0_variance,
+                   state.position_W.head<2>(), options);
+  OAIPP_ASSIGN_OR_RETURN(FieldWindow window,
+                         WindowAround(map.grid(), centre_W, options.half_width_m));
   OAIPP_ASSIGN_OR_RETURN(GpMap local, WindowMap(map, window, options.window, options.backend));
   context.map = &local;
   // A conditioned-covariance cache belongs to one map: not this window's.

@@ -1,7 +1,10 @@
 // Planning on a field too large for a dense map (docs/method.md §3.10): the
-// planner runs unchanged on a dense window of the sparse map around the UAV
+// planner runs unchanged on a dense window of the sparse map near the UAV
 // (core/mapping/field_window.h), so its waypoints, footprints and
-// objectives stay within half_width_m of where the UAV is.
+// objectives stay within the window. The window is centred on the UAV
+// unless a square of the field farther off promises more uncertainty per
+// metre of travel; then it leads towards that square (WindowCentre), so a
+// search that has emptied its neighbourhood heads for what is left.
 //
 //   LargeFieldPlanning large{.half_width_m = 20.0};
 //   OAIPP_ASSIGN_OR_RETURN(PlannedPath path,
@@ -23,12 +26,35 @@ struct LargeFieldPlanning {
   // field is 30 m wide), about 0.2 s to build at 90,000 cells
   // (docs/benchmarks.md). Valid: > 0, finite.
   double half_width_m = 20.0;
+  // How far the window's centre may lead the UAV towards a more uncertain
+  // square, as a fraction of half_width_m (WindowCentre). 0 keeps the window
+  // centred on the UAV. Valid: [0, 1).
+  double lead_fraction = 0.75;
   FieldWindowOptions window = {};
   // For the window's dense inverse (the objective's is the planner's own).
   DenseBackend backend = {};
 };
 
-// The window of `map` around state.position_W and a plan on it by
+// Where the window of a plan from uav_W goes (docs/method.md §3.10,
+// "Heading"). The field is cut into squares of half_width_m a side; each
+// square's uncertainty is the sum over its cells of
+//   v_c = p0 / (1 + p0 a_c),
+// the variance cell c would have if the cells were independent (p0: the
+// prior's variance, a_c: the precision its measurements added), and its
+// worth that sum over (distance from uav_W to the square's centre +
+// half_width_m). When the worthiest square (the first in row-major order on
+// a tie) lies more than half_width_m from uav_W, the centre moves
+// lead_fraction x half_width_m from uav_W towards it; otherwise it is uav_W.
+// It reads only the measurements' additions, never a variance map, so it
+// costs O(cells) and the same additions give the same centre.
+// Preconditions (asserted): added_precision has one entry per field cell,
+// p0 > 0, options valid.
+[[nodiscard]] Vec2 WindowCentre(const FieldGrid& field, const Eigen::VectorXd& added_precision,
+                                double prior_variance, const Vec2& uav_W,
+                                const LargeFieldPlanning& options);
+
+// The window of `map` at WindowCentre (the prior's fitted variance as p0)
+// from state.position_W, and a plan on it by
 // `planner`, with context's map replaced by the window. Errors as
 // WindowAround, WindowMap and planner.Plan.
 [[nodiscard]] absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,

@@ -56,6 +56,20 @@ double DistanceToBuildings(const std::vector<Box>& buildings, const Vec3& p) {
   return best;
 }
 
+// The 120 x 120 m field at 1 m (14,400 cells) and its sparse map at the
+// paper's prior.
+struct Field {
+  FieldGrid grid;
+  SparseGpMap map;
+};
+Field MakeField() {
+  auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
+  EXPECT_TRUE(grid.ok());
+  auto map = SparseGpMap::Create(*grid, GpParams::PaperPreset(1.0));
+  EXPECT_TRUE(map.ok()) << map.status();
+  return {*grid, std::move(map).value()};
+}
+
 TEST(LargeFieldTest, OaIppFliesASparseMapThroughItsWindowSafely) {
   const Vec3 start(0, 0, 8);
   const World world = MakeWorld(11, start);
@@ -105,7 +119,8 @@ TEST(LargeFieldTest, OaIppFliesASparseMapThroughItsWindowSafely) {
         PlanInWindow(**planner, *map, context, state, absl::InfiniteFuture(), large);
     ASSERT_TRUE(path.ok()) << path.status();
     const Vec2 from = state.position_W.head<2>();
-    const double reach = large.half_width_m + grid->resolution_m();
+    // The window leads the UAV by at most lead_fraction x half_width_m.
+    const double reach = (1.0 + large.lead_fraction) * large.half_width_m + grid->resolution_m();
     for (const Vec3& w : path->control_waypoints_W) {
       EXPECT_LE((w.head<2>() - from).cwiseAbs().maxCoeff(), reach) << plan;
     }
@@ -139,16 +154,111 @@ TEST(LargeFieldTest, OaIppFliesASparseMapThroughItsWindowSafely) {
               rse(), prior_rse);
 }
 
+// The window's centre (WindowCentre): on the UAV while its own
+// neighbourhood is worth most, leading towards the one unobserved square
+// of a field whose other cells are all well observed. The expected centres
+// come from the square's geometry: a 120 x 120 m field at 1 m cut into
+// 20 m squares, the unobserved one the north-east corner's (cells 100-119
+// each way, centre (50, 50)).
+TEST(LargeFieldTest, TheWindowLeadsTowardsTheOnlyUnobservedSquare) {
+  auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
+  ASSERT_TRUE(grid.ok());
+  const LargeFieldPlanning large{};
+  ASSERT_EQ(large.half_width_m, 20.0);
+  const double p0 = 1.5;
+  const Vec2 uav(0.0, 0.0);
+  // Nothing observed: the UAV's own square is worth most.
+  Eigen::VectorXd added = Eigen::VectorXd::Zero(grid->num_cells());
+  EXPECT_EQ(WindowCentre(*grid, added, p0, uav, large), uav);
+  // Everything but the corner observed well (variance p0 / 1001 each).
+  added.setConstant(1000.0 / p0);
+  for (int r = 100; r < 120; ++r) {
+    for (int c = 100; c < 120; ++c) added[grid->Index(r, c)] = 0.0;
+  }
+  const Vec2 centre = WindowCentre(*grid, added, p0, uav, large);
+  const Vec2 expected = uav + Vec2(50.0, 50.0).normalized() * (large.lead_fraction * 20.0);
+  EXPECT_NEAR(centre.x(), expected.x(), 1e-9);
+  EXPECT_NEAR(centre.y(), expected.y(), 1e-9);
+  // Within 20 m of the square's centre the UAV plans around itself.
+  EXPECT_EQ(WindowCentre(*grid, added, p0, Vec2(40.0, 45.0), large), Vec2(40.0, 45.0));
+  // lead_fraction 0: always on the UAV.
+  LargeFieldPlanning centred = large;
+  centred.lead_fraction = 0.0;
+  EXPECT_EQ(WindowCentre(*grid, added, p0, uav, centred), uav);
+  // A square twice as far, with the same uncertainty, is worth less than
+  // one near: the south-west corner too left unobserved, the UAV nearer it.
+  for (int r = 0; r < 20; ++r) {
+    for (int c = 0; c < 20; ++c) added[grid->Index(r, c)] = 0.0;
+  }
+  const Vec2 near_sw(-20.0, -20.0);
+  const Vec2 towards_sw = WindowCentre(*grid, added, p0, near_sw, large);
+  EXPECT_LT((towards_sw - Vec2(-50.0, -50.0)).norm(), (near_sw - Vec2(-50.0, -50.0)).norm());
+}
+
+// OA-IPP on a field whose part around the UAV is already well observed
+// (every cell but those with x >= 22 m and y >= 22 m, seen empty): centred on
+// the UAV, its window (+-20 m) holds nothing left to learn and the plan
+// stays put; leading, the window reaches into the unobserved corner and the
+// plan ends more than 10 m nearer the corner's square than it started.
+// People are nowhere.
+TEST(LargeFieldTest, OaIppHeadsForTheUnobservedPartOfTheField) {
+  const Vec3 start(0, 0, 8);
+  const World world = MakeWorld(11, start);
+  Field field = MakeField();
+  const FieldGrid* grid = &field.grid;
+  SparseGpMap* map = &field.map;
+  std::vector<CellObservation> seen;
+  for (int cell = 0; cell < grid->num_cells(); ++cell) {
+    const Vec2 c = grid->CellCentreXY(cell);
+    if (c.x() >= 22.0 && c.y() >= 22.0) continue;
+    seen.push_back({.cell = cell, .value = 0.0, .variance = 1e-3});
+  }
+  ASSERT_TRUE(map->Update(seen).ok());
+  PlannerConfig config{.kind = PlannerKind::kOaIpp};
+  config.common.seed = 3;
+  config.oaipp.generations = 8;
+  auto planner = MakePlanner(config);
+  ASSERT_TRUE(planner.ok());
+  PlanningContext context{world.env.get(), nullptr, DownwardCamera(), SensorNoise(), 0.0};
+  UavState state;
+  state.position_W = start;
+  const LargeFieldPlanning large{};
+  // Where the window goes, by this test's own reckoning: the corner square
+  // (centre (50, 50)) is the worthiest, so 15 m towards it.
+  const Vec2 expected = Vec2(50.0, 50.0).normalized() * (large.lead_fraction * 20.0);
+  const Vec2 centre = WindowCentre(*grid, map->AddedPrecision(),
+                                   map->prior().fit.fitted_p0_variance, start.head<2>(), large);
+  EXPECT_NEAR((centre - expected).norm(), 0.0, 1e-9);
+  const Vec2 corner(50.0, 50.0);
+  for (const double lead : {0.0, large.lead_fraction}) {
+    SCOPED_TRACE(absl::StrCat("lead_fraction ", lead));
+    LargeFieldPlanning options = large;
+    options.lead_fraction = lead;
+    absl::StatusOr<PlannedPath> path =
+        PlanInWindow(**planner, *map, context, state, absl::InfiniteFuture(), options);
+    ASSERT_TRUE(path.ok()) << path.status();
+    const Vec2 end = path->trajectory.Position(path->trajectory.Duration()).head<2>();
+    const double gained = (start.head<2>() - corner).norm() - (end - corner).norm();
+    if (lead == 0.0) {
+      EXPECT_LT(gained, 10.0) << "end (" << end.x() << ", " << end.y() << ")";
+      continue;
+    }
+    EXPECT_GT(gained, 10.0) << "end (" << end.x() << ", " << end.y() << ")";
+    for (const Vec3& w : path->control_waypoints_W) {
+      EXPECT_LE((w.head<2>() - centre).cwiseAbs().maxCoeff(), 20.0 + grid->resolution_m());
+    }
+  }
+}
+
 // The lawnmower's pattern and the random planner's destinations cover the
 // whole field (PlanningContext::field) although they plan on a window: their
 // waypoints reach beyond it; without the field they stay inside it.
 TEST(LargeFieldTest, TheBaselinesCoverTheWholeFieldFromAWindow) {
   const Vec3 start(0, 0, 8);
   const World world = MakeWorld(11, start);
-  auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
-  ASSERT_TRUE(grid.ok());
-  auto map = SparseGpMap::Create(*grid, GpParams::PaperPreset(1.0));
-  ASSERT_TRUE(map.ok()) << map.status();
+  Field field = MakeField();
+  const FieldGrid* grid = &field.grid;
+  SparseGpMap* map = &field.map;
   const LargeFieldPlanning large{};
   const double window_reach = large.half_width_m + grid->resolution_m();
   for (const PlannerKind kind : {PlannerKind::kLawnmower, PlannerKind::kRandom}) {
