@@ -197,12 +197,20 @@ void Mission::Publish(bool obstacles_changed) {
     next.obstacles = summary_.obstacles;  // shared, not copied
   }
   next.env = env_;
-  if (large_ != nullptr) {
+  if (const std::shared_ptr<const LargeFieldMap::Reading> reading =
+          large_ != nullptr ? large_->latest() : nullptr;
+      reading != nullptr) {
     // The newest variance map; SettleMap brings it up to date.
-    const std::shared_ptr<const LargeFieldMap::Reading> reading = large_->latest();
     next.trace = reading->trace;
     next.trace_measurements_fused = reading->measurements_fused;
     next.trace_version = reading->version;
+  } else if (large_ != nullptr) {
+    // None yet (a mission read back from its snapshot): the snapshot's
+    // trace stands.
+    absl::MutexLock lock(&summary_mu_);
+    next.trace = summary_.trace;
+    next.trace_measurements_fused = summary_.trace_measurements_fused;
+    next.trace_version = summary_.trace_version;
   } else {
     next.trace = map_->Trace();
     next.trace_measurements_fused = measurements_fused_;
@@ -464,6 +472,9 @@ MissionState Mission::CaptureState() const {
   if (large_ != nullptr) {
     state.added_precision = added_->precision;
     state.added_information = added_->information;
+    absl::MutexLock summary_lock(&summary_mu_);
+    state.trace = summary_.trace;
+    state.trace_measurements_fused = summary_.trace_measurements_fused;
   } else {
     state.mean = map_->Mean();
     state.covariance = map_->Covariance();

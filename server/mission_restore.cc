@@ -36,6 +36,10 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
                      state.added_precision.size(), " sparse additions) does not fit the spec's ",
                      sparse ? "sparse" : "dense", " map of ", n, " cells"));
   }
+  if (sparse) {
+    OAIPP_RETURN_IF_ERROR(
+        SparseGpMap::CheckAdditions(state.added_precision, state.added_information));
+  }
   for (int cell : state.covered_cells) {
     if (!grid.IsValidCell(cell)) {
       return absl::InvalidArgumentError(
@@ -73,9 +77,16 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
       restored = mission->SparseTarget();
     }
   }
-  // The variance map of the state, for the trace the mission reports
-  // (InvalidArgument for additions that are negative or not finite).
-  if (sparse) OAIPP_RETURN_IF_ERROR(mission->large_->Read(restored).status());
+  if (sparse && state.trace.has_value()) {
+    // The snapshot's trace until the next variance map (SettleMap): a
+    // takeover need not wait seconds for one.
+    absl::MutexLock lock(&mission->summary_mu_);
+    mission->summary_.trace = *state.trace;
+    mission->summary_.trace_measurements_fused = state.trace_measurements_fused;
+  } else if (sparse) {
+    // Else the variance map of the state, for the trace the mission reports.
+    OAIPP_RETURN_IF_ERROR(mission->large_->Read(restored).status());
+  }
   {
     absl::MutexLock lock(&mission->mu_);
     mission->Publish();

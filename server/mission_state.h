@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -27,6 +28,10 @@ struct MissionState {
   // (SparseGpMap::Additions).
   Eigen::VectorXd added_precision = {};
   Eigen::VectorXd added_information = {};
+  // A sparse map's trace as last computed, with the measurements it
+  // includes; nullopt: not known (the restore computes it).
+  std::optional<double> trace = std::nullopt;
+  std::int64_t trace_measurements_fused = 0;
   std::int64_t measurements_fused = 0;
   double mission_time_s = 0.0;
   std::int64_t paths_planned = 0;

@@ -306,19 +306,26 @@ absl::StatusOr<double> SparseGpMap::Trace() const {
   return variances.sum();
 }
 
-absl::Status SparseGpMap::Restore(const Eigen::VectorXd& added_precision,
-                                  const Eigen::VectorXd& added_information) {
-  if (added_precision.size() != num_cells() || added_information.size() != num_cells()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "state: the map has ", num_cells(), " cells, the snapshot ", added_precision.size()));
-  }
-  for (int cell = 0; cell < num_cells(); ++cell) {
+absl::Status SparseGpMap::CheckAdditions(const Eigen::VectorXd& added_precision,
+                                         const Eigen::VectorXd& added_information) {
+  const Eigen::Index n = std::min(added_precision.size(), added_information.size());
+  for (Eigen::Index cell = 0; cell < n; ++cell) {
     if (!(added_precision[cell] >= 0.0) || !std::isfinite(added_precision[cell]) ||
         !std::isfinite(added_information[cell])) {
       return absl::InvalidArgumentError(
           absl::StrCat("state: cell ", cell, " has a negative or non-finite addition"));
     }
   }
+  return absl::OkStatus();
+}
+
+absl::Status SparseGpMap::Restore(const Eigen::VectorXd& added_precision,
+                                  const Eigen::VectorXd& added_information) {
+  if (added_precision.size() != num_cells() || added_information.size() != num_cells()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "state: the map has ", num_cells(), " cells, the snapshot ", added_precision.size()));
+  }
+  OAIPP_RETURN_IF_ERROR(CheckAdditions(added_precision, added_information));
   precision_ = prior_.precision;
   information_ = prior_.information;
   double* values = precision_.valuePtr();

@@ -107,6 +107,11 @@ class SparseGpMap {
   // negative.
   [[nodiscard]] absl::Status Restore(const Eigen::VectorXd& added_precision,
                                      const Eigen::VectorXd& added_information);
+  // Restore's checks of the entries alone: OK when every addition is finite
+  // and every precision non-negative; InvalidArgument naming the first cell
+  // that is not (the sizes are the caller's to check).
+  [[nodiscard]] static absl::Status CheckAdditions(const Eigen::VectorXd& added_precision,
+                                                   const Eigen::VectorXd& added_information);
 
   // The non-zeros of the Cholesky factor and the bytes the map holds
   // (prior, factor, vectors), for memory estimates and benchmarks.

@@ -1,6 +1,7 @@
 #include "server/store/state_codec.h"
 
 #include <bit>
+#include <cmath>
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
@@ -50,6 +51,10 @@ std::string EncodeMissionState(const MissionState& state) {
     out.set_num_cells(static_cast<int>(n));
     AppendDoubles(state.added_precision.data(), n, out.mutable_added_precision());
     AppendDoubles(state.added_information.data(), n, out.mutable_added_information());
+    if (state.trace.has_value()) {
+      out.set_trace(*state.trace);
+      out.set_trace_measurements_fused(state.trace_measurements_fused);
+    }
   }
   const auto n = static_cast<std::size_t>(state.mean.size());
   if (n > 0) out.set_num_cells(static_cast<int>(n));
@@ -112,6 +117,15 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
     state.added_information.resize(n);
     std::memcpy(state.added_precision.data(), in.added_precision().data(), bytes_of(n));
     std::memcpy(state.added_information.data(), in.added_information().data(), bytes_of(n));
+    if (in.has_trace()) {
+      if (!std::isfinite(in.trace()) || in.trace() < 0.0 || in.trace_measurements_fused() < 0 ||
+          in.trace_measurements_fused() > in.measurements_fused()) {
+        return Corrupt(
+            "the sparse map's trace is negative, not finite or ahead of its measurements");
+      }
+      state.trace = in.trace();
+      state.trace_measurements_fused = in.trace_measurements_fused();
+    }
   } else {
     DecodeDenseMap(in, n, state);
   }

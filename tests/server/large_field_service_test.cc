@@ -160,9 +160,16 @@ TEST(LargeFieldServiceTest, ASparseMissionComesBackFromItsSnapshotAndItsLogExact
   EXPECT_EQ(state.mean.size(), 0);
   absl::StatusOr<MissionState> decoded = DecodeMissionState(EncodeMissionState(state));
   ASSERT_TRUE(decoded.ok()) << decoded.status();
+  // The capture settled the map: its trace includes every shot.
+  ASSERT_TRUE(state.trace.has_value());
+  EXPECT_EQ(state.trace_measurements_fused, kShotCount);
   absl::StatusOr<std::shared_ptr<Mission>> restored =
       Mission::Restore("m", config, *std::move(decoded));
   ASSERT_TRUE(restored.ok()) << restored.status();
+  // Read back, the mission reports the snapshot's trace before any variance
+  // map of its own.
+  EXPECT_EQ((*restored)->Snapshot().trace, *state.trace);
+  EXPECT_EQ((*restored)->Snapshot().trace_measurements_fused, kShotCount);
   absl::StatusOr<std::shared_ptr<Mission>> replayed = Mission::Replay("m", config, (*live)->Log());
   ASSERT_TRUE(replayed.ok()) << replayed.status();
 
@@ -181,6 +188,13 @@ TEST(LargeFieldServiceTest, ASparseMissionComesBackFromItsSnapshotAndItsLogExact
                     .ok());
     EXPECT_EQ(copy->Snapshot().measurements_fused, kShotCount);
   }
+  // The snapshot's trace is the trace of the map it restores: the live
+  // mission's variances summed.
+  EXPECT_NEAR(*state.trace, variances.sum(), 1e-9 * variances.sum());
+  // Negative additions in a snapshot are refused, trace or not.
+  MissionState bad = state;
+  bad.added_precision[3] = -1.0;
+  EXPECT_EQ(Mission::Restore("m", config, bad).status().code(), absl::StatusCode::kInvalidArgument);
   // A snapshot of a sparse map is its additions, 16 bytes a cell, not a
   // covariance.
   EXPECT_LT(EncodeMissionState(state).size(), 20u * 400u + 4096u);

@@ -86,6 +86,26 @@ TEST(StateCodecTest, ASparseMapsStateComesBackExactly) {
   // Written before the field existed (0): a dense map's trace was current.
   EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second.result).trace_measurements_fused,
             1);
+  // No trace was captured: none comes back (the restore computes it).
+  EXPECT_FALSE(back->trace.has_value());
+
+  // A captured trace comes back with the measurements it includes; one
+  // that is negative, or ahead of the measurements fused, is corrupt.
+  s.trace = 12.75;
+  s.trace_measurements_fused = s.measurements_fused - 1;
+  back = DecodeMissionState(EncodeMissionState(s));
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->trace, 12.75);
+  EXPECT_EQ(back->trace_measurements_fused, s.measurements_fused - 1);
+  for (const auto& [trace, included] :
+       {std::pair{-1.0, s.measurements_fused}, std::pair{1.0, s.measurements_fused + 1}}) {
+    MissionState wrong = s;
+    wrong.trace = trace;
+    wrong.trace_measurements_fused = included;
+    EXPECT_EQ(DecodeMissionState(EncodeMissionState(wrong)).status().code(),
+              absl::StatusCode::kDataLoss)
+        << trace << " " << included;
+  }
 
   // The two vectors must match the cell count, and a state holds one map.
   store::MissionState bad;
