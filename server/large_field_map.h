@@ -34,10 +34,12 @@ namespace oaipp::server {
 
 class LargeFieldMap {
  public:
-  // The map at its prior (MakeGmrfPrior; 1.9 s at 90,000 cells). Errors as
+  // The map at its prior (MakeGmrfPrior and the first factorisation: 1.9 s
+  // at 90,000 cells). With `priors`, the prior is the site's, copied, and
+  // the factorisation waits for the first Read or Window. Errors as
   // SparseGpMap::Create.
   [[nodiscard]] static absl::StatusOr<std::unique_ptr<LargeFieldMap>> Create(
-      const FieldGrid& grid, const GpParams& params);
+      const FieldGrid& grid, const GpParams& params, GmrfPriorCache* priors = nullptr);
 
   // A mission's map as of one fusion: the additions and their version
   // (versions grow with every fusion, so a later one is a newer map).

@@ -108,9 +108,9 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   if (config.ResolveMapBackend() == api::MapBackend::kSparse) {
-    // Its own prior: the sparse maps of a site are not shared (yet).
+    // The site's prior (each mission factorises its own map).
     OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<LargeFieldMap> large,
-                           LargeFieldMap::Create(grid, config.gp));
+                           LargeFieldMap::Create(grid, config.gp, caches.gmrf_priors));
     std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), grid,
                                                  std::move(env), nullptr, std::move(large),
                                                  std::move(planner), caches));

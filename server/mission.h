@@ -101,9 +101,10 @@ class Mission {
   // obstacles, map, counters, planner state and request_id answers; its log
   // goes on at state.sequence + 1. InvalidArgument when the state does not
   // fit the config (another grid, a planner state the planner refuses).
-  // Of the caches only esdfs and worlds are used (the world of the state's
-  // obstacles, cloned when missions over the same world built it already, as
-  // on a replica taking over a site's missions; the map is the state's).
+  // Of the caches only esdfs, worlds and gmrf_priors are used (the world of
+  // the state's obstacles, cloned when missions over the same world built it
+  // already, as on a replica taking over a site's missions; a sparse map's
+  // prior; the map is the state's).
   [[nodiscard]] static absl::StatusOr<std::shared_ptr<Mission>> Restore(
       std::string id, MissionConfig config, MissionState state, const SiteCaches& caches = {});
   // A fresh mission with `log` applied in order (what persistence would do).

@@ -51,7 +51,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   std::shared_ptr<Mission> mission;
   if (sparse) {
     OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<LargeFieldMap> large,
-                           LargeFieldMap::Create(grid, config.gp));
+                           LargeFieldMap::Create(grid, config.gp, caches.gmrf_priors));
     mission.reset(new Mission(std::move(id), std::move(config), std::move(grid), std::move(env),
                               nullptr, std::move(large), std::move(planner), caches));
   } else {

@@ -2,6 +2,8 @@
 
 #include <openssl/rand.h>
 
+#include <algorithm>
+
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -34,10 +36,14 @@ MissionRegistry::MissionRegistry(RegistryLimits limits, MissionStore* store)
       priors_(limits.prior_cache > 0 ? std::make_unique<PriorCache>(limits.prior_cache) : nullptr),
       start_maps_(limits.prior_cache > 0 ? std::make_unique<StartMapCache>(limits.prior_cache)
                                          : nullptr),
+      gmrf_priors_(limits.prior_cache > 0
+                       ? std::make_unique<GmrfPriorCache>(std::min(limits.prior_cache, 2))
+                       : nullptr),
       caches_{.priors = priors_.get(),
               .esdfs = &esdfs_,
               .worlds = &worlds_,
-              .start_maps = start_maps_.get()},
+              .start_maps = start_maps_.get(),
+              .gmrf_priors = gmrf_priors_.get()},
       store_(store) {
   if (store_ != nullptr && limits_.snapshot_every > 0) {
     snapshots_.Start([this](const std::string& mission_id) { TakeSnapshot(mission_id); });

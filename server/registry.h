@@ -42,7 +42,8 @@ struct RegistryLimits {
   // Prior covariances kept for missions over the same kind of field, and
   // starting maps (the prior with the ground under a site's obstacles
   // fused) for missions over the same site, each as many (8 n^2 bytes
-  // each); 0: every mission computes its own. Valid: >= 0.
+  // each), and up to two sparse priors of large fields; 0: every mission
+  // computes its own. Valid: >= 0.
   int prior_cache = 4;
   // With a store: a snapshot of a mission after this many measurements (or
   // 4 x as many records of any kind) since its last one, so that recovery
@@ -236,6 +237,11 @@ class MissionRegistry {
   [[nodiscard]] std::int64_t StartMapComputations() const {
     return start_maps_ != nullptr ? start_maps_->computations() : 0;
   }
+  // Sparse priors computed so far (large-field missions of one grid shape
+  // and GP parameters share one). 0 without a cache.
+  [[nodiscard]] std::int64_t GmrfPriorComputations() const {
+    return gmrf_priors_ != nullptr ? gmrf_priors_->computations() : 0;
+  }
 
   // A mission's key in the registry and the store: its id, prefixed by
   // "tenant/" for a named tenant (so the anonymous tenant's keys are the
@@ -337,7 +343,10 @@ class MissionRegistry {
   // the ground under its buildings fused instead of fusing it again (a
   // rank-m update over every covered cell).
   const std::unique_ptr<StartMapCache> start_maps_;
-  // The four above, as Mission::Create takes them.
+  // Large fields' sparse priors by grid shape and GP parameters (at most
+  // two: 16 MB each at 90,000 cells, 45 MB at 250,000).
+  const std::unique_ptr<GmrfPriorCache> gmrf_priors_;
+  // The five above, as Mission::Create takes them.
   SiteCaches caches_;
   MissionStore* const store_;
   mutable absl::Mutex mu_;

@@ -15,6 +15,7 @@
 #include "core/common/single_flight_cache.h"
 #include "core/environment/esdf.h"
 #include "core/environment/world_cache.h"
+#include "core/mapping/gmrf_prior.h"
 #include "core/mapping/gp_map.h"
 #include "core/mapping/gp_params.h"
 #include "core/mapping/prior_cache.h"
@@ -54,6 +55,8 @@ struct SiteCaches {
   WorldCache* worlds = nullptr;
   // Starting maps (StartMap), copied instead of fused again.
   StartMapCache* start_maps = nullptr;
+  // The sparse prior of a large field, per grid shape and GP parameters.
+  GmrfPriorCache* gmrf_priors = nullptr;
 };
 
 // Everything a mission's world is built from (MakeEnvironment): the field,

@@ -199,4 +199,15 @@ absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& p
   return prior;
 }
 
+GmrfPriorCache::GmrfPriorCache(int capacity) : priors_(capacity) {}
+
+absl::StatusOr<std::shared_ptr<const GmrfPrior>> GmrfPriorCache::Get(const FieldGrid& grid,
+                                                                     const GpParams& params,
+                                                                     const GmrfOptions& options) {
+  const Key key{.shape = PriorShapeKey::Of(grid, params),
+                .prior_mean = params.prior_mean,
+                .margin_ranges = options.margin_ranges};
+  return priors_.Get(key, [&] { return MakeGmrfPrior(grid, params, options); });
+}
+
 }  // namespace oaipp

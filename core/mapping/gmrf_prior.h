@@ -36,12 +36,16 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "Eigen/SparseCore"
 #include "absl/status/statusor.h"
+#include "core/common/single_flight_cache.h"
 #include "core/mapping/field_grid.h"
 #include "core/mapping/gp_params.h"
+#include "core/mapping/prior_cache.h"
 
 namespace oaipp {
 
@@ -96,5 +100,38 @@ struct GmrfPrior {
 // would exceed 2^31 / 32 states.
 [[nodiscard]] absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& params,
                                                       const GmrfOptions& options = {});
+
+// GMRF priors shared between large-field maps of the same shape: the fit and
+// the lattice's precision (about 1 s at 90,000 cells) depend only on the
+// grid's shape and resolution, the GP parameters and the options, not on
+// where the field lies or what stands on it, so missions over one kind of
+// field (and a replica taking over a site's missions) compute it once.
+// Thread-safe; holds at most `capacity` priors (16 MB each at 90,000 cells),
+// the least recently used dropped beyond that.
+//
+//   GmrfPriorCache cache(/*capacity=*/2);
+//   OAIPP_ASSIGN_OR_RETURN(auto prior, cache.Get(grid, GpParams::PaperPreset(1.0)));
+//   OAIPP_ASSIGN_OR_RETURN(SparseGpMap map, SparseGpMap::FromPrior(grid, *prior));  // a copy
+class GmrfPriorCache {
+ public:
+  // capacity >= 1 (smaller values are raised to 1).
+  explicit GmrfPriorCache(int capacity = 2);
+  // MakeGmrfPrior(grid, params, options), equal bit for bit: computed on the
+  // first request for its key and shared after that. Errors as
+  // MakeGmrfPrior, and not remembered.
+  [[nodiscard]] absl::StatusOr<std::shared_ptr<const GmrfPrior>> Get(
+      const FieldGrid& grid, const GpParams& params, const GmrfOptions& options = {});
+  // How many priors were computed (cache misses).
+  [[nodiscard]] std::int64_t computations() const { return priors_.computations(); }
+
+ private:
+  struct Key {
+    PriorShapeKey shape;
+    double prior_mean = 0.0;  // Q mu0 is the prior's information
+    double margin_ranges = 0.0;
+    bool operator==(const Key&) const = default;
+  };
+  SingleFlightCache<Key, GmrfPrior> priors_;
+};
 
 }  // namespace oaipp

@@ -8,13 +8,8 @@ PriorCache::PriorCache(int capacity) : priors_(capacity) {}
 
 absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>> PriorCache::Get(const FieldGrid& grid,
                                                                        const GpParams& params) {
-  const Key key{.nx = grid.nx(),
-                .ny = grid.ny(),
-                .resolution_m = grid.resolution_m(),
-                .length_scale_m = params.length_scale_m,
-                .signal_var = params.signal_var,
-                .noise_var = params.noise_var};
-  return priors_.Get(key, [&] { return PriorCovariance(grid, params); });
+  return priors_.Get(PriorShapeKey::Of(grid, params),
+                     [&] { return PriorCovariance(grid, params); });
 }
 
 absl::StatusOr<GpMap> PriorCache::NewMap(const FieldGrid& grid, const GpParams& params) {

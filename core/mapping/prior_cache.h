@@ -22,6 +22,27 @@
 
 namespace oaipp {
 
+// What a prior covariance depends on: the grid's shape and resolution and
+// the kernel's parameters, compared exactly (not the origin, not the prior
+// mean). Also the start of the sparse priors' key (GmrfPriorCache).
+struct PriorShapeKey {
+  int nx = 0;
+  int ny = 0;
+  double resolution_m = 0.0;
+  double length_scale_m = 0.0;
+  double signal_var = 0.0;
+  double noise_var = 0.0;
+  [[nodiscard]] static PriorShapeKey Of(const FieldGrid& grid, const GpParams& params) {
+    return {.nx = grid.nx(),
+            .ny = grid.ny(),
+            .resolution_m = grid.resolution_m(),
+            .length_scale_m = params.length_scale_m,
+            .signal_var = params.signal_var,
+            .noise_var = params.noise_var};
+  }
+  bool operator==(const PriorShapeKey&) const = default;
+};
+
 // Thread-safe. Keyed by (nx, ny, resolution, length scale, signal variance,
 // noise variance), compared exactly; the grid's origin and the prior mean do
 // not change P0. Holds at most `capacity` priors (8 n^2 bytes each) and
@@ -48,16 +69,7 @@ class PriorCache {
   [[nodiscard]] int size() const;
 
  private:
-  struct Key {
-    int nx = 0;
-    int ny = 0;
-    double resolution_m = 0.0;
-    double length_scale_m = 0.0;
-    double signal_var = 0.0;
-    double noise_var = 0.0;
-    bool operator==(const Key&) const = default;
-  };
-  SingleFlightCache<Key, Eigen::MatrixXd> priors_;
+  SingleFlightCache<PriorShapeKey, Eigen::MatrixXd> priors_;
 };
 
 }  // namespace oaipp

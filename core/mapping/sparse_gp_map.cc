@@ -167,7 +167,8 @@ absl::StatusOr<SparseGpMap> SparseGpMap::Create(const FieldGrid& grid, const GpP
   return FromPrior(grid, std::move(prior));
 }
 
-absl::StatusOr<SparseGpMap> SparseGpMap::FromPrior(const FieldGrid& grid, GmrfPrior prior) {
+absl::StatusOr<SparseGpMap> SparseGpMap::FromPrior(const FieldGrid& grid, GmrfPrior prior,
+                                                   Factorise factorise) {
   const int n = prior.num_states();
   if (static_cast<int>(prior.field_state.size()) != grid.num_cells()) {
     return absl::InvalidArgumentError(absl::StrCat(
@@ -191,7 +192,7 @@ absl::StatusOr<SparseGpMap> SparseGpMap::FromPrior(const FieldGrid& grid, GmrfPr
   }
   SparseGpMap map(grid, std::move(prior));
   map.dirty_ = true;
-  OAIPP_RETURN_IF_ERROR(map.Refresh());
+  if (factorise == Factorise::kNow) OAIPP_RETURN_IF_ERROR(map.Refresh());
   return map;
 }
 

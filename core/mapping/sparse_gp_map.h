@@ -46,10 +46,16 @@ class SparseGpMap {
   [[nodiscard]] static absl::StatusOr<SparseGpMap> Create(const FieldGrid& grid,
                                                           const GpParams& params,
                                                           const GmrfOptions& options = {});
+  // When FromPrior factorises: at once (a prior that is not positive
+  // definite fails there), or on the first read (Mean, Variances), for a
+  // prior known to be good whose first factorisation would be at another
+  // state anyway (a map restored from a snapshot).
+  enum class Factorise { kNow, kWhenRead };
   // A map at a given prior (InvalidArgument when its field does not match
-  // the grid's cells or its sizes disagree).
-  [[nodiscard]] static absl::StatusOr<SparseGpMap> FromPrior(const FieldGrid& grid,
-                                                             GmrfPrior prior);
+  // the grid's cells or its sizes disagree; Internal if a factorisation
+  // made now fails).
+  [[nodiscard]] static absl::StatusOr<SparseGpMap> FromPrior(const FieldGrid& grid, GmrfPrior prior,
+                                                             Factorise factorise = Factorise::kNow);
 
   SparseGpMap(SparseGpMap&&) noexcept;
   SparseGpMap& operator=(SparseGpMap&&) noexcept;

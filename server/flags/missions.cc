@@ -20,7 +20,7 @@ ABSL_FLAG(int64_t, max_dense_cells, kDefaults.max_dense_cells,
 ABSL_FLAG(int, prior_cache, kDefaults.prior_cache,
           "prior covariances kept for missions over the same kind of field, and as many starting "
           "maps (ground under buildings fused) for missions over the same site (8 n^2 bytes "
-          "each; 0: every mission computes its own)");
+          "each), and up to 2 sparse priors of large fields; 0: every mission computes its own)");
 ABSL_FLAG(int, max_missions_per_tenant, kDefaults.max_missions_per_tenant,
           "missions one tenant may hold; 0: only --max_missions");
 ABSL_FLAG(int64_t, max_memory_mb, kDefaults.max_memory_mb,

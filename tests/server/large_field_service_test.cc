@@ -139,6 +139,42 @@ TEST(LargeFieldServiceTest, ASparseMissionsMapIsADenseKalmanFiltersOnTheSamePrio
   EXPECT_GT(mission.map_bytes(), 0);
 }
 
+// Sparse missions over one kind of field share its prior (computed once,
+// GmrfPriorCache) and hold, after the same shots, the map of a mission on
+// a server that shares nothing: bit for bit.
+TEST(LargeFieldServiceTest, SparseMissionsOfOneFieldShapeShareThePrior) {
+  const auto map_of = [](InProcessService& s, const std::string& id) {
+    grpc::ClientContext create_context;
+    v1::CreateMissionRequest create;
+    create.set_mission_id(id);
+    *create.mutable_spec() = SparseSpec();
+    v1::Mission created;
+    EXPECT_TRUE(s.stub().CreateMission(&create_context, create, &created).ok());
+    AddShots(s.stub(), "missions/" + id);
+    grpc::ClientContext context;
+    v1::GetMapRequest request;
+    request.set_name("missions/" + id);
+    request.set_include_cells(true);
+    v1::GetMapResponse got;
+    EXPECT_TRUE(s.stub().GetMap(&context, request, &got).ok());
+    return got;
+  };
+  InProcessService shared;
+  const v1::GetMapResponse a = map_of(shared, "a");
+  const v1::GetMapResponse b = map_of(shared, "b");
+  EXPECT_EQ(shared.registry().GmrfPriorComputations(), 1);
+  InProcessService alone({.max_missions = 64, .max_cells_per_mission = 1600, .prior_cache = 0});
+  const v1::GetMapResponse c = map_of(alone, "c");
+  EXPECT_EQ(alone.registry().GmrfPriorComputations(), 0);
+  ASSERT_EQ(a.mean_size(), c.mean_size());
+  ASSERT_GT(a.mean_size(), 0);
+  for (const v1::GetMapResponse* other : {&b, &c}) {
+    EXPECT_TRUE(std::equal(a.mean().begin(), a.mean().end(), other->mean().begin()));
+    EXPECT_TRUE(std::equal(a.variance().begin(), a.variance().end(), other->variance().begin()));
+    EXPECT_EQ(a.trace(), other->trace());
+  }
+}
+
 // A mission of the sparse map read back from its snapshot, and rebuilt
 // from its log, holds the live mission's map bit for bit.
 TEST(LargeFieldServiceTest, ASparseMissionComesBackFromItsSnapshotAndItsLogExactly) {

@@ -228,8 +228,8 @@ BENCHMARK(BM_Recover)->Args({1, 2000})->Args({100, 22})->Iterations(1)->Unit(ben
 
 // What a takeover spends on one mission once its snapshot's bytes are in
 // hand: decoding the snapshot, and restoring the mission from it (the world
-// from the site's cache, as on a replica holding missions over the same
-// site). Arg 0: an E1 mission; arg 1: E1's spec on a 300 x 300 m field at
+// and a sparse map's prior from the site's caches, as on a replica holding
+// missions over the same site). Arg 0: an E1 mission; arg 1: E1's spec on a 300 x 300 m field at
 // 1 m (90,000 cells, the sparse map; the ground under its buildings fused
 // as on creation); arg 2: the same from a snapshot without the trace, as
 // written before snapshots kept it (the restore computes the variance map
@@ -238,7 +238,8 @@ BENCHMARK(BM_Recover)->Args({1, 2000})->Args({100, 22})->Iterations(1)->Unit(ben
 void BM_RestoreFromSnapshot(benchmark::State& state) {
   EsdfPool esdfs;
   WorldCache worlds;
-  const server::SiteCaches caches{.esdfs = &esdfs, .worlds = &worlds};
+  GmrfPriorCache gmrf_priors;
+  const server::SiteCaches caches{.esdfs = &esdfs, .worlds = &worlds, .gmrf_priors = &gmrf_priors};
   v1::MissionSpec spec = bench::E1Spec();
   const bool large = state.range(0) >= 1;
   if (large) {

@@ -188,6 +188,52 @@ TEST(SparseGpMapTest, AnyOrderAndARestoreGiveTheSameMap) {
   EXPECT_LT(MaxRelative(*restored->Variances(), *forward->Variances()), 1e-12);
 }
 
+// The site's prior cache (GmrfPriorCache) hands out MakeGmrfPrior's prior
+// bit for bit, once per shape and parameters whatever the field's origin;
+// a map made from it that factorises on its first read equals one that
+// factorised at once, after the same shots.
+TEST(GmrfPriorCacheTest, SharesThePriorPerShapeAndAMapFromItIsTheSame) {
+  const FieldGrid grid = testing::CentredGrid(20, 16, 1.0);
+  const GpParams params = GpParams::PaperPreset(1.0);
+  GmrfPriorCache cache;
+  absl::StatusOr<std::shared_ptr<const GmrfPrior>> first = cache.Get(grid, params);
+  ASSERT_TRUE(first.ok()) << first.status();
+  absl::StatusOr<GmrfPrior> direct = MakeGmrfPrior(grid, params);
+  ASSERT_TRUE(direct.ok());
+  EXPECT_EQ(Eigen::SparseMatrix<double>((*first)->precision - direct->precision).norm(), 0.0);
+  EXPECT_TRUE((*first)->information == direct->information);
+  EXPECT_EQ((*first)->field_state, direct->field_state);
+  // The same shape elsewhere: the same prior, not computed again.
+  auto moved = FieldGrid::Create(Vec2(100.0, -40.0), 20, 16, 1.0);
+  ASSERT_TRUE(moved.ok());
+  absl::StatusOr<std::shared_ptr<const GmrfPrior>> again = cache.Get(*moved, params);
+  ASSERT_TRUE(again.ok());
+  EXPECT_EQ(again->get(), first->get());
+  EXPECT_EQ(cache.computations(), 1);
+  // Another prior mean is another prior (its information differs).
+  GpParams other = params;
+  other.prior_mean = 0.2;
+  ASSERT_TRUE(cache.Get(grid, other).ok());
+  EXPECT_EQ(cache.computations(), 2);
+  // Bad parameters: MakeGmrfPrior's error, not remembered.
+  GpParams bad = params;
+  bad.length_scale_m = -1.0;
+  EXPECT_EQ(cache.Get(grid, bad).status().code(), absl::StatusCode::kInvalidArgument);
+
+  const auto shots = RandomShots(grid, 6, 5);
+  absl::StatusOr<SparseGpMap> now = SparseGpMap::FromPrior(grid, **first);
+  absl::StatusOr<SparseGpMap> later =
+      SparseGpMap::FromPrior(grid, **first, SparseGpMap::Factorise::kWhenRead);
+  ASSERT_TRUE(now.ok() && later.ok());
+  EXPECT_EQ(later->factor_nonzeros(), 0);  // nothing factorised yet
+  for (const auto& shot : shots) {
+    ASSERT_TRUE(now->Update(shot).ok());
+    ASSERT_TRUE(later->Update(shot).ok());
+  }
+  EXPECT_TRUE(*later->Mean() == *now->Mean());
+  EXPECT_TRUE(*later->Variances() == *now->Variances());
+}
+
 // A bad observation names its entry and field and changes nothing; a
 // snapshot of another size or with a negative precision is refused.
 TEST(SparseGpMapTest, BadInputIsRefusedAndChangesNothing) {
