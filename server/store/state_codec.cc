@@ -148,14 +148,16 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
             a.request_id(),
             RememberedAnswer{
                 a.fingerprint(),
-                MeasurementResult{
-                    .cells_fused = a.measurement().cells_fused(),
-                    .trace = a.measurement().trace(),
-                    .measurements_fused = a.measurement().measurements_fused(),
-                    // Written before sparse maps: a dense map's trace is current.
-                    .trace_measurements_fused = a.measurement().trace_measurements_fused() > 0
-                                                    ? a.measurement().trace_measurements_fused()
-                                                    : a.measurement().measurements_fused()}});
+                MeasurementResult{.cells_fused = a.measurement().cells_fused(),
+                                  .trace = a.measurement().trace(),
+                                  .measurements_fused = a.measurement().measurements_fused(),
+                                  // 0 on a dense map: written before the field existed, and a
+                                  // dense map's trace is current. On a sparse one 0 is a
+                                  // trace that includes no measurement yet.
+                                  .trace_measurements_fused =
+                                      sparse || a.measurement().trace_measurements_fused() > 0
+                                          ? a.measurement().trace_measurements_fused()
+                                          : a.measurement().measurements_fused()}});
         break;
       case store::Answer::kPlan: {
         absl::StatusOr<PlannedPath> path = api::PlannedPathFromProto(a.plan());

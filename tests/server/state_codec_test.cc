@@ -48,6 +48,9 @@ TEST(StateCodecTest, AStateComesBackExactly) {
   EXPECT_EQ(back->answers[0].first, "m1");
   EXPECT_EQ(back->answers[0].second.fingerprint, "fp-m1");
   EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second.result).trace, 1.0 / 3.0);
+  // Written before the field existed (0): a dense map's trace was current.
+  EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second.result).trace_measurements_fused,
+            1);
   EXPECT_EQ(std::get<ObstacleResult>(back->answers[1].second.result).esdf_voxels_recomputed, 99);
   // Half the matrix: n means + n (n + 1) / 2 covariances, plus a little.
   EXPECT_LT(bytes.size(), (5 + 15) * 8 + 200);
@@ -83,9 +86,10 @@ TEST(StateCodecTest, ASparseMapsStateComesBackExactly) {
   EXPECT_TRUE(back->added_information == s.added_information);
   EXPECT_EQ(std::get<MeasurementResult>(back->answers[2].second.result).trace_measurements_fused,
             7);
-  // Written before the field existed (0): a dense map's trace was current.
+  // On a sparse map 0 is an answer whose trace included no measurement yet
+  // (the background refresh had not caught up): it stays 0.
   EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second.result).trace_measurements_fused,
-            1);
+            0);
   // No trace was captured: none comes back (the restore computes it).
   EXPECT_FALSE(back->trace.has_value());
 
