@@ -11,16 +11,20 @@ namespace oaipp::server {
 absl::StatusOr<std::unique_ptr<LargeFieldMap>> LargeFieldMap::Create(const FieldGrid& grid,
                                                                      const GpParams& params,
                                                                      GmrfPriorCache* priors) {
-  auto build = [&]() -> absl::StatusOr<SparseGpMap> {
-    if (priors == nullptr) return SparseGpMap::Create(grid, params);
-    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<const GmrfPrior> prior, priors->Get(grid, params));
-    // Its first factorisation is the first read's, at the mission's own
-    // state: a restored mission's additions keep Q positive definite
-    // (checked non-negative), and a new one reads its map before it is
-    // shared.
-    return SparseGpMap::FromPrior(grid, *prior, SparseGpMap::Factorise::kWhenRead);
-  };
-  OAIPP_ASSIGN_OR_RETURN(SparseGpMap map, build());
+  GmrfPrior prior;
+  if (priors != nullptr) {
+    OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<const GmrfPrior> shared, priors->Get(grid, params));
+    prior = *shared;
+  } else {
+    OAIPP_ASSIGN_OR_RETURN(prior, MakeGmrfPrior(grid, params));
+  }
+  // Its first factorisation is the first read's, at the mission's own
+  // state (a factorisation at the prior would be thrown away): a restored
+  // mission's additions keep Q positive definite (checked non-negative), and
+  // a new one reads its map before it is shared.
+  OAIPP_ASSIGN_OR_RETURN(
+      SparseGpMap map,
+      SparseGpMap::FromPrior(grid, std::move(prior), SparseGpMap::Factorise::kWhenRead));
   // No reading yet: the mission's first Read, at its own state, is the
   // one that counts (a reading of the prior here would cost a variance map,
   // 1.7 s at 90,000 cells, that nobody reads).

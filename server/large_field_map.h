@@ -34,10 +34,9 @@ namespace oaipp::server {
 
 class LargeFieldMap {
  public:
-  // The map at its prior (MakeGmrfPrior and the first factorisation: 1.9 s
-  // at 90,000 cells). With `priors`, the prior is the site's, copied, and
-  // the factorisation waits for the first Read or Window. Errors as
-  // SparseGpMap::Create.
+  // The map at its prior (MakeGmrfPrior, about 1 s at 90,000 cells; with
+  // `priors`, the site's, copied); its factorisation waits for the first
+  // Read or Window. Errors as MakeGmrfPrior.
   [[nodiscard]] static absl::StatusOr<std::unique_ptr<LargeFieldMap>> Create(
       const FieldGrid& grid, const GpParams& params, GmrfPriorCache* priors = nullptr);
 

@@ -21,26 +21,24 @@ Vec2 WindowCentre(const FieldGrid& field, const Eigen::VectorXd& added_precision
   const int bx = (field.nx() + side - 1) / side;
   const int by = (field.ny() + side - 1) / side;
   if (bx * by == 1) return uav_W;
-  struct Square {
-    double uncertainty = 0.0;
-    Vec2 sum_W = Vec2::Zero();
-    int cells = 0;
-  };
-  std::vector<Square> squares(static_cast<std::size_t>(bx) * by);
+  std::vector<double> uncertainty(static_cast<std::size_t>(bx) * by, 0.0);
   for (int r = 0; r < field.ny(); ++r) {
     for (int c = 0; c < field.nx(); ++c) {
-      const int cell = field.Index(r, c);
-      Square& s = squares[static_cast<std::size_t>(r / side) * bx + c / side];
-      s.uncertainty += prior_variance / (1.0 + prior_variance * added_precision[cell]);
-      s.sum_W += field.CellCentreXY(cell);
-      ++s.cells;
+      uncertainty[static_cast<std::size_t>(r / side) * bx + c / side] +=
+          prior_variance / (1.0 + prior_variance * added_precision[field.Index(r, c)]);
     }
   }
+  // A square's centre: the middle of the cells it holds (those at the far
+  // edges hold fewer).
+  const auto middle = [&](int first, int n) {
+    return 0.5 * (first + std::min(first + side, n)) * field.resolution_m();
+  };
   double best_worth = -std::numeric_limits<double>::infinity();
   Vec2 best_W = uav_W;
-  for (const Square& s : squares) {
-    const Vec2 centre_W = s.sum_W / s.cells;
-    const double worth = s.uncertainty / ((centre_W - uav_W).norm() + side_m);
+  for (int q = 0; q < bx * by; ++q) {
+    const Vec2 centre_W = field.min_W() + Vec2(middle((q % bx) * side, field.nx()),
+                                               middle((q / bx) * side, field.ny()));
+    const double worth = uncertainty[q] / ((centre_W - uav_W).norm() + side_m);
     if (worth > best_worth) {
       best_worth = worth;
       best_W = centre_W;
