@@ -3,6 +3,7 @@
 // same obstacles, map (mean and covariance bit for bit: the replay applies
 // the same calls through the same code), counters, planner state and
 // request_id answers; a store that fails leaves the mission untouched.
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -271,7 +272,9 @@ TEST_F(RecoveryTest, ServerAssignedIdsNeverRepeatAcrossRestarts) {
 class FailingStore final : public MissionStore {
  public:
   explicit FailingStore(MissionStore* store) : store_(store) {}
-  bool fail = false;
+  // Read by the server's threads (its health probe among them) while the
+  // test flips it.
+  std::atomic<bool> fail = false;
   absl::StatusOr<std::int64_t> NextMissionNumber() override { return store_->NextMissionNumber(); }
   absl::Status CreateMission(const StoredMission& m) override {
     return fail ? Down() : store_->CreateMission(m);
@@ -287,7 +290,7 @@ class FailingStore final : public MissionStore {
     }
     return fail ? Down() : store_->Append(id, r);
   }
-  bool in_doubt = false;
+  std::atomic<bool> in_doubt = false;
   absl::Status PutSnapshot(const std::string& id, const StoredSnapshot& s) override {
     return fail ? Down() : store_->PutSnapshot(id, s);
   }
