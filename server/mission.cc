@@ -311,20 +311,33 @@ absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
 
 absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput& input,
                                                           const RequestKey& request,
-                                                          const PersistFn& persist) {
+                                                          const PersistFn& persist,
+                                                          const MeasurementResult* recorded) {
   MeasurementResult result;
   std::vector<CellObservation> observations;
   {
     absl::MutexLock order(&mutation_mu_);
     if (auto done = answers_.Recall<MeasurementResult>(request)) return *std::move(done);
+    // A sparse map's answer is known before the measurement is fused: its
+    // trace is the newest variance map's, which this measurement does not
+    // change (SettleMap refreshes it later). It is stored with the record.
+    std::optional<MeasurementResult> known;
     {
       absl::ReaderMutexLock lock(&mu_);
       OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
+      if (large_ != nullptr) {
+        absl::MutexLock summary_lock(&summary_mu_);
+        known = MeasurementResult{.cells_fused = static_cast<int>(observations.size()),
+                                  .trace = summary_.trace,
+                                  .measurements_fused = measurements_fused_ + 1,
+                                  .trace_measurements_fused = summary_.trace_measurements_fused};
+      }
     }
+    if (recorded != nullptr) known = *recorded;
     const std::int64_t entry_bytes = LogEntryBytes(input);
     OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
     // Durable first: a failed write leaves the mission as it was.
-    OAIPP_RETURN_IF_ERROR(Persist(persist));
+    OAIPP_RETURN_IF_ERROR(Persist(persist, large_ != nullptr ? &*known : nullptr));
     absl::MutexLock lock(&mu_);
     OAIPP_RETURN_IF_ERROR(FuseIntoMap(observations, /*defer=*/true));
     ++measurements_fused_;
@@ -332,7 +345,9 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     log_.push_back(input);
     log_bytes_ += entry_bytes;
     Publish(/*obstacles_changed=*/false);
-    {
+    if (known.has_value()) {
+      result = *known;
+    } else {
       absl::MutexLock summary_lock(&summary_mu_);
       result = MeasurementResult{.cells_fused = static_cast<int>(observations.size()),
                                  .trace = summary_.trace,
@@ -449,9 +464,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   return path;
 }
 
-absl::Status Mission::Persist(const PersistFn& persist) {
+absl::Status Mission::Persist(const PersistFn& persist, const MeasurementResult* answer) {
   absl::MutexLock lock(&sequence_mu_);
-  if (persist) OAIPP_RETURN_IF_ERROR(persist(next_sequence_));
+  if (persist) OAIPP_RETURN_IF_ERROR(persist(next_sequence_, answer));
   ++next_sequence_;
   last_change_unix_us_ = absl::ToUnixMicros(absl::Now());
   return absl::OkStatus();
@@ -529,7 +544,9 @@ bool Mission::finished() const {
 absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                                   const std::string& planner_state) {
   if (!persist) return Persist(nullptr);
-  return Persist([&](std::int64_t sequence) { return persist(sequence, path, planner_state); });
+  return Persist([&](std::int64_t sequence, const MeasurementResult*) {
+    return persist(sequence, path, planner_state);
+  });
 }
 
 std::int64_t Mission::next_sequence() const {

@@ -81,8 +81,13 @@ struct MissionSnapshot {
 
 // Writes the record of a change to durable storage, given its sequence
 // number in the mission's log, before the change is applied; an error stops
-// the change (nothing is applied) and is returned to the caller.
-using PersistFn = std::function<absl::Status(std::int64_t sequence)>;
+// the change (nothing is applied) and is returned to the caller. `answer`
+// is the change's answer when it is known before the change is applied and
+// a replay could not compute it again (a measurement of a sparse map, whose
+// trace comes from a background refresh): stored with the record, so that a
+// retry after the mission was read back gets the first answer. Else nullptr.
+using PersistFn =
+    std::function<absl::Status(std::int64_t sequence, const MeasurementResult* answer)>;
 // The same for a plan, written before it is answered, with the planner's
 // state after it (Planner::SaveState).
 using PersistPlanFn = std::function<absl::Status(std::int64_t sequence, const PlannedPath& path,
@@ -120,8 +125,11 @@ class Mission {
   [[nodiscard]] absl::StatusOr<ObstacleResult> UpdateObstacles(const ObstacleChange& change,
                                                                const RequestKey& request,
                                                                const PersistFn& persist = nullptr);
+  // `recorded`: recovery's stored answer (PersistFn's), remembered for the
+  // request instead of the one computed again.
   [[nodiscard]] absl::StatusOr<MeasurementResult> AddMeasurement(
-      const MeasurementInput& input, const RequestKey& request, const PersistFn& persist = nullptr);
+      const MeasurementInput& input, const RequestKey& request, const PersistFn& persist = nullptr,
+      const MeasurementResult* recorded = nullptr);
   // Plans from `state` (validated by the planner). next_shot: the sensor
   // phase; unset, the next multiple of 1 / rate at or after the state's
   // mission time. FailedPrecondition when the budget is spent.
@@ -298,7 +306,7 @@ class Mission {
   absl::StatusOr<std::vector<CellObservation>> PrepareMeasurement(
       const MeasurementInput& input) const ABSL_SHARED_LOCKS_REQUIRED(mu_);
   // Runs `persist` with the next sequence number and takes it on success.
-  absl::Status Persist(const PersistFn& persist);
+  absl::Status Persist(const PersistFn& persist, const MeasurementResult* answer = nullptr);
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                            const std::string& planner_state);
 

@@ -3,6 +3,7 @@
 // the original calls were.
 #include <algorithm>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -13,6 +14,7 @@
 #include "api/plan.h"
 #include "api/spec.h"
 #include "core/common/status_macros.h"
+#include "server/measurement_answer.h"
 #include "server/registry.h"
 #include "server/store/state_codec.h"
 
@@ -34,7 +36,18 @@ absl::Status Replay(Mission& mission, const LogRecord& record) {
       v1::AddMeasurementRequest request;
       if (!request.ParseFromString(record.payload)) break;
       OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, api::MeasurementFromProto(request));
-      return mission.AddMeasurement(input, {record.request_id, record.fingerprint}).status();
+      // The first answer, where it was stored (a sparse map's), is the one
+      // a retry gets.
+      std::optional<MeasurementResult> answer;
+      if (!record.result.empty()) {
+        v1::AddMeasurementResponse response;
+        if (!response.ParseFromString(record.result)) break;
+        answer = MeasurementResultFromProto(response);
+      }
+      return mission
+          .AddMeasurement(input, {record.request_id, record.fingerprint}, nullptr,
+                          answer.has_value() ? &*answer : nullptr)
+          .status();
     }
     case RecordKind::kPlan: {
       v1::PlanPathResponse response;

@@ -268,10 +268,7 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
           OAIPP_ASSIGN_OR_RETURN(MeasurementInput input, MeasurementFromProto(local));
           OAIPP_ASSIGN_OR_RETURN(MeasurementResult result,
                                  mission->AddMeasurement(input, key, persist));
-          response->set_cells_fused(result.cells_fused);
-          response->set_trace(result.trace);
-          response->set_measurements_fused(result.measurements_fused);
-          response->set_trace_measurements_fused(result.trace_measurements_fused);
+          FillMeasurementResponse(result, response);
           (void)settlers_.Submit(mission->id(), [mission] { mission->SettleMap(); });
           return absl::OkStatus();
         });

@@ -22,6 +22,7 @@
 #include "api/status.h"
 #include "core/common/status_macros.h"
 #include "google/protobuf/util/time_util.h"
+#include "server/measurement_answer.h"
 #include "server/service.h"
 #include "server/store/fingerprint.h"
 #include "spdlog/spdlog.h"
@@ -85,17 +86,26 @@ absl::StatusOr<T> AfterWrite(MissionRegistry& registry, const std::shared_ptr<Mi
 
 // The writer of one mutation's record, or nullptr without a store: the
 // request as received, its request_id and fingerprint, at the sequence number
-// the mission gives it and the ownership epoch this copy holds.
+// the mission gives it and the ownership epoch this copy holds, with the
+// answer when the mission gives one (PersistFn).
 template <typename Request>
 PersistFn Recorder(MissionStore* store, const Mission& mission, RecordKind kind,
                    const Request& request, const std::string& fingerprint) {
   if (store == nullptr) return nullptr;
-  return [store, &mission, kind, &request, &fingerprint](std::int64_t sequence) {
+  return [store, &mission, kind, &request, &fingerprint](std::int64_t sequence,
+                                                         const MeasurementResult* answer) {
+    std::string result;
+    if (answer != nullptr) {
+      v1::AddMeasurementResponse response;
+      FillMeasurementResponse(*answer, &response);
+      result = response.SerializeAsString();
+    }
     return AppendStatus(store->Append(mission.id(), {.sequence = sequence,
                                                      .kind = kind,
                                                      .payload = request.SerializeAsString(),
                                                      .request_id = request.request_id(),
                                                      .fingerprint = fingerprint,
+                                                     .result = std::move(result),
                                                      .epoch = mission.epoch()}));
   };
 }

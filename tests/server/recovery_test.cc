@@ -11,6 +11,7 @@
 
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
+#include "absl/time/clock.h"
 #include "google/protobuf/util/message_differencer.h"
 #include "gtest/gtest.h"
 #include "server/store/sqlite_store.h"
@@ -497,6 +498,46 @@ TEST_F(RecoveryTest, SparseMissionsComeBackFromSnapshotsExactly) {
                                 .max_cells_per_mission = 1600,
                                 .max_dense_cells = 1,
                                 .snapshot_every = 2});
+}
+
+// A sparse map's measurement is answered with the newest trace of a
+// background refresh, which a replay cannot compute again: the answer is
+// stored with the record, and a retry after a restart gets the first answer
+// bit for bit, not the trace the replay happened to have.
+TEST_F(RecoveryTest, ARetryAfterARestartGetsASparseMeasurementsFirstAnswer) {
+  const RegistryLimits limits{
+      .max_missions = 8, .max_cells_per_mission = 1600, .max_dense_cells = 1, .snapshot_every = 0};
+  std::unique_ptr<MissionStore> store = Open();
+  v1::AddMeasurementResponse first;
+  {
+    InProcessService before(limits, 2, 64, store.get());
+    v1::Mission created;
+    ASSERT_TRUE(Create(before.stub(), "s", v1::PLANNER_KIND_OAIPP, &created).ok());
+    v1::AddMeasurementResponse fused;
+    ASSERT_TRUE(Measure(before.stub(), "missions/s", 0, &fused).ok());
+    // The refresh after the answer brings the trace up to the first
+    // measurement (bounded wait: 60 s).
+    v1::Mission now;
+    for (int i = 0; i < 600 && now.trace_measurements_fused() < 1; ++i) {
+      absl::SleepFor(absl::Milliseconds(100));
+      grpc::ClientContext c;
+      v1::GetMissionRequest r;
+      r.set_name("missions/s");
+      ASSERT_TRUE(before.stub().GetMission(&c, r, &now).ok());
+    }
+    ASSERT_EQ(now.trace_measurements_fused(), 1);
+    ASSERT_TRUE(Measure(before.stub(), "missions/s", 1, &first).ok());
+    // The second answer carries the refreshed trace; a replay of the log
+    // alone would answer with the prior's.
+    ASSERT_EQ(first.trace_measurements_fused(), 1);
+  }
+  InProcessService after(limits, 2, 64, store.get());
+  ASSERT_TRUE(after.recovered().ok());
+  v1::AddMeasurementResponse retried;
+  ASSERT_TRUE(Measure(after.stub(), "missions/s", 1, &retried).ok());
+  EXPECT_EQ(retried.SerializeAsString(), first.SerializeAsString())
+      << "first: " << first.ShortDebugString() << "\nretry: " << retried.ShortDebugString();
+  EXPECT_EQ(retried.measurements_fused(), 2);
 }
 
 // The objective's precision is the server's setting, not the spec's: a
