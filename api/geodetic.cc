@@ -157,6 +157,15 @@ absl::Status ResolveGeoFields(v1::MissionSpec* spec, absl::string_view field) {
                                   absl::StrCat(field, ".start.position_geo"), "position_m"));
     s->clear_position_geo();
   }
+  for (int i = 0; i < spec->team_size(); ++i) {
+    if (!spec->team(i).has_start()) continue;
+    v1::UavState* s = spec->mutable_team(i)->mutable_start();
+    OAIPP_RETURN_IF_ERROR(
+        Resolve(frame, s, &v1::UavState::has_position_m, &v1::UavState::has_position_geo,
+                &v1::UavState::position_geo, &v1::UavState::mutable_position_m,
+                absl::StrCat(field, ".team[", i, "].start.position_geo"), "position_m"));
+    s->clear_position_geo();
+  }
   return absl::OkStatus();
 }
 
@@ -214,6 +223,9 @@ bool HasGeoFields(const v1::AddMeasurementRequest& request) {
 bool HasGeoFields(const v1::MissionSpec& spec) {
   for (const v1::Obstacle& o : spec.obstacles()) {
     if (ObstacleHasGeo(o)) return true;
+  }
+  for (const v1::TeamMember& m : spec.team()) {
+    if (m.has_start() && m.start().has_position_geo()) return true;
   }
   return spec.has_start() && spec.start().has_position_geo();
 }

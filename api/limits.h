@@ -15,6 +15,9 @@ inline constexpr int kMaxGenerations = 100'000;
 inline constexpr int kMaxWaypoints = 20;
 // Obstacles of one mission, and of one UpdateObstacles change.
 inline constexpr int kMaxObstacles = 1'000;
+// UAVs in a mission's team (MissionSpec.team), and the length of a uav_id.
+inline constexpr int kMaxTeam = 16;
+inline constexpr int kMaxUavIdBytes = 32;
 // Detection boxes of one image, and labelled cells of one measurement.
 inline constexpr int kMaxBoxes = 1'000;
 inline constexpr int kMaxLabels = 65'536;

@@ -114,6 +114,7 @@ absl::StatusOr<MeasurementInput> MeasurementFromProto(const v1::AddMeasurementRe
   MeasurementInput out;
   OAIPP_RETURN_IF_ERROR(CheckNonNegative("mission_time_s", request.mission_time_s()));
   out.mission_time_s = request.mission_time_s();
+  out.uav_id = request.uav_id();  // checked against the mission's team by the mission
   OAIPP_RETURN_IF_ERROR(CheckFiniteVector("camera_position_m", request.camera_position_m()));
   if (!(request.camera_position_m().z() > 0.0)) {
     return absl::InvalidArgumentError(

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "absl/strings/str_cat.h"
+#include "api/status.h"
 #include "core/common/status_macros.h"
 
 namespace oaipp::api {
@@ -27,6 +29,24 @@ absl::StatusOr<Environment> MissionConfig::MakeEnvironment() const {
   OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(FlightVolume(), esdf));
   OAIPP_RETURN_IF_ERROR(env.Apply({.add = obstacles}));
   return env;
+}
+
+absl::Status MissionConfig::CheckUavId(absl::string_view uav_id, absl::string_view field) const {
+  if (team.empty()) {
+    if (uav_id.empty()) return absl::OkStatus();
+    return absl::NotFoundError(
+        absl::StrCat(field, ": the mission flies one UAV without a team (uav_id \"\"), got ",
+                     EchoInput(uav_id)));
+  }
+  if (uav_id.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ": required: the mission flies a team of ", team.size(), " UAVs"));
+  }
+  if (FindMember(uav_id) == nullptr) {
+    return absl::NotFoundError(
+        absl::StrCat(field, ": no UAV ", EchoInput(uav_id), " in the mission's team"));
+  }
+  return absl::OkStatus();
 }
 
 absl::StatusOr<CameraIntrinsics> MissionConfig::DefaultIntrinsics() const {

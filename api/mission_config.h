@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "core/environment/environment.h"
 #include "core/mapping/camera.h"
 #include "core/mapping/detection_projection.h"
@@ -36,6 +37,12 @@ enum class MapBackend {
   kAuto,    // the server chooses by the field's size (ResolveMapBackend)
   kDense,   // GpMap: the covariance, 8 n^2 bytes
   kSparse,  // SparseGpMap: a sparse precision, a few KB a cell
+};
+
+// One UAV of a mission's team (proto TeamMember).
+struct TeamMember {
+  std::string uav_id;  // [a-z0-9-]{1,32}
+  UavState start;
 };
 
 struct MissionConfig {
@@ -66,7 +73,15 @@ struct MissionConfig {
   // objective, seed) and the kind's own settings.
   PlannerConfig planner;
   std::vector<Obstacle> obstacles;
+  // Where the UAV starts; with a team, the first member's start (the
+  // mission clock and budget count from its mission_time_s, which every
+  // member shares).
   UavState start;
+  // Several UAVs over the one map (proto MissionSpec.team); empty: one UAV,
+  // uav_id "", at `start`.
+  std::vector<TeamMember> team;
+  // Centre to centre, m, between any two members at every instant.
+  double min_separation_m = 4.0;
   double budget_s = 150.0;
   // Where W is on Earth (W is East-North-Up there); unset: local metres only.
   std::optional<GeoPoint> geo_origin;
@@ -76,6 +91,17 @@ struct MissionConfig {
             {field_max_W.x(), field_max_W.y(), max_altitude_m}};
   }
   [[nodiscard]] double sensor_rate_hz() const { return camera.rate_hz; }
+  // The member named `uav_id`, or nullptr.
+  [[nodiscard]] const TeamMember* FindMember(absl::string_view uav_id) const {
+    for (const TeamMember& m : team) {
+      if (m.uav_id == uav_id) return &m;
+    }
+    return nullptr;
+  }
+  // OK when `uav_id` (a request's `field`) names one of the mission's UAVs:
+  // a member of the team, or "" without one. Else NotFound naming the field
+  // (InvalidArgument for "" with a team: the call must say which UAV).
+  [[nodiscard]] absl::Status CheckUavId(absl::string_view uav_id, absl::string_view field) const;
   // The field's cells. Errors as FieldGrid::FromBounds.
   [[nodiscard]] absl::StatusOr<FieldGrid> MakeGrid() const;
   // The field's number of cells, from the corners and resolution (as the
@@ -105,6 +131,8 @@ struct MeasurementInput {
     double min_confidence = 0.0;
   };
   std::optional<Detections> detections = std::nullopt;
+  // The UAV that took it (MissionConfig::CheckUavId): "" without a team.
+  std::string uav_id = {};
 };
 
 }  // namespace oaipp::api

@@ -66,6 +66,16 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
   stats.set_stop_first_s(path.stats.stop_first_s);
   stats.set_search_fraction(path.stats.search_fraction);
   stats.set_queued_s(path.stats.queued_s);
+  if (!path.team.uav_id.empty()) {
+    out->set_uav_id(path.team.uav_id);
+    out->set_plan_version(path.team.plan_version);
+    out->set_start_mission_s(path.team.start_mission_s);
+    for (const auto& [uav_id, version] : path.team.checked_against) {
+      v1::TeammatePlan& mate = *out->add_checked_against();
+      mate.set_uav_id(uav_id);
+      mate.set_plan_version(version);
+    }
+  }
 }
 
 absl::StatusOr<PolynomialTrajectory> TrajectoryFromProto(const v1::Trajectory& trajectory) {
@@ -130,6 +140,12 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
                                        ? response.stats().search_fraction()
                                        : 1.0,
                 .queued_s = response.stats().queued_s()};
+  path.team.uav_id = response.uav_id();
+  path.team.plan_version = response.plan_version();
+  path.team.start_mission_s = response.start_mission_s();
+  for (const v1::TeammatePlan& mate : response.checked_against()) {
+    path.team.checked_against.emplace_back(mate.uav_id(), mate.plan_version());
+  }
   return path;
 }
 

@@ -1,6 +1,7 @@
 #include "api/spec.h"
 #include "api/limits.h"
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
@@ -10,6 +11,7 @@
 #include "api/geodetic.h"
 #include "api/geometry.h"
 #include "api/internal/checks.h"
+#include "api/status.h"
 #include "core/common/status_macros.h"
 
 namespace oaipp::api {
@@ -269,35 +271,112 @@ absl::Status FillObstacles(const google::protobuf::RepeatedPtrField<v1::Obstacle
   return absl::OkStatus();
 }
 
-absl::Status FillStart(const v1::MissionSpec& spec, MissionConfig& c) {
+// A start the UAV may fly from: inside the flight volume, within the
+// speed and acceleration limits. `field` names it (spec.start, ...).
+absl::Status CheckStart(const UavState& start, const MissionConfig& c, absl::string_view field) {
   const Aabb volume = c.FlightVolume();
-  const auto outside = [&](absl::string_view what) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(what, Describe(c.start.position_W), " lies outside the flight volume ",
-                     Describe(volume.min_W), " .. ", Describe(volume.max_W)));
-  };
+  if (!volume.Contains(start.position_W)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        field, ".position_m: ", Describe(start.position_W), " lies outside the flight volume ",
+        Describe(volume.min_W), " .. ", Describe(volume.max_W)));
+  }
+  const TrajectoryLimits& dynamics = c.planner.common.limits.dynamics;
+  if (const double v = start.velocity_W_m_s.norm(); v > dynamics.max_speed_m_s) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ".velocity_m_s: speed ", v,
+                                                   " m/s exceeds max_speed_m_s (",
+                                                   dynamics.max_speed_m_s, ")"));
+  }
+  if (const double a = start.accel_W_m_s2.norm(); a > dynamics.max_accel_m_s2) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ".acceleration_m_s2: ", a,
+                                                   " m/s^2 exceeds max_accel_m_s2 (",
+                                                   dynamics.max_accel_m_s2, ")"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status FillStart(const v1::MissionSpec& spec, MissionConfig& c) {
   if (!spec.has_start()) {
     c.start = UavState{};
     const Vec2 centre = 0.5 * (c.field_min_W + c.field_max_W);
     c.start.position_W = Vec3(centre.x(), centre.y(), MissionConfig::kDefaultStartAltitude_m);
-    if (!volume.Contains(c.start.position_W)) {
-      return outside("spec.start: unset, and the default start ");
+    if (const Aabb volume = c.FlightVolume(); !volume.Contains(c.start.position_W)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("spec.start: unset, and the default start ", Describe(c.start.position_W),
+                       " lies outside the flight volume ", Describe(volume.min_W), " .. ",
+                       Describe(volume.max_W)));
     }
     return absl::OkStatus();
   }
   OAIPP_ASSIGN_OR_RETURN(c.start, UavStateFromProto(spec.start(), "spec.start"));
-  if (!volume.Contains(c.start.position_W)) return outside("spec.start.position_m: ");
-  const TrajectoryLimits& dynamics = c.planner.common.limits.dynamics;
-  if (const double v = c.start.velocity_W_m_s.norm(); v > dynamics.max_speed_m_s) {
-    return absl::InvalidArgumentError(absl::StrCat("spec.start.velocity_m_s: speed ", v,
-                                                   " m/s exceeds max_speed_m_s (",
-                                                   dynamics.max_speed_m_s, ")"));
+  return CheckStart(c.start, c, "spec.start");
+}
+
+bool ValidUavId(absl::string_view id) {
+  if (id.empty() || id.size() > static_cast<std::size_t>(kMaxUavIdBytes)) return false;
+  return std::all_of(id.begin(), id.end(), [](char ch) {
+    return (ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9') || ch == '-';
+  });
+}
+
+// The team (docs/teams.md): 1-16 members with distinct ids, each start
+// valid as spec.start is, every two at least min_separation_m apart, one
+// mission clock; `start` becomes the first member's (spec.start is not
+// read).
+absl::Status FillTeam(const v1::MissionSpec& spec, MissionConfig& c) {
+  if (spec.team().empty()) return absl::OkStatus();  // min_separation_m unused
+  const double radius = c.planner.common.limits.uav_radius_m;
+  c.min_separation_m = OrDefault(spec.has_min_separation_m(), spec.min_separation_m(),
+                                 MissionConfig{}.min_separation_m);
+  if (!std::isfinite(c.min_separation_m) || c.min_separation_m < radius ||
+      c.min_separation_m > kMaxCoordinateM) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.min_separation_m: must be finite and at least flight.uav_radius_m (",
+                     radius, "), got ", c.min_separation_m));
   }
-  if (const double a = c.start.accel_W_m_s2.norm(); a > dynamics.max_accel_m_s2) {
-    return absl::InvalidArgumentError(absl::StrCat("spec.start.acceleration_m_s2: ", a,
-                                                   " m/s^2 exceeds max_accel_m_s2 (",
-                                                   dynamics.max_accel_m_s2, ")"));
+  if (spec.team_size() > kMaxTeam) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.team: ", spec.team_size(), " UAVs; at most ", kMaxTeam));
   }
+  if (c.planner.kind == PlannerKind::kLawnmower) {
+    return absl::InvalidArgumentError(
+        "spec.planner.kind: the lawnmower's pattern is one UAV's; a team plans with OA-IPP or "
+        "random");
+  }
+  std::map<std::string, int> first_index;
+  for (int i = 0; i < spec.team_size(); ++i) {
+    const v1::TeamMember& m = spec.team(i);
+    const std::string field = absl::StrCat("spec.team[", i, "]");
+    if (!ValidUavId(m.uav_id())) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ".uav_id: must match [a-z0-9-]{1,",
+                                                     kMaxUavIdBytes, "}, got ",
+                                                     EchoInput(m.uav_id())));
+    }
+    if (auto [it, inserted] = first_index.emplace(m.uav_id(), i); !inserted) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ".uav_id: duplicate id '", m.uav_id(),
+                                                     "' (also spec.team[", it->second, "])"));
+    }
+    if (!m.has_start()) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ".start: required"));
+    }
+    OAIPP_ASSIGN_OR_RETURN(UavState start, UavStateFromProto(m.start(), field + ".start"));
+    OAIPP_RETURN_IF_ERROR(CheckStart(start, c, field + ".start"));
+    if (i > 0 && start.mission_time_s != c.team.front().start.mission_time_s) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          field,
+          ".start.mission_time_s: the team shares one mission clock: must equal spec.team[0]'s (",
+          c.team.front().start.mission_time_s, "), got ", start.mission_time_s));
+    }
+    for (int j = 0; j < i; ++j) {
+      const double d = (start.position_W - c.team[j].start.position_W).norm();
+      if (d < c.min_separation_m) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            field, ".start.position_m: ", d, " m from spec.team[", j, "] ('", c.team[j].uav_id,
+            "'), closer than min_separation_m (", c.min_separation_m, ")"));
+      }
+    }
+    c.team.push_back({.uav_id = m.uav_id(), .start = start});
+  }
+  c.start = c.team.front().start;
   return absl::OkStatus();
 }
 
@@ -355,7 +434,11 @@ absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
   OAIPP_RETURN_IF_ERROR(FillFlight(spec.flight(), c));
   OAIPP_RETURN_IF_ERROR(FillPlanner(spec.planner(), c));
   OAIPP_RETURN_IF_ERROR(FillObstacles(spec.obstacles(), c));
-  OAIPP_RETURN_IF_ERROR(FillStart(spec, c));
+  if (spec.team().empty()) {
+    OAIPP_RETURN_IF_ERROR(FillStart(spec, c));
+  } else {
+    OAIPP_RETURN_IF_ERROR(FillTeam(spec, c));
+  }
   c.budget_s = OrDefault(spec.has_budget_s(), spec.budget_s(), kDefaults.budget_s);
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.budget_s", c.budget_s));
   if (spec.has_geo_origin()) {
@@ -435,6 +518,14 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
 
   for (const Obstacle& o : c.obstacles) *spec.add_obstacles() = ObstacleToProto(o);
   *spec.mutable_start() = UavStateToProto(c.start);
+  if (!c.team.empty()) {
+    for (const TeamMember& m : c.team) {
+      v1::TeamMember& out = *spec.add_team();
+      out.set_uav_id(m.uav_id);
+      *out.mutable_start() = UavStateToProto(m.start);
+    }
+    spec.set_min_separation_m(c.min_separation_m);
+  }
   spec.set_budget_s(c.budget_s);
   if (c.geo_origin.has_value()) *spec.mutable_geo_origin() = GeoPointToProto(*c.geo_origin);
   return spec;

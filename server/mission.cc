@@ -91,19 +91,25 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   std::string world_key;
   if (caches.worlds != nullptr || caches.start_maps != nullptr) world_key = WorldKey(config);
   OAIPP_ASSIGN_OR_RETURN(Environment env, BuildWorld(config, world_key, caches));
-  // The UAV must start where it may fly: clear of every obstacle by half
+  // Every UAV must start where it may fly: clear of every obstacle by half
   // its radius, as PlanPath asks of every state (exact distance).
-  const Vec3& start = config.start.position_W;
-  const double clearance = env.SignedDistance(start);
   const double needed = 0.5 * config.planner.common.limits.uav_radius_m;
-  if (clearance < needed) {
-    return absl::InvalidArgumentError(absl::StrFormat(
-        "spec.start.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of clearance "
-        "(uav_radius_m / 2)",
-        start.x(), start.y(), start.z(),
-        clearance < 0 ? "inside an obstacle"
-                      : absl::StrFormat("%.3g m from an obstacle", clearance),
-        needed));
+  std::vector<std::pair<std::string, Vec3>> starts;
+  if (config.team.empty()) starts.emplace_back("spec.start", config.start.position_W);
+  for (std::size_t i = 0; i < config.team.size(); ++i) {
+    starts.emplace_back(absl::StrCat("spec.team[", i, "].start"), config.team[i].start.position_W);
+  }
+  for (const auto& [field, start] : starts) {
+    const double clearance = env.SignedDistance(start);
+    if (clearance < needed) {
+      return absl::InvalidArgumentError(absl::StrFormat(
+          "%s.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of clearance "
+          "(uav_radius_m / 2)",
+          field, start.x(), start.y(), start.z(),
+          clearance < 0 ? "inside an obstacle"
+                        : absl::StrFormat("%.3g m from an obstacle", clearance),
+          needed));
+    }
   }
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
@@ -318,6 +324,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
   {
     absl::MutexLock order(&mutation_mu_);
     if (auto done = answers_.Recall<MeasurementResult>(request)) return *std::move(done);
+    OAIPP_RETURN_IF_ERROR(config_.CheckUavId(input.uav_id, "uav_id"));
     // A sparse map's answer is known before the measurement is fused: its
     // trace is the newest variance map's, which this measurement does not
     // change (SettleMap refreshes it later). It is stored with the record.
@@ -365,7 +372,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
   track_.Add(input.pose.p_WC, detected, nullptr);
   events_.Emit(MissionEventData::MeasurementFused{
       input.mission_time_s, result.cells_fused, result.trace, input.pose.p_WC, std::move(detected),
-      result.trace_measurements_fused});
+      result.trace_measurements_fused, input.uav_id});
   MaybeWantSnapshot();
   return result;
 }
@@ -375,6 +382,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           const RequestKey& request, const PlanCall& call) {
   absl::MutexLock planner_lock(&planner_mu_);
   if (auto done = answers_.Recall<PlannedPath>(request)) return *std::move(done);
+  OAIPP_RETURN_IF_ERROR(config_.CheckUavId(call.uav_id, "uav_id"));
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
   if (elapsed >= config_.budget_s) {
     return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
@@ -402,6 +410,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   const absl::Time deadline = call.budget == absl::InfiniteDuration()
                                   ? call.deadline
                                   : std::min(call.deadline, absl::Now() + call.budget);
+  std::vector<std::pair<std::string, std::int64_t>> versions;
+  const std::vector<Teammate> teammates = TeammatesOf(call.uav_id, state.mission_time_s, &versions);
   const PlanningContext context{.environment = env.get(),
                                 .map = map.get(),
                                 .camera = config_.camera,
@@ -411,6 +421,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .cancelled = call.cancelled,
                                 .search_fraction = call.search_fraction,
                                 .conditioned = conditioned.get(),
+                                .teammates = teammates,
+                                .min_separation_m = config_.min_separation_m,
                                 .field = field};
   absl::StatusOr<PlannedPath> path = planner_->Plan(context, state, deadline);
   env.reset();
@@ -435,6 +447,14 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   if (!path.ok()) return path.status();
   path->stats.queued_s = absl::ToDoubleSeconds(call.queued);
+  if (!config_.team.empty()) {
+    // Plans are made one at a time (planner_mu_), so the count is this
+    // one's version.
+    path->team = {.uav_id = call.uav_id,
+                  .plan_version = paths_planned_.load() + 1,
+                  .start_mission_s = state.mission_time_s,
+                  .checked_against = std::move(versions)};
+  }
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.
   const std::string state_after = planner_->SaveState();
@@ -443,6 +463,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     return written;
   }
   ++paths_planned_;
+  if (!config_.team.empty()) committed_.insert_or_assign(call.uav_id, *path);
   // The remembered answer counts against the mission's memory until newer
   // ids push it out (IdempotencyMemo::bytes).
   answers_.Remember(request, *path);
@@ -457,9 +478,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     for (const TimedPosition& s : *samples) planned.push_back(s.position_W);
   }
   track_.Add(state.position_W, {}, &planned);
-  events_.Emit(MissionEventData::PathPlanned{state.mission_time_s, path->trajectory.Duration(),
-                                             path->objective, path->control_waypoints_W,
-                                             state.position_W});
+  events_.Emit(MissionEventData::PathPlanned{
+      state.mission_time_s, path->trajectory.Duration(), path->objective, path->control_waypoints_W,
+      state.position_W, path->team.uav_id, path->team.plan_version});
   MaybeWantSnapshot();
   return path;
 }
@@ -501,6 +522,7 @@ MissionState Mission::CaptureState() const {
   answers_.ForEach([&](const std::string& request_id, const RememberedAnswer& answer) {
     state.answers.emplace_back(request_id, answer);
   });
+  for (const auto& [uav_id, path] : committed_) state.committed.push_back(path);
   return state;
 }
 
@@ -539,6 +561,37 @@ void Mission::set_last_change_time(absl::Time time) {
 bool Mission::finished() const {
   absl::MutexLock lock(&summary_mu_);
   return summary_.mission_time_s - config_.start.mission_time_s >= config_.budget_s;
+}
+
+std::vector<Teammate> Mission::TeammatesOf(
+    const std::string& uav_id, double now_s,
+    std::vector<std::pair<std::string, std::int64_t>>* versions) const {
+  std::vector<Teammate> mates;
+  for (const api::TeamMember& member : config_.team) {
+    if (member.uav_id == uav_id) continue;
+    if (auto it = committed_.find(member.uav_id); it != committed_.end()) {
+      const PlannedPath& path = it->second;
+      std::vector<Vec3> pending;
+      for (const MeasurementPose& shot : path.measurement_poses) {
+        if (shot.mission_time_s >= now_s) pending.push_back(shot.position_W);
+      }
+      mates.push_back({.uav_id = member.uav_id,
+                       .trajectory = path.trajectory,
+                       .start_mission_s = path.team.start_mission_s,
+                       .pending_shots_W = std::move(pending)});
+      versions->emplace_back(member.uav_id, path.team.plan_version);
+      continue;
+    }
+    // Not planned yet: held at its start (a one-point trajectory).
+    PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
+    c.row(0) = member.start.position_W.transpose();
+    mates.push_back({.uav_id = member.uav_id,
+                     .trajectory = *PolynomialTrajectory::FromCoefficients({1.0}, {c}),
+                     .start_mission_s = member.start.mission_time_s});
+    versions->emplace_back(member.uav_id, 0);
+  }
+  std::sort(versions->begin(), versions->end());
+  return mates;
 }
 
 absl::Status Mission::PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,

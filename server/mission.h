@@ -150,13 +150,19 @@ class Mission {
     // From the call's arrival until a planner took it up
     // (PlannerStats::queued_s).
     absl::Duration queued = absl::ZeroDuration();
+    // The UAV to plan for (MissionConfig::CheckUavId): "" without a team.
+    // With a team its path keeps min_separation_m from every teammate's
+    // committed trajectory, counts their shots still to come as taken, and
+    // becomes its own committed trajectory (PlannedPath::team stamped).
+    std::string uav_id = {};
   };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,
                                                  const RequestKey& request, const PlanCall& call);
   // Recovery: a plan read back from storage, in log order. The planner takes
-  // `planner_state`, the plan takes the next sequence number, and a retry of
-  // `request_id` is answered with `path`.
+  // `planner_state`, the plan takes the next sequence number, a retry of
+  // `request_id` is answered with `path`, and a team's path (its
+  // PlannedPath::team) is its UAV's committed trajectory again.
   [[nodiscard]] absl::Status RestorePlan(const RequestKey& request, PlannedPath path,
                                          const std::string& planner_state);
   // The sequence number the next change of the log will take (1 for a new
@@ -309,6 +315,13 @@ class Mission {
   absl::Status Persist(const PersistFn& persist, const MeasurementResult* answer = nullptr);
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                            const std::string& planner_state);
+  // A team's other UAVs as the plan for `uav_id` at mission time `now_s`
+  // must keep clear of them: each one's committed trajectory (or, before
+  // its first plan, its start, held), with its shots still to come; and
+  // their plan versions (0: none yet), in uav_id order.
+  std::vector<Teammate> TeammatesOf(const std::string& uav_id, double now_s,
+                                    std::vector<std::pair<std::string, std::int64_t>>* versions)
+      const ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
 
   const std::string id_;
   const MissionConfig config_;
@@ -368,6 +381,8 @@ class Mission {
   mutable absl::Mutex summary_mu_;
   mutable Summary summary_ ABSL_GUARDED_BY(summary_mu_);  // SettleMap sets a sparse trace
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
+  // A team's committed trajectories: uav_id -> its last plan.
+  std::map<std::string, PlannedPath> committed_ ABSL_GUARDED_BY(planner_mu_);
   // Not under planner_mu_: that is held for a whole plan, and Snapshot
   // must not wait for one.
   std::atomic<std::int64_t> paths_planned_{0};

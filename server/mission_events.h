@@ -35,6 +35,7 @@ struct MissionEventData {
     Vec3 camera_position_W = Vec3::Zero();
     std::vector<int> detected_cells;            // labelled >= kDetectedLabel
     std::int64_t trace_measurements_fused = 0;  // the measurements `trace` includes
+    std::string uav_id = {};                    // who took it ("" without a team)
   };
   struct ObstaclesChanged {
     int obstacle_count = 0;
@@ -45,6 +46,8 @@ struct MissionEventData {
     double objective = 0.0;
     std::vector<Vec3> control_waypoints_W;
     Vec3 start_W = Vec3::Zero();
+    std::string uav_id = {};  // whose path ("" without a team)
+    std::int64_t plan_version = 0;
   };
   struct Deleted {};
   std::variant<MeasurementFused, ObstaclesChanged, PathPlanned, Deleted> event;

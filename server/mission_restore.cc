@@ -46,6 +46,13 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
           absl::StrCat("state: covered cell ", cell, " is outside the field"));
     }
   }
+  for (const PlannedPath& path : state.committed) {
+    if (config.FindMember(path.team.uav_id) == nullptr) {
+      return absl::InvalidArgumentError(absl::StrCat("state: a committed trajectory of UAV '",
+                                                     path.team.uav_id,
+                                                     "', which is not in the team"));
+    }
+  }
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
   std::shared_ptr<Mission> mission;
@@ -97,6 +104,13 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   }
   mission->answers_.Restore(std::move(state.answers));
   mission->paths_planned_ = state.paths_planned;
+  {
+    absl::MutexLock lock(&mission->planner_mu_);
+    for (PlannedPath& path : state.committed) {
+      std::string uav_id = path.team.uav_id;
+      mission->committed_.insert_or_assign(std::move(uav_id), std::move(path));
+    }
+  }
   mission->snapshots_.StoredAt(state.sequence, state.measurements_fused);
   return mission;
 }
@@ -120,8 +134,13 @@ absl::Status Mission::RestorePlan(const RequestKey& request, PlannedPath path,
                                   const std::string& planner_state) {
   absl::MutexLock planner_lock(&planner_mu_);
   OAIPP_RETURN_IF_ERROR(planner_->RestoreState(planner_state));
+  if (!path.team.uav_id.empty() && config_.FindMember(path.team.uav_id) == nullptr) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("a plan of UAV '", path.team.uav_id, "', which is not in the team"));
+  }
   OAIPP_RETURN_IF_ERROR(PersistPlan(nullptr, path, planner_state));
   ++paths_planned_;
+  if (!path.team.uav_id.empty()) committed_.insert_or_assign(path.team.uav_id, path);
   answers_.Remember(request, std::move(path));
   return absl::OkStatus();
 }

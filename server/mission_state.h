@@ -38,6 +38,9 @@ struct MissionState {
   std::string planner_state = {};  // Planner::SaveState
   // request_id -> fingerprint and first answer, oldest first.
   std::vector<std::pair<std::string, RememberedAnswer>> answers = {};
+  // A team's committed trajectories (PlannedPath::team set), one per UAV
+  // that has planned, in uav_id order.
+  std::vector<PlannedPath> committed = {};
 };
 
 }  // namespace oaipp::server

@@ -132,6 +132,7 @@ inline void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
     f->set_cells_fused(m->cells_fused);
     f->set_trace(m->trace);
     f->set_trace_measurements_fused(m->trace_measurements_fused);
+    f->set_uav_id(m->uav_id);
     *f->mutable_camera_position_m() = ToProto(m->camera_position_W);
     f->mutable_detected_cells()->Add(m->detected_cells.begin(), m->detected_cells.end());
   } else if (const auto* o = std::get_if<MissionEventData::ObstaclesChanged>(&e.event)) {
@@ -143,6 +144,8 @@ inline void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
     f->set_objective(p->objective);
     for (const Vec3& w : p->control_waypoints_W) *f->add_control_waypoints_m() = ToProto(w);
     *f->mutable_start_m() = ToProto(p->start_W);
+    f->set_uav_id(p->uav_id);
+    f->set_plan_version(p->plan_version);
   } else {
     out->mutable_mission_deleted();
   }

@@ -100,9 +100,9 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
     for (const Teammate& mate : mission.teammates) {
       const Vec3 there = TeammatePosition(mate, state.mission_time_s);
       if (!Separated(state.position_W, there, mission.min_separation_m)) {
-        return absl::InvalidArgumentError(
-            absl::StrCat("state.position_W: ", (state.position_W - there).norm(), " m from UAV ",
-                         mate.uav_id, ", closer than min_separation_m ", mission.min_separation_m));
+        return absl::InvalidArgumentError(absl::StrCat(
+            "state.position_W: ", (state.position_W - there).norm(), " m from UAV '", mate.uav_id,
+            "', closer than min_separation_m ", mission.min_separation_m));
       }
     }
   }

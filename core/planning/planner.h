@@ -19,6 +19,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -41,7 +42,7 @@ namespace oaipp {
 // in a plan's objective as if already taken, so that a UAV does not plan to
 // look again at ground a teammate is about to see.
 struct Teammate {
-  int uav_id = 0;  // names it in messages
+  std::string uav_id;  // names it in messages
   PolynomialTrajectory trajectory;
   double start_mission_s = 0.0;
   std::vector<Vec3> pending_shots_W = {};
@@ -151,6 +152,17 @@ struct PlannedPath {
   bool collision_free = false;       // the exact check; always true for a returned path
   double next_shot_mission_s = 0.0;  // sensor phase after the path
   PlannerStats stats = {};
+  // Set by the service that keeps a team's trajectories, not by a planner
+  // (empty for one UAV): whose path this is, its version, when on the
+  // mission clock it starts, and the teammates' versions (uav_id, version)
+  // it keeps clear of.
+  struct TeamStamp {
+    std::string uav_id;
+    std::int64_t plan_version = 0;
+    double start_mission_s = 0.0;
+    std::vector<std::pair<std::string, std::int64_t>> checked_against;
+  };
+  TeamStamp team = {};
 };
 
 class Planner {

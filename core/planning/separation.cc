@@ -56,7 +56,7 @@ absl::Status CheckSeparationExact(const PolynomialTrajectory& trajectory, double
       const double d = (trajectory.Position(t - from) - TeammatePosition(mate, t)).norm();
       if (d < min_separation_m + margin) {
         return absl::FailedPreconditionError(absl::StrFormat(
-            "path comes within %.2f m of UAV %d at mission time %.2f s (min_separation_m %g)", d,
+            "path comes within %.2f m of UAV '%s' at mission time %.2f s (min_separation_m %g)", d,
             mate.uav_id, t, min_separation_m));
       }
     }

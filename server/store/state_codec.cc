@@ -69,6 +69,9 @@ std::string EncodeMissionState(const MissionState& state) {
   out.set_mission_time_s(state.mission_time_s);
   out.set_paths_planned(state.paths_planned);
   out.set_planner_state(state.planner_state);
+  for (const PlannedPath& path : state.committed) {
+    api::PlannedPathToProto(path, out.add_committed());
+  }
   for (const auto& [request_id, answer] : state.answers) {
     const RequestResult& result = answer.result;
     store::Answer* a = out.add_answers();
@@ -169,6 +172,12 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
       case store::Answer::RESULT_NOT_SET:
         return Corrupt("an answer without a result");
     }
+  }
+  for (const v1::PlanPathResponse& committed : in.committed()) {
+    absl::StatusOr<PlannedPath> path = api::PlannedPathFromProto(committed);
+    if (!path.ok()) return Corrupt(absl::StrCat("committed: ", path.status().message()));
+    if (path->team.uav_id.empty()) return Corrupt("committed: a trajectory without its uav_id");
+    state.committed.push_back(*std::move(path));
   }
   return state;
 }

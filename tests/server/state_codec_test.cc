@@ -123,5 +123,32 @@ TEST(StateCodecTest, ASparseMapsStateComesBackExactly) {
             absl::StatusCode::kDataLoss);
 }
 
+// A team's committed trajectories come back with their stamps; one without
+// its uav_id is not a state this server wrote.
+TEST(StateCodecTest, ATeamsCommittedTrajectoriesComeBack) {
+  PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
+  c.row(0) << 1.0, 2.0, 8.0;
+  c.row(1) << 0.5, 0.0, 0.0;
+  PlannedPath path{.trajectory = *PolynomialTrajectory::FromCoefficients({4.0}, {c})};
+  path.team = {.uav_id = "north",
+               .plan_version = 7,
+               .start_mission_s = 12.5,
+               .checked_against = {{"south", 6}, {"west", 0}}};
+  MissionState s = SomeState();
+  s.committed.push_back(path);
+  absl::StatusOr<MissionState> back = DecodeMissionState(EncodeMissionState(s));
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->committed.size(), 1u);
+  const PlannedPath& got = back->committed.front();
+  EXPECT_EQ(got.team.uav_id, "north");
+  EXPECT_EQ(got.team.plan_version, 7);
+  EXPECT_EQ(got.team.start_mission_s, 12.5);
+  EXPECT_EQ(got.team.checked_against, path.team.checked_against);
+  EXPECT_EQ(got.trajectory.Position(2.0), Vec3(2.0, 2.0, 8.0));
+
+  s.committed.front().team.uav_id.clear();
+  EXPECT_EQ(DecodeMissionState(EncodeMissionState(s)).status().code(), absl::StatusCode::kDataLoss);
+}
+
 }  // namespace
 }  // namespace oaipp::server

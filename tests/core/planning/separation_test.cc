@@ -49,7 +49,7 @@ double ClosestApproach(const PolynomialTrajectory& a, double a_start, const Poly
 
 TEST(SeparationTest, ATeammateHoversAtBothEndsOfItsTrajectory) {
   const Teammate mate{
-      .uav_id = 2, .trajectory = Line({0, 0, 10}, {8, 0, 10}, 4.0), .start_mission_s = 10.0};
+      .uav_id = "2", .trajectory = Line({0, 0, 10}, {8, 0, 10}, 4.0), .start_mission_s = 10.0};
   EXPECT_TRUE(TeammatePosition(mate, 3.0).isApprox(Vec3(0, 0, 10)));
   EXPECT_TRUE(TeammatePosition(mate, 99.0).isApprox(Vec3(8, 0, 10)));
   EXPECT_NEAR(TeammatePosition(mate, 12.0).x(), 4.0, 1e-9);  // half way, by symmetry
@@ -59,13 +59,13 @@ TEST(SeparationTest, TheExactCheckNamesTheTeammateAndTheTime) {
   // Two UAVs crossing the origin at the same time.
   const PolynomialTrajectory a = Line({-10, 0, 10}, {10, 0, 10}, 6.0);
   const Teammate b{
-      .uav_id = 7, .trajectory = Line({0, -10, 10}, {0, 10, 10}, 6.0), .start_mission_s = 0.0};
+      .uav_id = "7", .trajectory = Line({0, -10, 10}, {0, 10, 10}, 6.0), .start_mission_s = 0.0};
   const absl::Status status = CheckSeparationExact(a, 0.0, {&b, 1}, kMinSeparation);
   EXPECT_EQ(status.code(), absl::StatusCode::kFailedPrecondition);
-  EXPECT_THAT(status.message(), HasSubstr("UAV 7"));
+  EXPECT_THAT(status.message(), HasSubstr("UAV '7'"));
   // The same crossing 3 s later for the teammate: it waits at its start,
   // 10 m away, while the other passes.
-  const Teammate late{.uav_id = 7, .trajectory = b.trajectory, .start_mission_s = 6.5};
+  const Teammate late{.uav_id = "7", .trajectory = b.trajectory, .start_mission_s = 6.5};
   EXPECT_TRUE(CheckSeparationExact(a, 0.0, {&late, 1}, kMinSeparation).ok());
   EXPECT_EQ(SeparationSamples(a, 0.0, {&late, 1}, kMinSeparation, 20.0), 0);
   EXPECT_GT(SeparationSamples(a, 0.0, {&b, 1}, kMinSeparation, 20.0), 0);
@@ -80,7 +80,7 @@ TEST(SeparationTest, TheExactCheckIsSoundAndNotFarFromTheTruth) {
     const PolynomialTrajectory a =
         Line({xy(rng), xy(rng), z(rng)}, {xy(rng), xy(rng), z(rng)}, duration(rng));
     const Teammate b{
-        .uav_id = 1,
+        .uav_id = "1",
         .trajectory = Line({xy(rng), xy(rng), z(rng)}, {xy(rng), xy(rng), z(rng)}, duration(rng)),
         .start_mission_s = offset(rng)};
     const double truth = ClosestApproach(a, 0.0, b.trajectory, b.start_mission_s, 0.0, 1e-3);
@@ -127,7 +127,7 @@ TEST(SeparationTest, APlanKeepsApartFromItsTeammateAtEveryInstant) {
         b_start = clear_start();
       } while ((b_start.position_W - a_start.position_W).norm() < kMinSeparation + 1.0 ||
                (b_start.position_W - a->trajectory.Position(0)).norm() < kMinSeparation + 1.0);
-      const Teammate mate{.uav_id = 1, .trajectory = a->trajectory, .start_mission_s = 0.0};
+      const Teammate mate{.uav_id = "1", .trajectory = a->trajectory, .start_mission_s = 0.0};
       PlanningContext context = scene.View();
       context.teammates = {&mate, 1};
       context.min_separation_m = kMinSeparation;
@@ -201,7 +201,7 @@ TEST(TeamPlanningTest, ATeammatesPendingShotsSteerAPlanToOtherGround) {
     ASSERT_TRUE(planner.ok());
     auto a = (*planner)->Plan(scene.View(), a_start, absl::InfiniteFuture());
     ASSERT_TRUE(a.ok()) << a.status();
-    Teammate mate{.uav_id = 1, .trajectory = a->trajectory, .start_mission_s = 0.0};
+    Teammate mate{.uav_id = "1", .trajectory = a->trajectory, .start_mission_s = 0.0};
     PlanningContext context = scene.View();
     context.teammates = {&mate, 1};
     auto blind = (*planner)->Plan(context, b_start, absl::InfiniteFuture());
