@@ -157,13 +157,20 @@ Ticks MakeTicks(double lo, double hi, int span_px, double min_spacing_px, Width 
 // ---------------------------------------------------------------------------
 // Layout.
 
-enum class LegendKind { kObstacle, kTarget, kPath, kPlannedPath, kDetection };
+enum class LegendKind { kObstacle, kTarget, kPath, kPlannedPath, kDetection, kTeamPath };
 
 struct LegendItem {
   LegendKind kind;
   std::string text;
-  int x = 0;  // left of the swatch
+  std::size_t team_index = 0;  // kTeamPath: which colour
+  int x = 0;                   // left of the swatch
 };
+
+// TeamColour(i) as OpenCV's blue, green, red.
+cv::Scalar TeamScalar(std::size_t i) {
+  const std::array<std::uint8_t, 3> rgb = TeamColour(i);
+  return cv::Scalar(rgb[2], rgb[1], rgb[0]);
+}
 
 constexpr const char* kPanelHeading[2] = {"mean", "standard deviation"};
 constexpr const char* kBarName[2] = {"mean", "std. dev."};
@@ -268,6 +275,15 @@ absl::Status ValidateOverlay(const Overlay& overlay) {
       if (absl::Status s = CheckPoint(name, i, (*points)[i]); !s.ok()) return s;
     }
   }
+  for (std::size_t p = 0; p < overlay.team_paths.size(); ++p) {
+    const std::vector<Vec2>& points = overlay.team_paths[p].points;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (absl::Status s = CheckPoint(absl::StrCat("overlay.team_paths[", p, "]"), i, points[i]);
+          !s.ok()) {
+        return s;
+      }
+    }
+  }
   return absl::OkStatus();
 }
 
@@ -277,6 +293,9 @@ std::vector<LegendItem> LegendItems(const Overlay& overlay) {
   if (!overlay.targets.empty()) items.push_back({LegendKind::kTarget, "target"});
   if (!overlay.path.empty()) {
     items.push_back({LegendKind::kPath, absl::StrCat(overlay.path_label, " (dot: start)")});
+  }
+  for (std::size_t i = 0; i < overlay.team_paths.size(); ++i) {
+    items.push_back({LegendKind::kTeamPath, overlay.team_paths[i].label, i});
   }
   if (!overlay.planned_path.empty()) items.push_back({LegendKind::kPlannedPath, "planned path"});
   if (!overlay.detections.empty()) items.push_back({LegendKind::kDetection, "detection"});
@@ -483,9 +502,16 @@ void DrawOverlay(cv::Mat& canvas, const PixelRect& plot, const MapGrid& grid, in
   };
   polyline(overlay.planned_path, kPlannedColour);
   polyline(overlay.path, kPathColour);
+  for (std::size_t i = 0; i < overlay.team_paths.size(); ++i) {
+    polyline(overlay.team_paths[i].points, TeamScalar(i));
+  }
   const int dot_px = static_cast<int>(std::lround(4 * g.unit));
   if (!overlay.path.empty()) {
     DrawStartDot(area, PlotPoint(grid, k, plot.height, overlay.path.front()), dot_px);
+  }
+  for (const Overlay::LabelledPath& path : overlay.team_paths) {
+    if (path.points.empty()) continue;
+    DrawStartDot(area, PlotPoint(grid, k, plot.height, path.points.front()), dot_px);
   }
   for (const Vec2& p : overlay.detections) {
     DrawDetection(area, PlotPoint(grid, k, plot.height, p), dot_px - 1);
@@ -581,6 +607,11 @@ void DrawLegend(cv::Mat& canvas, const Geometry& g) {
       case LegendKind::kPlannedPath:
         cv::line(canvas, left, right, kPlannedColour, g.line_px, cv::LINE_AA);
         break;
+      case LegendKind::kTeamPath:  // outlined: white and black are in the palette
+        cv::line(canvas, left, right, kBlack, g.line_px + 2, cv::LINE_AA);
+        cv::line(canvas, left, right, TeamScalar(item.team_index), g.line_px, cv::LINE_AA);
+        DrawStartDot(canvas, fixed(left + cv::Point(dot_px, 0)), dot_px);
+        break;
       case LegendKind::kDetection:
         DrawDetection(canvas, fixed((left + right) / 2), dot_px - 1);
         break;
@@ -621,6 +652,20 @@ Vec2 WorldToPixel(const MapGrid& grid, const MapLayout& layout, Panel panel, con
   const double k = layout.cell_px;
   return {plot.x + (p_W.x() - grid.x_min_m) / grid.resolution_m * k,
           plot.y + plot.height - (p_W.y() - grid.y_min_m) / grid.resolution_m * k};
+}
+
+std::array<std::uint8_t, 3> TeamColour(std::size_t i) {
+  // Red, white, orange, pink, black, cyan, brown, lavender: none of them on
+  // viridis's purple-blue-green-yellow ramp.
+  static constexpr std::array<std::array<std::uint8_t, 3>, 8> kColours = {{{230, 25, 75},
+                                                                           {255, 255, 255},
+                                                                           {245, 130, 48},
+                                                                           {240, 50, 230},
+                                                                           {0, 0, 0},
+                                                                           {70, 240, 240},
+                                                                           {170, 110, 40},
+                                                                           {220, 190, 255}}};
+  return kColours[i % kColours.size()];
 }
 
 absl::StatusOr<std::string> RenderMapPng(const MapGrid& grid, const MapLayers& layers,

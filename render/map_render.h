@@ -27,6 +27,8 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <utility>
@@ -74,6 +76,13 @@ struct Overlay {
   std::string path_label = "path";
   // A second polyline, e.g. the planned path. Magenta.
   std::vector<Vec2> planned_path;
+  // A team's flown paths: the i-th in TeamColour(i), with a white dot at its
+  // start, and its label in the legend.
+  struct LabelledPath {
+    std::string label;
+    std::vector<Vec2> points;
+  };
+  std::vector<LabelledPath> team_paths;
   // Points, e.g. detections. Orange dots.
   std::vector<Vec2> detections;
 };
@@ -85,6 +94,10 @@ struct MapTitle {
   std::optional<double> mission_time_s;
   std::optional<double> trace;
 };
+
+// The colour of a team's i-th path, as 8-bit red, green, blue: eight colours
+// that stand out on viridis and from each other, repeated past eight.
+[[nodiscard]] std::array<std::uint8_t, 3> TeamColour(std::size_t i);
 
 enum class Panel { kMean = 0, kStdDev = 1 };
 

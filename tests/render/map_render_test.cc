@@ -277,6 +277,41 @@ TEST(MapRenderTest, PathIsRedWithAWhiteStartInBothPanels) {
   }
 }
 
+// A team's paths: each in its own colour (the palette's first two here,
+// red and white, written out as RGB), none of them drawn over another's
+// ground, and a legend entry per path, which widens nothing but the legend.
+TEST(MapRenderTest, TeamPathsAreEachInTheirOwnColour) {
+  EXPECT_EQ(TeamColour(0), (std::array<std::uint8_t, 3>{230, 25, 75}));
+  EXPECT_EQ(TeamColour(1), (std::array<std::uint8_t, 3>{255, 255, 255}));
+  EXPECT_EQ(TeamColour(8), TeamColour(0));  // the palette repeats past eight
+  Overlay overlay;
+  overlay.team_paths = {{.label = "north", .points = {Vec2(-10.0, 6.0), Vec2(10.0, 6.0)}},
+                        {.label = "south", .points = {Vec2(-10.0, -6.0), Vec2(10.0, -6.0)}}};
+  const MapLayout layout = LayoutOrDie(kGrid, overlay);
+  const cv::Mat image = RenderOrDie(kGrid, Flat(0.0, 0.0), overlay);
+  const auto is = [](std::array<std::uint8_t, 3> rgb) {
+    return [rgb](const cv::Vec3b& bgr) {
+      return std::abs(bgr[2] - rgb[0]) <= 20 && std::abs(bgr[1] - rgb[1]) <= 20 &&
+             std::abs(bgr[0] - rgb[2]) <= 20;
+    };
+  };
+  for (const Panel p : {Panel::kMean, Panel::kStdDev}) {
+    const cv::Point north = PixelOf(WorldToPixel(kGrid, layout, p, Vec2(5.0, 6.0)));
+    const cv::Point south = PixelOf(WorldToPixel(kGrid, layout, p, Vec2(5.0, -6.0)));
+    EXPECT_TRUE(AnyNear(image, north, 1, is(TeamColour(0))));
+    EXPECT_FALSE(AnyNear(image, north, 1, is(TeamColour(1))));
+    EXPECT_TRUE(AnyNear(image, south, 1, is(TeamColour(1))));
+    EXPECT_FALSE(AnyNear(image, south, 1, is(TeamColour(0))));
+    const cv::Point away = PixelOf(WorldToPixel(kGrid, layout, p, Vec2(5.0, 0.0)));
+    EXPECT_EQ(At(image, away.x, away.y), Viridis(0));
+  }
+  Overlay nan_team;
+  nan_team.team_paths = {{.label = "a", .points = {Vec2(0, 0)}},
+                         {.label = "b", .points = {Vec2(0, 0), Vec2(1, std::nan(""))}}};
+  EXPECT_EQ(RenderMapPng(kGrid, Flat(0.0, 0.0), nan_team).status().message(),
+            "overlay.team_paths[1][1]: must be finite, got (1, nan)");
+}
+
 TEST(MapRenderTest, TargetIsAGreenOutline) {
   Overlay overlay;
   overlay.targets = {{Vec2(2.0, 3.0), Vec2(6.0, 9.0)}};
