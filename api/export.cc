@@ -230,6 +230,7 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
                                                   const std::vector<Obstacle>& obstacles,
                                                   const v1::PlanPathResponse& path,
                                                   const ExportOptions& options) {
+  OAIPP_RETURN_IF_ERROR(config.CheckUavId(path.uav_id(), "path.uav_id"));
   if (path.trajectory().segments_size() > kMaxSegments) {
     return absl::InvalidArgumentError(absl::StrCat("path.trajectory.segments: at most ",
                                                    kMaxSegments, ", got ",
@@ -312,12 +313,15 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
 
   if (!config.geo_origin.has_value()) return out;
   OAIPP_ASSIGN_OR_RETURN(const GeoFrame frame, GeoFrame::FromOrigin(*config.geo_origin));
-  // Home: the ground under the mission's start, where the UAV took off;
-  // under the path's first point instead should an obstacle added since
-  // stand there. Never inside an obstacle's footprint, which the fence
-  // excludes. Altitudes are relative to it: its height is the origin's,
-  // the ground (z = 0), so that an item's relative altitude is its z.
-  Vec3 home_W(config.start.position_W.x(), config.start.position_W.y(), 0.0);
+  // Home: the ground under the UAV's start (its team member's, with a
+  // team), where it took off; under the path's first point instead should
+  // an obstacle added since stand there. Never inside an obstacle's
+  // footprint, which the fence excludes. Altitudes are relative to it: its
+  // height is the origin's, the ground (z = 0), so that an item's relative
+  // altitude is its z.
+  const TeamMember* member = config.FindMember(path.uav_id());
+  const Vec3& start_W = member != nullptr ? member->start.position_W : config.start.position_W;
+  Vec3 home_W(start_W.x(), start_W.y(), 0.0);
   for (const Obstacle& o : obstacles) {
     if (Over(o.shape, home_W)) {
       home_W = Vec3(traj.Position(0.0).x(), traj.Position(0.0).y(), 0.0);

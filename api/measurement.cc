@@ -145,6 +145,7 @@ void MeasurementToProto(const MeasurementInput& input, v1::AddMeasurementRequest
   out->set_mission_time_s(input.mission_time_s);
   *out->mutable_camera_position_m() = ToProto(input.pose.p_WC);
   out->set_camera_yaw_deg(input.pose.yaw_rad * 180.0 / kPi);
+  out->set_uav_id(input.uav_id);
   out->clear_data();
   if (input.labels.has_value()) {
     v1::CellLabels& labels = *out->mutable_labels();

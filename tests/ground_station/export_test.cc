@@ -313,6 +313,62 @@ TEST_F(GroundStationTest, ThePlanFileHasQGroundControlsFieldsAndFollowsThePath) 
   EXPECT_EQ(plan.at("rallyPoints").at("points")[0].size(), 3u);
 }
 
+// A team's export is per UAV: each path names its uav_id, and its .plan's
+// home is the ground under that UAV's own start (given here by latitude and
+// longitude), not the mission's. A path without a uav_id, or naming a UAV
+// not in the team, is refused naming path.uav_id.
+TEST_F(GroundStationTest, EachUavOfATeamExportsItsPathWithItsHomeUnderItsStart) {
+  const v1::GeoPoint starts[] = {Geo(47.397742 + 0.00005, 8.545594 - 0.0001, 496.0),
+                                 Geo(47.397742 - 0.00005, 8.545594 + 0.0001, 496.0)};
+  v1::CreateMissionRequest create;
+  create.set_mission_id("team");
+  v1::MissionSpec& spec = *create.mutable_spec();
+  *spec.mutable_geo_origin() = Geo(kOrigin.latitude_deg, kOrigin.longitude_deg, kOrigin.altitude_m);
+  spec.mutable_planner()->set_generations(4);
+  for (int i = 0; i < 2; ++i) {
+    v1::TeamMember& m = *spec.add_team();
+    m.set_uav_id(i == 0 ? "north" : "south");
+    *m.mutable_start()->mutable_position_geo() = starts[i];
+  }
+  v1::Mission mission;
+  {
+    grpc::ClientContext context;
+    const grpc::Status status = service_.stub().CreateMission(&context, create, &mission);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+  }
+  for (int i = 0; i < 2; ++i) {
+    v1::PlanPathRequest plan;
+    plan.set_name("missions/team");
+    plan.set_uav_id(mission.spec().team(i).uav_id());
+    *plan.mutable_state()->mutable_position_geo() = starts[i];
+    v1::ExportPathRequest request;
+    request.set_name("missions/team");
+    {
+      grpc::ClientContext context;
+      const grpc::Status status = service_.stub().PlanPath(&context, plan, request.mutable_path());
+      ASSERT_TRUE(status.ok()) << status.error_message();
+    }
+    EXPECT_EQ(request.path().uav_id(), plan.uav_id());
+    v1::ExportPathResponse out;
+    const grpc::Status status = Export(request, &out);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    const json home = json::parse(out.qgc_plan_json()).at("mission").at("plannedHomePosition");
+    EXPECT_NEAR(home[0].get<double>(), starts[i].latitude_deg(), 1e-9) << plan.uav_id();
+    EXPECT_NEAR(home[1].get<double>(), starts[i].longitude_deg(), 1e-9) << plan.uav_id();
+    EXPECT_NEAR(home[2].get<double>(), kOrigin.altitude_m, 0.01);
+
+    for (const auto& [uav_id, code] : {std::pair{"", grpc::StatusCode::INVALID_ARGUMENT},
+                                       std::pair{"west", grpc::StatusCode::NOT_FOUND}}) {
+      v1::ExportPathRequest bad = request;
+      bad.mutable_path()->set_uav_id(uav_id);
+      const grpc::Status refused = Export(bad, &out);
+      EXPECT_EQ(refused.error_code(), code) << uav_id;
+      EXPECT_TRUE(absl::StrContains(refused.error_message(), "path.uav_id"))
+          << refused.error_message();
+    }
+  }
+}
+
 TEST_F(GroundStationTest, SetpointsReplayThePolynomialsInNed) {
   CreateMission();
   const v1::PlanPathResponse path = Plan();
