@@ -39,13 +39,15 @@ class Flight {
       const PolynomialTrajectory& trajectory, double until_s,
       const std::function<absl::StatusOr<bool>(double t_s)>& after_step);
 
+  // One step by hand, for flights that interleave several UAVs' steps: the
+  // UAV moves to p_W, which counts as Fly's steps do.
+  void MoveTo(const Vec3& p_W);
+
   [[nodiscard]] double path_length_m() const { return path_length_m_; }
   [[nodiscard]] int collisions() const { return collisions_; }
   [[nodiscard]] const std::vector<Vec3>& trace_W() const { return trace_W_; }
 
  private:
-  void MoveTo(const Vec3& p_W);
-
   const Simulation* simulation_;
   Vec3 position_W_;
   double path_length_m_ = 0.0;

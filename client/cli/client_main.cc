@@ -20,6 +20,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "client/cli/evaluation.h"
+#include "client/cli/export_files.h"
 #include "client/cli/map_image.h"
 #include "client/cli/mission_runner.h"
 #include "core/common/status_macros.h"
@@ -103,7 +104,10 @@ Commands:
                       found) and writes steps.csv and map.png to --out; with
                       --frames=DIR also a map image per measurement,
                       DIR/sequence.png (six of them side by side) and
-                      DIR/sequence.avi (all of them, 2 per second)
+                      DIR/sequence.avi (all of them, 2 per second); a
+                      team scenario (mission.team) flies every UAV, each
+                      path in its own colour, and prints per-UAV totals and
+                      the closest approach of two UAVs
   health              check that the server answers
   map MISSION --png=FILE
                       write a mission's map image (mean | std deviation)
@@ -114,7 +118,8 @@ Commands:
                       out/export/<scenario name>): mission.plan
                       (QGroundControl), mission_items.csv (MAVLink mission
                       items, MAVSDK MissionRaw fields) and setpoints.csv
-                      (NED offboard setpoints at --setpoint_rate_hz)
+                      (NED offboard setpoints at --setpoint_rate_hz); for a
+                      team, each UAV's in --out/<uav_id>
   eval E1|...|E6      many trials as concurrent missions (with a progress bar
                       and an ETA); trial k uses seed k:
                       E1 = OA-IPP, lawnmower and random on the E1 world;
@@ -219,12 +224,20 @@ int Run(const std::string& path) {
   if (!channel.ok()) return Fail(channel.status());
   Client client(*channel, Options());
   if (absl::Status up = client.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
-  std::printf("scenario %s: %d targets, %.0f s budget, planner %s\n", scenario->name().c_str(),
+  const int team = scenario->mission().team_size();
+  std::printf("scenario %s: %d targets, %.0f s budget, planner %s%s\n", scenario->name().c_str(),
               sim->num_targets(), sim->config().budget_s,
-              oaipp::PlannerKindName(sim->config().planner.kind).c_str());
+              oaipp::PlannerKindName(sim->config().planner.kind).c_str(),
+              team > 0 ? absl::StrCat(", a team of ", team, " UAVs").c_str() : "");
+  // With a team, a first column says whose shot the line follows.
+  const auto uav_column = [&](const std::string& id) {
+    if (team > 0) std::printf("%-12s ", id.empty() ? "-" : id.c_str());
+  };
+  uav_column("uav_id");
   std::printf("%8s %8s %8s %8s %10s %10s\n", "time_s", "RSE", "Tr(P)", "found", "path_m",
               "collisions");
   auto progress = [&](const oaipp::client::StepRecord& s) {
+    uav_column(s.uav_id);
     std::printf("%8.1f %8.3f %8.2f %5d/%-2d %10.1f %10d\n", s.mission_time_s, s.rse, s.trace,
                 s.targets_found, sim->num_targets(), s.path_length_m, s.collisions);
     std::fflush(stdout);
@@ -284,12 +297,21 @@ int Run(const std::string& path) {
     if (!result->found_at_end[i]) missed.push_back(ids[i]);
   }
   if (!missed.empty()) std::printf("not found: %s\n", absl::StrJoin(missed, ", ").c_str());
+  if (team > 0) {
+    for (const oaipp::client::UavRecord& u : result->uavs) {
+      std::printf("%s: %d plans, %d shots, %.1f m flown, %d collisions\n", u.uav_id.c_str(),
+                  u.plans, u.shots, u.path_length_m, u.collisions);
+    }
+    std::printf("closest approach of two UAVs: %.2f m (min_separation_m %.2f), %d violations\n",
+                result->closest_approach_m, result->min_separation_m,
+                result->separation_violations);
+  }
   std::printf(
       "done: %d plans (%.1f s planning), RSE %.3f -> %.3f, %d/%d targets found, "
       "%d collisions; wrote %s/steps.csv and %s/map.png\n",
       result->plans, result->planning_time_s, result->steps.front().rse, last.rse,
       last.targets_found, sim->num_targets(), last.collisions, out.c_str(), out.c_str());
-  return last.collisions == 0 ? 0 : 3;
+  return last.collisions == 0 && result->separation_violations == 0 ? 0 : 3;
 }
 
 // "LAT,LON,ALT" -> GeoPoint (range checks are the server's).
@@ -339,54 +361,55 @@ int Export(const std::string& path) {
   if (absl::Status up = client.WaitUntilServing(absl::Seconds(10)); !up.ok()) return Fail(up);
   absl::StatusOr<oaipp::v1::Mission> mission = client.CreateMission(spec);
   if (!mission.ok()) return Fail(mission.status());
-  oaipp::v1::PlanPathRequest plan;
-  plan.set_name(mission->name());
-  *plan.mutable_state() = mission->spec().start();
-  if (scenario->has_planning_budget_s()) plan.set_planning_budget_s(scenario->planning_budget_s());
-  absl::StatusOr<oaipp::v1::PlanPathResponse> planned = client.PlanPath(plan);
-  if (!planned.ok()) return Fail(planned.status());
-  request.set_name(mission->name());
-  *request.mutable_path() = *planned;
-  absl::StatusOr<oaipp::v1::ExportPathResponse> exported = client.ExportPath(request);
-  if (!absl::GetFlag(FLAGS_keep)) (void)client.DeleteMission(mission->name());
-  if (!exported.ok()) return Fail(exported.status());
-
   std::string out = absl::GetFlag(FLAGS_out);
   if (out.empty()) out = "out/export/" + scenario->name();
-  std::filesystem::create_directories(out);
-  std::ofstream(out + "/mission.plan") << exported->qgc_plan_json() << "\n";
-  std::ofstream items(out + "/mission_items.csv");
-  items << "seq,frame,command,current,autocontinue,param1,param2,param3,param4,x,y,z,"
-           "mission_type\n";
-  for (const oaipp::v1::MissionItem& m : exported->mission_items()) {
-    items << absl::StrCat(m.seq(), ",", m.frame(), ",", m.command(), ",", m.current(), ",",
-                          m.autocontinue(), ",", m.param1(), ",", m.param2(), ",", m.param3(), ",",
-                          m.param4(), ",", m.x(), ",", m.y(), ",", m.z(), ",", m.mission_type(),
-                          "\n");
+  // One UAV: its files in `out`. A team: each member plans from its start,
+  // in the spec's order (so each path keeps clear of the ones before it),
+  // and gets its files in out/<uav_id>.
+  std::vector<std::pair<std::string, oaipp::v1::UavState>> uavs;
+  if (mission->spec().team().empty()) uavs.emplace_back("", mission->spec().start());
+  for (const oaipp::v1::TeamMember& m : mission->spec().team()) {
+    uavs.emplace_back(m.uav_id(), m.start());
   }
-  std::ofstream setpoints(out + "/setpoints.csv");
-  setpoints << "t_s,north_m,east_m,down_m,vn_m_s,ve_m_s,vd_m_s,an_m_s2,ae_m_s2,ad_m_s2,yaw_deg\n";
-  for (const oaipp::v1::Setpoint& p : exported->setpoints()) {
-    const auto& x = p.position_ned_m();
-    const auto& v = p.velocity_ned_m_s();
-    const auto& a = p.acceleration_ned_m_s2();
-    setpoints << absl::StrFormat("%.3f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.1f\n",
-                                 p.t_s(), x.x(), x.y(), x.z(), v.x(), v.y(), v.z(), a.x(), a.y(),
-                                 a.z(), p.yaw_deg());
+  absl::Status failed;
+  for (const auto& [uav_id, start] : uavs) {
+    oaipp::v1::PlanPathRequest plan;
+    plan.set_name(mission->name());
+    plan.set_uav_id(uav_id);
+    *plan.mutable_state() = start;
+    if (scenario->has_planning_budget_s())
+      plan.set_planning_budget_s(scenario->planning_budget_s());
+    absl::StatusOr<oaipp::v1::PlanPathResponse> planned = client.PlanPath(plan);
+    if (!planned.ok()) {
+      failed = planned.status();
+      break;
+    }
+    request.set_name(mission->name());
+    *request.mutable_path() = *planned;
+    absl::StatusOr<oaipp::v1::ExportPathResponse> exported = client.ExportPath(request);
+    if (!exported.ok()) {
+      failed = exported.status();
+      break;
+    }
+    const std::string dir = uav_id.empty() ? out : out + "/" + uav_id;
+    if (failed = oaipp::client::WriteExportFiles(dir, *exported); !failed.ok()) break;
+    int waypoints = 0;
+    for (const oaipp::v1::MissionItem& m : exported->mission_items()) {
+      waypoints += m.command() == 16;
+    }
+    std::printf(
+        "%s%splanned %.1f s (%d camera shots); %d mission items (%d waypoints, within %.2f m of "
+        "the trajectory), %d setpoints at %.0f Hz%s%s\nwrote %s/mission.plan, "
+        "%s/mission_items.csv and %s/setpoints.csv\n",
+        uav_id.c_str(), uav_id.empty() ? "" : ": ", planned->trajectory().duration_s(),
+        planned->measurement_poses_size(), exported->mission_items_size(), waypoints,
+        exported->waypoint_deviation_m(), exported->setpoints_size(), request.setpoint_rate_hz(),
+        exported->overflown_obstacles().empty() ? "" : "; overflown, so not fenced: ",
+        absl::StrJoin(exported->overflown_obstacles(), ", ").c_str(), dir.c_str(), dir.c_str(),
+        dir.c_str());
   }
-  int waypoints = 0;
-  for (const oaipp::v1::MissionItem& m : exported->mission_items()) waypoints += m.command() == 16;
-  std::printf(
-      "planned %.1f s (%d camera shots); %d mission items (%d waypoints, within %.2f m of the "
-      "trajectory), %d setpoints at %.0f Hz%s%s\nwrote %s/mission.plan, %s/mission_items.csv "
-      "and %s/setpoints.csv\n",
-      planned->trajectory().duration_s(), planned->measurement_poses_size(),
-      exported->mission_items_size(), waypoints, exported->waypoint_deviation_m(),
-      exported->setpoints_size(), request.setpoint_rate_hz(),
-      exported->overflown_obstacles().empty() ? "" : "; overflown, so not fenced: ",
-      absl::StrJoin(exported->overflown_obstacles(), ", ").c_str(), out.c_str(), out.c_str(),
-      out.c_str());
-  return 0;
+  if (!absl::GetFlag(FLAGS_keep)) (void)client.DeleteMission(mission->name());
+  return failed.ok() ? 0 : Fail(failed);
 }
 
 // The variants of an experiment and the paper's values at the end.

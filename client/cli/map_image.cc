@@ -13,7 +13,7 @@ namespace oaipp::client {
 
 absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
                                              const sim::Simulation& simulation,
-                                             const std::vector<Vec3>& path_W,
+                                             const std::vector<FlownPath>& paths,
                                              const std::string& mission_name,
                                              double mission_time_s) {
   const int nx = map.nx(), ny = map.ny();
@@ -34,8 +34,20 @@ absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
     overlay.obstacle_footprints.push_back(GroundFootprint(o.shape));
   }
   overlay.targets = simulation.TargetRectangles();
-  for (const Vec3& p : path_W) overlay.path.push_back(p.head<2>());
-  overlay.path_label = "flown path";
+  const auto ground = [](const std::vector<Vec3>& points_W) {
+    std::vector<Vec2> xy;
+    xy.reserve(points_W.size());
+    for (const Vec3& p : points_W) xy.push_back(p.head<2>());
+    return xy;
+  };
+  if (paths.size() == 1 && paths.front().uav_id.empty()) {
+    overlay.path = ground(paths.front().points_W);
+    overlay.path_label = "flown path";
+  } else {
+    for (const FlownPath& path : paths) {
+      overlay.team_paths.push_back({.label = path.uav_id, .points = ground(path.points_W)});
+    }
+  }
   return render::RenderMapPng(
       grid, layers, overlay,
       {.mission = mission_name, .mission_time_s = mission_time_s, .trace = map.trace()});

@@ -1,10 +1,11 @@
 // A picture of a mission for people: the map's mean and standard deviation
 // side by side (viridis, both on [0, 1], north up), with the obstacles'
 // footprints (grey), the true targets (green boxes) and the flown path
-// (red, white dot at the start) drawn over both.
+// (red, white dot at the start; a team's in a colour per UAV) drawn over
+// both.
 //
 //   OAIPP_ASSIGN_OR_RETURN(std::string png,
-//                          RenderMissionPng(map, sim, path_W, "missions/m-000001", 42.0));
+//                          RenderMissionPng(map, sim, {{"", path_W}}, "missions/m-000001", 42.0));
 #pragma once
 
 #include <string>
@@ -17,11 +18,19 @@
 
 namespace oaipp::client {
 
+// The path one UAV flew; uav_id is empty on a mission without a team.
+struct FlownPath {
+  std::string uav_id;
+  std::vector<Vec3> points_W;
+};
+
 // `map` must carry its cells (GetMap with include_cells). InvalidArgument
-// when it does not.
+// when it does not. One path without a uav_id is drawn red as "flown path";
+// a team's paths each in its own colour (render::TeamColour), labelled with
+// its uav_id.
 [[nodiscard]] absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
                                                            const sim::Simulation& simulation,
-                                                           const std::vector<Vec3>& path_W,
+                                                           const std::vector<FlownPath>& paths,
                                                            const std::string& mission_name,
                                                            double mission_time_s);
 

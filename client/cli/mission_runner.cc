@@ -3,18 +3,76 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "api/geometry.h"
 #include "api/measurement.h"
+#include "api/mission_config.h"
 #include "api/plan.h"
 #include "client/cli/map_image.h"
 #include "core/common/status_macros.h"
 #include "sim/flight.h"
 
 namespace oaipp::client {
+
+namespace {
+
+constexpr double kNever = std::numeric_limits<double>::infinity();
+
+// One UAV of the mission: where it is on the mission clock, and the path it
+// is flying.
+struct Pilot {
+  Pilot(const sim::Simulation& sim, std::string id, const v1::UavState& start, std::uint64_t seed)
+      : uav_id(std::move(id)),
+        state(start),
+        rng(seed),
+        flight(sim, api::FromProto(start.position_m())) {}
+
+  std::string uav_id;
+  v1::UavState state;  // at the end of the last path flown (the start before any)
+  std::mt19937_64 rng;
+  sim::Flight flight;
+  bool done = false;  // the budget is spent
+  // After a path cut short at a shot: the shot after it (see RunScenario).
+  std::optional<double> next_shot_s;
+
+  // The path being flown: from state's mission time, for `fly` seconds;
+  // `t` is the last step's time on it, negative before the first.
+  std::optional<PolynomialTrajectory> trajectory;
+  v1::PlanPathResponse path;
+  double fly = 0.0;
+  double t = -1.0;
+  int next_shot = 0;
+
+  // The next step's time on the path (sim::Flight::Fly's steps: every
+  // kStep_s from 0, the last one at `fly` exactly).
+  [[nodiscard]] double NextStep() const {
+    return t < 0.0 ? 0.0 : std::min(t + sim::Flight::kStep_s, fly);
+  }
+  // When this UAV acts next on the mission clock: plans, or takes a step.
+  [[nodiscard]] double NextEventS() const {
+    if (done) return kNever;
+    return state.mission_time_s() + (trajectory.has_value() ? NextStep() : 0.0);
+  }
+  // Where it is at mission time `s`, for s at or after its last step: on
+  // its path, or where it stopped.
+  [[nodiscard]] Vec3 PositionAt(double s) const {
+    if (!trajectory.has_value()) return api::FromProto(state.position_m());
+    return trajectory->Position(std::clamp(s - state.mission_time_s(), 0.0, fly));
+  }
+  // The first shot not taken yet: the path's next pose, or the one after
+  // its end.
+  [[nodiscard]] double FollowingShotS() const {
+    return next_shot < path.measurement_poses_size()
+               ? path.measurement_poses(next_shot).mission_time_s()
+               : path.next_shot_mission_s();
+  }
+};
+
+}  // namespace
 
 absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenario,
                                       const sim::Simulation& sim,
@@ -25,13 +83,33 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   result.sightings.resize(static_cast<std::size_t>(sim.num_targets()));
   OAIPP_ASSIGN_OR_RETURN(v1::Mission mission, client.CreateMission(scenario.mission()));
   result.mission_name = mission.name();
-  const double budget = mission.spec().budget_s();
-  v1::UavState state = mission.spec().start();
-  const double t0 = state.mission_time_s();
-  std::mt19937_64 rng(scenario.seed());
+  const v1::MissionSpec& spec = mission.spec();
+  const double budget = spec.budget_s();
+  const double min_separation_m =
+      spec.has_min_separation_m() ? spec.min_separation_m() : api::MissionConfig{}.min_separation_m;
+  std::vector<Pilot> pilots;
+  if (spec.team().empty()) {
+    pilots.emplace_back(sim, "", spec.start(), scenario.seed());
+  } else {
+    for (int i = 0; i < spec.team_size(); ++i) {
+      pilots.emplace_back(sim, spec.team(i).uav_id(), spec.team(i).start(),
+                          scenario.seed() + static_cast<std::uint64_t>(i));
+    }
+  }
+  result.uavs.resize(pilots.size());
+  for (std::size_t i = 0; i < pilots.size(); ++i) result.uavs[i].uav_id = pilots[i].uav_id;
+  result.closest_approach_m = kNever;
+  result.min_separation_m = min_separation_m;
+  const double t0 = pilots.front().state.mission_time_s();  // every member's (the server checks)
+
   StepRecord record;
   record.mission_time_s = t0;
   std::vector<double> mean;  // the map's mean at the last record
+  const auto flown_paths = [&] {
+    std::vector<FlownPath> paths;
+    for (const UavRecord& u : result.uavs) paths.push_back({u.uav_id, u.flown_path_W});
+    return paths;
+  };
   auto measure_record = [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map, client.GetMap(result.mission_name, true, false));
     mean.assign(map.mean().begin(), map.mean().end());
@@ -42,30 +120,39 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     result.steps.push_back(record);
     if (progress) progress(record);
     if (frame) {
-      OAIPP_ASSIGN_OR_RETURN(std::string png,
-                             RenderMissionPng(map, sim, result.flown_path_W, result.mission_name,
-                                              record.mission_time_s));
+      OAIPP_ASSIGN_OR_RETURN(
+          std::string png,
+          RenderMissionPng(map, sim, flown_paths(), result.mission_name, record.mission_time_s));
       frame(png);
     }
     return absl::OkStatus();
   };
-  sim::Flight flight(sim, api::FromProto(state.position_m()));
   const auto record_flight = [&] {
-    record.path_length_m = flight.path_length_m();
-    record.collisions = flight.collisions();
-    result.flown_path_W = flight.trace_W();
+    record.path_length_m = 0.0;
+    record.collisions = 0;
+    for (std::size_t i = 0; i < pilots.size(); ++i) {
+      UavRecord& u = result.uavs[i];
+      u.path_length_m = pilots[i].flight.path_length_m();
+      u.collisions = pilots[i].flight.collisions();
+      u.flown_path_W = pilots[i].flight.trace_W();
+      record.path_length_m += u.path_length_m;
+      record.collisions += u.collisions;
+    }
   };
   record_flight();
   OAIPP_RETURN_IF_ERROR(measure_record());
-  // Takes one planned shot: the detector's boxes there go to the server, the
-  // metrics and each person in view are recorded. True when anything was
-  // reported.
-  const auto take_shot = [&](const v1::MeasurementPose& shot) -> absl::StatusOr<bool> {
+  // Takes one planned shot of pilot i: the detector's boxes there go to the
+  // server, the metrics and each person in view are recorded. True when
+  // anything was reported.
+  const auto take_shot = [&](std::size_t i,
+                             const v1::MeasurementPose& shot) -> absl::StatusOr<bool> {
+    Pilot& pilot = pilots[i];
     const Vec3 camera = api::FromProto(shot.position_m());
     const std::vector<sim::TargetSightings> before = result.sightings;
-    const std::vector<PixelBox> boxes = sim.Detect(camera, rng, &result.sightings);
+    const std::vector<PixelBox> boxes = sim.Detect(camera, pilot.rng, &result.sightings);
     api::MeasurementInput input{.mission_time_s = shot.mission_time_s(),
-                                .pose = CameraPose{camera, 0.0}};
+                                .pose = CameraPose{camera, 0.0},
+                                .uav_id = pilot.uav_id};
     if (scenario.send_cell_labels()) {
       OAIPP_ASSIGN_OR_RETURN(input.labels, sim.Labels(camera, boxes));
     } else {
@@ -78,91 +165,125 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     m.set_name(result.mission_name);
     api::MeasurementToProto(input, &m);
     OAIPP_RETURN_IF_ERROR(client.AddMeasurement(m).status());
+    ++result.uavs[i].shots;
+    record.uav_id = pilot.uav_id;
     record.mission_time_s = shot.mission_time_s();
     record_flight();
     OAIPP_RETURN_IF_ERROR(measure_record());
     const std::vector<double> target_means = sim.TargetMeans(mean);
-    for (std::size_t i = 0; i < before.size(); ++i) {
-      if (result.sightings[i].in_view == before[i].in_view) continue;
-      result.sighting_log.push_back({.target = static_cast<int>(i),
+    for (std::size_t k = 0; k < before.size(); ++k) {
+      if (result.sightings[k].in_view == before[k].in_view) continue;
+      result.sighting_log.push_back({.target = static_cast<int>(k),
                                      .mission_time_s = shot.mission_time_s(),
                                      .altitude_m = camera.z(),
-                                     .detected = result.sightings[i].detected > before[i].detected,
-                                     .mean_after = target_means[i]});
+                                     .detected = result.sightings[k].detected > before[k].detected,
+                                     .mean_after = target_means[k]});
     }
     return std::any_of(boxes.begin(), boxes.end(), [&](const PixelBox& box) {
       return box.confidence >= sim.detector().min_confidence;
     });
   };
-  // After a path cut short at a shot: the shot after it. Unset, the server
-  // takes the next multiple of the shot period at or after the state's time,
-  // which is the shot just taken when the cut falls on its very instant (the
-  // take-off shot at t = 0): the camera would fire again where it is.
-  const bool replan_on_detection = scenario.replan_on_detection();
-  std::optional<double> next_shot_s;
-  while (state.mission_time_s() - t0 < budget - 1e-9) {
+  // Pilot i asks for a path from where it is, or is done when its budget is
+  // spent. Unset, next_shot_s lets the server take the next multiple of the
+  // shot period at or after the state's time, which is the shot just taken
+  // when a cut falls on its very instant (the take-off shot at t = 0): the
+  // camera would fire again where it is.
+  const auto plan = [&](std::size_t i) -> absl::Status {
+    Pilot& pilot = pilots[i];
+    if (pilot.state.mission_time_s() - t0 >= budget - 1e-9) {
+      pilot.done = true;
+      return absl::OkStatus();
+    }
     v1::PlanPathRequest request;
     request.set_name(result.mission_name);
-    *request.mutable_state() = state;
-    if (next_shot_s.has_value()) request.set_next_shot_mission_s(*next_shot_s);
+    request.set_uav_id(pilot.uav_id);
+    *request.mutable_state() = pilot.state;
+    if (pilot.next_shot_s.has_value()) request.set_next_shot_mission_s(*pilot.next_shot_s);
     if (scenario.has_planning_budget_s())
       request.set_planning_budget_s(scenario.planning_budget_s());
     const auto plan_start = std::chrono::steady_clock::now();
-    OAIPP_ASSIGN_OR_RETURN(v1::PlanPathResponse path, client.PlanPath(request));
+    OAIPP_ASSIGN_OR_RETURN(pilot.path, client.PlanPath(request));
     result.planning_time_s +=
         std::chrono::duration<double>(std::chrono::steady_clock::now() - plan_start).count();
     ++result.plans;
-    OAIPP_ASSIGN_OR_RETURN(const PolynomialTrajectory traj,
-                           api::TrajectoryFromProto(path.trajectory()));
-    const double fly = std::min(traj.Duration(), budget - (state.mission_time_s() - t0));
-    // Fly, checking the exact clearance every step; the camera fires at the
-    // planned shots. With replan_on_detection, a shot with any report ends
-    // the path there, unless the path ends there anyway or no shot can
-    // follow it within the budget.
-    int next_shot = 0;
-    // The first shot not taken yet: the path's next pose, or the one after
-    // its end.
-    const auto following_shot_s = [&] {
-      return next_shot < path.measurement_poses_size()
-                 ? path.measurement_poses(next_shot).mission_time_s()
-                 : path.next_shot_mission_s();
-    };
-    bool cut = false;
-    OAIPP_ASSIGN_OR_RETURN(
-        const double flown, flight.Fly(traj, fly, [&](double t) -> absl::StatusOr<bool> {
-          bool reported = false;
-          while (next_shot < path.measurement_poses_size() &&
-                 path.measurement_poses(next_shot).t_s() <= t + 1e-9) {
-            OAIPP_ASSIGN_OR_RETURN(const bool any, take_shot(path.measurement_poses(next_shot++)));
-            reported |= any;
-          }
-          // t < fly: a report at the path's last step leaves it at its end,
-          // as without the option (Fly ends there at fly exactly).
-          cut =
-              reported && replan_on_detection && t < fly && following_shot_s() < t0 + budget - 1e-9;
-          return !cut;
-        }));
+    ++result.uavs[i].plans;
+    OAIPP_ASSIGN_OR_RETURN(pilot.trajectory, api::TrajectoryFromProto(pilot.path.trajectory()));
+    pilot.fly =
+        std::min(pilot.trajectory->Duration(), budget - (pilot.state.mission_time_s() - t0));
+    pilot.t = -1.0;
+    pilot.next_shot = 0;
+    return absl::OkStatus();
+  };
+  // Pilot i's next step on its path, checking the exact clearance and the
+  // distance to every teammate; the camera fires at the planned shots. With
+  // replan_on_detection, a shot with any report ends the path there, unless
+  // the path ends there anyway or no shot can follow it within the budget.
+  const bool replan_on_detection = scenario.replan_on_detection();
+  const auto step = [&](std::size_t i) -> absl::Status {
+    Pilot& pilot = pilots[i];
+    const double t = pilot.t = pilot.NextStep();
+    const Vec3 here = pilot.trajectory->Position(t);
+    pilot.flight.MoveTo(here);
+    const double now = pilot.state.mission_time_s() + t;
+    for (std::size_t j = 0; j < pilots.size(); ++j) {
+      if (j == i) continue;
+      const double d = (here - pilots[j].PositionAt(now)).norm();
+      result.closest_approach_m = std::min(result.closest_approach_m, d);
+      if (d < min_separation_m - 1e-6) ++result.separation_violations;
+    }
+    bool reported = false;
+    const v1::PlanPathResponse& path = pilot.path;
+    while (pilot.next_shot < path.measurement_poses_size() &&
+           path.measurement_poses(pilot.next_shot).t_s() <= t + 1e-9) {
+      OAIPP_ASSIGN_OR_RETURN(const bool any,
+                             take_shot(i, path.measurement_poses(pilot.next_shot++)));
+      reported |= any;
+    }
+    // t < fly: a report at the path's last step leaves it at its end, as
+    // without the option.
+    const bool cut = reported && replan_on_detection && t < pilot.fly &&
+                     pilot.FollowingShotS() < t0 + budget - 1e-9;
+    if (!cut && t < pilot.fly) return absl::OkStatus();
+    // The path ends here.
+    const PolynomialTrajectory& traj = *pilot.trajectory;
     record_flight();
-    *state.mutable_position_m() = api::ToProto(traj.Position(flown));
-    *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(flown));
-    next_shot_s.reset();
+    v1::UavState& state = pilot.state;
+    *state.mutable_position_m() = api::ToProto(traj.Position(t));
+    *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(t));
+    pilot.next_shot_s.reset();
     if (cut) {
       ++result.paths_cut;
-      *state.mutable_acceleration_m_s2() = api::ToProto(traj.Acceleration(flown));
-      next_shot_s = following_shot_s();
+      ++result.uavs[i].paths_cut;
+      *state.mutable_acceleration_m_s2() = api::ToProto(traj.Acceleration(t));
+      pilot.next_shot_s = pilot.FollowingShotS();
     } else {
       state.clear_acceleration_m_s2();  // at the path's end, at rest
     }
-    state.set_mission_time_s(state.mission_time_s() + flown);
+    state.set_mission_time_s(state.mission_time_s() + t);
+    pilot.trajectory.reset();
+    return absl::OkStatus();
+  };
+  // The UAV due first acts; the earlier in the team on a tie.
+  for (;;) {
+    std::size_t next = 0;
+    for (std::size_t i = 1; i < pilots.size(); ++i) {
+      if (pilots[i].NextEventS() < pilots[next].NextEventS()) next = i;
+    }
+    if (pilots[next].done) break;
+    OAIPP_RETURN_IF_ERROR(pilots[next].trajectory.has_value() ? step(next) : plan(next));
   }
-  record.mission_time_s = state.mission_time_s();
+  record.uav_id.clear();
+  record.mission_time_s = t0;
+  for (const Pilot& pilot : pilots) {
+    record.mission_time_s = std::max(record.mission_time_s, pilot.state.mission_time_s());
+  }
   if (result.steps.back().mission_time_s < record.mission_time_s)
     OAIPP_RETURN_IF_ERROR(measure_record());
   OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse final_map,
                          client.GetMap(result.mission_name, true, false));
-  OAIPP_ASSIGN_OR_RETURN(result.final_map_png,
-                         RenderMissionPng(final_map, sim, result.flown_path_W, result.mission_name,
-                                          record.mission_time_s));
+  OAIPP_ASSIGN_OR_RETURN(
+      result.final_map_png,
+      RenderMissionPng(final_map, sim, flown_paths(), result.mission_name, record.mission_time_s));
   result.found_at_end =
       sim.FoundEach(std::vector<double>(final_map.mean().begin(), final_map.mean().end()));
   if (!keep_mission) OAIPP_RETURN_IF_ERROR(client.DeleteMission(result.mission_name));
@@ -170,8 +291,12 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
 }
 
 std::string StepsCsv(const std::vector<StepRecord>& steps) {
-  std::string csv = "time_s,rse,rmse,trace,targets_found,path_length_m,collisions\n";
+  const bool team = std::any_of(steps.begin(), steps.end(),
+                                [](const StepRecord& s) { return !s.uav_id.empty(); });
+  std::string csv = absl::StrCat(team ? "uav_id," : "",
+                                 "time_s,rse,rmse,trace,targets_found,path_length_m,collisions\n");
   for (const StepRecord& s : steps) {
+    if (team) absl::StrAppend(&csv, s.uav_id, ",");
     absl::StrAppendFormat(&csv, "%.3f,%.6f,%.6f,%.6f,%d,%.3f,%d\n", s.mission_time_s, s.rse, s.rmse,
                           s.trace, s.targets_found, s.path_length_m, s.collisions);
   }

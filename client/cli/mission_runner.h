@@ -5,6 +5,14 @@
 // the moving state there), until the flight budget is spent (planning time
 // is reported apart from flight time).
 //
+// A team scenario (mission.team) flies every member on the one mission
+// clock: each UAV steps its own path every 20 ms of flight, the step due
+// first going first (the earlier member in the spec on a tie), so the run is
+// the same for the same scenario and seed. A UAV plans when its path ends,
+// naming its uav_id; each has its own detector (the scenario's, seeded with
+// seed + its index). After every step the runner measures, with its own
+// distance code, how close the UAV is to each teammate at that instant.
+//
 //   OAIPP_ASSIGN_OR_RETURN(RunResult r, RunScenario(client, scenario, sim, print_progress));
 #pragma once
 
@@ -20,13 +28,14 @@ namespace oaipp::client {
 
 // The metrics after one measurement (or at the start).
 struct StepRecord {
+  std::string uav_id;  // whose shot it was; empty at the start and without a team
   double mission_time_s = 0.0;
   double rse = 0.0;
   double rmse = 0.0;
   double trace = 0.0;
   int targets_found = 0;
-  double path_length_m = 0.0;
-  int collisions = 0;  // samples closer than r_uav / 2 (exact geometry); must stay 0
+  double path_length_m = 0.0;  // the team's, summed
+  int collisions = 0;  // samples closer than r_uav / 2 (exact geometry), the team's; must stay 0
 };
 
 // One time a target was in view (sim::TargetSightings counts them): when,
@@ -41,13 +50,30 @@ struct SightingRecord {
   double mean_after = 0.0;
 };
 
+// One UAV's flight.
+struct UavRecord {
+  std::string uav_id;              // empty without a team
+  std::vector<Vec3> flown_path_W;  // a point every sim::Flight::kTraceSpacing_m
+  int plans = 0;
+  int paths_cut = 0;  // ended at a shot with a report (replan_on_detection)
+  int shots = 0;
+  double path_length_m = 0.0;
+  int collisions = 0;
+};
+
 struct RunResult {
   std::string mission_name;
   std::vector<StepRecord> steps;
-  std::vector<Vec3> flown_path_W;  // 10 Hz
-  int plans = 0;
-  int paths_cut = 0;  // ended at a shot with a report (replan_on_detection)
+  std::vector<UavRecord> uavs;  // in the spec's team order; one without a team
+  int plans = 0;                // the team's
+  int paths_cut = 0;
   double planning_time_s = 0.0;
+  // The least distance between two UAVs at one instant, over every step of
+  // each (infinity for one UAV), and the steps at which two were closer
+  // than the spec's min_separation_m.
+  double closest_approach_m = 0.0;
+  double min_separation_m = 0.0;
+  int separation_violations = 0;
   std::string final_map_png;       // map mean | std with obstacles, targets and the flown path
   std::vector<bool> found_at_end;  // per target, Simulation::FoundEach of the final map
   std::vector<sim::TargetSightings> sightings;  // per target, over the whole flight
@@ -63,7 +89,7 @@ struct RunResult {
     const std::function<void(const std::string& png)>& frame = nullptr);
 
 // "time_s,rse,rmse,trace,targets_found,path_length_m,collisions" and a row
-// per step.
+// per step; with a team, a first column uav_id.
 [[nodiscard]] std::string StepsCsv(const std::vector<StepRecord>& steps);
 
 }  // namespace oaipp::client

@@ -7,6 +7,7 @@
 
 #include "absl/synchronization/notification.h"
 #include "client/cli/mission_runner.h"
+#include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "server/service.h"
 #include "sim/scenario.h"
@@ -109,6 +110,54 @@ TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
   EXPECT_EQ(at_ends->paths_cut, 0);
   EXPECT_LT(at_ends->plans, on_detection->plans);
   EXPECT_EQ(local.registry.size(), 0u);
+}
+
+// A team of three in E5's world for 30 s: every UAV plans under its uav_id
+// and takes its shots at 0, 6.7, 13.3, 20 and 26.7 s, every shot lands in
+// the one map, no two UAVs come closer than min_separation_m at any 20 ms
+// step (by the runner's distance code, not the server's), nothing collides,
+// and the same seed flies the same mission again.
+TEST(EndToEndTest, ATeamFliesOneMapApartAndTheSameSeedFliesItAgain) {
+  LocalService local;
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-team4.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  scenario->mutable_mission()->set_budget_s(30);
+  scenario->mutable_mission()->mutable_planner()->set_generations(10);
+  scenario->mutable_mission()->mutable_team()->RemoveLast();
+  auto simulation = sim::Simulation::Create(*scenario);
+  ASSERT_TRUE(simulation.ok()) << simulation.status();
+  auto first = RunScenario(local.client, *scenario, *simulation, nullptr, /*keep_mission=*/true);
+  ASSERT_TRUE(first.ok()) << first.status();
+
+  ASSERT_EQ(first->uavs.size(), 3u);
+  int shots = 0;
+  for (std::size_t i = 0; i < 3; ++i) {
+    const UavRecord& u = first->uavs[i];
+    EXPECT_EQ(u.uav_id, scenario->mission().team(static_cast<int>(i)).uav_id());
+    EXPECT_GE(u.plans, 1) << u.uav_id;
+    EXPECT_EQ(u.shots, 5) << u.uav_id;
+    EXPECT_EQ(u.collisions, 0) << u.uav_id;
+    EXPECT_GT(u.path_length_m, 5.0) << u.uav_id;
+    shots += u.shots;
+  }
+  EXPECT_EQ(first->separation_violations, 0);
+  EXPECT_GE(first->closest_approach_m, 4.0 - 1e-6);  // e5-team4's default min_separation_m
+  EXPECT_LT(first->closest_approach_m, 30.0);        // measured, not left at infinity
+  // A record per shot, each naming its UAV, and the map fused them all.
+  ASSERT_EQ(first->steps.size(), static_cast<std::size_t>(1 + shots + 1));
+  for (std::size_t k = 1; k + 1 < first->steps.size(); ++k) {
+    EXPECT_THAT(first->steps[k].uav_id, ::testing::StartsWith("uav-")) << k;
+  }
+  EXPECT_LT(first->steps.back().rse, first->steps.front().rse);
+  absl::StatusOr<v1::Mission> mission = local.client.GetMission(first->mission_name);
+  ASSERT_TRUE(mission.ok()) << mission.status();
+  EXPECT_EQ(mission->measurements_fused(), shots);
+  EXPECT_EQ(mission->paths_planned(), first->plans);
+
+  auto again = RunScenario(local.client, *scenario, *simulation);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(StepsCsv(again->steps), StepsCsv(first->steps));
+  EXPECT_EQ(again->closest_approach_m, first->closest_approach_m);
 }
 
 // Take-off pacing: with the server's one take-off slot held, the client's

@@ -1,6 +1,8 @@
 #include "sim/scenario.h"
 
+#include <cmath>
 #include <filesystem>
+#include <string>
 
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -91,8 +93,8 @@ TEST(ScenarioTest, GeodeticTargetsAndObstaclesBecomeLocalMetres) {
 }
 
 // Every committed scenario (client/scenarios and its folders) parses and
-// builds a world, its name matches its file, and the E5 settings differ
-// from e5.json only in what their name says.
+// builds a world, its name matches its file, and the E5 settings and team
+// scenarios differ from e5.json only in what their name says.
 TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   int files = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
@@ -106,7 +108,7 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 13);
+  EXPECT_EQ(files, 16);
   auto base = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
   auto low = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/ceiling12-n4.json");
   ASSERT_TRUE(base.ok() && low.ok());
@@ -116,6 +118,25 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   low->mutable_mission()->clear_flight();
   low->mutable_mission()->mutable_planner()->clear_num_waypoints();
   EXPECT_EQ(low->SerializeAsString(), base->SerializeAsString());
+  // e5-teamN: E5 with a team of N in place of its start, starts 4 m apart
+  // (the default min_separation_m) or more.
+  for (const int n : {2, 4, 8}) {
+    const std::string name = "e5-team" + std::to_string(n);
+    auto team = LoadScenarioFile(OAIPP_SCENARIO_DIR "/" + name + ".json");
+    ASSERT_TRUE(team.ok()) << name << ": " << team.status();
+    ASSERT_EQ(team->mission().team_size(), n) << name;
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < i; ++j) {
+        const v1::Vector3& a = team->mission().team(i).start().position_m();
+        const v1::Vector3& b = team->mission().team(j).start().position_m();
+        EXPECT_GE(std::hypot(a.x() - b.x(), a.y() - b.y(), a.z() - b.z()), 4.0) << name;
+      }
+    }
+    team->set_name(base->name());
+    team->mutable_mission()->clear_team();
+    *team->mutable_mission()->mutable_start() = base->mission().start();
+    EXPECT_EQ(team->SerializeAsString(), base->SerializeAsString()) << name;
+  }
 }
 
 TEST(ScenarioTest, MalformedJsonNamesTheLine) {
