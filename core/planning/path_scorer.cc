@@ -118,6 +118,10 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
     }
   }
   scorer.teammate_observations_ = scorer.start_observations_.size();
+  if (!mission.teammates.empty()) {
+    scorer.separation_.emplace(state.mission_time_s, scorer.mission_.teammates,
+                               mission.min_separation_m, limits.collision_sample_rate_hz);
+  }
   if (mission.next_shot_mission_s - state.mission_time_s < kStartShotTolerance_s) {
     scorer.start_observations_.push_back(scorer.Observe(state.position_W, /*scored=*/false));
   }
@@ -223,8 +227,7 @@ int PathScorer::CollisionSamples(const PolynomialTrajectory& trajectory, bool ex
   }
   // Teammates by the one separation rule, at the same rate (to the last
   // teammate's end, this UAV hovering after its own).
-  return count + SeparationSamples(trajectory, state_.mission_time_s, mission_.teammates,
-                                   mission_.min_separation_m, limits_.collision_sample_rate_hz);
+  return count + (separation_.has_value() ? separation_->Samples(trajectory) : 0);
 }
 
 PlannedPath PathScorer::Finish(ScoredPath scored, const std::vector<Vec3>& waypoints_W,

@@ -18,6 +18,7 @@
 #include "absl/status/statusor.h"
 #include "core/planning/information.h"
 #include "core/planning/planner.h"
+#include "core/planning/separation.h"
 
 namespace oaipp {
 
@@ -149,6 +150,8 @@ class PathScorer {
   std::vector<PoseObservation> start_observations_;
   // How many of start_observations_ are teammates' shots (they come first).
   std::size_t teammate_observations_ = 0;
+  // With teammates: their positions at the collision samples' instants.
+  std::optional<SeparationSampler> separation_;
 };
 
 }  // namespace oaipp

@@ -38,6 +38,55 @@ int SeparationSamples(const PolynomialTrajectory& trajectory, double start_missi
   return count;
 }
 
+SeparationSampler::SeparationSampler(double start_mission_s, std::span<const Teammate> teammates,
+                                     double min_separation_m, double rate_hz)
+    : start_mission_s_(start_mission_s),
+      teammates_(teammates),
+      min_separation_m_(min_separation_m),
+      rate_hz_(rate_hz) {
+  double last_end = start_mission_s;
+  for (const Teammate& mate : teammates) {
+    last_end = std::max(last_end, mate.start_mission_s + mate.trajectory.Duration());
+    end_.push_back(mate.trajectory.Position(mate.trajectory.Duration()));
+  }
+  // Two samples past the last end: a teammate's trajectory clamps its time
+  // to its duration, so from there on each one is exactly at end_.
+  const double dt = 1.0 / rate_hz;
+  grid_ = static_cast<int>(std::floor((last_end - start_mission_s) / dt)) + 3;
+  positions_.reserve(static_cast<std::size_t>(grid_) * teammates.size());
+  for (int i = 0; i < grid_; ++i) {
+    for (const Teammate& mate : teammates) {
+      positions_.push_back(TeammatePosition(mate, start_mission_s + i * dt));
+    }
+  }
+}
+
+int SeparationSampler::Samples(const PolynomialTrajectory& trajectory) const {
+  if (teammates_.empty()) return 0;
+  // SeparationSamples' loop, reading the teammates off the grid.
+  const double dt = 1.0 / rate_hz_;
+  const double span =
+      SeparationHorizon(trajectory, start_mission_s_, teammates_) - start_mission_s_;
+  const int samples = static_cast<int>(std::floor(span / dt)) + 1;
+  const std::size_t mates = teammates_.size();
+  int count = 0;
+  for (int i = 0; i <= samples; ++i) {
+    const bool on_grid = i * dt <= span;  // else the last sample, at span itself
+    const double t = std::min(i * dt, span);
+    const Vec3 p = trajectory.Position(t);
+    for (std::size_t m = 0; m < mates; ++m) {
+      const Vec3 there = !on_grid    ? TeammatePosition(teammates_[m], start_mission_s_ + t)
+                         : i < grid_ ? positions_[static_cast<std::size_t>(i) * mates + m]
+                                     : end_[m];
+      if (!Separated(p, there, min_separation_m_)) {
+        ++count;
+        break;
+      }
+    }
+  }
+  return count;
+}
+
 absl::Status CheckSeparationExact(const PolynomialTrajectory& trajectory, double start_mission_s,
                                   std::span<const Teammate> teammates, double min_separation_m,
                                   double spacing_m) {

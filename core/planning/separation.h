@@ -14,10 +14,13 @@
 // no instant between them closer than min_separation_m.
 //
 //   int bad = SeparationSamples(path, now_s, teammates, 4.0, 20.0);
+//   SeparationSampler sampler(now_s, teammates, 4.0, 20.0);   // the same, for many paths
+//   int bad = sampler.Samples(path);
 //   OAIPP_RETURN_IF_ERROR(CheckSeparationExact(path, now_s, teammates, 4.0));
 #pragma once
 
 #include <span>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "core/common/geometry.h"
@@ -48,6 +51,31 @@ namespace oaipp {
 [[nodiscard]] int SeparationSamples(const PolynomialTrajectory& trajectory, double start_mission_s,
                                     std::span<const Teammate> teammates, double min_separation_m,
                                     double rate_hz);
+
+// SeparationSamples for the many candidates of one plan: the same start,
+// teammates and rate, so the teammates' positions at the sample instants
+// are computed once, here. Samples(trajectory) equals SeparationSamples
+// (trajectory, start_mission_s, teammates, min_separation_m, rate_hz) bit
+// for bit. The teammates must outlive the sampler.
+class SeparationSampler {
+ public:
+  SeparationSampler(double start_mission_s, std::span<const Teammate> teammates,
+                    double min_separation_m, double rate_hz);
+
+  [[nodiscard]] int Samples(const PolynomialTrajectory& trajectory) const;
+
+ private:
+  double start_mission_s_;
+  std::span<const Teammate> teammates_;
+  double min_separation_m_;
+  double rate_hz_;
+  // Teammate m at sample i (start_mission_s + i / rate_hz): positions_[i *
+  // teammates.size() + m], for i < grid_. Past the grid every teammate is at
+  // rest at its last point (end_[m]).
+  int grid_ = 0;
+  std::vector<Vec3> positions_;
+  std::vector<Vec3> end_;
+};
 
 // OK when the UAV stays Separated from every teammate at every instant from
 // start_mission_s to SeparationHorizon (see above: samples at most

@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "core/planning/planners.h"
@@ -98,6 +99,51 @@ TEST(SeparationTest, TheExactCheckIsSoundAndNotFarFromTheTruth) {
   // Both verdicts occur (about 360 and 40 of the 400).
   EXPECT_GE(passed, 20);
   EXPECT_GE(refused, 20);
+}
+
+// The sampler a plan builds once gives every candidate the count the free
+// function gives, for candidates that end before, between and after their
+// teammates, and the count is this file's own: samples every 1 / 20 s to
+// the last end (then at that end itself) closer than kMinSeparation to some
+// teammate.
+TEST(SeparationTest, TheSamplerCountsWhatTheFreeFunctionCounts) {
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> xy(-6, 6), z(4, 8), duration(0.5, 9.0), offset(-4.0, 2.0);
+  int nonzero = 0;
+  for (int world = 0; world < 20; ++world) {
+    const double now = offset(rng) + 3.0;
+    std::vector<Teammate> mates;
+    for (int m = 0; m < 3; ++m) {
+      mates.push_back({.uav_id = std::to_string(m),
+                       .trajectory = Line({xy(rng), xy(rng), z(rng)}, {xy(rng), xy(rng), z(rng)},
+                                          duration(rng)),
+                       .start_mission_s = offset(rng)});
+    }
+    const SeparationSampler sampler(now, mates, kMinSeparation, 20.0);
+    for (int candidate = 0; candidate < 20; ++candidate) {
+      const PolynomialTrajectory a =
+          Line({xy(rng), xy(rng), z(rng)}, {xy(rng), xy(rng), z(rng)}, duration(rng));
+      const int count = sampler.Samples(a);
+      EXPECT_EQ(count, SeparationSamples(a, now, mates, kMinSeparation, 20.0));
+      double end = now + a.Duration();
+      for (const Teammate& m : mates)
+        end = std::max(end, m.start_mission_s + m.trajectory.Duration());
+      int own = 0;
+      const double dt = 1.0 / 20.0;
+      for (int i = 0;; ++i) {
+        const double t = std::min(now + i * dt, end);
+        bool close = false;
+        for (const Teammate& m : mates) {
+          close |= (At(a, now, t) - At(m.trajectory, m.start_mission_s, t)).norm() < kMinSeparation;
+        }
+        own += close ? 1 : 0;
+        if (t >= end) break;
+      }
+      EXPECT_NEAR(count, own, 1) << world << "/" << candidate;  // float rounding at the last sample
+      nonzero += count > 0 ? 1 : 0;
+    }
+  }
+  EXPECT_GE(nonzero, 20);  // close calls occur (most candidates keep apart)
 }
 
 TEST(SeparationTest, APlanKeepsApartFromItsTeammateAtEveryInstant) {
