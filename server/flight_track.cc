@@ -6,15 +6,16 @@
 
 namespace oaipp::server {
 
-void FlightTrack::Add(const Vec3& p_W, const std::vector<int>& detected,
+void FlightTrack::Add(const std::string& uav_id, const Vec3& p_W, const std::vector<int>& detected,
                       const std::vector<Vec3>* planned_W) {
   absl::MutexLock lock(&mu_);
   MissionTrack& t = track_;
-  if (t.flown_W.size() >= MissionTrack::kMaxFlown) {
-    t.flown_W.erase(t.flown_W.begin(), t.flown_W.begin() + MissionTrack::kMaxFlown / 4);
+  MissionTrack::Uav& uav = t.uavs[uav_id];  // a member of the mission's team: checked before
+  if (uav.flown_W.size() >= MissionTrack::kMaxFlown) {
+    uav.flown_W.erase(uav.flown_W.begin(), uav.flown_W.begin() + MissionTrack::kMaxFlown / 4);
   }
-  t.flown_W.push_back(p_W);
-  if (planned_W != nullptr) t.planned_W = *planned_W;
+  uav.flown_W.push_back(p_W);
+  if (planned_W != nullptr) uav.planned_W = *planned_W;
   if (!detected.empty() && t.detected_cells.size() < MissionTrack::kMaxDetected) {
     std::vector<int> merged;
     std::set_union(t.detected_cells.begin(), t.detected_cells.end(), detected.begin(),

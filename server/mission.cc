@@ -369,7 +369,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
   }
   std::sort(detected.begin(), detected.end());
   detected.erase(std::unique(detected.begin(), detected.end()), detected.end());
-  track_.Add(input.pose.p_WC, detected, nullptr);
+  track_.Add(input.uav_id, input.pose.p_WC, detected, nullptr);
   events_.Emit(MissionEventData::MeasurementFused{
       input.mission_time_s, result.cells_fused, result.trace, input.pose.p_WC, std::move(detected),
       result.trace_measurements_fused, input.uav_id});
@@ -477,7 +477,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
       samples.ok()) {
     for (const TimedPosition& s : *samples) planned.push_back(s.position_W);
   }
-  track_.Add(state.position_W, {}, &planned);
+  track_.Add(call.uav_id, state.position_W, {}, &planned);
   events_.Emit(MissionEventData::PathPlanned{
       state.mission_time_s, path->trajectory.Duration(), path->objective, path->control_waypoints_W,
       state.position_W, path->team.uav_id, path->team.plan_version});

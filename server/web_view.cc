@@ -270,10 +270,21 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
         o.shape);
     obstacles.push_back({{"id", o.id}, {"polygon", std::move(polygon)}, {"top_m", Short(top)}});
   }
-  json flown = json::array();
-  for (const Vec3& p : track.flown_W) flown.push_back(Point(p));
-  json planned = json::array();
-  for (const Vec3& p : track.planned_W) planned.push_back(Point(p));
+  // Every UAV's own lines, in the spec's team order (its colour on the page).
+  json uavs = json::array();
+  const auto add_uav = [&](const std::string& uav_id) {
+    const auto it = track.uavs.find(uav_id);
+    json flown = json::array();
+    json planned = json::array();
+    if (it != track.uavs.end()) {
+      for (const Vec3& p : it->second.flown_W) flown.push_back(Point(p));
+      for (const Vec3& p : it->second.planned_W) planned.push_back(Point(p));
+    }
+    uavs.push_back(
+        {{"uav_id", uav_id}, {"flown", std::move(flown)}, {"planned", std::move(planned)}});
+  };
+  if (s.config.team.empty()) add_uav("");
+  for (const api::TeamMember& member : s.config.team) add_uav(member.uav_id);
   json geo = nullptr;
   if (s.config.geo_origin.has_value()) {
     geo = {{"latitude_deg", s.config.geo_origin->latitude_deg},
@@ -297,8 +308,7 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
                     {"mean", std::move(mean)},
                     {"std", std::move(std_dev)},
                     {"obstacles", std::move(obstacles)},
-                    {"planned", std::move(planned)},
-                    {"flown", std::move(flown)},
+                    {"uavs", std::move(uavs)},
                     {"detections", std::move(detections)},
                     {"found", std::move(found_cells)},
                     {"geo_origin", std::move(geo)}};

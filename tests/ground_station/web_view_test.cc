@@ -161,6 +161,47 @@ TEST_F(WebViewTest, AForeignHostOrOriginIsRefused) {
   }
 }
 
+// A team's picture data: a line per UAV of the team, in the spec's order,
+// each holding only what that UAV reported (one that has not is empty).
+TEST_F(WebViewTest, EachUavOfATeamHasItsOwnLines) {
+  v1::MissionSpec spec;
+  for (const auto& [id, x] :
+       {std::pair{"west", -8.0}, std::pair{"east", 8.0}, std::pair{"north", 0.0}}) {
+    v1::TeamMember& m = *spec.add_team();
+    m.set_uav_id(id);
+    m.mutable_start()->mutable_position_m()->set_x(x);
+    m.mutable_start()->mutable_position_m()->set_y(std::string(id) == "north" ? 8.0 : 0.0);
+    m.mutable_start()->mutable_position_m()->set_z(10.0);
+  }
+  absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(spec);
+  ASSERT_TRUE(config.ok()) << config.status();
+  absl::StatusOr<std::shared_ptr<Mission>> team =
+      registry_.Create("team", *config, "", "", "alpha");
+  ASSERT_TRUE(team.ok()) << team.status();
+  for (const auto& [uav, x] :
+       {std::pair{"east", 7.0}, std::pair{"west", -7.0}, std::pair{"east", 6.0}}) {
+    api::MeasurementInput input;
+    input.mission_time_s = 1.0;
+    input.pose.p_WC = Vec3(x, 0.0, 10.0);
+    input.labels = CellLabels{{20 * 40 + 20}, {0.0}};
+    input.uav_id = uav;
+    ASSERT_TRUE((*team)->AddMeasurement(input, absl::StrCat(uav, x)).ok());
+  }
+  httplib::Result r = Get("/api/missions/team", "token-a");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  const json uavs = json::parse(r->body).at("uavs");
+  ASSERT_EQ(uavs.size(), 3u);
+  EXPECT_EQ(uavs[0].at("uav_id"), "west");
+  EXPECT_EQ(uavs[1].at("uav_id"), "east");
+  EXPECT_EQ(uavs[2].at("uav_id"), "north");
+  ASSERT_EQ(uavs[0].at("flown").size(), 1u);
+  EXPECT_NEAR(uavs[0].at("flown")[0][0].get<double>(), -7.0, 1e-9);
+  ASSERT_EQ(uavs[1].at("flown").size(), 2u);
+  EXPECT_NEAR(uavs[1].at("flown")[1][0].get<double>(), 6.0, 1e-9);
+  EXPECT_TRUE(uavs[2].at("flown").empty());
+}
+
 TEST_F(WebViewTest, ThePictureDataFollowsAMeasurement) {
   // One cell seen with a person (label 1), its neighbour without.
   api::MeasurementInput input;
@@ -181,8 +222,10 @@ TEST_F(WebViewTest, ThePictureDataFollowsAMeasurement) {
   ASSERT_EQ(m.at("mean").size(), 1600u);
   ASSERT_EQ(m.at("std").size(), 1600u);
   EXPECT_EQ(m.at("detections"), json::array({seen}));
-  ASSERT_EQ(m.at("flown").size(), 2u);
-  EXPECT_NEAR(m.at("flown")[0][2].get<double>(), 10.0, 1e-9);
+  ASSERT_EQ(m.at("uavs").size(), 1u);  // one UAV, without a team: uav_id ""
+  EXPECT_EQ(m.at("uavs")[0].at("uav_id"), "");
+  ASSERT_EQ(m.at("uavs")[0].at("flown").size(), 2u);
+  EXPECT_NEAR(m.at("uavs")[0].at("flown")[0][2].get<double>(), 10.0, 1e-9);
   // The map itself, read apart: found = cells whose mean is >= 0.5; std = sqrt(P_ii).
   json found = json::array();
   alpha_->ReadMap([&](const GpMap& map) {
