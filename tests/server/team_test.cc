@@ -329,20 +329,21 @@ TEST_F(TeamTest, CommittedTrajectoriesComeBackAfterARestart) {
   }
 }
 
-// Randomised teams (2-5 UAVs at random starts among two buildings, seeded):
+// Randomised teams (2-8 UAVs at random starts among two buildings, seeded):
 // every UAV plans twice, in a random order, and no two committed
 // trajectories ever come closer than min_separation_m, by this file's own
-// evaluation at 100 Hz. 12 missions in the slow tier; OAIPP_RANDOM_TEAMS=200
-// runs more.
+// evaluation at 100 Hz. A team the server refuses (a start too close to the
+// tower) is drawn again, so that `count` missions fly: 12 in the slow tier;
+// OAIPP_RANDOM_TEAMS=200 runs more (docs/teams.md).
 TEST_F(TeamTest, RandomTeamsNeverComeTooClose) {
   const char* asked = std::getenv("OAIPP_RANDOM_TEAMS");
   const int count = asked != nullptr ? std::max(1, std::atoi(asked)) : 12;
   InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
   std::mt19937 rng(20261201);
   std::uniform_real_distribution<double> xy(-13.0, 13.0), z(4.0, 20.0);
-  int missions = 0, plans = 0, refused = 0;
-  for (int m = 0; m < count; ++m) {
-    const int size = 2 + static_cast<int>(rng() % 4);
+  int missions = 0, plans = 0, refused = 0, teams_refused = 0;
+  for (int m = 0; missions < count && m < 2 * count; ++m) {
+    const int size = 2 + static_cast<int>(rng() % 7);
     std::vector<Point> starts;
     while (static_cast<int>(starts.size()) < size) {
       const Point p{xy(rng), xy(rng), z(rng)};
@@ -369,6 +370,7 @@ TEST_F(TeamTest, RandomTeamsNeverComeTooClose) {
     if (!made.ok()) {
       // A random start next to the tower: refused, and the case skipped.
       EXPECT_THAT(made.error_message(), HasSubstr("spec.team[")) << made.error_message();
+      ++teams_refused;
       continue;
     }
     ++missions;
@@ -408,9 +410,12 @@ TEST_F(TeamTest, RandomTeamsNeverComeTooClose) {
     v1::DeleteMissionResponse deleted;
     ASSERT_TRUE(service.stub().DeleteMission(&c, del, &deleted).ok());
   }
-  EXPECT_GE(missions, count * 2 / 3);
+  EXPECT_EQ(missions, count);
   EXPECT_GE(plans, 4 * missions);
-  std::printf("random teams: %d missions, %d plans, %d refused\n", missions, plans, refused);
+  std::printf(
+      "random teams: %d missions flown (%d teams refused at creation), %d plans, %d "
+      "plans refused\n",
+      missions, teams_refused, plans, refused);
 }
 
 }  // namespace
