@@ -11,8 +11,8 @@
 // single plan's, the largest planner time and the plan versions seen, for
 // docs/benchmarks.md.
 //
-//   build/tests/bench/server/team_round --rounds=20
-//   build/tests/bench/server/team_round --rounds=20 --planning_budget_s=0.2
+//   build/tests/bench/server/team_round --rounds=10
+//   build/tests/bench/server/team_round --rounds=10 --flight_budget_s=3600
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -35,9 +35,12 @@
 #include "tests/bench/server/latencies.h"
 
 ABSL_FLAG(std::string, scenario, OAIPP_SCENARIO_DIR "/e5-team8.json", "a team scenario");
-ABSL_FLAG(int, rounds, 20, "rounds of plans, one per UAV each");
+ABSL_FLAG(int, rounds, 10, "rounds of plans, one per UAV each (within the budget)");
 ABSL_FLAG(int, planning_threads, 2, "the server's planning threads");
 ABSL_FLAG(double, planning_budget_s, 0.0, "each plan's planning_budget_s; 0: unset");
+ABSL_FLAG(double, flight_budget_s, 0.0,
+          "the mission's budget_s; 0: the scenario's (the planner's horizon follows what is "
+          "left of it)");
 ABSL_FLAG(std::string, objective_precision, "double", "the server's objective precision");
 ABSL_FLAG(double, round_s, 20.0 / 3.0,
           "mission time between rounds (default: E5's shot period, 1 / 0.15 Hz)");
@@ -82,7 +85,9 @@ int Run() {
     grpc::ClientContext context;
     v1::CreateMissionRequest request;
     *request.mutable_spec() = scenario->mission();
-    request.mutable_spec()->set_budget_s(3600);  // rounds, not the budget, end the run
+    if (absl::GetFlag(FLAGS_flight_budget_s) > 0) {
+      request.mutable_spec()->set_budget_s(absl::GetFlag(FLAGS_flight_budget_s));
+    }
     if (const grpc::Status s = stub->CreateMission(&context, request, &mission); !s.ok()) {
       std::cerr << "CreateMission: " << s.error_message() << "\n";
       return 1;
