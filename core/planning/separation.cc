@@ -17,27 +17,6 @@ double SeparationHorizon(const PolynomialTrajectory& trajectory, double start_mi
   return end;
 }
 
-int SeparationSamples(const PolynomialTrajectory& trajectory, double start_mission_s,
-                      std::span<const Teammate> teammates, double min_separation_m,
-                      double rate_hz) {
-  if (teammates.empty()) return 0;
-  const double dt = 1.0 / rate_hz;
-  const double span = SeparationHorizon(trajectory, start_mission_s, teammates) - start_mission_s;
-  const int samples = static_cast<int>(std::floor(span / dt)) + 1;
-  int count = 0;
-  for (int i = 0; i <= samples; ++i) {
-    const double t = std::min(i * dt, span);
-    const Vec3 p = trajectory.Position(t);
-    for (const Teammate& mate : teammates) {
-      if (!Separated(p, TeammatePosition(mate, start_mission_s + t), min_separation_m)) {
-        ++count;
-        break;
-      }
-    }
-  }
-  return count;
-}
-
 SeparationSampler::SeparationSampler(double start_mission_s, std::span<const Teammate> teammates,
                                      double min_separation_m, double rate_hz)
     : start_mission_s_(start_mission_s),
@@ -63,7 +42,6 @@ SeparationSampler::SeparationSampler(double start_mission_s, std::span<const Tea
 
 int SeparationSampler::Samples(const PolynomialTrajectory& trajectory) const {
   if (teammates_.empty()) return 0;
-  // SeparationSamples' loop, reading the teammates off the grid.
   const double dt = 1.0 / rate_hz_;
   const double span =
       SeparationHorizon(trajectory, start_mission_s_, teammates_) - start_mission_s_;
@@ -85,6 +63,13 @@ int SeparationSampler::Samples(const PolynomialTrajectory& trajectory) const {
     }
   }
   return count;
+}
+
+int SeparationSamples(const PolynomialTrajectory& trajectory, double start_mission_s,
+                      std::span<const Teammate> teammates, double min_separation_m,
+                      double rate_hz) {
+  return SeparationSampler(start_mission_s, teammates, min_separation_m, rate_hz)
+      .Samples(trajectory);
 }
 
 absl::Status CheckSeparationExact(const PolynomialTrajectory& trajectory, double start_mission_s,

@@ -54,9 +54,8 @@ namespace oaipp {
 
 // SeparationSamples for the many candidates of one plan: the same start,
 // teammates and rate, so the teammates' positions at the sample instants
-// are computed once, here. Samples(trajectory) equals SeparationSamples
-// (trajectory, start_mission_s, teammates, min_separation_m, rate_hz) bit
-// for bit. The teammates must outlive the sampler.
+// are computed once, here (SeparationSamples builds one for a single
+// trajectory). The teammates must outlive the sampler.
 class SeparationSampler {
  public:
   SeparationSampler(double start_mission_s, std::span<const Teammate> teammates,

@@ -39,10 +39,7 @@ namespace oaipp {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
+using bench::MsSince;
 
 int Run() {
   absl::StatusOr<v1::Scenario> scenario = sim::LoadScenarioFile(absl::GetFlag(FLAGS_scenario));

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <map>
 #include <mutex>
@@ -10,6 +11,12 @@
 #include <vector>
 
 namespace oaipp::bench {
+
+// Milliseconds from `start` until now, on the steady clock.
+inline double MsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
 
 // The q-quantile (0..1) of `v` (sorted in place); 0 when it is empty.
 inline double Quantile(std::vector<double>& v, double q) {

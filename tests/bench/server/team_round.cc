@@ -49,10 +49,7 @@ namespace oaipp {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
+using bench::MsSince;
 
 int Run() {
   absl::StatusOr<v1::Scenario> scenario = sim::LoadScenarioFile(absl::GetFlag(FLAGS_scenario));
@@ -94,7 +91,8 @@ int Run() {
     }
   }
   std::vector<v1::UavState> states;
-  std::vector<v1::PlanPathResponse> paths_of(static_cast<std::size_t>(team));
+  // Each UAV's last path.
+  std::vector<v1::PlanPathResponse> paths(static_cast<std::size_t>(team));
   const double round_s = absl::GetFlag(FLAGS_round_s);
   double now_s = mission.spec().team(0).start().mission_time_s();
   for (const v1::TeamMember& m : mission.spec().team()) states.push_back(m.start());
@@ -108,7 +106,6 @@ int Run() {
               scenario->name().c_str(), team, rounds, absl::GetFlag(FLAGS_planning_threads),
               budget_s > 0 ? std::to_string(budget_s).c_str() : "unset");
   for (int round = 0; round < rounds; ++round) {
-    std::vector<v1::PlanPathResponse> paths(static_cast<std::size_t>(team));
     std::vector<grpc::Status> status(static_cast<std::size_t>(team));
     std::vector<double> ms(static_cast<std::size_t>(team));
     std::vector<std::thread> askers;
@@ -148,7 +145,6 @@ int Run() {
       }
       planner_max_s = std::max(planner_max_s, paths[k].stats().wall_time_s());
       last_version = std::max(last_version, paths[k].plan_version());
-      paths_of[k] = paths[k];
       for (const v1::MeasurementPose& shot : paths[k].measurement_poses()) {
         if (shot.mission_time_s() >= next_round_s) break;  // replanned before it
         const Vec3 camera = api::FromProto(shot.position_m());
@@ -178,13 +174,12 @@ int Run() {
     now_s = next_round_s;
     for (int i = 0; i < team; ++i) {
       const auto k = static_cast<std::size_t>(i);
-      absl::StatusOr<PolynomialTrajectory> traj =
-          api::TrajectoryFromProto(paths_of[k].trajectory());
+      absl::StatusOr<PolynomialTrajectory> traj = api::TrajectoryFromProto(paths[k].trajectory());
       if (!traj.ok()) {
         std::cerr << "trajectory: " << traj.status() << "\n";
         return 1;
       }
-      const double t = now_s - paths_of[k].start_mission_s();
+      const double t = now_s - paths[k].start_mission_s();
       v1::UavState& state = states[k];
       *state.mutable_position_m() = api::ToProto(traj->Position(t));
       if (t < traj->Duration()) {
