@@ -7,6 +7,8 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake pkg-config git
+  # a faster linker for the test builds (deploy/test.sh)
+  lld
   # core: linear algebra, exact collision geometry, camera model, CMA-ES
   libeigen3-dev libfcl-dev libccd-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-imgcodecs-dev

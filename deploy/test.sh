@@ -64,13 +64,15 @@ build() {
     shift
   done
   shift
-  cmake -S "$root" -B "$dir" -DOAIPP_WERROR=ON "$@" >/dev/null
+  cmake -S "$root" -B "$dir" -DOAIPP_WERROR=ON -DOAIPP_LINKER=lld "$@" >/dev/null
   echo "test: building $(basename "$dir") with $jobs jobs"
+  local started=$SECONDS
   if ! cmake --build "$dir" -j "$jobs" "${targets[@]}" >"$dir/build.log" 2>&1; then
     grep -E "error|warning|\*\*\*" "$dir/build.log" | head -50 || tail -50 "$dir/build.log"
     echo "test: the build in $dir failed (full log: $dir/build.log)" >&2
     return 1
   fi
+  echo "test: built $(basename "$dir") in $((SECONDS - started)) s"
 }
 
 # run_ctest DIR CTEST_ARGS...: the tests of one build.
