@@ -82,6 +82,9 @@ struct MissionConfig {
   std::vector<TeamMember> team;
   // Centre to centre, m, between any two members at every instant.
   double min_separation_m = 4.0;
+  // A plan counts teammates' pending shots as taken (MissionSpec field of
+  // the same name).
+  bool count_teammate_shots = true;
   double budget_s = 150.0;
   // Where W is on Earth (W is East-North-Up there); unset: local metres only.
   std::optional<GeoPoint> geo_origin;

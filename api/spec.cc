@@ -324,6 +324,7 @@ bool ValidUavId(absl::string_view id) {
 // read).
 absl::Status FillTeam(const v1::MissionSpec& spec, MissionConfig& c) {
   if (spec.team().empty()) return absl::OkStatus();  // min_separation_m unused
+  c.count_teammate_shots = !spec.has_count_teammate_shots() || spec.count_teammate_shots();
   const double radius = c.planner.common.limits.uav_radius_m;
   c.min_separation_m = OrDefault(spec.has_min_separation_m(), spec.min_separation_m(),
                                  MissionConfig{}.min_separation_m);
@@ -435,6 +436,10 @@ absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
   OAIPP_RETURN_IF_ERROR(FillPlanner(spec.planner(), c));
   OAIPP_RETURN_IF_ERROR(FillObstacles(spec.obstacles(), c));
   if (spec.team().empty()) {
+    if (spec.has_count_teammate_shots()) {
+      return absl::InvalidArgumentError(
+          "spec.count_teammate_shots: applies to a team only; spec.team is empty");
+    }
     OAIPP_RETURN_IF_ERROR(FillStart(spec, c));
   } else {
     OAIPP_RETURN_IF_ERROR(FillTeam(spec, c));
@@ -525,6 +530,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
       *out.mutable_start() = UavStateToProto(m.start);
     }
     spec.set_min_separation_m(c.min_separation_m);
+    spec.set_count_teammate_shots(c.count_teammate_shots);
   }
   spec.set_budget_s(c.budget_s);
   if (c.geo_origin.has_value()) *spec.mutable_geo_origin() = GeoPointToProto(*c.geo_origin);

@@ -509,7 +509,9 @@ std::vector<Teammate> Mission::TeammatesOf(
       const PlannedPath& path = it->second;
       std::vector<Vec3> pending;
       for (const MeasurementPose& shot : path.measurement_poses) {
-        if (shot.mission_time_s >= now_s) pending.push_back(shot.position_W);
+        if (config_.count_teammate_shots && shot.mission_time_s >= now_s) {
+          pending.push_back(shot.position_W);
+        }
       }
       mates.push_back({.uav_id = member.uav_id,
                        .trajectory = path.trajectory,

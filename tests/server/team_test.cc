@@ -198,6 +198,11 @@ TEST_F(TeamTest, ABadTeamIsRefusedNamingTheField) {
     s.mutable_team(1)->mutable_start()->mutable_position_m()->set_z(100);
     cases.push_back({"a start above the volume", s, "spec.team[1].start.position_m"});
   }
+  {
+    v1::MissionSpec s = testing::SmallSpec();  // one UAV: no teammates' shots to count
+    s.set_count_teammate_shots(false);
+    cases.push_back({"count_teammate_shots without a team", s, "spec.count_teammate_shots"});
+  }
   for (const Case& c : cases) {
     v1::Mission out;
     const grpc::Status status = CreateTeam(service.stub(), "t", c.spec, &out);
@@ -281,6 +286,47 @@ TEST_F(TeamTest, PlansKeepApartAndNameTheTeammatesTheyWereCheckedAgainst) {
       EXPECT_GE(ClosestApproach(flights[uav], f, now), kSeparation - 1e-6) << uav << " vs " << id;
     }
   }
+}
+
+// count_teammate_shots (default true) decides whether a teammate's pending
+// shots count as taken in a plan's objective. The random planner picks the
+// first safe destination its seed draws, whatever it scores: b's path is
+// then the same in both missions (a's, planned first, is too), and only the
+// information b reports can tell them apart. With a's shots counted, b
+// expects to learn less over the ground they share.
+TEST_F(TeamTest, TeammatesPendingShotsCountUnlessTheSpecSaysNot) {
+  InProcessService service(RegistryLimits{.max_missions = 64, .max_cells_per_mission = 1600});
+  const std::vector<Point> starts = {{-3, 8, 8}, {3, 8, 8}};
+  // The first planner seed whose path for b earns something (a path whose
+  // only shot is the unscored one at its start earns 0 either way).
+  bool compared = false;
+  for (std::uint32_t seed = 1; seed <= 10 && !compared; ++seed) {
+    std::map<std::string, v1::PlanPathResponse> a, b;
+    for (const std::string mode : {"counted", "ignored"}) {
+      v1::MissionSpec spec = TeamSpec(starts);
+      spec.mutable_planner()->set_kind(v1::PLANNER_KIND_RANDOM);
+      spec.mutable_planner()->set_seed(seed);
+      if (mode == "ignored") spec.set_count_teammate_shots(false);
+      const std::string id = absl::StrCat(mode, "-", seed);
+      v1::Mission team;
+      ASSERT_TRUE(CreateTeam(service.stub(), id, spec, &team).ok()) << id;
+      EXPECT_EQ(team.spec().count_teammate_shots(), mode == "counted") << id;
+      ASSERT_TRUE(PlanFor(service.stub(), id, "a", At(starts[0], 0), "pa", &a[mode]).ok()) << id;
+      const grpc::Status s = PlanFor(service.stub(), id, "b", At(starts[1], 0), "pb", &b[mode]);
+      ASSERT_TRUE(s.ok()) << id << ": " << s.error_message();
+    }
+    EXPECT_EQ(a["counted"].information(), a["ignored"].information()) << seed;
+    ASSERT_EQ(b["counted"].control_waypoints_m_size(), b["ignored"].control_waypoints_m_size());
+    for (int i = 0; i < b["counted"].control_waypoints_m_size(); ++i) {
+      EXPECT_EQ(b["counted"].control_waypoints_m(i).x(), b["ignored"].control_waypoints_m(i).x());
+      EXPECT_EQ(b["counted"].control_waypoints_m(i).y(), b["ignored"].control_waypoints_m(i).y());
+      EXPECT_EQ(b["counted"].control_waypoints_m(i).z(), b["ignored"].control_waypoints_m(i).z());
+    }
+    if (b["ignored"].information() <= 0.0 || a["counted"].measurement_poses_size() < 2) continue;
+    EXPECT_LT(b["counted"].information(), 0.9 * b["ignored"].information()) << seed;
+    compared = true;
+  }
+  EXPECT_TRUE(compared) << "no seed in 1-10 gave b a path that earns anything";
 }
 
 // The committed trajectories are durable: a server started on the same store
