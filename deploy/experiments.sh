@@ -56,6 +56,9 @@
 # and random on the 300 x 300 m field of client/scenarios/e6.json
 # (E6_TRIALS each, default 10); E6-km2 flies one OA-IPP mission over the
 # 1 km^2 field of e6-km2.json at 2 m (250,000 cells) to out/e6-km2.
+# E7 flies teams of 1, 2, 4 and 8 UAVs in E5's world, coordinated and the
+# two baselines (docs/experiments.md), at E7_BUDGET_S seconds of flight
+# (default: the scenarios' 150).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -216,6 +219,7 @@ for e in $experiments; do
       done ;;
     E6) "${client[@]}" eval E6 --trials="${E6_TRIALS:-10}" ;;
     E6-km2) "${client[@]}" run client/scenarios/e6-km2.json --out=out/e6-km2 ;;
+    E7) "${client[@]}" eval E7 --trials="$trials" --e7_budget_s="${E7_BUDGET_S:-0}" ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done

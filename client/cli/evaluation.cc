@@ -178,6 +178,16 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
         out.steps = Resample(run->steps, result.grid_s);
         out.plans = run->plans;
         out.planning_time_s = run->planning_time_s;
+        out.uavs = static_cast<int>(run->uavs.size());
+        out.closest_approach_m = run->closest_approach_m;
+        out.separation_violations = run->separation_violations;
+        out.plan_latencies_s = std::move(run->plan_latencies_s);
+        for (const StepRecord& step : run->steps) {
+          if (out.num_targets > 0 && step.targets_found == out.num_targets) {
+            out.all_found_s = step.mission_time_s - run->steps.front().mission_time_s;
+            break;
+          }
+        }
         if (out.trial == options.first_trial) out.map_png = std::move(run->final_map_png);
       } else {
         out.error = std::string(run.status().message());

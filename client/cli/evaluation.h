@@ -89,6 +89,15 @@ struct TrialResult {
   std::vector<sim::TargetSightings> sightings;  // per target id
   std::vector<SightingRecord> sighting_log;     // RunResult::sighting_log
   std::string error;                            // non-empty when the trial failed
+  // Team metrics (RunResult's): how many UAVs flew, the mission time from
+  // the start until every target was found at once (-1: never, within the
+  // budget), the least distance between two UAVs and the steps closer than
+  // the separation, and every plan's latency.
+  int uavs = 1;
+  double all_found_s = -1.0;
+  double closest_approach_m = 0.0;
+  int separation_violations = 0;
+  std::vector<double> plan_latencies_s;
 };
 
 struct EvalResult {

@@ -21,6 +21,8 @@ namespace oaipp::client {
 namespace {
 
 constexpr double kNever = std::numeric_limits<double>::infinity();
+// How long a boxed-in team member hovers before it asks again.
+constexpr double kHold_s = 1.0;
 
 // One UAV of the mission: where it is on the mission clock, and the path it
 // is flying.
@@ -32,6 +34,10 @@ struct Pilot {
         flight(sim, api::FromProto(start.position_m())) {}
 
   std::string uav_id;
+  // The mission it flies in and its uav_id there: the team's mission and
+  // uav_id, or (separate maps) its own mission and "".
+  std::string mission;
+  std::string mission_uav_id;
   v1::UavState state;  // at the end of the last path flown (the start before any)
   std::mt19937_64 rng;
   sim::Flight flight;
@@ -72,6 +78,17 @@ struct Pilot {
   }
 };
 
+// Member i of `team_spec`'s team as a mission of its own: one UAV at that
+// member's start, nothing of the team (separate maps).
+v1::MissionSpec Alone(const v1::MissionSpec& team_spec, int i) {
+  v1::MissionSpec spec = team_spec;
+  *spec.mutable_start() = team_spec.team(i).start();
+  spec.clear_team();
+  spec.clear_min_separation_m();
+  spec.clear_count_teammate_shots();
+  return spec;
+}
+
 }  // namespace
 
 absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenario,
@@ -81,15 +98,31 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
                                       const std::function<void(const std::string&)>& frame) {
   RunResult result;
   result.sightings.resize(static_cast<std::size_t>(sim.num_targets()));
-  OAIPP_ASSIGN_OR_RETURN(v1::Mission mission, client.CreateMission(scenario.mission()));
+  const bool separate = scenario.separate_maps() && !scenario.mission().team().empty();
+  // With separate maps this first mission is nobody's: it fuses every
+  // member's shots, and the records are read from it.
+  OAIPP_ASSIGN_OR_RETURN(
+      v1::Mission mission,
+      client.CreateMission(separate ? Alone(scenario.mission(), 0) : scenario.mission()));
   result.mission_name = mission.name();
-  const v1::MissionSpec& spec = mission.spec();
-  const double budget = spec.budget_s();
+  // Every mission created so far is deleted on the way out, whatever fails.
+  std::vector<std::string> created = {mission.name()};
+  struct Cleanup {
+    Client& client;
+    const std::vector<std::string>& names;
+    bool keep;
+    ~Cleanup() {
+      if (keep) return;
+      for (const std::string& name : names) (void)client.DeleteMission(name);
+    }
+  } cleanup{client, created, keep_mission};
+  const v1::MissionSpec& spec = separate ? scenario.mission() : mission.spec();
+  const double budget = mission.spec().budget_s();
   const double min_separation_m =
       spec.has_min_separation_m() ? spec.min_separation_m() : api::MissionConfig{}.min_separation_m;
   std::vector<Pilot> pilots;
   if (spec.team().empty()) {
-    pilots.emplace_back(sim, "", spec.start(), scenario.seed());
+    pilots.emplace_back(sim, "", mission.spec().start(), scenario.seed());
   } else {
     for (int i = 0; i < spec.team_size(); ++i) {
       pilots.emplace_back(sim, spec.team(i).uav_id(), spec.team(i).start(),
@@ -97,7 +130,19 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     }
   }
   result.uavs.resize(pilots.size());
-  for (std::size_t i = 0; i < pilots.size(); ++i) result.uavs[i].uav_id = pilots[i].uav_id;
+  for (std::size_t i = 0; i < pilots.size(); ++i) {
+    Pilot& pilot = pilots[i];
+    result.uavs[i].uav_id = pilot.uav_id;
+    pilot.mission = result.mission_name;
+    pilot.mission_uav_id = separate ? "" : pilot.uav_id;
+    if (separate) {
+      OAIPP_ASSIGN_OR_RETURN(v1::Mission own,
+                             client.CreateMission(Alone(scenario.mission(), static_cast<int>(i))));
+      pilot.mission = own.name();
+      created.push_back(own.name());
+    }
+    result.uavs[i].mission = pilot.mission;
+  }
   result.closest_approach_m = kNever;
   result.min_separation_m = min_separation_m;
   const double t0 = pilots.front().state.mission_time_s();  // every member's (the server checks)
@@ -110,6 +155,8 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     for (const UavRecord& u : result.uavs) paths.push_back({u.uav_id, u.flown_path_W});
     return paths;
   };
+  // The record after a shot (or at the start), from the mission's map; with
+  // separate maps, from the map that fuses every member's shots.
   auto measure_record = [&]() -> absl::Status {
     OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse map, client.GetMap(result.mission_name, true, false));
     mean.assign(map.mean().begin(), map.mean().end());
@@ -162,9 +209,14 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
                                             .min_confidence = sim.detector().min_confidence};
     }
     v1::AddMeasurementRequest m;
-    m.set_name(result.mission_name);
     api::MeasurementToProto(input, &m);
+    m.set_name(pilot.mission);
+    m.set_uav_id(pilot.mission_uav_id);
     OAIPP_RETURN_IF_ERROR(client.AddMeasurement(m).status());
+    if (separate) {  // and to the map of what the team knows together
+      m.set_name(result.mission_name);
+      OAIPP_RETURN_IF_ERROR(client.AddMeasurement(m).status());
+    }
     ++result.uavs[i].shots;
     record.uav_id = pilot.uav_id;
     record.mission_time_s = shot.mission_time_s();
@@ -195,16 +247,30 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
       return absl::OkStatus();
     }
     v1::PlanPathRequest request;
-    request.set_name(result.mission_name);
-    request.set_uav_id(pilot.uav_id);
+    request.set_name(pilot.mission);
+    request.set_uav_id(pilot.mission_uav_id);
     *request.mutable_state() = pilot.state;
     if (pilot.next_shot_s.has_value()) request.set_next_shot_mission_s(*pilot.next_shot_s);
     if (scenario.has_planning_budget_s())
       request.set_planning_budget_s(scenario.planning_budget_s());
     const auto plan_start = std::chrono::steady_clock::now();
-    OAIPP_ASSIGN_OR_RETURN(pilot.path, client.PlanPath(request));
-    result.planning_time_s +=
+    absl::StatusOr<v1::PlanPathResponse> planned = client.PlanPath(request);
+    const double latency_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - plan_start).count();
+    result.planning_time_s += latency_s;
+    result.plan_latencies_s.push_back(latency_s);
+    if (absl::IsFailedPrecondition(planned.status()) && pilots.size() > 1 &&
+        !pilot.next_shot_s.has_value()) {
+      // Boxed in, at rest, by teammates (and obstacles): it hovers where
+      // it is, as the server holds it, and asks again kHold_s later, when
+      // they have moved on. Shots wait until it flies again.
+      ++result.holds;
+      ++result.uavs[i].holds;
+      pilot.state.set_mission_time_s(pilot.state.mission_time_s() + kHold_s);
+      return absl::OkStatus();
+    }
+    if (!planned.ok()) return planned.status();
+    pilot.path = *std::move(planned);
     ++result.plans;
     ++result.uavs[i].plans;
     OAIPP_ASSIGN_OR_RETURN(pilot.trajectory, api::TrajectoryFromProto(pilot.path.trajectory()));
@@ -279,6 +345,8 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   }
   if (result.steps.back().mission_time_s < record.mission_time_s)
     OAIPP_RETURN_IF_ERROR(measure_record());
+  // The mission's map (with separate maps, the one of every shot) and every
+  // UAV's flown path.
   OAIPP_ASSIGN_OR_RETURN(v1::GetMapResponse final_map,
                          client.GetMap(result.mission_name, true, false));
   OAIPP_ASSIGN_OR_RETURN(
@@ -286,7 +354,10 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
       RenderMissionPng(final_map, sim, flown_paths(), result.mission_name, record.mission_time_s));
   result.found_at_end =
       sim.FoundEach(std::vector<double>(final_map.mean().begin(), final_map.mean().end()));
-  if (!keep_mission) OAIPP_RETURN_IF_ERROR(client.DeleteMission(result.mission_name));
+  if (!keep_mission) {
+    for (const std::string& name : created) OAIPP_RETURN_IF_ERROR(client.DeleteMission(name));
+    created.clear();
+  }
   return result;
 }
 

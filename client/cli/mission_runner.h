@@ -10,8 +10,13 @@
 // first going first (the earlier member in the spec on a tie), so the run is
 // the same for the same scenario and seed. A UAV plans when its path ends,
 // naming its uav_id; each has its own detector (the scenario's, seeded with
-// seed + its index). After every step the runner measures, with its own
-// distance code, how close the UAV is to each teammate at that instant.
+// seed + its index). A member at rest whose plan is refused because it is
+// boxed in (FAILED_PRECONDITION) hovers there for 1 s and asks again. After
+// every step the runner measures, with its own distance code, how close the
+// UAV is to each teammate at that instant.
+//
+// With the scenario's separate_maps, each member flies a mission of its
+// own instead (Scenario.separate_maps says what is then recorded).
 //
 //   OAIPP_ASSIGN_OR_RETURN(RunResult r, RunScenario(client, scenario, sim, print_progress));
 #pragma once
@@ -53,9 +58,11 @@ struct SightingRecord {
 // One UAV's flight.
 struct UavRecord {
   std::string uav_id;              // empty without a team
+  std::string mission;             // the mission it flew in (its own with separate maps)
   std::vector<Vec3> flown_path_W;  // a point every sim::Flight::kTraceSpacing_m
   int plans = 0;
   int paths_cut = 0;  // ended at a shot with a report (replan_on_detection)
+  int holds = 0;      // plans refused while boxed in at rest (team), each a 1 s hover
   int shots = 0;
   double path_length_m = 0.0;
   int collisions = 0;
@@ -67,7 +74,9 @@ struct RunResult {
   std::vector<UavRecord> uavs;  // in the spec's team order; one without a team
   int plans = 0;                // the team's
   int paths_cut = 0;
+  int holds = 0;
   double planning_time_s = 0.0;
+  std::vector<double> plan_latencies_s;  // each PlanPath call's, as the client saw it
   // The least distance between two UAVs at one instant, over every step of
   // each (infinity for one UAV), and the steps at which two were closer
   // than the spec's min_separation_m.

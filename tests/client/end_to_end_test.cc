@@ -2,6 +2,7 @@
 // its channel, the E1 world with a 30 s budget. RSE must fall; no collision.
 #include <cmath>
 #include <memory>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -158,6 +159,57 @@ TEST(EndToEndTest, ATeamFliesOneMapApartAndTheSameSeedFliesItAgain) {
   ASSERT_TRUE(again.ok()) << again.status();
   EXPECT_EQ(StepsCsv(again->steps), StepsCsv(first->steps));
   EXPECT_EQ(again->closest_approach_m, first->closest_approach_m);
+}
+
+// E7's baseline: the same team with separate maps flies a single-UAV
+// mission per member, each from that member's start, fusing and planning
+// on its own shots only; one more mission, which nobody plans for, fuses
+// every member's shots, and the records are that map's.
+TEST(EndToEndTest, ATeamOnSeparateMapsFliesAMissionPerUavThatKnowsNoTeammate) {
+  LocalService local;
+  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-team4.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  scenario->mutable_mission()->set_budget_s(30);
+  scenario->mutable_mission()->mutable_planner()->set_generations(10);
+  scenario->mutable_mission()->mutable_team()->RemoveLast();
+  scenario->set_separate_maps(true);
+  auto simulation = sim::Simulation::Create(*scenario);
+  ASSERT_TRUE(simulation.ok()) << simulation.status();
+  auto run = RunScenario(local.client, *scenario, *simulation, nullptr, /*keep_mission=*/true);
+  ASSERT_TRUE(run.ok()) << run.status();
+
+  ASSERT_EQ(run->uavs.size(), 3u);
+  EXPECT_EQ(local.registry.size(), 4u);
+  std::set<std::string> missions = {run->mission_name};
+  for (std::size_t i = 0; i < 3; ++i) {
+    const UavRecord& u = run->uavs[i];
+    missions.insert(u.mission);
+    EXPECT_EQ(u.shots, 5) << u.uav_id;
+    absl::StatusOr<v1::Mission> m = local.client.GetMission(u.mission);
+    ASSERT_TRUE(m.ok()) << m.status();
+    EXPECT_EQ(m->spec().team_size(), 0) << u.uav_id;
+    EXPECT_EQ(m->measurements_fused(), 5) << u.uav_id;
+    EXPECT_EQ(m->paths_planned(), u.plans) << u.uav_id;
+    const v1::Vector3& start = scenario->mission().team(static_cast<int>(i)).start().position_m();
+    EXPECT_EQ(m->spec().start().position_m().x(), start.x()) << u.uav_id;
+    EXPECT_EQ(m->spec().start().position_m().y(), start.y()) << u.uav_id;
+  }
+  EXPECT_EQ(missions.size(), 4u);
+  absl::StatusOr<v1::Mission> all = local.client.GetMission(run->mission_name);
+  ASSERT_TRUE(all.ok()) << all.status();
+  EXPECT_EQ(all->measurements_fused(), 15);
+  EXPECT_EQ(all->paths_planned(), 0);
+  absl::StatusOr<v1::GetMapResponse> map = local.client.GetMap(run->mission_name, true, false);
+  ASSERT_TRUE(map.ok()) << map.status();
+  const std::vector<double> mean(map->mean().begin(), map->mean().end());
+  EXPECT_EQ(run->steps.back().trace, map->trace());
+  EXPECT_EQ(run->steps.back().targets_found, simulation->TargetsFound(mean));
+  EXPECT_LT(run->closest_approach_m, 30.0);  // measured, though nobody kept them apart
+
+  auto again = RunScenario(local.client, *scenario, *simulation);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(StepsCsv(again->steps), StepsCsv(run->steps));
+  EXPECT_EQ(local.registry.size(), 4u);  // the second run's four are gone
 }
 
 // Take-off pacing: with the server's one take-off slot held, the client's
