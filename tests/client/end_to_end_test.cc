@@ -113,6 +113,17 @@ TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
   EXPECT_EQ(local.registry.size(), 0u);
 }
 
+// e5-team4.json's first three UAVs for 30 s, 10 CMA-ES generations a plan.
+absl::StatusOr<v1::Scenario> ShortTeamScenario() {
+  absl::StatusOr<v1::Scenario> scenario =
+      sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-team4.json");
+  if (!scenario.ok()) return scenario;
+  scenario->mutable_mission()->set_budget_s(30);
+  scenario->mutable_mission()->mutable_planner()->set_generations(10);
+  scenario->mutable_mission()->mutable_team()->RemoveLast();
+  return scenario;
+}
+
 // A team of three in E5's world for 30 s: every UAV plans under its uav_id
 // and takes its shots at 0, 6.7, 13.3, 20 and 26.7 s, every shot lands in
 // the one map, no two UAVs come closer than min_separation_m at any 20 ms
@@ -120,11 +131,8 @@ TEST(EndToEndTest, ReplanOnDetectionReplansAfterEveryShotWithAReport) {
 // and the same seed flies the same mission again.
 TEST(EndToEndTest, ATeamFliesOneMapApartAndTheSameSeedFliesItAgain) {
   LocalService local;
-  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-team4.json");
+  auto scenario = ShortTeamScenario();
   ASSERT_TRUE(scenario.ok()) << scenario.status();
-  scenario->mutable_mission()->set_budget_s(30);
-  scenario->mutable_mission()->mutable_planner()->set_generations(10);
-  scenario->mutable_mission()->mutable_team()->RemoveLast();
   auto simulation = sim::Simulation::Create(*scenario);
   ASSERT_TRUE(simulation.ok()) << simulation.status();
   auto first = RunScenario(local.client, *scenario, *simulation, nullptr, /*keep_mission=*/true);
@@ -167,11 +175,8 @@ TEST(EndToEndTest, ATeamFliesOneMapApartAndTheSameSeedFliesItAgain) {
 // every member's shots, and the records are that map's.
 TEST(EndToEndTest, ATeamOnSeparateMapsFliesAMissionPerUavThatKnowsNoTeammate) {
   LocalService local;
-  auto scenario = sim::LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-team4.json");
+  auto scenario = ShortTeamScenario();
   ASSERT_TRUE(scenario.ok()) << scenario.status();
-  scenario->mutable_mission()->set_budget_s(30);
-  scenario->mutable_mission()->mutable_planner()->set_generations(10);
-  scenario->mutable_mission()->mutable_team()->RemoveLast();
   scenario->set_separate_maps(true);
   auto simulation = sim::Simulation::Create(*scenario);
   ASSERT_TRUE(simulation.ok()) << simulation.status();
