@@ -158,13 +158,22 @@ ScoredPath PathScorer::ScoreTrajectory(PolynomialTrajectory trajectory) const {
        .next_shot_mission_s = std::max(mission_.next_shot_mission_s, state_.mission_time_s)});
   if (!shots.ok()) return out;
 
-  std::vector<PoseObservation> observations(
-      start_observations_.begin(),
-      start_observations_.begin() + static_cast<std::ptrdiff_t>(teammate_observations_));
-  for (double t : shots->times_s) {
+  // The conditioned prefix, exactly: the evaluator skips it only when the
+  // poses begin with it bit for bit. The shot due at the start is the one
+  // Create observed at state.position_W, not one at trajectory.Position(t)
+  // for a t within kStartShotTolerance_s of 0, whose altitude may differ in
+  // the last bits (then every pose, teammates' included, would be fused
+  // again on the unconditioned covariance: the same value, at tens of times
+  // the cost).
+  const bool start_shot = start_observations_.size() > teammate_observations_;
+  std::vector<PoseObservation> observations(start_observations_.begin(), start_observations_.end());
+  for (std::size_t i = 0; i < shots->times_s.size(); ++i) {
+    const double t = shots->times_s[i];
     const Vec3 p = trajectory.Position(t);
     out.poses.push_back({t, state_.mission_time_s + t, p});
-    observations.push_back(Observe(p, /*scored=*/t >= kStartShotTolerance_s));
+    const bool scored = t >= kStartShotTolerance_s;
+    if (i == 0 && start_shot && !scored) continue;  // in the prefix already
+    observations.push_back(Observe(p, scored));
   }
   out.information = evaluator_.Evaluate(observations);
 

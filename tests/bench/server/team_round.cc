@@ -27,8 +27,10 @@
 #include "api/geometry.h"
 #include "api/measurement.h"
 #include "api/plan.h"
+#include "core/mapping/dense_backend.h"
 #include "grpcpp/grpcpp.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/openblas_kernels.h"
 #include "server/server.h"
 #include "sim/scenario.h"
 #include "sim/simulation.h"
@@ -42,6 +44,7 @@ ABSL_FLAG(double, flight_budget_s, 0.0,
           "the mission's budget_s; 0: the scenario's (the planner's horizon follows what is "
           "left of it)");
 ABSL_FLAG(std::string, objective_precision, "double", "the server's objective precision");
+ABSL_FLAG(std::string, dense_backend, "openblas", "openblas (the server's default) or eigen");
 ABSL_FLAG(double, round_s, 20.0 / 3.0,
           "mission time between rounds (default: E5's shot period, 1 / 0.15 Hz)");
 
@@ -69,9 +72,25 @@ int Run() {
   options.listen = "";
   options.metrics_listen = "";
   options.objective_precision = absl::GetFlag(FLAGS_objective_precision);
-  absl::StatusOr<std::unique_ptr<server::Server>> server = server::Server::Start(
-      options,
-      {.planning_threads = absl::GetFlag(FLAGS_planning_threads), .planning_queue = 2 * team});
+  // The parts a server started from its flags would have for these: the
+  // dense backend it would choose (--dense_backend, OpenBLAS by default)
+  // and the objective's precision.
+  server::ServerParts parts{.planning_threads = absl::GetFlag(FLAGS_planning_threads),
+                            .planning_queue = 2 * team};
+  parts.registry.single_precision_objective = options.objective_precision == "single";
+  if (absl::GetFlag(FLAGS_dense_backend) == "openblas") {
+    absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+    if (!blas.ok()) {
+      std::cerr << "dense_backend: " << blas.status() << "\n";
+      return 2;
+    }
+    parts.registry.dense_backend = *blas;
+  } else if (absl::GetFlag(FLAGS_dense_backend) != "eigen") {
+    std::cerr << "dense_backend: openblas or eigen\n";
+    return 2;
+  }
+  absl::StatusOr<std::unique_ptr<server::Server>> server =
+      server::Server::Start(options, std::move(parts));
   if (!server.ok()) {
     std::cerr << "server: " << server.status() << "\n";
     return 2;
@@ -102,9 +121,12 @@ int Run() {
   std::int64_t last_version = 0;
   const int rounds = absl::GetFlag(FLAGS_rounds);
   const double budget_s = absl::GetFlag(FLAGS_planning_budget_s);
-  std::printf("%s: %d UAVs, %d rounds, %d planning threads, planning_budget_s %s\n",
-              scenario->name().c_str(), team, rounds, absl::GetFlag(FLAGS_planning_threads),
-              budget_s > 0 ? std::to_string(budget_s).c_str() : "unset");
+  std::printf(
+      "%s: %d UAVs, %d rounds, %d planning threads, planning_budget_s %s, %s, %s "
+      "precision\n",
+      scenario->name().c_str(), team, rounds, absl::GetFlag(FLAGS_planning_threads),
+      budget_s > 0 ? std::to_string(budget_s).c_str() : "unset",
+      (*server)->dense_backend().name().c_str(), options.objective_precision.c_str());
   for (int round = 0; round < rounds; ++round) {
     std::vector<grpc::Status> status(static_cast<std::size_t>(team));
     std::vector<double> ms(static_cast<std::size_t>(team));
@@ -208,6 +230,8 @@ int Run() {
 }  // namespace oaipp
 
 int main(int argc, char** argv) {
+  // As the server does: OpenBLAS's kernels for this CPU (server/openblas_kernels.h).
+  oaipp::server::RestartWithOpenBlasKernels(argv);
   absl::ParseCommandLine(argc, argv);
   return oaipp::Run();
 }
