@@ -27,7 +27,6 @@
 #include "api/geometry.h"
 #include "api/measurement.h"
 #include "api/plan.h"
-#include "core/mapping/dense_backend.h"
 #include "grpcpp/grpcpp.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
 #include "server/openblas_kernels.h"
@@ -69,28 +68,16 @@ int Run() {
     return 2;
   }
   server::ServerOptions options;
-  options.listen = "";
+  options.listen = "127.0.0.1:0";  // the rounds use InProcessChannel()
   options.metrics_listen = "";
   options.objective_precision = absl::GetFlag(FLAGS_objective_precision);
-  // The parts a server started from its flags would have for these: the
-  // dense backend it would choose (--dense_backend, OpenBLAS by default)
-  // and the objective's precision.
-  server::ServerParts parts{.planning_threads = absl::GetFlag(FLAGS_planning_threads),
-                            .planning_queue = 2 * team};
-  parts.registry.single_precision_objective = options.objective_precision == "single";
-  if (absl::GetFlag(FLAGS_dense_backend) == "openblas") {
-    absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
-    if (!blas.ok()) {
-      std::cerr << "dense_backend: " << blas.status() << "\n";
-      return 2;
-    }
-    parts.registry.dense_backend = *blas;
-  } else if (absl::GetFlag(FLAGS_dense_backend) != "eigen") {
-    std::cerr << "dense_backend: openblas or eigen\n";
-    return 2;
-  }
-  absl::StatusOr<std::unique_ptr<server::Server>> server =
-      server::Server::Start(options, std::move(parts));
+  options.dense_backend = absl::GetFlag(FLAGS_dense_backend);
+  options.planning_threads = absl::GetFlag(FLAGS_planning_threads);
+  options.planning_queue = 2 * team;
+  options.store = "memory";
+  // Composed as oaipp-server composes itself from its flags (the dense
+  // backend and the objective's precision among them).
+  absl::StatusOr<std::unique_ptr<server::Server>> server = server::Server::Start(options);
   if (!server.ok()) {
     std::cerr << "server: " << server.status() << "\n";
     return 2;
