@@ -14,7 +14,7 @@ namespace {
 
 // Scrapes are rare and short; two threads let one slow reader not hold up
 // the next scrape.
-constexpr int kThreads = 2;
+constexpr int kMetricsThreads = 2;
 constexpr const char* kTextFormat = "text/plain; version=0.0.4; charset=utf-8";
 
 absl::Status BadListen(const std::string& listen, const char* reason) {
@@ -52,7 +52,7 @@ absl::Status MetricsHttp::Start(const std::string& listen) {
     return BadListen(listen, "port must be a number in [0, 65535]");
   }
 
-  http_->new_task_queue = [] { return new httplib::ThreadPool(kThreads); };
+  http_->new_task_queue = [] { return new httplib::ThreadPool(kMetricsThreads); };
   http_->set_payload_max_length(1 << 10);
   // One request per connection: an idle keep-alive scraper would hold one
   // of the two threads for httplib's 5 s idle timeout.

@@ -13,7 +13,7 @@
 namespace oaipp::client {
 namespace {
 
-constexpr double kNever = std::numeric_limits<double>::infinity();
+constexpr double kNeverFound = std::numeric_limits<double>::infinity();
 
 // The q-quantile (0..1) of `values` by the nearest rank; NaN when empty.
 double Quantile(std::vector<double> values, double q) {
@@ -34,9 +34,9 @@ std::string Seconds(double t, double budget_s) {
 struct VariantStats {
   int uavs = 1;
   int trials = 0, failed = 0, all_found = 0, violations = 0;
-  std::vector<double> times_s;    // to find everyone; kNever when never
+  std::vector<double> times_s;    // to find everyone; kNeverFound when never
   std::vector<double> latencies;  // every plan's
-  double closest_m = kNever;
+  double closest_m = kNeverFound;
   // Mean and standard error of the times with never counted at the budget.
   double mean_s = 0.0, se_s = 0.0;
 };
@@ -84,7 +84,7 @@ std::string TeamSummaryMarkdown(const EvalResult& result, double budget_s) {
     }
     v.uavs = t.uavs;
     v.all_found += t.all_found_s >= 0.0;
-    v.times_s.push_back(t.all_found_s >= 0.0 ? t.all_found_s : kNever);
+    v.times_s.push_back(t.all_found_s >= 0.0 ? t.all_found_s : kNeverFound);
     v.latencies.insert(v.latencies.end(), t.plan_latencies_s.begin(), t.plan_latencies_s.end());
     v.closest_m = std::min(v.closest_m, t.closest_approach_m);
     v.violations += t.separation_violations;

@@ -5,21 +5,19 @@
 #include <string>
 
 #include "absl/flags/flag.h"
-#include "server/server_options.h"
+#include "server/flags/flags.h"
 
-namespace {
-const oaipp::server::ServerOptions kDefaults;
-}  // namespace
-
-ABSL_FLAG(std::string, listen, kDefaults.listen, "gRPC listen address (host:port)");
-ABSL_FLAG(int, worker_threads, kDefaults.worker_threads,
+ABSL_FLAG(std::string, listen, oaipp::server::kFlagDefaults.listen,
+          "gRPC listen address (host:port)");
+ABSL_FLAG(int, worker_threads, oaipp::server::kFlagDefaults.worker_threads,
           "most threads serving the quick RPCs at once (streams and plans hold none); past it a "
           "call is RESOURCE_EXHAUSTED. A fleet creating its missions at once needs one each");
-ABSL_FLAG(bool, reflection, kDefaults.reflection,
+ABSL_FLAG(bool, reflection, oaipp::server::kFlagDefaults.reflection,
           "serve gRPC server reflection (for grpcurl and similar tools)");
-ABSL_FLAG(double, shutdown_grace_s, kDefaults.shutdown_grace_s,
+ABSL_FLAG(double, shutdown_grace_s, oaipp::server::kFlagDefaults.shutdown_grace_s,
           "time in-flight calls get to finish on SIGTERM");
-ABSL_FLAG(int, max_streams, kDefaults.max_streams, "open WatchMission streams in all");
-ABSL_FLAG(int, max_streams_per_client, kDefaults.max_streams_per_client,
+ABSL_FLAG(int, max_streams, oaipp::server::kFlagDefaults.max_streams,
+          "open WatchMission streams in all");
+ABSL_FLAG(int, max_streams_per_client, oaipp::server::kFlagDefaults.max_streams_per_client,
           "open WatchMission streams per client (per tenant with --token_file, per connection "
           "without)");

@@ -5,16 +5,12 @@
 #include <string>
 
 #include "absl/flags/flag.h"
-#include "server/server_options.h"
+#include "server/flags/flags.h"
 
-namespace {
-const oaipp::server::ServerOptions kDefaults;
-}  // namespace
-
-ABSL_FLAG(std::string, replica_id, kDefaults.replica_id,
+ABSL_FLAG(std::string, replica_id, oaipp::server::kFlagDefaults.replica_id,
           "a name for this server, sent back on every call as the x-oaipp-replica header "
           "(which replica of a cluster answered); empty: not sent");
-ABSL_FLAG(bool, cluster, kDefaults.cluster,
+ABSL_FLAG(bool, cluster, oaipp::server::kFlagDefaults.cluster,
           "this server is one of several replicas sharing a PostgreSQL --store behind a proxy "
           "that routes by the x-oaipp-mission header: it loads no mission at start, takes a "
           "mission over from the store when a call for it arrives, and drops a mission another "

@@ -12,6 +12,11 @@
 
 namespace oaipp::server {
 
+// Where every flag in server/flags/*.cc starts: ServerOptions' own defaults.
+// One object for all the files (inline), defined before any flag that reads
+// it, so it is initialised first.
+inline const ServerOptions kFlagDefaults;
+
 // The flags' values (their defaults where not given).
 [[nodiscard]] ServerOptions ServerOptionsFromFlags();
 

@@ -38,9 +38,7 @@ using postgres::ConnectionPool;
 using postgres::CurrentError;
 using postgres::FirstLine;
 using postgres::InDoubt;
-using postgres::kSchema;
 using postgres::kSchemaLockKey;
-using postgres::kSchemaVersion;
 using postgres::LoadMissions;
 using postgres::NoMission;
 using postgres::Printable;
@@ -70,24 +68,24 @@ class PostgresStore final : public MissionStore {
       }
       tx.exec_params("SELECT pg_advisory_xact_lock($1)", kSchemaLockKey);
       // The version is read before the schema is touched: a newer server's
-      // database is refused unchanged. Everything in kSchema is idempotent,
+      // database is refused unchanged. Everything in postgres::kSchema is idempotent,
       // so an older database is brought up to this version by running it.
       tx.exec0(
           "CREATE TABLE IF NOT EXISTS store_info(key text PRIMARY KEY, value bigint NOT NULL)");
       tx.exec_params0(
           "INSERT INTO store_info(key, value) VALUES('schema_version', $1) "
           "ON CONFLICT (key) DO NOTHING",
-          kSchemaVersion);
+          postgres::kSchemaVersion);
       const auto version = tx.exec1("SELECT value FROM store_info WHERE key = 'schema_version'")[0]
                                .as<std::int64_t>();
-      if (version > kSchemaVersion) {
+      if (version > postgres::kSchemaVersion) {
         return absl::FailedPreconditionError(absl::StrCat("store: open: schema version ", version,
                                                           " is newer than this server's (",
-                                                          kSchemaVersion, ")"));
+                                                          postgres::kSchemaVersion, ")"));
       }
-      tx.exec0(kSchema);
+      tx.exec0(postgres::kSchema);
       tx.exec_params0("UPDATE store_info SET value = $1 WHERE key = 'schema_version'",
-                      kSchemaVersion);
+                      postgres::kSchemaVersion);
       Commit(tx, state);
       return absl::OkStatus();
     });

@@ -19,8 +19,6 @@ namespace {
 
 using sqlite::kFromVersion1;
 using sqlite::kFromVersion2;
-using sqlite::kSchema;
-using sqlite::kSchemaVersion;
 using sqlite::SqliteError;
 using sqlite::Statement;
 
@@ -52,10 +50,10 @@ class SqliteStore final : public MissionStore {
       OAIPP_RETURN_IF_ERROR(s.prepared("schema version"));
       if (s.Step() == SQLITE_ROW) version = s.Int(0);
     }
-    if (version > kSchemaVersion) {
+    if (version > sqlite::kSchemaVersion) {
       return absl::FailedPreconditionError(
           absl::StrCat("store: the file has schema version ", version, "; this server reads up to ",
-                       kSchemaVersion, " (a newer server wrote it)"));
+                       sqlite::kSchemaVersion, " (a newer server wrote it)"));
     }
     bool had_missions = false;
     {
@@ -63,7 +61,7 @@ class SqliteStore final : public MissionStore {
       OAIPP_RETURN_IF_ERROR(s.prepared("schema"));
       had_missions = s.Step() == SQLITE_ROW;
     }
-    if (version == kSchemaVersion) return Exec(kSchema, "schema");
+    if (version == sqlite::kSchemaVersion) return Exec(sqlite::kSchema, "schema");
     OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "schema"));
     absl::Status status = [&]() -> absl::Status {
       // A file of version 0 with tables is a version 1 file (it predates
@@ -74,8 +72,8 @@ class SqliteStore final : public MissionStore {
       if (had_missions && version <= 2) {
         OAIPP_RETURN_IF_ERROR(Exec(kFromVersion2, "schema upgrade"));
       }
-      OAIPP_RETURN_IF_ERROR(Exec(kSchema, "schema"));
-      return Exec(absl::StrCat("PRAGMA user_version = ", kSchemaVersion).c_str(), "schema");
+      OAIPP_RETURN_IF_ERROR(Exec(sqlite::kSchema, "schema"));
+      return Exec(absl::StrCat("PRAGMA user_version = ", sqlite::kSchemaVersion).c_str(), "schema");
     }();
     if (!status.ok()) {
       (void)Exec("ROLLBACK", "schema");

@@ -19,7 +19,7 @@ PolynomialTrajectory StraightLine(double x0, double v, double duration_s) {
   return *PolynomialTrajectory::FromCoefficients({duration_s}, {c});
 }
 
-Simulation E1() {
+Simulation E1Simulation() {
   absl::StatusOr<v1::Scenario> scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
   EXPECT_TRUE(scenario.ok()) << scenario.status();
   absl::StatusOr<Simulation> simulation = Simulation::Create(*scenario);
@@ -28,7 +28,7 @@ Simulation E1() {
 }
 
 TEST(FlightTest, CountsTheStepsWithinHalfTheUavRadiusOfTheBuilding) {
-  const Simulation simulation = E1();
+  const Simulation simulation = E1Simulation();
   ASSERT_EQ(simulation.config().planner.common.limits.uav_radius_m, 1.0);
   // From x = -10.01 at 1 m/s for 20.02 s: step k is at x = -10.01 + 0.02 k
   // and collides when |x| < 5 + 0.5, i.e. for k = 226 .. 775: 550 steps.
@@ -63,7 +63,7 @@ TEST(FlightTest, CountsTheStepsWithinHalfTheUavRadiusOfTheBuilding) {
 }
 
 TEST(FlightTest, StopsAtTheFirstErrorOfTheCallback) {
-  const Simulation simulation = E1();
+  const Simulation simulation = E1Simulation();
   Flight flight(simulation, Vec3(10, -1, 7));
   int steps = 0;
   const absl::StatusOr<double> stopped =
@@ -79,7 +79,7 @@ TEST(FlightTest, StopsAtTheFirstErrorOfTheCallback) {
 }
 
 TEST(FlightTest, StopsWhereTheCallbackSaysNotToFlyOn) {
-  const Simulation simulation = E1();
+  const Simulation simulation = E1Simulation();
   Flight flight(simulation, Vec3(10, -1, 7));
   int steps = 0;
   const absl::StatusOr<double> stopped =

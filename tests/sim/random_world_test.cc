@@ -9,7 +9,7 @@
 namespace oaipp::sim {
 namespace {
 
-v1::Scenario E1() {
+v1::Scenario E1Scenario() {
   absl::StatusOr<v1::Scenario> s = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
   EXPECT_TRUE(s.ok()) << s.status();
   return *s;
@@ -34,7 +34,7 @@ class RandomWorldTest : public ::testing::TestWithParam<BuildingKind> {};
 // Checked against the scenario itself (field, targets, start), not against
 // the generator's own bookkeeping.
 TEST_P(RandomWorldTest, PlacesBuildingsClearOfTargetsStartAndEachOther) {
-  const v1::Scenario base = E1();
+  const v1::Scenario base = E1Scenario();
   const double height = GetParam() == BuildingKind::kLowRise ? 13.0 : 26.0;
   for (int count : {5, 10, 15}) {
     for (std::uint64_t seed = 1; seed <= 10; ++seed) {
@@ -77,7 +77,7 @@ INSTANTIATE_TEST_SUITE_P(BothKinds, RandomWorldTest,
                          ::testing::Values(BuildingKind::kLowRise, BuildingKind::kHighRise));
 
 TEST(RandomWorldTest, SameSeedSameWorld) {
-  const v1::Scenario base = E1();
+  const v1::Scenario base = E1Scenario();
   auto a = RandomWorld(base, {.count = 10, .seed = 3});
   auto b = RandomWorld(base, {.count = 10, .seed = 3});
   auto c = RandomWorld(base, {.count = 10, .seed = 4});
@@ -87,7 +87,7 @@ TEST(RandomWorldTest, SameSeedSameWorld) {
 }
 
 TEST(RandomWorldTest, BadOptionsAndFullFields) {
-  const v1::Scenario base = E1();
+  const v1::Scenario base = E1Scenario();
   absl::Status s = RandomWorld(base, {.count = 41}).status();
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("count"), std::string::npos) << s;
