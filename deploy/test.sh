@@ -3,7 +3,9 @@
 # check the project has, in stages, then prints each stage's time:
 #   format   clang-format finds no drift in tracked C++ files (check only;
 #            `clang-format -i FILE` fixes one)
-#   release  Release build (./build), warnings as errors; every ctest tier:
+#   release  Release build (./build), warnings as errors, unity batches
+#            (so a name two files of one target define alike fails here);
+#            every ctest tier:
 #            unit, service and slow
 #   asan     Debug -O1 -g1 (line tables) with AddressSanitizer and UndefinedBehaviorSanitizer,
 #            asserts live (./build-asan); the unit and service tiers
@@ -52,6 +54,13 @@ timings+=("$(printf '%-8s %5d s' deps $((SECONDS - started)))")
 # The store tests start a real PostgreSQL; here it is installed, so a test
 # that cannot start one fails instead of skipping.
 export OAIPP_REQUIRE_POSTGRES=1
+# One thread per BLAS call and per OpenMP loop, as in the server (which
+# restarts itself with OPENBLAS_NUM_THREADS=1): CHOLMOD's OpenMP loops ask
+# for 4 threads whatever OMP_NUM_THREADS says, and OMP_THREAD_LIMIT is the
+# one cap they obey. Extra threads only oversubscribe the two cores here,
+# and under ThreadSanitizer each unordered write of theirs is a suppressed
+# report, which made a sparse-map case take minutes instead of seconds.
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_THREAD_LIMIT="${OMP_THREAD_LIMIT:-1}"
 
 # build DIR [TARGETS...] -- CMAKE_ARGS...: configure and build (printing only
 # diagnostics); all targets unless some are named.
@@ -64,7 +73,10 @@ build() {
     shift
   done
   shift
-  cmake -S "$root" -B "$dir" -DOAIPP_WERROR=ON -DOAIPP_LINKER=lld "$@" >/dev/null
+  # Unity builds (a batch of a target's sources in one translation unit)
+  # parse the shared headers (gRPC, protobuf, Eigen, GoogleTest) once per
+  # batch rather than once per file: about 40% less compile time from clean.
+  cmake -S "$root" -B "$dir" -DOAIPP_WERROR=ON -DOAIPP_LINKER=lld -DCMAKE_UNITY_BUILD=ON "$@" >/dev/null
   echo "test: building $(basename "$dir") with $jobs jobs"
   local started=$SECONDS
   if ! cmake --build "$dir" -j "$jobs" "${targets[@]}" >"$dir/build.log" 2>&1; then
