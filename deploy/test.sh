@@ -54,8 +54,8 @@ timings+=("$(printf '%-8s %5d s' deps $((SECONDS - started)))")
 # The store tests start a real PostgreSQL; here it is installed, so a test
 # that cannot start one fails instead of skipping.
 export OAIPP_REQUIRE_POSTGRES=1
-# One thread per BLAS call and per OpenMP loop, as in the server (which
-# restarts itself with OPENBLAS_NUM_THREADS=1): CHOLMOD's OpenMP loops ask
+# One thread per BLAS call, as in the server (which restarts itself with
+# OPENBLAS_NUM_THREADS=1), and per OpenMP loop: CHOLMOD's OpenMP loops ask
 # for 4 threads whatever OMP_NUM_THREADS says, and OMP_THREAD_LIMIT is the
 # one cap they obey. Extra threads only oversubscribe the two cores here,
 # and under ThreadSanitizer each unordered write of theirs is a suppressed
