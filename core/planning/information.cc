@@ -253,6 +253,7 @@ std::size_t InformationEvaluator::PrefixLength(std::span<const PoseObservation> 
 
 double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) const {
   const std::size_t skip = PrefixLength(poses);
+  if (skip == 0 && !prefix_.empty()) ++prefix_misses_;
   const Eigen::MatrixXd& base = skip > 0 ? *conditioned_ : cov_;
   const auto rest = poses.subspan(skip);
   return params_.kind == ObjectiveKind::kAdaptive

@@ -40,6 +40,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <vector>
@@ -207,6 +208,12 @@ class InformationEvaluator {
 
   [[nodiscard]] ObjectiveKind kind() const { return params_.kind; }
 
+  // Evaluate calls since Condition whose poses did not begin with the
+  // prefix bit for bit: each fused the prefix again on the unconditioned
+  // covariance. The value is the same; the cost is k n^2 more. A planner's
+  // candidates all begin with its prefix, so for them this stays 0.
+  [[nodiscard]] std::int64_t prefix_misses() const { return prefix_misses_; }
+
   // O_info of fusing `poses` in order. Preconditions: valid cell indices,
   // positive variances (the planner builds them; not re-checked here).
   [[nodiscard]] double Evaluate(std::span<const PoseObservation> poses) const;
@@ -251,6 +258,7 @@ class InformationEvaluator {
   std::shared_ptr<const Eigen::MatrixXd> conditioned_;  // P_c, null without a prefix
   mutable Eigen::MatrixXd base_squared_;
   mutable double work_without_square_ = 0.0;  // multiply-adds, see UseBaseSquared
+  mutable std::int64_t prefix_misses_ = 0;
 };
 
 // The oracle: sequential full Kalman covariance updates on a copy of the

@@ -127,6 +127,9 @@ class PathScorer {
   [[nodiscard]] const std::vector<PoseObservation>& start_observations() const {
     return start_observations_;
   }
+  // Candidates scored without the conditioned start observations
+  // (InformationEvaluator::prefix_misses): 0 unless something is wrong.
+  [[nodiscard]] std::int64_t prefix_misses() const { return evaluator_.prefix_misses(); }
 
  private:
   // (k1 O_info - k2 C_coll) / t_flight, t_flight floored at min_flight_time_s.

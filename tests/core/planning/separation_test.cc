@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/planning/path_scorer.h"
 #include "core/planning/planners.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
@@ -266,6 +267,57 @@ TEST(TeamPlanningTest, ATeammatesPendingShotsSteerAPlanToOtherGround) {
               with_shots, without_shots);
   // Measured: 0.30 against 0.54 (30 pairs).
   EXPECT_LT(with_shots, 0.75 * without_shots);
+}
+
+// Every candidate of a plan starts from the map conditioned once on the
+// teammates' pending shots and the shot due now: none fuses them again.
+// The shot here falls due 0.4 ns after the start of a moving UAV, so a
+// candidate's own first shot would sit 1e-10 m from the one conditioned,
+// its altitude and noise variance different in the last bits: fusing that
+// one instead, every candidate paid k n^2 again (the seconds-long team plans
+// of tests/bench/server/team_round, docs/teams.md).
+TEST(ConditionedPrefixTest, EveryCandidateOfATeamPlanStartsFromIt) {
+  const testing::Scene scene = testing::E1();
+  PlannerConfig config{.kind = PlannerKind::kOaIpp};
+  config.oaipp.generations = 2;
+  auto planner = MakePlanner(config);
+  ASSERT_TRUE(planner.ok());
+  UavState a_start;
+  a_start.position_W = Vec3(-8, -8, 9);
+  auto a = (*planner)->Plan(scene.View(), a_start, absl::InfiniteFuture());
+  ASSERT_TRUE(a.ok()) << a.status();
+  Teammate mate{.uav_id = "1", .trajectory = a->trajectory, .start_mission_s = 0.0};
+  for (const MeasurementPose& pose : a->measurement_poses) {
+    mate.pending_shots_W.push_back(pose.position_W);
+  }
+  ASSERT_GE(mate.pending_shots_W.size(), 2u);
+
+  UavState b;
+  b.position_W = Vec3(8, -9, 8);
+  b.velocity_W_m_s = Vec3(1.5, -0.5, 0.7);
+  b.mission_time_s = 12.3;
+  PlanningContext context = scene.View();
+  context.teammates = {&mate, 1};
+  context.next_shot_mission_s = b.mission_time_s + 4e-10;
+  auto scorer = PathScorer::Create(context, b, PlannerCommon{});
+  ASSERT_TRUE(scorer.ok()) << scorer.status();
+  // The teammate's shots, then the one due now.
+  ASSERT_EQ(scorer->start_observations().size(), mate.pending_shots_W.size() + 1);
+
+  std::mt19937 rng(5);
+  const Aabb& box = scorer->waypoint_box();
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  int scored = 0;
+  for (int i = 0; i < 40; ++i) {
+    std::vector<Vec3> waypoints;
+    for (int w = 0; w < 2; ++w) {
+      const Vec3 f(u(rng), u(rng), u(rng));
+      waypoints.push_back(box.min_W + f.cwiseProduct(box.Size()));
+    }
+    if (scorer->Score(waypoints).ok()) ++scored;
+  }
+  ASSERT_GT(scored, 30);
+  EXPECT_EQ(scorer->prefix_misses(), 0);
 }
 
 }  // namespace
