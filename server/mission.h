@@ -46,6 +46,7 @@
 #include "core/environment/environment.h"
 #include "core/environment/world_cache.h"
 #include "core/mapping/gp_map.h"
+#include "core/planning/conditioning_chain.h"
 #include "core/planning/planners.h"
 #include "server/flight_track.h"
 #include "server/idempotency_memo.h"
@@ -293,6 +294,7 @@ class Mission {
     std::shared_ptr<const GpMap> map;
     std::shared_ptr<ConditionedCache> conditioned;
     const FieldGrid* field = nullptr;  // the whole field, when map is a window
+    std::int64_t version = 0;          // a dense map's dense_version_
   };
   absl::StatusOr<PlanMap> MapForPlan(const Vec2& centre_W, std::shared_ptr<const Environment>* env);
   // config.MakeEnvironment(), or a clone of the world cache's copy under
@@ -352,6 +354,9 @@ class Mission {
   const std::unique_ptr<LargeFieldMap> large_;
   std::shared_ptr<SparseGpMap::Additions> added_ ABSL_GUARDED_BY(mu_);
   std::int64_t map_version_ ABSL_GUARDED_BY(mu_) = 0;
+  // A dense map's changes (MutableMap), naming its covariance for the
+  // team's conditioning chain.
+  std::int64_t dense_version_ ABSL_GUARDED_BY(mu_) = 0;
   // The shared map this mission started from, until its map changes
   // (MutableMap): plans share its conditioned covariances.
   std::shared_ptr<const StartMap> start_map_ ABSL_GUARDED_BY(mu_);
@@ -367,6 +372,9 @@ class Mission {
 
   // The planner keeps state (lawnmower pattern): one plan at a time.
   mutable absl::Mutex planner_mu_;
+  // A team's plans condition the dense map on each other's pending shots
+  // from the last plan's conditioning (docs/teams.md).
+  ConditioningChain team_chain_;
   // What Snapshot() reports, published at the end of every change.
   struct Summary {
     std::shared_ptr<const std::vector<Obstacle>> obstacles;

@@ -16,8 +16,9 @@ std::int64_t Mission::MemoryBytes() const {
   }
   // A sparse map: its factor at the peak, and the additions (16 bytes a
   // cell) with a reader's copy.
-  const std::int64_t map_bytes =
-      large_ == nullptr ? map_bytes_ : large_->bytes() + 32 * std::int64_t{grid_.num_cells()};
+  const std::int64_t map_bytes = large_ == nullptr
+                                     ? map_bytes_ + team_chain_.bytes()
+                                     : large_->bytes() + 32 * std::int64_t{grid_.num_cells()};
   if (env == nullptr) return map_bytes;
   const Esdf& esdf = env->esdf();
   std::int64_t users = esdf.SharedBy();
@@ -33,6 +34,7 @@ GpMap& Mission::MutableMap() {
   // The shared start map and its conditionings are no longer this
   // mission's (a plan in progress keeps what it holds).
   start_map_.reset();
+  ++dense_version_;
   if (map_.use_count() > 1) map_ = std::make_shared<GpMap>(map_->Clone());
   return *map_;
 }
@@ -69,6 +71,7 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
     map_->Settle();
     *env = env_;
     plan.map = map_;
+    plan.version = dense_version_;
     // MutableMap lets go of start_map_ at the map's first change.
     if (start_map_ != nullptr && start_map_->map == map_)
       plan.conditioned = start_map_->conditioned;

@@ -266,7 +266,10 @@ MemoryEstimate EstimateMissionBytes(const MissionConfig& config) {
     // cells (its covariance and the objective's copies).
     e.map_bytes = static_cast<std::int64_t>(330.0 * cells * std::log2(std::max(2.0, cells)) + 64e6);
   } else {
-    e.map_bytes = static_cast<std::int64_t>(2.0 * 8.0 * cells * (cells + 1.0));
+    // The map and a plan's conditioned copy; a team's plans keep one more
+    // between them (ConditioningChain).
+    const double copies = config.team.size() >= 2 ? 3.0 : 2.0;
+    e.map_bytes = static_cast<std::int64_t>(copies * 8.0 * cells * (cells + 1.0));
   }
   // The ESDF: 4 bytes a voxel.
   const double voxels = static_cast<double>(Esdf::VoxelCount(config.FlightVolume(), config.esdf));

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <type_traits>
 #include <unordered_map>
 
@@ -11,6 +12,7 @@
 #include "core/common/geometry.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/dense_backend.h"
+#include "core/planning/conditioning_chain.h"
 
 namespace oaipp {
 namespace {
@@ -83,6 +85,26 @@ class MergedCells {
     return s;
   }
 
+  // Lower Cholesky factor of R - P_KK, R = diag(1 / precision): what takes
+  // these cells' precision back out of a covariance P that has it
+  // (RemovePoses). Positive definite when P holds that precision; nullopt
+  // otherwise or when some r_j / (R - P_KK)_jj exceeds `max_amplification`
+  // (the subtraction loses about log10 of it in digits).
+  [[nodiscard]] std::optional<Eigen::MatrixXd> RemovalFactorLower(const DenseBackend& backend,
+                                                                  const Eigen::MatrixXd& cov,
+                                                                  double max_amplification) const {
+    const auto m = static_cast<Eigen::Index>(cells_.size());
+    Eigen::MatrixXd s(m, m);
+    for (Eigen::Index b = 0; b < m; ++b) {
+      for (Eigen::Index a = b; a < m; ++a) s(a, b) = -cov(cells_[a], cells_[b]);
+      const double r = 1.0 / precision_[b];
+      s(b, b) += r;
+      if (!(s(b, b) > 0.0) || r > max_amplification * s(b, b)) return std::nullopt;
+    }
+    if (!backend.CholeskyLowerInPlace(s)) return std::nullopt;
+    return s;
+  }
+
  private:
   std::vector<int> cells_;
   std::vector<double> precision_;
@@ -117,7 +139,45 @@ Eigen::Matrix<Scalar, Eigen::Dynamic, Eigen::Dynamic> WhitenedRows(
   return rows;
 }
 
+// cov := cov + sign rows^T rows, both triangles.
+void RankUpdate(const DenseBackend& backend, double sign, const Eigen::MatrixXd& rows,
+                Eigen::MatrixXd& cov) {
+  backend.SymmetricRankUpdate(sign, rows.transpose(), cov);
+  cov.triangularView<Eigen::StrictlyUpper>() = cov.transpose();
+}
+
 }  // namespace
+
+void FusePoses(const DenseBackend& backend, std::span<const PoseObservation> poses,
+               Eigen::MatrixXd& cov) {
+  MergedCells fused;
+  for (const PoseObservation& pose : poses) fused.Add(pose);
+  if (fused.empty()) return;
+  RankUpdate(backend, -1.0, WhitenedRows(backend, fused, cov, fused.FactorLower(backend, cov)),
+             cov);
+}
+
+absl::Status RemovePoses(const DenseBackend& backend, std::span<const PoseObservation> poses,
+                         double max_amplification, Eigen::MatrixXd& cov) {
+  MergedCells removed;
+  for (const PoseObservation& pose : poses) removed.Add(pose);
+  if (removed.empty()) return absl::OkStatus();
+  std::optional<Eigen::MatrixXd> lower =
+      removed.RemovalFactorLower(backend, cov, max_amplification);
+  if (!lower.has_value()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "RemovePoses: R - P_KK over ", removed.cells().size(),
+        " cells is not positive definite, or too close to singular to subtract exactly"));
+  }
+  RankUpdate(backend, 1.0, WhitenedRows(backend, removed, cov, *lower), cov);
+  return absl::OkStatus();
+}
+
+std::int64_t DistinctCells(std::span<const PoseObservation> poses) {
+  MergedCells merged;
+  for (const PoseObservation& pose : poses) merged.Add(pose);
+  return static_cast<std::int64_t>(merged.cells().size());
+}
 
 absl::Status InformationParams::Validate() const {
   if (!(kappa >= 0.0) || !std::isfinite(kappa)) {
@@ -204,7 +264,7 @@ double InformationParams::AltitudeReward(double altitude_m) const {
 }
 
 absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix,
-                                             ConditionedCache* shared) {
+                                             ConditionedCache* shared, ChainedPrefix chain) {
   for (std::size_t i = 0; i < prefix.size(); ++i) {
     if (prefix[i].scored) {
       return absl::InvalidArgumentError(absl::StrCat(
@@ -219,14 +279,14 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
   for (const PoseObservation& pose : prefix) fused.Add(pose);
   if (fused.empty()) return absl::OkStatus();
   auto compute = [&]() -> absl::StatusOr<Eigen::MatrixXd> {
-    const DenseBackend& backend = params_.dense_backend;
-    const Eigen::MatrixXd w = WhitenedRows(backend, fused, cov_, fused.FactorLower(backend, cov_));
     Eigen::MatrixXd conditioned = cov_;
-    backend.SymmetricRankUpdate(-1.0, w.transpose(), conditioned);
-    conditioned.triangularView<Eigen::StrictlyUpper>() = conditioned.transpose();
+    FusePoses(params_.dense_backend, prefix, conditioned);
     return conditioned;
   };
-  if (shared != nullptr) {
+  if (chain.chain != nullptr) {
+    OAIPP_ASSIGN_OR_RETURN(
+        conditioned_, chain.chain->Condition(cov_, chain.source, prefix, params_.dense_backend));
+  } else if (shared != nullptr) {
     PrefixKey key;
     for (const PoseObservation& pose : prefix) {
       key.cells.push_back(pose.cells);

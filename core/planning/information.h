@@ -185,6 +185,30 @@ struct PrefixKey {
 // shot, and compute it once (a copy and a rank-k update of n^2 doubles).
 using ConditionedCache = SingleFlightCache<PrefixKey, Eigen::MatrixXd>;
 
+// P := P - P_:K (P_KK + R)^-1 P_K: in place: `poses` fused into the
+// covariance (their cells K merged, R their merged noise), about
+// k^2 n + k n^2 flops.
+void FusePoses(const DenseBackend& backend, std::span<const PoseObservation> poses,
+               Eigen::MatrixXd& cov);
+// The inverse of FusePoses for poses `cov` holds (fused into it before, in
+// any order among others): P := P + P_:K (R - P_KK)^-1 P_K:, exact in the
+// information form (P^-1 -= H^T R^-1 H). FailedPrecondition, `cov`
+// unchanged, when R - P_KK is not positive definite or some r_j /
+// (R - P_KK)_jj exceeds `max_amplification`: about log10 of it digits are
+// lost in the subtraction (docs/teams.md).
+absl::Status RemovePoses(const DenseBackend& backend, std::span<const PoseObservation> poses,
+                         double max_amplification, Eigen::MatrixXd& cov);
+// How many distinct cells `poses` observe.
+[[nodiscard]] std::int64_t DistinctCells(std::span<const PoseObservation> poses);
+
+class ConditioningChain;
+// A chain that makes a prefix's conditioned covariance from the one it made
+// last (conditioning_chain.h), with the caller's name for the covariance.
+struct ChainedPrefix {
+  ConditioningChain* chain = nullptr;
+  std::int64_t source = 0;
+};
+
 class InformationEvaluator {
  public:
   // Holds references: mean (n) and covariance (n x n, symmetric) must
@@ -203,8 +227,11 @@ class InformationEvaluator {
   // pose is scored.
   // With `shared`, P_c comes from it (made there on first need), as computed
   // here bit for bit: the caller promises that `shared` serves this
-  // evaluator's covariance only.
-  absl::Status Condition(std::vector<PoseObservation> prefix, ConditionedCache* shared = nullptr);
+  // evaluator's covariance only. With `chain.chain` (then `shared` is not
+  // read), P_c comes from the chain, equal to the one computed here to
+  // rounding (docs/teams.md).
+  absl::Status Condition(std::vector<PoseObservation> prefix, ConditionedCache* shared = nullptr,
+                         ChainedPrefix chain = {});
 
   [[nodiscard]] ObjectiveKind kind() const { return params_.kind; }
 

@@ -127,8 +127,8 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   }
   if (!scorer.start_observations_.empty()) {
     // Every candidate fuses these shots first: condition on them once.
-    OAIPP_RETURN_IF_ERROR(
-        scorer.evaluator_.Condition(scorer.start_observations_, mission.conditioned));
+    OAIPP_RETURN_IF_ERROR(scorer.evaluator_.Condition(scorer.start_observations_,
+                                                      mission.conditioned, mission.chain));
   }
   return scorer;
 }

@@ -74,6 +74,10 @@ struct PlanningContext {
   // The caller promises that the map does not change while the cache is used
   // with it, and that the cache serves no other covariance.
   ConditionedCache* conditioned = nullptr;
+  // A team mission's chain of conditioned covariances (docs/teams.md),
+  // with the caller's name for `map`'s current covariance; when set, the
+  // plan's conditioning comes from it and `conditioned` is not read.
+  ChainedPrefix chain = {};
   // The mission's other UAVs, and how far apart any two must stay
   // (centre to centre, metres; valid: > 0, finite). With no teammates
   // (the default) a plan is exactly what it would be without these fields.
