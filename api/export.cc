@@ -369,7 +369,9 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
     plan_items.push_back(std::move(j));
   }
 
-  const double max_speed = config.planner.common.limits.dynamics.max_speed_m_s;
+  // The exporting UAV's own limits (a team member's may differ).
+  const PlannerLimits limits = config.KitOf(path.uav_id()).limits;
+  const double max_speed = limits.dynamics.max_speed_m_s;
   nlohmann::json mission = {
       {"version", 2},
       {"firmwareType", options.firmware_type},
@@ -380,7 +382,7 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
       {"plannedHomePosition", {home.latitude_deg, home.longitude_deg, home.altitude_m}},
       {"items", std::move(plan_items)}};
 
-  const double margin = std::max(kFenceMargin_m, config.planner.common.limits.uav_radius_m);
+  const double margin = std::max(kFenceMargin_m, limits.uav_radius_m);
   const Vec2 lo = config.field_min_W - Vec2(margin, margin);
   const Vec2 hi = config.field_max_W + Vec2(margin, margin);
   nlohmann::json inclusion = nlohmann::json::array();

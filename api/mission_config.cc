@@ -49,9 +49,21 @@ absl::Status MissionConfig::CheckUavId(absl::string_view uav_id, absl::string_vi
   return absl::OkStatus();
 }
 
-absl::StatusOr<CameraIntrinsics> MissionConfig::DefaultIntrinsics() const {
-  return IntrinsicsForFov(kDefaultImageWidthPx, kDefaultImageHeightPx, camera.fov_x_deg,
-                          camera.fov_y_deg);
+UavKit MissionConfig::KitOf(absl::string_view uav_id) const {
+  if (const TeamMember* member = FindMember(uav_id); member != nullptr) return member->kit;
+  return {.camera = camera, .noise = noise, .limits = planner.common.limits};
+}
+
+PlannerConfig MissionConfig::PlannerFor(absl::string_view uav_id) const {
+  PlannerConfig config = planner;
+  config.common.limits = KitOf(uav_id).limits;
+  return config;
+}
+
+absl::StatusOr<CameraIntrinsics> MissionConfig::DefaultIntrinsics(absl::string_view uav_id) const {
+  const DownwardCamera own = KitOf(uav_id).camera;
+  return IntrinsicsForFov(kDefaultImageWidthPx, kDefaultImageHeightPx, own.fov_x_deg,
+                          own.fov_y_deg);
 }
 
 }  // namespace oaipp::api

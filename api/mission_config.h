@@ -39,10 +39,21 @@ enum class MapBackend {
   kSparse,  // SparseGpMap: a sparse precision, a few KB a cell
 };
 
+// What one UAV flies with: its camera (footprint and shot rate), the noise
+// its detector's labels are fused with, and its flight limits.
+struct UavKit {
+  DownwardCamera camera;
+  SensorNoise noise;
+  PlannerLimits limits;
+};
+
 // One UAV of a mission's team (proto TeamMember).
 struct TeamMember {
   std::string uav_id;  // [a-z0-9-]{1,32}
   UavState start;
+  // The mission's camera, noise and limits but for what spec.team[i].sensor
+  // and spec.team[i].flight set.
+  UavKit kit;
 };
 
 struct MissionConfig {
@@ -101,6 +112,11 @@ struct MissionConfig {
     }
     return nullptr;
   }
+  // What `uav_id` flies with: a member's own kit, or the mission's (camera,
+  // noise, planner.common.limits) for "" and for a name not in the team.
+  [[nodiscard]] UavKit KitOf(absl::string_view uav_id) const;
+  // The planner's settings for `uav_id`: the mission's, with its limits.
+  [[nodiscard]] PlannerConfig PlannerFor(absl::string_view uav_id) const;
   // OK when `uav_id` (a request's `field`) names one of the mission's UAVs:
   // a member of the team, or "" without one. Else NotFound naming the field
   // (InvalidArgument for "" with a team: the call must say which UAV).
@@ -117,8 +133,10 @@ struct MissionConfig {
   // Environment::Create and Environment::Apply.
   [[nodiscard]] absl::StatusOr<Environment> MakeEnvironment() const;
   // Pinhole intrinsics of the default image (kDefaultImageWidthPx x
-  // kDefaultImageHeightPx) for the camera's field of view.
-  [[nodiscard]] absl::StatusOr<CameraIntrinsics> DefaultIntrinsics() const;
+  // kDefaultImageHeightPx) for the field of view of `uav_id`'s camera
+  // (KitOf; "": the mission's).
+  [[nodiscard]] absl::StatusOr<CameraIntrinsics> DefaultIntrinsics(
+      absl::string_view uav_id = "") const;
 };
 
 // One camera measurement from AddMeasurement, in core terms.

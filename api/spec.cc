@@ -94,54 +94,76 @@ absl::Status FillGp(const v1::GpSpec& g, MissionConfig& c) {
   return Prefixed("spec.gp.", c.gp.Validate());
 }
 
-absl::Status FillSensor(const v1::SensorSpec& s, MissionConfig& c) {
-  const DownwardCamera& camera = kDefaults.camera;
-  const SensorNoise& noise = kDefaults.noise;
-  c.camera.fov_x_deg = OrDefault(s.has_fov_x_deg(), s.fov_x_deg(), camera.fov_x_deg);
-  c.camera.fov_y_deg = OrDefault(s.has_fov_y_deg(), s.fov_y_deg(), camera.fov_y_deg);
-  c.noise.a_var = OrDefault(s.has_noise_a_var(), s.noise_a_var(), noise.a_var);
-  c.noise.b_per_m = OrDefault(s.has_noise_b_per_m(), s.noise_b_per_m(), noise.b_per_m);
-  c.camera.rate_hz = OrDefault(s.has_rate_hz(), s.rate_hz(), camera.rate_hz);
-  OAIPP_RETURN_IF_ERROR(CheckOpenInterval("spec.sensor.fov_x_deg", c.camera.fov_x_deg, 0, 180));
-  OAIPP_RETURN_IF_ERROR(CheckOpenInterval("spec.sensor.fov_y_deg", c.camera.fov_y_deg, 0, 180));
-  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.noise_a_var", c.noise.a_var));
-  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.noise_b_per_m", c.noise.b_per_m));
-  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.sensor.rate_hz", c.camera.rate_hz));
+// A camera and its detector's noise from `s`, each unset field taken from
+// `base` (the defaults for spec.sensor, the mission's for a team member's);
+// `field` names `s` in errors ("spec.sensor", "spec.team[1].sensor").
+// Setting detector_noise switches to the detector's curve (its unset fields
+// the base detector's, or the defaults); setting noise_a_var or
+// noise_b_per_m switches to A (1 - exp(-B h)).
+absl::Status FillSensorOf(const v1::SensorSpec& s, const UavKit& base, absl::string_view field,
+                          DownwardCamera& camera, SensorNoise& noise) {
+  const std::string prefix = absl::StrCat(field, ".");
+  camera = base.camera;
+  noise = base.noise;
+  camera.fov_x_deg = OrDefault(s.has_fov_x_deg(), s.fov_x_deg(), base.camera.fov_x_deg);
+  camera.fov_y_deg = OrDefault(s.has_fov_y_deg(), s.fov_y_deg(), base.camera.fov_y_deg);
+  noise.a_var = OrDefault(s.has_noise_a_var(), s.noise_a_var(), base.noise.a_var);
+  noise.b_per_m = OrDefault(s.has_noise_b_per_m(), s.noise_b_per_m(), base.noise.b_per_m);
+  camera.rate_hz = OrDefault(s.has_rate_hz(), s.rate_hz(), base.camera.rate_hz);
+  OAIPP_RETURN_IF_ERROR(CheckOpenInterval(prefix + "fov_x_deg", camera.fov_x_deg, 0, 180));
+  OAIPP_RETURN_IF_ERROR(CheckOpenInterval(prefix + "fov_y_deg", camera.fov_y_deg, 0, 180));
+  OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "noise_a_var", noise.a_var));
+  OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "noise_b_per_m", noise.b_per_m));
+  OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "rate_hz", camera.rate_hz));
   if (s.has_detector_noise()) {
     if (s.has_noise_a_var() || s.has_noise_b_per_m()) {
-      return absl::InvalidArgumentError(
-          "spec.sensor.detector_noise: replaces noise_a_var and noise_b_per_m, set one or the "
-          "other");
+      return absl::InvalidArgumentError(absl::StrCat(
+          prefix, "detector_noise: replaces noise_a_var and noise_b_per_m, set one or the other"));
     }
     const v1::DetectorNoise& d = s.detector_noise();
-    const DetectorAccuracy defaults;
-    c.noise.detector =
-        DetectorAccuracy{.p_max = OrDefault(d.has_p_max(), d.p_max(), defaults.p_max),
-                         .h_best_m = OrDefault(d.has_h_best_m(), d.h_best_m(), defaults.h_best_m),
-                         .width_m = OrDefault(d.has_width_m(), d.width_m(), defaults.width_m),
-                         .false_positive_rate = std::nullopt};
-    if (d.has_false_positive_rate()) {
-      c.noise.detector->false_positive_rate = d.false_positive_rate();
-    }
-    OAIPP_RETURN_IF_ERROR(Prefixed("spec.sensor.detector_noise.", c.noise.detector->Validate()));
+    const DetectorAccuracy from = base.noise.detector.value_or(DetectorAccuracy{});
+    noise.detector =
+        DetectorAccuracy{.p_max = OrDefault(d.has_p_max(), d.p_max(), from.p_max),
+                         .h_best_m = OrDefault(d.has_h_best_m(), d.h_best_m(), from.h_best_m),
+                         .width_m = OrDefault(d.has_width_m(), d.width_m(), from.width_m),
+                         .false_positive_rate = d.has_false_positive_rate()
+                                                    ? std::optional<double>(d.false_positive_rate())
+                                                    : from.false_positive_rate};
+    OAIPP_RETURN_IF_ERROR(Prefixed(prefix + "detector_noise.", noise.detector->Validate()));
+  } else if (s.has_noise_a_var() || s.has_noise_b_per_m()) {
+    noise.detector.reset();
   }
-  OAIPP_RETURN_IF_ERROR(Prefixed("spec.sensor.", c.camera.Validate()));
-  return Prefixed("spec.sensor.", c.noise.Validate());
+  OAIPP_RETURN_IF_ERROR(Prefixed(prefix, camera.Validate()));
+  return Prefixed(prefix, noise.Validate());
+}
+
+absl::Status FillSensor(const v1::SensorSpec& s, MissionConfig& c) {
+  return FillSensorOf(s, kDefaults.KitOf(""), "spec.sensor", c.camera, c.noise);
+}
+
+// A UAV's speed, acceleration and radius from `f`, each unset one taken
+// from `base`; `field` names `f` in errors.
+absl::Status FillLimitsOf(const v1::FlightSpec& f, const PlannerLimits& base,
+                          absl::string_view field, PlannerLimits& l) {
+  const std::string prefix = absl::StrCat(field, ".");
+  l = base;
+  l.dynamics.max_speed_m_s =
+      OrDefault(f.has_max_speed_m_s(), f.max_speed_m_s(), base.dynamics.max_speed_m_s);
+  l.dynamics.max_accel_m_s2 =
+      OrDefault(f.has_max_accel_m_s2(), f.max_accel_m_s2(), base.dynamics.max_accel_m_s2);
+  l.uav_radius_m = OrDefault(f.has_uav_radius_m(), f.uav_radius_m(), base.uav_radius_m);
+  OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "max_speed_m_s", l.dynamics.max_speed_m_s));
+  OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "max_accel_m_s2", l.dynamics.max_accel_m_s2));
+  OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "uav_radius_m", l.uav_radius_m));
+  return Prefixed(prefix, l.Validate());
 }
 
 absl::Status FillFlight(const v1::FlightSpec& f, MissionConfig& c) {
-  const PlannerLimits& limits = kDefaults.planner.common.limits;
   const EsdfConfig& esdf = kDefaults.esdf;
   c.min_altitude_m =
       OrDefault(f.has_min_altitude_m(), f.min_altitude_m(), kDefaults.min_altitude_m);
   c.max_altitude_m =
       OrDefault(f.has_max_altitude_m(), f.max_altitude_m(), kDefaults.max_altitude_m);
-  PlannerLimits& l = c.planner.common.limits;
-  l.dynamics.max_speed_m_s =
-      OrDefault(f.has_max_speed_m_s(), f.max_speed_m_s(), limits.dynamics.max_speed_m_s);
-  l.dynamics.max_accel_m_s2 =
-      OrDefault(f.has_max_accel_m_s2(), f.max_accel_m_s2(), limits.dynamics.max_accel_m_s2);
-  l.uav_radius_m = OrDefault(f.has_uav_radius_m(), f.uav_radius_m(), limits.uav_radius_m);
   c.esdf.voxel_size_m = OrDefault(f.has_esdf_voxel_m(), f.esdf_voxel_m(), esdf.voxel_size_m);
   c.esdf.truncation_m =
       OrDefault(f.has_esdf_truncation_m(), f.esdf_truncation_m(), esdf.truncation_m);
@@ -153,9 +175,8 @@ absl::Status FillFlight(const v1::FlightSpec& f, MissionConfig& c) {
         absl::StrCat("spec.flight.max_altitude_m: must exceed spec.flight.min_altitude_m (",
                      c.min_altitude_m, "), got ", c.max_altitude_m));
   }
-  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.flight.max_speed_m_s", l.dynamics.max_speed_m_s));
-  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.flight.max_accel_m_s2", l.dynamics.max_accel_m_s2));
-  OAIPP_RETURN_IF_ERROR(CheckPositive("spec.flight.uav_radius_m", l.uav_radius_m));
+  OAIPP_RETURN_IF_ERROR(
+      FillLimitsOf(f, kDefaults.planner.common.limits, "spec.flight", c.planner.common.limits));
   if (!(c.esdf.voxel_size_m > 0.0 && c.esdf.voxel_size_m <= 10.0)) {
     return absl::InvalidArgumentError(
         absl::StrCat("spec.flight.esdf_voxel_m: must be in (0, 10], got ", c.esdf.voxel_size_m));
@@ -165,7 +186,7 @@ absl::Status FillFlight(const v1::FlightSpec& f, MissionConfig& c) {
         "spec.flight.esdf_truncation_m: must be finite and >= spec.flight.esdf_voxel_m (",
         c.esdf.voxel_size_m, "), got ", c.esdf.truncation_m));
   }
-  return Prefixed("spec.flight.", l.Validate());
+  return absl::OkStatus();
 }
 
 absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
@@ -271,16 +292,16 @@ absl::Status FillObstacles(const google::protobuf::RepeatedPtrField<v1::Obstacle
   return absl::OkStatus();
 }
 
-// A start the UAV may fly from: inside the flight volume, within the
+// A start the UAV may fly from: inside the flight volume, within its
 // speed and acceleration limits. `field` names it (spec.start, ...).
-absl::Status CheckStart(const UavState& start, const MissionConfig& c, absl::string_view field) {
+absl::Status CheckStart(const UavState& start, const MissionConfig& c,
+                        const TrajectoryLimits& dynamics, absl::string_view field) {
   const Aabb volume = c.FlightVolume();
   if (!volume.Contains(start.position_W)) {
     return absl::InvalidArgumentError(absl::StrCat(
         field, ".position_m: ", Describe(start.position_W), " lies outside the flight volume ",
         Describe(volume.min_W), " .. ", Describe(volume.max_W)));
   }
-  const TrajectoryLimits& dynamics = c.planner.common.limits.dynamics;
   if (const double v = start.velocity_W_m_s.norm(); v > dynamics.max_speed_m_s) {
     return absl::InvalidArgumentError(absl::StrCat(field, ".velocity_m_s: speed ", v,
                                                    " m/s exceeds max_speed_m_s (",
@@ -308,7 +329,7 @@ absl::Status FillStart(const v1::MissionSpec& spec, MissionConfig& c) {
     return absl::OkStatus();
   }
   OAIPP_ASSIGN_OR_RETURN(c.start, UavStateFromProto(spec.start(), "spec.start"));
-  return CheckStart(c.start, c, "spec.start");
+  return CheckStart(c.start, c, c.planner.common.limits.dynamics, "spec.start");
 }
 
 bool ValidUavId(absl::string_view id) {
@@ -318,10 +339,40 @@ bool ValidUavId(absl::string_view id) {
   });
 }
 
+// A member's own kit: the mission's camera, noise and limits but for what
+// its sensor and flight set. The flight volume and the ESDF are the
+// mission's, so a member may not set them.
+absl::StatusOr<UavKit> FillMemberKit(const v1::TeamMember& m, const MissionConfig& c,
+                                     const std::string& field) {
+  const v1::FlightSpec& f = m.flight();
+  for (const auto& [set, name] : {std::pair{f.has_min_altitude_m(), "min_altitude_m"},
+                                  std::pair{f.has_max_altitude_m(), "max_altitude_m"},
+                                  std::pair{f.has_esdf_voxel_m(), "esdf_voxel_m"},
+                                  std::pair{f.has_esdf_truncation_m(), "esdf_truncation_m"}}) {
+    if (set) {
+      return absl::InvalidArgumentError(absl::StrCat(field, ".flight.", name,
+                                                     ": the flight volume and the ESDF are the "
+                                                     "mission's: set spec.flight.",
+                                                     name, " instead"));
+    }
+  }
+  const UavKit mission = c.KitOf("");
+  UavKit kit;
+  OAIPP_RETURN_IF_ERROR(
+      FillSensorOf(m.sensor(), mission, field + ".sensor", kit.camera, kit.noise));
+  OAIPP_RETURN_IF_ERROR(FillLimitsOf(f, mission.limits, field + ".flight", kit.limits));
+  if (kit.limits.uav_radius_m > c.min_separation_m) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ".flight.uav_radius_m: ", kit.limits.uav_radius_m,
+                     " exceeds spec.min_separation_m (", c.min_separation_m, ")"));
+  }
+  return kit;
+}
+
 // The team (docs/teams.md): 1-16 members with distinct ids, each start
-// valid as spec.start is, every two at least min_separation_m apart, one
-// mission clock; `start` becomes the first member's (spec.start is not
-// read).
+// valid as spec.start is (within its own limits), every two at least
+// min_separation_m apart, one mission clock; `start` becomes the first
+// member's (spec.start is not read).
 absl::Status FillTeam(const v1::MissionSpec& spec, MissionConfig& c) {
   if (spec.team().empty()) return absl::OkStatus();  // min_separation_m unused
   c.count_teammate_shots = !spec.has_count_teammate_shots() || spec.count_teammate_shots();
@@ -359,8 +410,9 @@ absl::Status FillTeam(const v1::MissionSpec& spec, MissionConfig& c) {
     if (!m.has_start()) {
       return absl::InvalidArgumentError(absl::StrCat(field, ".start: required"));
     }
+    OAIPP_ASSIGN_OR_RETURN(UavKit kit, FillMemberKit(m, c, field));
     OAIPP_ASSIGN_OR_RETURN(UavState start, UavStateFromProto(m.start(), field + ".start"));
-    OAIPP_RETURN_IF_ERROR(CheckStart(start, c, field + ".start"));
+    OAIPP_RETURN_IF_ERROR(CheckStart(start, c, kit.limits.dynamics, field + ".start"));
     if (i > 0 && start.mission_time_s != c.team.front().start.mission_time_s) {
       return absl::InvalidArgumentError(absl::StrCat(
           field,
@@ -375,10 +427,36 @@ absl::Status FillTeam(const v1::MissionSpec& spec, MissionConfig& c) {
             "'), closer than min_separation_m (", c.min_separation_m, ")"));
       }
     }
-    c.team.push_back({.uav_id = m.uav_id(), .start = start});
+    c.team.push_back({.uav_id = m.uav_id(), .start = start, .kit = std::move(kit)});
   }
   c.start = c.team.front().start;
   return absl::OkStatus();
+}
+
+// A camera and its noise as a SensorSpec with every field set.
+void WriteSensor(const DownwardCamera& camera, const SensorNoise& noise, v1::SensorSpec& s) {
+  s.set_fov_x_deg(camera.fov_x_deg);
+  s.set_fov_y_deg(camera.fov_y_deg);
+  if (noise.detector.has_value()) {
+    v1::DetectorNoise& d = *s.mutable_detector_noise();
+    d.set_p_max(noise.detector->p_max);
+    d.set_h_best_m(noise.detector->h_best_m);
+    d.set_width_m(noise.detector->width_m);
+    if (noise.detector->false_positive_rate.has_value()) {
+      d.set_false_positive_rate(*noise.detector->false_positive_rate);
+    }
+  } else {
+    s.set_noise_a_var(noise.a_var);
+    s.set_noise_b_per_m(noise.b_per_m);
+  }
+  s.set_rate_hz(camera.rate_hz);
+}
+
+// A UAV's speed, acceleration and radius into `f`.
+void WriteLimits(const PlannerLimits& limits, v1::FlightSpec& f) {
+  f.set_max_speed_m_s(limits.dynamics.max_speed_m_s);
+  f.set_max_accel_m_s2(limits.dynamics.max_accel_m_s2);
+  f.set_uav_radius_m(limits.uav_radius_m);
 }
 
 }  // namespace
@@ -473,29 +551,12 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   g.set_prior_mean(c.gp.prior_mean);
 
   const PlannerCommon& common = c.planner.common;
-  v1::SensorSpec& s = *spec.mutable_sensor();
-  s.set_fov_x_deg(c.camera.fov_x_deg);
-  s.set_fov_y_deg(c.camera.fov_y_deg);
-  if (c.noise.detector.has_value()) {
-    v1::DetectorNoise& d = *s.mutable_detector_noise();
-    d.set_p_max(c.noise.detector->p_max);
-    d.set_h_best_m(c.noise.detector->h_best_m);
-    d.set_width_m(c.noise.detector->width_m);
-    if (c.noise.detector->false_positive_rate.has_value()) {
-      d.set_false_positive_rate(*c.noise.detector->false_positive_rate);
-    }
-  } else {
-    s.set_noise_a_var(c.noise.a_var);
-    s.set_noise_b_per_m(c.noise.b_per_m);
-  }
-  s.set_rate_hz(c.camera.rate_hz);
+  WriteSensor(c.camera, c.noise, *spec.mutable_sensor());
 
   v1::FlightSpec& fl = *spec.mutable_flight();
   fl.set_min_altitude_m(c.min_altitude_m);
   fl.set_max_altitude_m(c.max_altitude_m);
-  fl.set_max_speed_m_s(common.limits.dynamics.max_speed_m_s);
-  fl.set_max_accel_m_s2(common.limits.dynamics.max_accel_m_s2);
-  fl.set_uav_radius_m(common.limits.uav_radius_m);
+  WriteLimits(common.limits, fl);
   fl.set_esdf_voxel_m(c.esdf.voxel_size_m);
   fl.set_esdf_truncation_m(c.esdf.truncation_m);
 
@@ -528,6 +589,8 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
       v1::TeamMember& out = *spec.add_team();
       out.set_uav_id(m.uav_id);
       *out.mutable_start() = UavStateToProto(m.start);
+      WriteSensor(m.kit.camera, m.kit.noise, *out.mutable_sensor());
+      WriteLimits(m.kit.limits, *out.mutable_flight());
     }
     spec.set_min_separation_m(c.min_separation_m);
     spec.set_count_teammate_shots(c.count_teammate_shots);

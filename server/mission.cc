@@ -93,13 +93,21 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   OAIPP_ASSIGN_OR_RETURN(Environment env, BuildWorld(config, world_key, caches));
   // Every UAV must start where it may fly: clear of every obstacle by half
   // its radius, as PlanPath asks of every state (exact distance).
-  const double needed = 0.5 * config.planner.common.limits.uav_radius_m;
-  std::vector<std::pair<std::string, Vec3>> starts;
-  if (config.team.empty()) starts.emplace_back("spec.start", config.start.position_W);
-  for (std::size_t i = 0; i < config.team.size(); ++i) {
-    starts.emplace_back(absl::StrCat("spec.team[", i, "].start"), config.team[i].start.position_W);
+  struct Start {
+    std::string field;
+    Vec3 position_W;
+    double needed;
+  };
+  std::vector<Start> starts;
+  if (config.team.empty()) {
+    starts.push_back(
+        {"spec.start", config.start.position_W, 0.5 * config.planner.common.limits.uav_radius_m});
   }
-  for (const auto& [field, start] : starts) {
+  for (std::size_t i = 0; i < config.team.size(); ++i) {
+    starts.push_back({absl::StrCat("spec.team[", i, "].start"), config.team[i].start.position_W,
+                      0.5 * config.team[i].kit.limits.uav_radius_m});
+  }
+  for (const auto& [field, start, needed] : starts) {
     const double clearance = env.SignedDistance(start);
     if (clearance < needed) {
       return absl::InvalidArgumentError(absl::StrFormat(
@@ -300,7 +308,7 @@ absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
     if (input.detections->intrinsics.has_value()) {
       intrinsics = *input.detections->intrinsics;
     } else {
-      OAIPP_ASSIGN_OR_RETURN(intrinsics, config_.DefaultIntrinsics());
+      OAIPP_ASSIGN_OR_RETURN(intrinsics, config_.DefaultIntrinsics(input.uav_id));
     }
     absl::StatusOr<CellLabels> projected =
         DetectionsToLabels(grid, intrinsics, input.pose, input.detections->boxes,
@@ -312,7 +320,8 @@ absl::StatusOr<std::vector<CellObservation>> Mission::PrepareMeasurement(
   } else {
     return absl::InvalidArgumentError("data: set labels or detections");
   }
-  return LabelsToObservations(grid, config_.noise, p.z(), labels.cells, labels.labels);
+  return LabelsToObservations(grid, config_.KitOf(input.uav_id).noise, p.z(), labels.cells,
+                              labels.labels);
 }
 
 absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput& input,
@@ -388,15 +397,18 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
                                                       config_.budget_s, " s is spent"));
   }
+  // The UAV's own camera, noise and limits (a team member's may differ).
+  const api::UavKit kit = config_.KitOf(call.uav_id);
+  OAIPP_ASSIGN_OR_RETURN(Planner * planner, PlannerOf(call.uav_id));
   double next_shot;
   if (next_shot_mission_s.has_value()) {
     next_shot = *next_shot_mission_s;
   } else {
     // The camera fires every 1 / rate seconds on the mission clock.
-    const double period = 1.0 / config_.sensor_rate_hz();
+    const double period = 1.0 / kit.camera.rate_hz;
     next_shot = period * std::ceil(state.mission_time_s / period - 1e-9);
   }
-  const std::string state_before = planner_->SaveState();
+  const std::string state_before = planner->SaveState();
   // The world and map as they are now; changes made while planning go to
   // copies (MutableMap) and count from the next plan.
   std::shared_ptr<const Environment> env;
@@ -414,8 +426,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   const std::vector<Teammate> teammates = TeammatesOf(call.uav_id, state.mission_time_s, &versions);
   const PlanningContext context{.environment = env.get(),
                                 .map = map.get(),
-                                .camera = config_.camera,
-                                .noise = config_.noise,
+                                .camera = kit.camera,
+                                .noise = kit.noise,
                                 .next_shot_mission_s = next_shot,
                                 .remaining_budget_s = config_.budget_s - elapsed,
                                 .cancelled = call.cancelled,
@@ -427,7 +439,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .teammates = teammates,
                                 .min_separation_m = config_.min_separation_m,
                                 .field = field};
-  absl::StatusOr<PlannedPath> path = planner_->Plan(context, state, deadline);
+  absl::StatusOr<PlannedPath> path = planner->Plan(context, state, deadline);
   env.reset();
   map.reset();
   conditioned.reset();
@@ -460,9 +472,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.
-  const std::string state_after = planner_->SaveState();
+  const std::string state_after = planner->SaveState();
   if (absl::Status written = PersistPlan(call.persist, *path, state_after); !written.ok()) {
-    (void)planner_->RestoreState(state_before);
+    (void)planner->RestoreState(state_before);
     return written;
   }
   ++paths_planned_;
@@ -502,6 +514,18 @@ bool Mission::finished() const {
   return summary_.mission_time_s - config_.start.mission_time_s >= config_.budget_s;
 }
 
+absl::StatusOr<Planner*> Mission::PlannerOf(const std::string& uav_id) {
+  if (config_.team.empty()) return planner_.get();
+  // A team's kinds (OA-IPP, random) keep no state between plans, so each
+  // member's planner, made with its own limits when first asked, plans as
+  // the mission's would with those limits.
+  std::unique_ptr<Planner>& own = member_planners_[uav_id];
+  if (own == nullptr) {
+    OAIPP_ASSIGN_OR_RETURN(own, MakePlanner(config_.PlannerFor(uav_id)));
+  }
+  return own.get();
+}
+
 std::vector<Teammate> Mission::TeammatesOf(
     const std::string& uav_id, double now_s,
     std::vector<std::pair<std::string, std::int64_t>>* versions) const {
@@ -519,7 +543,9 @@ std::vector<Teammate> Mission::TeammatesOf(
       mates.push_back({.uav_id = member.uav_id,
                        .trajectory = path.trajectory,
                        .start_mission_s = path.team.start_mission_s,
-                       .pending_shots_W = std::move(pending)});
+                       .pending_shots_W = std::move(pending),
+                       .camera = member.kit.camera,
+                       .noise = member.kit.noise});
       versions->emplace_back(member.uav_id, path.team.plan_version);
       continue;
     }

@@ -317,6 +317,10 @@ class Mission {
   absl::Status Persist(const PersistFn& persist, const MeasurementResult* answer = nullptr);
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                            const std::string& planner_state);
+  // The planner that plans for `uav_id`: the mission's for one UAV, a
+  // member's own (its limits) for a team.
+  absl::StatusOr<Planner*> PlannerOf(const std::string& uav_id)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
   // A team's other UAVs as the plan for `uav_id` at mission time `now_s`
   // must keep clear of them: each one's committed trajectory (or, before
   // its first plan, its start, held), with its shots still to come; and
@@ -389,6 +393,8 @@ class Mission {
   mutable absl::Mutex summary_mu_;
   mutable Summary summary_ ABSL_GUARDED_BY(summary_mu_);  // SettleMap sets a sparse trace
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
+  // A team's planners, each with its member's limits (PlannerOf).
+  std::map<std::string, std::unique_ptr<Planner>> member_planners_ ABSL_GUARDED_BY(planner_mu_);
   // A team's committed trajectories: uav_id -> its last plan.
   std::map<std::string, PlannedPath> committed_ ABSL_GUARDED_BY(planner_mu_);
   // Not under planner_mu_: that is held for a whole plan, and Snapshot

@@ -6,13 +6,16 @@
 
 namespace oaipp::sim {
 
-Flight::Flight(const Simulation& simulation, const Vec3& start_W)
-    : simulation_(&simulation), position_W_(start_W), trace_W_{start_W} {}
+Flight::Flight(const Simulation& simulation, const Vec3& start_W, const std::string& uav_id)
+    : simulation_(&simulation),
+      uav_radius_m_(simulation.config().KitOf(uav_id).limits.uav_radius_m),
+      position_W_(start_W),
+      trace_W_{start_W} {}
 
 void Flight::MoveTo(const Vec3& p_W) {
   path_length_m_ += (p_W - position_W_).norm();
   position_W_ = p_W;
-  if (simulation_->Collides(p_W)) ++collisions_;
+  if (simulation_->Collides(p_W, uav_radius_m_)) ++collisions_;
   if ((p_W - trace_W_.back()).norm() > kTraceSpacing_m) trace_W_.push_back(p_W);
 }
 

@@ -12,6 +12,7 @@
 #pragma once
 
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -27,8 +28,9 @@ class Flight {
   // The trace keeps a point once the UAV is this far from the last one kept.
   static constexpr double kTraceSpacing_m = 0.5;
 
-  // `simulation` must outlive the flight.
-  Flight(const Simulation& simulation, const Vec3& start_W);
+  // `simulation` must outlive the flight; `uav_id` names the team member
+  // flown (its radius; "": the mission's UAV).
+  Flight(const Simulation& simulation, const Vec3& start_W, const std::string& uav_id = "");
 
   // Flies `trajectory` from t = 0 to until_s (clamped to its duration) in
   // steps of kStep_s, the last one ending at until_s exactly, calling
@@ -49,6 +51,7 @@ class Flight {
 
  private:
   const Simulation* simulation_;
+  double uav_radius_m_;
   Vec3 position_W_;
   double path_length_m_ = 0.0;
   int collisions_ = 0;

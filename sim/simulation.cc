@@ -48,6 +48,10 @@ absl::StatusOr<Simulation> Simulation::Create(const v1::Scenario& scenario) {
   // The camera's images have the size the server assumes when a
   // measurement carries no intrinsics.
   OAIPP_ASSIGN_OR_RETURN(sim.intrinsics_, c.DefaultIntrinsics());
+  for (const api::TeamMember& member : c.team) {
+    OAIPP_ASSIGN_OR_RETURN(sim.member_intrinsics_[member.uav_id],
+                           c.DefaultIntrinsics(member.uav_id));
+  }
   const v1::DetectorModel& d = scenario.detector();
   DetectorParams& p = sim.detector_;
   if (d.has_p_max()) p.p_max = d.p_max();
@@ -89,15 +93,22 @@ absl::StatusOr<Simulation> Simulation::Create(const v1::Scenario& scenario) {
   return sim;
 }
 
+const CameraIntrinsics& Simulation::intrinsics(const std::string& uav_id) const {
+  const auto it = member_intrinsics_.find(uav_id);
+  return it == member_intrinsics_.end() ? intrinsics_ : it->second;
+}
+
 std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng,
-                                         std::vector<TargetSightings>* sightings) const {
+                                         std::vector<TargetSightings>* sightings,
+                                         const std::string& uav_id) const {
+  const CameraIntrinsics& image = intrinsics(uav_id);
   if (sightings != nullptr) sightings->resize(targets_.size());
   std::vector<PixelBox> boxes;
   // A box clipped to the image edge can be left with no area: the rule every
   // box is held to (PixelBox::Validate) drops it, after its random draws, so
   // the stream does not depend on it.
   const auto keep_valid = [&](const PixelBox& box) {
-    if (!box.Validate(&intrinsics_).ok()) return false;
+    if (!box.Validate(&image).ok()) return false;
     boxes.push_back(box);
     return true;
   };
@@ -113,19 +124,18 @@ std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng,
     for (double x : {t.x_min_m(), t.x_max_m()}) {
       for (double y : {t.y_min_m(), t.y_max_m()}) {
         Vec2 px;
-        in_front &= Project(intrinsics_, p_W, Vec3(x, y, 0), &px);
+        in_front &= Project(image, p_W, Vec3(x, y, 0), &px);
         lo = lo.cwiseMin(px);
         hi = hi.cwiseMax(px);
       }
     }
     Vec2 c;
-    if (!in_front || !Project(intrinsics_, p_W, centre, &c)) continue;
-    if (c.x() < 0 || c.y() < 0 || c.x() > intrinsics_.width_px || c.y() > intrinsics_.height_px)
-      continue;
+    if (!in_front || !Project(image, p_W, centre, &c)) continue;
+    if (c.x() < 0 || c.y() < 0 || c.x() > image.width_px || c.y() > image.height_px) continue;
     if (sightings != nullptr) ++(*sightings)[i].in_view;
     if (draw >= detector_.DetectionProbability(h)) continue;
     lo = lo.cwiseMax(Vec2(0, 0));
-    hi = hi.cwiseMin(Vec2(intrinsics_.width_px, intrinsics_.height_px));
+    hi = hi.cwiseMin(Vec2(image.width_px, image.height_px));
     if (keep_valid({lo.x(), lo.y(), hi.x(), hi.y(), 0.5 + 0.5 * unit(rng)}) && sightings != nullptr)
       ++(*sightings)[i].detected;
   }
@@ -135,20 +145,19 @@ std::vector<PixelBox> Simulation::Detect(const Vec3& p_W, std::mt19937_64& rng,
       std::min(detector_.FalsePositiveRate(h), static_cast<double>(api::kMaxBoxes)));
   const int n = false_positives(rng);
   // A person's size in pixels at this altitude.
-  const double w = intrinsics_.fx_px * kPersonWidth_m / h,
-               l = intrinsics_.fy_px * kPersonLength_m / h;
+  const double w = image.fx_px * kPersonWidth_m / h, l = image.fy_px * kPersonLength_m / h;
   for (int i = 0; i < n; ++i) {
-    const double x = unit(rng) * std::max(1.0, intrinsics_.width_px - w),
-                 y = unit(rng) * std::max(1.0, intrinsics_.height_px - l);
-    (void)keep_valid({x, y, std::min<double>(x + w, intrinsics_.width_px),
-                      std::min<double>(y + l, intrinsics_.height_px), 0.5 + 0.5 * unit(rng)});
+    const double x = unit(rng) * std::max(1.0, image.width_px - w),
+                 y = unit(rng) * std::max(1.0, image.height_px - l);
+    (void)keep_valid({x, y, std::min<double>(x + w, image.width_px),
+                      std::min<double>(y + l, image.height_px), 0.5 + 0.5 * unit(rng)});
   }
   return boxes;
 }
 
-absl::StatusOr<CellLabels> Simulation::Labels(const Vec3& p_W,
-                                              const std::vector<PixelBox>& boxes) const {
-  return DetectionsToLabels(*grid_, intrinsics_, CameraPose{p_W, 0.0}, boxes,
+absl::StatusOr<CellLabels> Simulation::Labels(const Vec3& p_W, const std::vector<PixelBox>& boxes,
+                                              const std::string& uav_id) const {
+  return DetectionsToLabels(*grid_, intrinsics(uav_id), CameraPose{p_W, 0.0}, boxes,
                             detector_.min_confidence, env_.get());
 }
 
@@ -215,8 +224,12 @@ std::vector<std::pair<Vec2, Vec2>> Simulation::TargetRectangles() const {
 }
 
 bool Simulation::Collides(const Vec3& p_W) const {
+  return Collides(p_W, config_.planner.common.limits.uav_radius_m);
+}
+
+bool Simulation::Collides(const Vec3& p_W, double uav_radius_m) const {
   return !env_->flight_volume().Contains(p_W, 1e-9) ||
-         env_->SignedDistance(p_W) < 0.5 * config_.planner.common.limits.uav_radius_m;
+         env_->SignedDistance(p_W) < 0.5 * uav_radius_m;
 }
 
 double FalsePositivesPerCell(const DetectorParams& detector, const DownwardCamera& camera,

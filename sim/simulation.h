@@ -6,8 +6,10 @@
 //   double rse = sim.Rse(map_mean);
 #pragma once
 
+#include <map>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -54,15 +56,18 @@ class Simulation {
   // When `sightings` is set (one entry per target, in scenario order), each
   // target in view counts one sighting there, and one detection when it is
   // reported; the random stream is the same either way.
-  [[nodiscard]] std::vector<PixelBox> Detect(
-      const Vec3& p_W, std::mt19937_64& rng,
-      std::vector<TargetSightings>* sightings = nullptr) const;
+  // `uav_id` names the team member whose camera takes the image ("": the
+  // mission's camera).
+  [[nodiscard]] std::vector<PixelBox> Detect(const Vec3& p_W, std::mt19937_64& rng,
+                                             std::vector<TargetSightings>* sightings = nullptr,
+                                             const std::string& uav_id = "") const;
   // What a perfect detector reports from p_W (yaw 0): the visible footprint
   // cells, labelled 1 where a target covers them and 0 elsewhere.
   [[nodiscard]] CellLabels TruthLabels(const Vec3& p_W) const;
   // Per-cell labels of the same detections over the visible image footprint.
   [[nodiscard]] absl::StatusOr<CellLabels> Labels(const Vec3& p_W,
-                                                  const std::vector<PixelBox>& boxes) const;
+                                                  const std::vector<PixelBox>& boxes,
+                                                  const std::string& uav_id = "") const;
 
   // RSE = sqrt(sum (mu - truth)^2) and RMSE over the cells.
   [[nodiscard]] double Rse(const std::vector<double>& mean) const;
@@ -79,11 +84,15 @@ class Simulation {
   // 1-based).
   [[nodiscard]] std::vector<std::string> TargetIds() const;
   // Closer than r_uav / 2 to an obstacle under the exact geometry, or
-  // outside the flight volume.
+  // outside the flight volume; r_uav the mission's radius unless given.
   [[nodiscard]] bool Collides(const Vec3& p_W) const;
+  [[nodiscard]] bool Collides(const Vec3& p_W, double uav_radius_m) const;
 
   [[nodiscard]] const api::MissionConfig& config() const { return config_; }
-  [[nodiscard]] const CameraIntrinsics& intrinsics() const { return intrinsics_; }
+  // The images of `uav_id`'s camera (a team member's own field of view; "":
+  // the mission's), of the size the server assumes for images sent without
+  // intrinsics.
+  [[nodiscard]] const CameraIntrinsics& intrinsics(const std::string& uav_id = "") const;
   [[nodiscard]] const DetectorParams& detector() const { return detector_; }
   [[nodiscard]] int num_targets() const { return static_cast<int>(target_cells_.size()); }
   [[nodiscard]] const Environment& environment() const { return *env_; }
@@ -96,6 +105,7 @@ class Simulation {
   std::shared_ptr<Environment> env_;
   std::shared_ptr<FieldGrid> grid_;
   CameraIntrinsics intrinsics_;
+  std::map<std::string, CameraIntrinsics> member_intrinsics_;  // by uav_id
   DetectorParams detector_;
   std::vector<v1::Target> targets_;
   std::vector<std::vector<int>> target_cells_;

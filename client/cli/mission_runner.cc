@@ -31,7 +31,7 @@ struct Pilot {
       : uav_id(std::move(id)),
         state(start),
         rng(seed),
-        flight(sim, api::FromProto(start.position_m())) {}
+        flight(sim, api::FromProto(start.position_m()), uav_id) {}
 
   std::string uav_id;
   // The mission it flies in and its uav_id there: the team's mission and
@@ -79,10 +79,21 @@ struct Pilot {
 };
 
 // Member i of `team_spec`'s team as a mission of its own: one UAV at that
-// member's start, nothing of the team (separate maps).
+// member's start with its camera, detector and limits, nothing of the team
+// (separate maps).
 v1::MissionSpec Alone(const v1::MissionSpec& team_spec, int i) {
   v1::MissionSpec spec = team_spec;
-  *spec.mutable_start() = team_spec.team(i).start();
+  const v1::TeamMember& member = team_spec.team(i);
+  *spec.mutable_start() = member.start();
+  // A member's noise model replaces the mission's, as it does in the team.
+  if (member.sensor().has_detector_noise()) {
+    spec.mutable_sensor()->clear_noise_a_var();
+    spec.mutable_sensor()->clear_noise_b_per_m();
+  } else if (member.sensor().has_noise_a_var() || member.sensor().has_noise_b_per_m()) {
+    spec.mutable_sensor()->clear_detector_noise();
+  }
+  spec.mutable_sensor()->MergeFrom(member.sensor());
+  spec.mutable_flight()->MergeFrom(member.flight());
   spec.clear_team();
   spec.clear_min_separation_m();
   spec.clear_count_teammate_shots();
@@ -196,15 +207,16 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     Pilot& pilot = pilots[i];
     const Vec3 camera = api::FromProto(shot.position_m());
     const std::vector<sim::TargetSightings> before = result.sightings;
-    const std::vector<PixelBox> boxes = sim.Detect(camera, pilot.rng, &result.sightings);
+    const std::vector<PixelBox> boxes =
+        sim.Detect(camera, pilot.rng, &result.sightings, pilot.uav_id);
     api::MeasurementInput input{.mission_time_s = shot.mission_time_s(),
                                 .pose = CameraPose{camera, 0.0},
                                 .uav_id = pilot.uav_id};
     if (scenario.send_cell_labels()) {
-      OAIPP_ASSIGN_OR_RETURN(input.labels, sim.Labels(camera, boxes));
+      OAIPP_ASSIGN_OR_RETURN(input.labels, sim.Labels(camera, boxes, pilot.uav_id));
     } else {
       input.detections =
-          api::MeasurementInput::Detections{.intrinsics = sim.intrinsics(),
+          api::MeasurementInput::Detections{.intrinsics = sim.intrinsics(pilot.uav_id),
                                             .boxes = boxes,
                                             .min_confidence = sim.detector().min_confidence};
     }

@@ -112,8 +112,10 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   // Teammates' shots still to come count as taken (unscored) before any of
   // this UAV's, so that it does not plan to look at the same ground.
   for (const Teammate& mate : mission.teammates) {
+    const DownwardCamera& camera = mate.camera.has_value() ? *mate.camera : mission.camera;
+    const SensorNoise& noise = mate.noise.has_value() ? *mate.noise : mission.noise;
     for (const Vec3& p : mate.pending_shots_W) {
-      PoseObservation shot = scorer.Observe(p, /*scored=*/false);
+      PoseObservation shot = scorer.ObserveWith(camera, noise, p, /*scored=*/false);
       if (!shot.cells.empty()) scorer.start_observations_.push_back(std::move(shot));
     }
   }
@@ -134,10 +136,15 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
 }
 
 PoseObservation PathScorer::Observe(const Vec3& p_W, bool scored) const {
+  return ObserveWith(mission_.camera, mission_.noise, p_W, scored);
+}
+
+PoseObservation PathScorer::ObserveWith(const DownwardCamera& camera, const SensorNoise& noise,
+                                        const Vec3& p_W, bool scored) const {
   PoseObservation obs;
   obs.altitude_m = p_W.z();
-  obs.variance = mission_.noise.Variance(std::max(p_W.z(), 1e-3));
-  obs.cells = mission_.camera.VisibleFootprintCells(grid(), p_W, mission_.environment);
+  obs.variance = noise.Variance(std::max(p_W.z(), 1e-3));
+  obs.cells = camera.VisibleFootprintCells(grid(), p_W, mission_.environment);
   obs.scored = scored;
   return obs;
 }

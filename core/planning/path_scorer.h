@@ -79,6 +79,9 @@ class PathScorer {
 
   // The measurement taken at p_W: visible footprint cells and var(h).
   [[nodiscard]] PoseObservation Observe(const Vec3& p_W, bool scored = true) const;
+  // The same taken by another camera with another noise (a teammate's).
+  [[nodiscard]] PoseObservation ObserveWith(const DownwardCamera& camera, const SensorNoise& noise,
+                                            const Vec3& p_W, bool scored) const;
   // O_info of `poses` given the map.
   [[nodiscard]] double Information(std::span<const PoseObservation> poses) const {
     return evaluator_.Evaluate(poses);

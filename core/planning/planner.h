@@ -40,12 +40,15 @@ namespace oaipp {
 // trajectory's first point, after its end hovering at its last.
 // Its shots still to come (pending_shots_W, where the camera will be) count
 // in a plan's objective as if already taken, so that a UAV does not plan to
-// look again at ground a teammate is about to see.
+// look again at ground a teammate is about to see; each sees the teammate's
+// own camera footprint with its own noise (unset: the planning UAV's).
 struct Teammate {
   std::string uav_id;  // names it in messages
   PolynomialTrajectory trajectory;
   double start_mission_s = 0.0;
   std::vector<Vec3> pending_shots_W = {};
+  std::optional<DownwardCamera> camera = std::nullopt;
+  std::optional<SensorNoise> noise = std::nullopt;
 };
 
 // What a planner reads of its mission for one plan: the world, the map, the

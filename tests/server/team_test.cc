@@ -20,112 +20,23 @@
 #include "gtest/gtest.h"
 #include "server/store/sqlite_store.h"
 #include "tests/server/service_fixture.h"
+#include "tests/server/team_fixture.h"
 
 namespace oaipp::server {
 namespace {
 
+using testing::At;
+using testing::ClosestApproach;
+using testing::CreateTeam;
+using testing::EndOf;
+using testing::Flight;
 using ::testing::HasSubstr;
 using testing::InProcessService;
-
-constexpr double kSeparation = 4.0;
-
-struct Point {
-  double x, y, z;
-};
-
-// A 30 x 30 m field at 0.75 m with one building (x in [-1, 1], y in [-4, 0]),
-// a short CMA-ES, and a team at `starts` (ids a, b, c, ...).
-v1::MissionSpec TeamSpec(const std::vector<Point>& starts) {
-  v1::MissionSpec spec = testing::SmallSpec();
-  spec.mutable_field()->set_x_min_m(-15);
-  spec.mutable_field()->set_y_min_m(-15);
-  spec.mutable_field()->set_x_max_m(15);
-  spec.mutable_field()->set_y_max_m(15);
-  spec.set_min_separation_m(kSeparation);
-  for (std::size_t i = 0; i < starts.size(); ++i) {
-    v1::TeamMember* m = spec.add_team();
-    m->set_uav_id(std::string(1, static_cast<char>('a' + i)));
-    m->mutable_start()->mutable_position_m()->set_x(starts[i].x);
-    m->mutable_start()->mutable_position_m()->set_y(starts[i].y);
-    m->mutable_start()->mutable_position_m()->set_z(starts[i].z);
-  }
-  return spec;
-}
-
-grpc::Status CreateTeam(v1::MissionService::Stub& stub, const std::string& id,
-                        const v1::MissionSpec& spec, v1::Mission* out) {
-  grpc::ClientContext c;
-  v1::CreateMissionRequest r;
-  r.set_mission_id(id);
-  r.set_request_id("create-" + id);
-  *r.mutable_spec() = spec;
-  return stub.CreateMission(&c, r, out);
-}
-
-grpc::Status PlanFor(v1::MissionService::Stub& stub, const std::string& mission,
-                     const std::string& uav_id, const v1::UavState& state,
-                     const std::string& request_id, v1::PlanPathResponse* out) {
-  grpc::ClientContext c;
-  v1::PlanPathRequest r;
-  r.set_name("missions/" + mission);
-  r.set_uav_id(uav_id);
-  r.set_request_id(request_id);
-  *r.mutable_state() = state;
-  return stub.PlanPath(&c, r, out);
-}
-
-v1::UavState At(const Point& p, double mission_time_s) {
-  v1::UavState s;
-  s.mutable_position_m()->set_x(p.x);
-  s.mutable_position_m()->set_y(p.y);
-  s.mutable_position_m()->set_z(p.z);
-  s.set_mission_time_s(mission_time_s);
-  return s;
-}
-
-// Where a UAV flying `path` is at mission time t, by this file's own rule
-// and arithmetic: at its first point before the start, at its last after
-// the end, in between the segment's polynomial sum_k c_k tau^k.
-struct Flight {
-  v1::PlanPathResponse path;  // empty trajectory: holding `hold`
-  Point hold{};
-};
-
-Point PositionAt(const Flight& f, double t) {
-  const v1::Trajectory& traj = f.path.trajectory();
-  if (traj.segments_size() == 0) return f.hold;
-  double tau = std::clamp(t - f.path.start_mission_s(), 0.0, traj.duration_s());
-  int k = 0;
-  while (k + 1 < traj.segments_size() && tau > traj.segments(k).duration_s()) {
-    tau -= traj.segments(k).duration_s();
-    ++k;
-  }
-  const v1::PolynomialSegment& seg = traj.segments(k);
-  tau = std::min(tau, seg.duration_s());
-  auto poly = [tau](const google::protobuf::RepeatedField<double>& c) {
-    double v = 0.0;
-    for (int i = c.size() - 1; i >= 0; --i) v = v * tau + c.Get(i);
-    return v;
-  };
-  return {poly(seg.x_coefficients()), poly(seg.y_coefficients()), poly(seg.z_coefficients())};
-}
-
-double EndOf(const Flight& f) {
-  return f.path.start_mission_s() + f.path.trajectory().duration_s();
-}
-
-// The smallest distance between two flights, sampled at 100 Hz from `from`
-// until both have ended.
-double ClosestApproach(const Flight& a, const Flight& b, double from) {
-  const double to = std::max({EndOf(a), EndOf(b), from}) + 0.01;
-  double closest = std::numeric_limits<double>::infinity();
-  for (double t = from; t <= to; t += 0.01) {
-    const Point p = PositionAt(a, t);
-    const Point q = PositionAt(b, t);
-    closest = std::min(closest, std::hypot(p.x - q.x, p.y - q.y, p.z - q.z));
-  }
-  return closest;
-}
+using testing::kSeparation;
+using testing::PlanFor;
+using testing::Point;
+using testing::PositionAt;
+using testing::TeamSpec;
 
 class TeamTest : public ::testing::Test {
  protected:
@@ -197,6 +108,62 @@ TEST_F(TeamTest, ABadTeamIsRefusedNamingTheField) {
     v1::MissionSpec s = TeamSpec(two);
     s.mutable_team(1)->mutable_start()->mutable_position_m()->set_z(100);
     cases.push_back({"a start above the volume", s, "spec.team[1].start.position_m"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_flight()->set_max_altitude_m(20);
+    cases.push_back({"a member's own altitudes", s, "spec.team[1].flight.max_altitude_m"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(0)->mutable_flight()->set_esdf_voxel_m(0.5);
+    cases.push_back({"a member's own ESDF", s, "spec.team[0].flight.esdf_voxel_m"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_flight()->set_uav_radius_m(kSeparation + 1);
+    cases.push_back({"a member wider than the separation", s, "spec.team[1].flight.uav_radius_m"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_flight()->set_max_speed_m_s(-1);
+    cases.push_back({"a member's negative speed", s, "spec.team[1].flight.max_speed_m_s"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(0)->mutable_sensor()->set_fov_x_deg(200);
+    cases.push_back({"a member's field of view", s, "spec.team[0].sensor.fov_x_deg"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_sensor()->set_rate_hz(0);
+    cases.push_back({"a member's camera that never fires", s, "spec.team[1].sensor.rate_hz"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_sensor()->set_noise_a_var(2);
+    s.mutable_team(1)->mutable_sensor()->mutable_detector_noise()->set_p_max(0.9);
+    cases.push_back({"a member's two noise models", s, "spec.team[1].sensor.detector_noise"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_sensor()->mutable_detector_noise()->set_p_max(1.5);
+    cases.push_back({"a member's bad detector", s, "spec.team[1].sensor.detector_noise.p_max"});
+  }
+  {
+    // Within the mission's speed (5 m/s), beyond the member's own.
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_flight()->set_max_speed_m_s(2);
+    s.mutable_team(1)->mutable_start()->mutable_velocity_m_s()->set_x(3);
+    cases.push_back(
+        {"a start faster than the member may fly", s, "spec.team[1].start.velocity_m_s"});
+  }
+  {
+    // Clear of the building by the mission's radius / 2, not by the member's.
+    v1::MissionSpec s = TeamSpec({{-8, 8, 8}, {2.8, -2, 8}});
+    s.mutable_team(1)->mutable_flight()->set_uav_radius_m(3.8);
+    cases.push_back(
+        {"a start too close for the member's radius", s, "spec.team[1].start.position_m"});
   }
   {
     v1::MissionSpec s = testing::SmallSpec();  // one UAV: no teammates' shots to count

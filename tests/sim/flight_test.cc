@@ -2,6 +2,8 @@
 // E1 building under the exact geometry, the trace, and the step callback.
 #include "sim/flight.h"
 
+#include <cmath>
+
 #include "gtest/gtest.h"
 #include "sim/scenario.h"
 
@@ -60,6 +62,40 @@ TEST(FlightTest, CountsTheStepsWithinHalfTheUavRadiusOfTheBuilding) {
     EXPECT_GT(gap, 0.5);
     EXPECT_LE(gap, 0.52 + 1e-9);
   }
+}
+
+// A team member with a wider radius and a narrower camera of its own
+// (spec.team[i].flight and .sensor): its flight counts the steps within its
+// own r_uav / 2, and its images are its camera's.
+TEST(FlightTest, AMemberFliesWithItsOwnRadiusAndCamera) {
+  absl::StatusOr<v1::Scenario> scenario = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e1.json");
+  ASSERT_TRUE(scenario.ok()) << scenario.status();
+  v1::MissionSpec& spec = *scenario->mutable_mission();
+  for (const char* id : {"a", "wide"}) {
+    v1::TeamMember& m = *spec.add_team();
+    m.set_uav_id(id);
+    m.mutable_start()->mutable_position_m()->set_x(id[0] == 'a' ? -10 : 10);
+    m.mutable_start()->mutable_position_m()->set_y(10);
+    m.mutable_start()->mutable_position_m()->set_z(10);
+  }
+  spec.mutable_team(1)->mutable_flight()->set_uav_radius_m(3.0);
+  spec.mutable_team(1)->mutable_sensor()->set_fov_x_deg(30);
+  absl::StatusOr<Simulation> simulation = Simulation::Create(*scenario);
+  ASSERT_TRUE(simulation.ok()) << simulation.status();
+  // Steps at x = -10.01 + 0.02 k collide when |x| < 5 + 1.5: k = 176 .. 825.
+  Flight wide(*simulation, Vec3(-10.01, -1, 7), "wide");
+  ASSERT_TRUE(wide.Fly(StraightLine(-10.01, 1.0, 20.02), 20.02, [](double) { return true; }).ok());
+  EXPECT_EQ(wide.collisions(), 650);
+  Flight a(*simulation, Vec3(-10.01, -1, 7), "a");
+  ASSERT_TRUE(a.Fly(StraightLine(-10.01, 1.0, 20.02), 20.02, [](double) { return true; }).ok());
+  EXPECT_EQ(a.collisions(), 550);
+  // The same image size, a longer focal length: fx = (w / 2) / tan(fov_x / 2).
+  const CameraIntrinsics& own = simulation->intrinsics("wide");
+  const CameraIntrinsics& mission = simulation->intrinsics("a");
+  EXPECT_EQ(own.width_px, mission.width_px);
+  EXPECT_NEAR(own.fx_px, 0.5 * own.width_px / std::tan(15.0 * M_PI / 180.0), 1e-9);
+  EXPECT_NEAR(mission.fx_px, simulation->intrinsics().fx_px, 1e-12);
+  EXPECT_GT(own.fx_px, mission.fx_px);
 }
 
 TEST(FlightTest, StopsAtTheFirstErrorOfTheCallback) {

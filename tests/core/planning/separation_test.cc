@@ -269,6 +269,57 @@ TEST(TeamPlanningTest, ATeammatesPendingShotsSteerAPlanToOtherGround) {
   EXPECT_LT(with_shots, 0.75 * without_shots);
 }
 
+// A teammate's pending shot is observed with the teammate's own camera and
+// noise, not the planning UAV's: a wide camera with a sharp detector sees
+// more cells, each with less noise, and the planning UAV then expects less
+// from the ground they share.
+TEST(TeamPlanningTest, ATeammatesPendingShotSeesItsOwnFootprintWithItsOwnNoise) {
+  const testing::Scene scene = testing::E1();
+  const Vec3 shot(-6, 6, 10);
+  Teammate mate{.uav_id = "wide",
+                .trajectory = *PolynomialTrajectory::FromCoefficients(
+                    {1.0}, {[&] {
+                      PolynomialTrajectory::SegmentCoefficients c =
+                          PolynomialTrajectory::SegmentCoefficients::Zero();
+                      c.row(0) = Vec3(-12, -12, 10).transpose();
+                      return c;
+                    }()}),
+                .start_mission_s = 0.0,
+                .pending_shots_W = {shot}};
+  UavState b;
+  b.position_W = Vec3(-2, 2, 10);
+  PlanningContext context = scene.View(/*next_shot_mission_s=*/1.0);
+  context.teammates = {&mate, 1};
+  const auto first = [&]() {
+    auto scorer = PathScorer::Create(context, b, PlannerCommon{});
+    EXPECT_TRUE(scorer.ok()) << scorer.status();
+    return scorer->start_observations().front();
+  };
+  const auto information = [&]() {
+    auto scorer = PathScorer::Create(context, b, PlannerCommon{});
+    EXPECT_TRUE(scorer.ok()) << scorer.status();
+    return scorer->Score({Vec3(-6, 6, 10), Vec3(-7, 7, 10)}).information;
+  };
+  const PoseObservation own = first();
+  const double own_information = information();
+  DownwardCamera wide;
+  wide.fov_x_deg = 80;
+  wide.fov_y_deg = 90;
+  SensorNoise sharp;
+  sharp.a_var = 0.25;
+  mate.camera = wide;
+  mate.noise = sharp;
+  const PoseObservation theirs = first();
+  EXPECT_EQ(
+      own.cells.size(),
+      DownwardCamera{}.VisibleFootprintCells(scene.map->grid(), shot, scene.env.get()).size());
+  EXPECT_EQ(theirs.cells, wide.VisibleFootprintCells(scene.map->grid(), shot, scene.env.get()));
+  EXPECT_GT(theirs.cells.size(), own.cells.size());
+  EXPECT_DOUBLE_EQ(own.variance, SensorNoise{}.Variance(10.0));
+  EXPECT_DOUBLE_EQ(theirs.variance, 0.25 * (1 - std::exp(-SensorNoise{}.b_per_m * 10.0)));
+  EXPECT_LT(information(), own_information);
+}
+
 // Every candidate of a plan starts from the map conditioned once on the
 // teammates' pending shots and the shot due now: none fuses them again.
 // The shot here falls due 0.4 ns after the start of a moving UAV, so a

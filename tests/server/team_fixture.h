@@ -1,0 +1,116 @@
+// What the team tests share (tests/server/team_test.cc and
+// team_member_test.cc): a small team spec, its calls, and this file's own
+// evaluation of a returned path, independent of the server's code.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "tests/server/service_fixture.h"
+
+namespace oaipp::server::testing {
+
+inline constexpr double kSeparation = 4.0;
+
+struct Point {
+  double x, y, z;
+};
+
+// A 30 x 30 m field at 0.75 m with one building (x in [-1, 1], y in [-4, 0]),
+// a short CMA-ES, and a team at `starts` (ids a, b, c, ...).
+inline v1::MissionSpec TeamSpec(const std::vector<Point>& starts) {
+  v1::MissionSpec spec = SmallSpec();
+  spec.mutable_field()->set_x_min_m(-15);
+  spec.mutable_field()->set_y_min_m(-15);
+  spec.mutable_field()->set_x_max_m(15);
+  spec.mutable_field()->set_y_max_m(15);
+  spec.set_min_separation_m(kSeparation);
+  for (std::size_t i = 0; i < starts.size(); ++i) {
+    v1::TeamMember* m = spec.add_team();
+    m->set_uav_id(std::string(1, static_cast<char>('a' + i)));
+    m->mutable_start()->mutable_position_m()->set_x(starts[i].x);
+    m->mutable_start()->mutable_position_m()->set_y(starts[i].y);
+    m->mutable_start()->mutable_position_m()->set_z(starts[i].z);
+  }
+  return spec;
+}
+
+inline grpc::Status CreateTeam(v1::MissionService::Stub& stub, const std::string& id,
+                               const v1::MissionSpec& spec, v1::Mission* out) {
+  grpc::ClientContext c;
+  v1::CreateMissionRequest r;
+  r.set_mission_id(id);
+  r.set_request_id("create-" + id);
+  *r.mutable_spec() = spec;
+  return stub.CreateMission(&c, r, out);
+}
+
+inline grpc::Status PlanFor(v1::MissionService::Stub& stub, const std::string& mission,
+                            const std::string& uav_id, const v1::UavState& state,
+                            const std::string& request_id, v1::PlanPathResponse* out) {
+  grpc::ClientContext c;
+  v1::PlanPathRequest r;
+  r.set_name("missions/" + mission);
+  r.set_uav_id(uav_id);
+  r.set_request_id(request_id);
+  *r.mutable_state() = state;
+  return stub.PlanPath(&c, r, out);
+}
+
+inline v1::UavState At(const Point& p, double mission_time_s) {
+  v1::UavState s;
+  s.mutable_position_m()->set_x(p.x);
+  s.mutable_position_m()->set_y(p.y);
+  s.mutable_position_m()->set_z(p.z);
+  s.set_mission_time_s(mission_time_s);
+  return s;
+}
+
+// Where a UAV flying `path` is at mission time t, by this file's own rule
+// and arithmetic: at its first point before the start, at its last after
+// the end, in between the segment's polynomial sum_k c_k tau^k.
+struct Flight {
+  v1::PlanPathResponse path;  // empty trajectory: holding `hold`
+  Point hold{};
+};
+
+inline Point PositionAt(const Flight& f, double t) {
+  const v1::Trajectory& traj = f.path.trajectory();
+  if (traj.segments_size() == 0) return f.hold;
+  double tau = std::clamp(t - f.path.start_mission_s(), 0.0, traj.duration_s());
+  int k = 0;
+  while (k + 1 < traj.segments_size() && tau > traj.segments(k).duration_s()) {
+    tau -= traj.segments(k).duration_s();
+    ++k;
+  }
+  const v1::PolynomialSegment& seg = traj.segments(k);
+  tau = std::min(tau, seg.duration_s());
+  auto poly = [tau](const google::protobuf::RepeatedField<double>& c) {
+    double v = 0.0;
+    for (int i = c.size() - 1; i >= 0; --i) v = v * tau + c.Get(i);
+    return v;
+  };
+  return {poly(seg.x_coefficients()), poly(seg.y_coefficients()), poly(seg.z_coefficients())};
+}
+
+inline double EndOf(const Flight& f) {
+  return f.path.start_mission_s() + f.path.trajectory().duration_s();
+}
+
+// The smallest distance between two flights, sampled at 100 Hz from `from`
+// until both have ended.
+inline double ClosestApproach(const Flight& a, const Flight& b, double from) {
+  const double to = std::max({EndOf(a), EndOf(b), from}) + 0.01;
+  double closest = std::numeric_limits<double>::infinity();
+  for (double t = from; t <= to; t += 0.01) {
+    const Point p = PositionAt(a, t);
+    const Point q = PositionAt(b, t);
+    closest = std::min(closest, std::hypot(p.x - q.x, p.y - q.y, p.z - q.z));
+  }
+  return closest;
+}
+
+}  // namespace oaipp::server::testing
