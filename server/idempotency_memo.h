@@ -35,8 +35,14 @@ struct MeasurementResult {
   std::int64_t trace_measurements_fused = 0;  // the measurements `trace` includes
 };
 
+// What RemoveTeamMember answers: the members still in the team, in spec
+// order.
+struct TeamResult {
+  std::vector<std::string> flying_uav_ids;
+};
+
 // The first answer to a request_id.
-using RequestResult = std::variant<ObstacleResult, MeasurementResult, PlannedPath>;
+using RequestResult = std::variant<ObstacleResult, MeasurementResult, PlannedPath, TeamResult>;
 
 // A mutation's request_id (empty: none) and the fingerprint of the request
 // behind it (empty: not checked). A retry (same id, same fingerprint) gets

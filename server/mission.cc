@@ -392,6 +392,10 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   absl::MutexLock planner_lock(&planner_mu_);
   if (auto done = answers_.Recall<PlannedPath>(request)) return *std::move(done);
   OAIPP_RETURN_IF_ERROR(config_.CheckUavId(call.uav_id, "uav_id"));
+  if (Removed(call.uav_id)) {
+    return absl::NotFoundError(
+        absl::StrCat("uav_id: UAV '", call.uav_id, "' was removed from the team"));
+  }
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
   if (elapsed >= config_.budget_s) {
     return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
@@ -526,12 +530,58 @@ absl::StatusOr<Planner*> Mission::PlannerOf(const std::string& uav_id) {
   return own.get();
 }
 
+bool Mission::Removed(const std::string& uav_id) const {
+  absl::MutexLock lock(&summary_mu_);
+  return std::find(removed_.begin(), removed_.end(), uav_id) != removed_.end();
+}
+
+absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id,
+                                                 const RequestKey& request,
+                                                 const PersistFn& persist) {
+  // No plan is in progress while the team changes, and the change takes
+  // its place in the log's order as mutations do.
+  absl::MutexLock planner_lock(&planner_mu_);
+  absl::MutexLock order(&mutation_mu_);
+  if (auto done = answers_.Recall<TeamResult>(request)) return *std::move(done);
+  if (config_.team.empty()) {
+    return absl::FailedPreconditionError(
+        "uav_id: the mission flies one UAV without a team; there is no member to remove");
+  }
+  OAIPP_RETURN_IF_ERROR(config_.CheckUavId(uav_id, "uav_id"));
+  if (Removed(uav_id)) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("uav_id: UAV '", uav_id, "' was removed from the team already"));
+  }
+  TeamResult result;
+  for (const api::TeamMember& member : config_.team) {
+    if (member.uav_id != uav_id && !Removed(member.uav_id)) {
+      result.flying_uav_ids.push_back(member.uav_id);
+    }
+  }
+  if (result.flying_uav_ids.empty()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "uav_id: UAV '", uav_id, "' is the last one in the team; delete the mission instead"));
+  }
+  // Durable first: a failed write leaves the team as it was.
+  OAIPP_RETURN_IF_ERROR(Persist(persist));
+  {
+    absl::MutexLock lock(&summary_mu_);
+    removed_.push_back(uav_id);
+  }
+  committed_.erase(uav_id);
+  member_planners_.erase(uav_id);
+  answers_.Remember(request, result);
+  events_.Emit(MissionEventData::MemberRemoved{uav_id});
+  MaybeWantSnapshot();
+  return result;
+}
+
 std::vector<Teammate> Mission::TeammatesOf(
     const std::string& uav_id, double now_s,
     std::vector<std::pair<std::string, std::int64_t>>* versions) const {
   std::vector<Teammate> mates;
   for (const api::TeamMember& member : config_.team) {
-    if (member.uav_id == uav_id) continue;
+    if (member.uav_id == uav_id || Removed(member.uav_id)) continue;
     if (auto it = committed_.find(member.uav_id); it != committed_.end()) {
       const PlannedPath& path = it->second;
       std::vector<Vec3> pending;
@@ -573,6 +623,7 @@ MissionSnapshot Mission::Snapshot() const {
     s.trace_measurements_fused = summary_.trace_measurements_fused;
     s.measurements_fused = summary_.measurements_fused;
     s.mission_time_s = summary_.mission_time_s;
+    s.removed_uav_ids = removed_;
   }
   s.memory_bytes = MemoryBytes();
   s.paths_planned = paths_planned_.load();

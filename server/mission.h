@@ -78,6 +78,7 @@ struct MissionSnapshot {
   double mission_time_s = 0.0;
   std::int64_t memory_bytes = 0;
   absl::Time create_time;
+  std::vector<std::string> removed_uav_ids;  // taken out of the team, in order
 };
 
 // Writes the record of a change to durable storage, given its sequence
@@ -166,6 +167,15 @@ class Mission {
   // PlannedPath::team) is its UAV's committed trajectory again.
   [[nodiscard]] absl::Status RestorePlan(const RequestKey& request, PlannedPath path,
                                          const std::string& planner_state);
+  // Takes `uav_id` out of the team (proto RemoveTeamMember), written by
+  // `persist` first as a mutation is: its committed trajectory is dropped,
+  // later plans of its teammates neither keep clear of it nor count its
+  // shots, and it may not plan again (NotFound); its measurements, late ones
+  // included, are still fused. FailedPrecondition without a team, for a UAV
+  // removed already and for the last one left; else as CheckUavId.
+  [[nodiscard]] absl::StatusOr<TeamResult> RemoveMember(const std::string& uav_id,
+                                                        const RequestKey& request,
+                                                        const PersistFn& persist = nullptr);
   // The sequence number the next change of the log will take (1 for a new
   // mission).
   [[nodiscard]] std::int64_t next_sequence() const;
@@ -321,6 +331,8 @@ class Mission {
   // member's own (its limits) for a team.
   absl::StatusOr<Planner*> PlannerOf(const std::string& uav_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
+  // Whether `uav_id` was taken out of the team.
+  [[nodiscard]] bool Removed(const std::string& uav_id) const;
   // A team's other UAVs as the plan for `uav_id` at mission time `now_s`
   // must keep clear of them: each one's committed trajectory (or, before
   // its first plan, its start, held), with its shots still to come; and
@@ -393,6 +405,8 @@ class Mission {
   mutable absl::Mutex summary_mu_;
   mutable Summary summary_ ABSL_GUARDED_BY(summary_mu_);  // SettleMap sets a sparse trace
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
+  // Members taken out of the team, in the order removed (RemoveMember).
+  std::vector<std::string> removed_ ABSL_GUARDED_BY(summary_mu_);
   // A team's planners, each with its member's limits (PlannerOf).
   std::map<std::string, std::unique_ptr<Planner>> member_planners_ ABSL_GUARDED_BY(planner_mu_);
   // A team's committed trajectories: uav_id -> its last plan.

@@ -50,7 +50,10 @@ struct MissionEventData {
     std::int64_t plan_version = 0;
   };
   struct Deleted {};
-  std::variant<MeasurementFused, ObstaclesChanged, PathPlanned, Deleted> event;
+  struct MemberRemoved {
+    std::string uav_id;
+  };
+  std::variant<MeasurementFused, ObstaclesChanged, PathPlanned, Deleted, MemberRemoved> event;
 };
 
 // A bounded queue of events for one watcher.

@@ -48,6 +48,10 @@ MissionState Mission::CaptureState() const {
     state.answers.emplace_back(request_id, answer);
   });
   for (const auto& [uav_id, path] : committed_) state.committed.push_back(path);
+  {
+    absl::MutexLock summary_lock(&summary_mu_);
+    state.removed_uav_ids = removed_;
+  }
   return state;
 }
 

@@ -46,6 +46,12 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
           absl::StrCat("state: covered cell ", cell, " is outside the field"));
     }
   }
+  for (const std::string& uav_id : state.removed_uav_ids) {
+    if (config.FindMember(uav_id) == nullptr) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("state: a removed UAV '", uav_id, "', which is not in the team"));
+    }
+  }
   for (const PlannedPath& path : state.committed) {
     if (config.FindMember(path.team.uav_id) == nullptr) {
       return absl::InvalidArgumentError(absl::StrCat("state: a committed trajectory of UAV '",
@@ -110,6 +116,8 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
       std::string uav_id = path.team.uav_id;
       mission->committed_.insert_or_assign(std::move(uav_id), std::move(path));
     }
+    absl::MutexLock summary_lock(&mission->summary_mu_);
+    mission->removed_ = std::move(state.removed_uav_ids);
   }
   mission->snapshots_.StoredAt(state.sequence, state.measurements_fused);
   return mission;

@@ -41,6 +41,8 @@ struct MissionState {
   // A team's committed trajectories (PlannedPath::team set), one per UAV
   // that has planned, in uav_id order.
   std::vector<PlannedPath> committed = {};
+  // Members taken out of the team (RemoveTeamMember), in the order removed.
+  std::vector<std::string> removed_uav_ids = {};
 };
 
 }  // namespace oaipp::server

@@ -49,6 +49,12 @@ absl::Status Replay(Mission& mission, const LogRecord& record) {
                           answer.has_value() ? &*answer : nullptr)
           .status();
     }
+    case RecordKind::kTeam: {
+      v1::RemoveTeamMemberRequest request;
+      if (!request.ParseFromString(record.payload)) break;
+      return mission.RemoveMember(request.uav_id(), {record.request_id, record.fingerprint})
+          .status();
+    }
     case RecordKind::kPlan: {
       v1::PlanPathResponse response;
       if (!response.ParseFromString(record.result)) break;

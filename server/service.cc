@@ -116,6 +116,7 @@ void FillMission(const Mission& mission, v1::Mission* out) {
   out->set_mission_time_s(s.mission_time_s);
   out->set_map_bytes(s.memory_bytes);
   *out->mutable_create_time() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(s.create_time));
+  for (const std::string& id : s.removed_uav_ids) out->add_removed_uav_ids(id);
 }
 
 }  // namespace
@@ -270,6 +271,24 @@ grpc::Status MissionServiceImpl::AddMeasurement(grpc::ServerContext* context,
                                  mission->AddMeasurement(input, key, persist));
           FillMeasurementResponse(result, response);
           (void)settlers_.Submit(mission->id(), [mission] { mission->SettleMap(); });
+          return absl::OkStatus();
+        });
+  });
+}
+
+grpc::Status MissionServiceImpl::RemoveTeamMember(grpc::ServerContext* context,
+                                                  const v1::RemoveTeamMemberRequest* request,
+                                                  v1::RemoveTeamMemberResponse* response) {
+  return Call(context, "RemoveTeamMember", [&]() -> absl::Status {
+    return Mutate(
+        *context, *request, RecordKind::kTeam,
+        [&](const std::shared_ptr<Mission>& mission, const v1::RemoveTeamMemberRequest& local,
+            const RequestKey& key, const PersistFn& persist) -> absl::Status {
+          OAIPP_ASSIGN_OR_RETURN(TeamResult result,
+                                 mission->RemoveMember(local.uav_id(), key, persist));
+          for (const std::string& id : result.flying_uav_ids) response->add_flying_uav_ids(id);
+          spdlog::info("mission event=team_member_removed name={} uav_id={}", local.name(),
+                       local.uav_id());
           return absl::OkStatus();
         });
   });

@@ -74,6 +74,9 @@ class MissionServiceImpl final : public MissionServiceBase {
       grpc::CallbackServerContext* context, const v1::WatchMissionRequest* request) override;
   grpc::Status ExportPath(grpc::ServerContext* context, const v1::ExportPathRequest* request,
                           v1::ExportPathResponse* response) override;
+  grpc::Status RemoveTeamMember(grpc::ServerContext* context,
+                                const v1::RemoveTeamMemberRequest* request,
+                                v1::RemoveTeamMemberResponse* response) override;
 
   // True while new plans or streams would be refused: every planner busy
   // and the queue full, or the stream limit reached (health reports it).

@@ -117,10 +117,14 @@ PersistFn Recorder(MissionStore* store, const Mission& mission, RecordKind kind,
 template <typename Request>
 absl::StatusOr<const Request*> InLocalMetres(const Mission& mission, const Request& request,
                                              Request& scratch) {
-  if (!api::HasGeoFields(request)) return &request;
-  scratch = request;
-  OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission.config().geo_origin, &scratch));
-  return &scratch;
+  if constexpr (!requires { api::HasGeoFields(request); }) {
+    return &request;  // a request that carries no position (RemoveTeamMember)
+  } else {
+    if (!api::HasGeoFields(request)) return &request;
+    scratch = request;
+    OAIPP_RETURN_IF_ERROR(api::ResolveGeoFields(mission.config().geo_origin, &scratch));
+    return &scratch;
+  }
 }
 
 inline void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
@@ -146,6 +150,8 @@ inline void FillEvent(const MissionEventData& e, v1::MissionEvent* out) {
     *f->mutable_start_m() = ToProto(p->start_W);
     f->set_uav_id(p->uav_id);
     f->set_plan_version(p->plan_version);
+  } else if (const auto* r = std::get_if<MissionEventData::MemberRemoved>(&e.event)) {
+    out->mutable_team_member_removed()->set_uav_id(r->uav_id);
   } else {
     out->mutable_mission_deleted();
   }

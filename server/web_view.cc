@@ -67,6 +67,9 @@ const char* EventKind(const MissionEventData& e) {
     return "obstacles_changed";
   }
   if (std::holds_alternative<MissionEventData::PathPlanned>(e.event)) return "path_planned";
+  if (std::holds_alternative<MissionEventData::MemberRemoved>(e.event)) {
+    return "team_member_removed";
+  }
   return "mission_deleted";
 }
 

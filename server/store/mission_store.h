@@ -49,6 +49,7 @@ enum class RecordKind : int {
   kObstacles = 1,    // payload: v1::UpdateObstaclesRequest
   kMeasurement = 2,  // payload: v1::AddMeasurementRequest
   kPlan = 3,         // payload: v1::PlanPathRequest; result: PlanPathResponse; planner_state
+  kTeam = 4,         // payload: v1::RemoveTeamMemberRequest
 };
 
 struct LogRecord {

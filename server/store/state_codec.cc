@@ -85,10 +85,13 @@ std::string EncodeMissionState(const MissionState& state) {
       a->mutable_measurement()->set_trace(m->trace);
       a->mutable_measurement()->set_measurements_fused(m->measurements_fused);
       a->mutable_measurement()->set_trace_measurements_fused(m->trace_measurements_fused);
+    } else if (const auto* t = std::get_if<TeamResult>(&result)) {
+      for (const std::string& id : t->flying_uav_ids) a->mutable_team()->add_flying_uav_ids(id);
     } else {
       api::PlannedPathToProto(std::get<PlannedPath>(result), a->mutable_plan());
     }
   }
+  for (const std::string& id : state.removed_uav_ids) out.add_removed_uav_ids(id);
   return out.SerializeAsString();
 }
 
@@ -169,6 +172,13 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
                                    RememberedAnswer{a.fingerprint(), *std::move(path)});
         break;
       }
+      case store::Answer::kTeam:
+        state.answers.emplace_back(
+            a.request_id(),
+            RememberedAnswer{a.fingerprint(),
+                             TeamResult{.flying_uav_ids = {a.team().flying_uav_ids().begin(),
+                                                           a.team().flying_uav_ids().end()}}});
+        break;
       case store::Answer::RESULT_NOT_SET:
         return Corrupt("an answer without a result");
     }
@@ -179,6 +189,7 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
     if (path->team.uav_id.empty()) return Corrupt("committed: a trajectory without its uav_id");
     state.committed.push_back(*std::move(path));
   }
+  state.removed_uav_ids.assign(in.removed_uav_ids().begin(), in.removed_uav_ids().end());
   return state;
 }
 

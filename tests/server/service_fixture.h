@@ -138,6 +138,18 @@ bool Eventually(Predicate done) {
   return done();
 }
 
+// Adds to `request` one detection: a 120 x 120 px box at the centre of the
+// default 480 x 640 image, about 2 x 2 m on the ground from 10 m, under the
+// camera.
+inline void AddPersonUnderCamera(v1::AddMeasurementRequest& request) {
+  v1::PixelBox* box = request.mutable_detections()->add_boxes();
+  box->set_x_min_px(180);
+  box->set_y_min_px(260);
+  box->set_x_max_px(300);
+  box->set_y_max_px(380);
+  box->set_confidence(0.9);
+}
+
 // Labels for the cells under a camera at (x, y): a 3 x 3 block of cells
 // around the cell holding (x, y) on the 20 x 20 small field.
 inline v1::AddMeasurementRequest LabelMeasurement(const std::string& name, double x, double y,

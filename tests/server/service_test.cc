@@ -348,14 +348,7 @@ TEST(ServiceTest, DetectionsAreProjectedToCells) {
   request.mutable_camera_position_m()->set_x(4);
   request.mutable_camera_position_m()->set_y(3);
   request.mutable_camera_position_m()->set_z(10);
-  // A 120 x 120 px box at the centre of the default 480 x 640 image: about
-  // 2 x 2 m on the ground at 10 m, under the camera.
-  v1::PixelBox* box = request.mutable_detections()->add_boxes();
-  box->set_x_min_px(180);
-  box->set_y_min_px(260);
-  box->set_x_max_px(300);
-  box->set_y_max_px(380);
-  box->set_confidence(0.9);
+  testing::AddPersonUnderCamera(request);
   v1::AddMeasurementResponse response;
   grpc::ClientContext context;
   const grpc::Status status = s.stub().AddMeasurement(&context, request, &response);

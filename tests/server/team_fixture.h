@@ -1,14 +1,22 @@
-// What the team tests share (tests/server/team_test.cc and
-// team_member_test.cc): a small team spec, its calls, and this file's own
-// evaluation of a returned path, independent of the server's code.
+// What the team tests share (tests/server/team_test.cc,
+// team_member_test.cc and team_removal_test.cc): a small team spec, its
+// calls, this file's own evaluation of a returned path, independent of the
+// server's code, and a fixture with a store of its own.
 #pragma once
+
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
+#include "gtest/gtest.h"
+#include "server/store/sqlite_store.h"
 #include "tests/server/service_fixture.h"
 
 namespace oaipp::server::testing {
@@ -112,5 +120,24 @@ inline double ClosestApproach(const Flight& a, const Flight& b, double from) {
   }
   return closest;
 }
+
+// A test with a folder of its own for a SQLite store (Open), removed after.
+class TeamStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           absl::StrCat("oaipp-team-", getpid(), "-",
+                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::unique_ptr<MissionStore> Open() {
+    auto store = OpenSqliteStore((dir_ / "missions.db").string());
+    EXPECT_TRUE(store.ok()) << store.status();
+    return *std::move(store);
+  }
+  std::filesystem::path dir_;
+};
 
 }  // namespace oaipp::server::testing

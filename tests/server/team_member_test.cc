@@ -64,12 +64,7 @@ v1::AddMeasurementResponse Shoot(v1::MissionService::Stub& stub, const std::stri
   request.mutable_camera_position_m()->set_x(at.x);
   request.mutable_camera_position_m()->set_y(at.y);
   request.mutable_camera_position_m()->set_z(at.z);
-  v1::PixelBox* box = request.mutable_detections()->add_boxes();
-  box->set_x_min_px(180);
-  box->set_y_min_px(260);
-  box->set_x_max_px(300);
-  box->set_y_max_px(380);
-  box->set_confidence(0.9);
+  testing::AddPersonUnderCamera(request);
   grpc::ClientContext context;
   v1::AddMeasurementResponse response;
   const grpc::Status status = stub.AddMeasurement(&context, request, &response);

@@ -38,23 +38,7 @@ using testing::Point;
 using testing::PositionAt;
 using testing::TeamSpec;
 
-class TeamTest : public ::testing::Test {
- protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           absl::StrCat("oaipp-team-", getpid(), "-",
-                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::unique_ptr<MissionStore> Open() {
-    auto store = OpenSqliteStore((dir_ / "missions.db").string());
-    EXPECT_TRUE(store.ok()) << store.status();
-    return *std::move(store);
-  }
-  std::filesystem::path dir_;
-};
+class TeamTest : public testing::TeamStoreTest {};
 
 TEST_F(TeamTest, ABadTeamIsRefusedNamingTheField) {
   InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
