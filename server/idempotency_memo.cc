@@ -31,6 +31,8 @@ template std::optional<absl::StatusOr<MeasurementResult>>
 IdempotencyMemo::Recall<MeasurementResult>(const RequestKey& request) const;
 template std::optional<absl::StatusOr<PlannedPath>> IdempotencyMemo::Recall<PlannedPath>(
     const RequestKey& request) const;
+template std::optional<absl::StatusOr<TeamResult>> IdempotencyMemo::Recall<TeamResult>(
+    const RequestKey& request) const;
 
 namespace {
 
@@ -45,6 +47,9 @@ std::int64_t EntryBytes(const std::string& request_id, const RememberedAnswer& a
              path->measurement_poses.size() * sizeof(MeasurementPose) +
              path->trajectory.NumSegments() *
                  (2 * sizeof(PolynomialTrajectory::SegmentCoefficients) + sizeof(Vec3));
+  }
+  if (const TeamResult* team = std::get_if<TeamResult>(&answer.result)) {
+    for (const std::string& id : team->flying_uav_ids) bytes += sizeof(std::string) + id.size();
   }
   return static_cast<std::int64_t>(bytes);
 }

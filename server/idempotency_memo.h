@@ -70,8 +70,8 @@ class IdempotencyMemo {
   // The first result of request.request_id if it was answered before
   // (nullopt for an empty or unknown id); InvalidArgument when the id was
   // first used for a different request (another fingerprint) or for
-  // another kind of call. T: ObstacleResult, MeasurementResult or
-  // PlannedPath.
+  // another kind of call. T: ObstacleResult, MeasurementResult,
+  // PlannedPath or TeamResult.
   template <typename T>
   [[nodiscard]] std::optional<absl::StatusOr<T>> Recall(const RequestKey& request) const;
   // Remembers the first result of request.request_id (an empty id is not

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "absl/strings/str_replace.h"
 #include "api/limits.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/camera.h"
@@ -391,11 +393,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           const RequestKey& request, const PlanCall& call) {
   absl::MutexLock planner_lock(&planner_mu_);
   if (auto done = answers_.Recall<PlannedPath>(request)) return *std::move(done);
-  OAIPP_RETURN_IF_ERROR(config_.CheckUavId(call.uav_id, "uav_id"));
-  if (Removed(call.uav_id)) {
-    return absl::NotFoundError(
-        absl::StrCat("uav_id: UAV '", call.uav_id, "' was removed from the team"));
-  }
+  OAIPP_RETURN_IF_ERROR(CheckPlanningUav(call.uav_id));
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
   if (elapsed >= config_.budget_s) {
     return absl::FailedPreconditionError(absl::StrCat("state.mission_time_s: the flight budget of ",
@@ -444,6 +442,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .min_separation_m = config_.min_separation_m,
                                 .field = field};
   absl::StatusOr<PlannedPath> path = planner->Plan(context, state, deadline);
+  if (!path.ok() && !call.uav_id.empty()) path = NamedForMember(path.status(), call.uav_id);
   env.reset();
   map.reset();
   conditioned.reset();
@@ -528,6 +527,33 @@ absl::StatusOr<Planner*> Mission::PlannerOf(const std::string& uav_id) {
     OAIPP_ASSIGN_OR_RETURN(own, MakePlanner(config_.PlannerFor(uav_id)));
   }
   return own.get();
+}
+
+absl::Status Mission::NamedForMember(const absl::Status& status, const std::string& uav_id) const {
+  for (std::size_t i = 0; i < config_.team.size(); ++i) {
+    if (config_.team[i].uav_id != uav_id) continue;
+    // A member's limits are its own (spec.team[i].flight): a plan's error
+    // names that field, not the mission's (api::WithApiFieldNames).
+    const std::string own = absl::StrCat("spec.team[", i, "].flight.");
+    absl::Status out(
+        status.code(),
+        absl::StrReplaceAll(status.message(), {{"limits.max_speed_m_s", own + "max_speed_m_s"},
+                                               {"limits.max_accel_m_s2", own + "max_accel_m_s2"},
+                                               {"limits.uav_radius_m", own + "uav_radius_m"}}));
+    status.ForEachPayload(
+        [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
+    return out;
+  }
+  return status;
+}
+
+absl::Status Mission::CheckPlanningUav(const std::string& uav_id) const {
+  OAIPP_RETURN_IF_ERROR(config_.CheckUavId(uav_id, "uav_id"));
+  if (Removed(uav_id)) {
+    return absl::NotFoundError(
+        absl::StrCat("uav_id: UAV '", uav_id, "' was removed from the team"));
+  }
+  return absl::OkStatus();
 }
 
 bool Mission::Removed(const std::string& uav_id) const {

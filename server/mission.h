@@ -167,6 +167,9 @@ class Mission {
   // PlannedPath::team) is its UAV's committed trajectory again.
   [[nodiscard]] absl::Status RestorePlan(const RequestKey& request, PlannedPath path,
                                          const std::string& planner_state);
+  // OK when `uav_id` may ask for a plan: CheckUavId's rule for the request
+  // field `uav_id`, and NotFound for a UAV removed from the team.
+  [[nodiscard]] absl::Status CheckPlanningUav(const std::string& uav_id) const;
   // Takes `uav_id` out of the team (proto RemoveTeamMember), written by
   // `persist` first as a mutation is: its committed trajectory is dropped,
   // later plans of its teammates neither keep clear of it nor count its
@@ -331,6 +334,10 @@ class Mission {
   // member's own (its limits) for a team.
   absl::StatusOr<Planner*> PlannerOf(const std::string& uav_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
+  // `status` (a plan's error for team member `uav_id`) with the core's names
+  // of the UAV's limits replaced by the member's own fields.
+  [[nodiscard]] absl::Status NamedForMember(const absl::Status& status,
+                                            const std::string& uav_id) const;
   // Whether `uav_id` was taken out of the team.
   [[nodiscard]] bool Removed(const std::string& uav_id) const;
   // A team's other UAVs as the plan for `uav_id` at mission time `now_s`

@@ -73,7 +73,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     OAIPP_ASSIGN_OR_RETURN(state_, UavStateFromProto(state, "state"));
     if (request_->has_next_shot_mission_s()) next_shot_ = request_->next_shot_mission_s();
     call_.deadline = PlanningDeadline(context_);
-    OAIPP_RETURN_IF_ERROR(mission_->config().CheckUavId(request_->uav_id(), "uav_id"));
+    OAIPP_RETURN_IF_ERROR(mission_->CheckPlanningUav(request_->uav_id()));
     call_.uav_id = request_->uav_id();
     call_.cancelled = [this] { return cancelled_.load() || context_->IsCancelled(); };
     if (request_->has_planning_budget_s()) {

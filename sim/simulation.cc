@@ -259,6 +259,14 @@ absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario, bool with_
   noise.set_h_best_m(d.has_h_best_m() ? d.h_best_m() : defaults.h_best_m);
   noise.set_width_m(d.has_width_m() ? d.width_m() : defaults.width_m);
   noise.clear_false_positive_rate();
+  // Every member of a team flies the scenario's one detector: its own
+  // noise settings give way to the mission's (a member's camera stays its
+  // own).
+  for (v1::TeamMember& member : *scenario.mutable_mission()->mutable_team()) {
+    member.mutable_sensor()->clear_noise_a_var();
+    member.mutable_sensor()->clear_noise_b_per_m();
+    member.mutable_sensor()->clear_detector_noise();
+  }
   if (!with_false_positives) return scenario;
   DetectorParams params;
   if (d.has_fp_per_image_at_10m()) params.fp_per_image_at_10m = d.fp_per_image_at_10m();
@@ -281,6 +289,23 @@ absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario, bool with_
                                                    " false positives a cell, must be below 1"));
   }
   noise.set_false_positive_rate(q);
+  // A member with a camera of its own sees another share of an image's false
+  // positives in each cell.
+  for (std::size_t i = 0; i < config.team.size(); ++i) {
+    const double own =
+        FalsePositivesPerCell(params, config.team[i].kit.camera, config.resolution_m);
+    if (own == q) continue;
+    if (!(own < 1.0)) {
+      return absl::InvalidArgumentError(absl::StrCat("detector.fp_per_image_at_10m: gives ", own,
+                                                     " false positives a cell to ", "mission.team[",
+                                                     i, "]'s camera, must be below 1"));
+    }
+    scenario.mutable_mission()
+        ->mutable_team(static_cast<int>(i))
+        ->mutable_sensor()
+        ->mutable_detector_noise()
+        ->set_false_positive_rate(own);
+  }
   return scenario;
 }
 

@@ -126,6 +126,9 @@ class Simulation {
 // FalsePositivesPerCell. InvalidArgument naming detector.fp_per_image_at_10m
 // when it is 0, or detector.min_confidence when it is 1 (the rate must be
 // positive). Without it any rate the scenario's mission gives is cleared.
+// A team's members all take the detector's noise (their own noise settings
+// are cleared); with with_false_positives, a member with a camera of its own
+// gets the rate for that camera.
 [[nodiscard]] absl::StatusOr<v1::Scenario> WithDetectorNoise(v1::Scenario scenario,
                                                              bool with_false_positives = false);
 

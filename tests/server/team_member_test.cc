@@ -192,6 +192,23 @@ TEST(TeamMemberTest, EachMemberPlansWithinItsOwnLimitsAtItsOwnRate) {
               1.0 / 0.15, 1e-9);
 }
 
+// A state beyond a member's own limits, within the mission's, is refused
+// naming the member's field.
+TEST(TeamMemberTest, APlanBeyondAMembersOwnLimitsNamesItsField) {
+  InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
+  v1::Mission team;
+  ASSERT_TRUE(CreateTeam(service.stub(), "team", MixedTeam(), &team).ok());
+  v1::UavState fast = At(kStarts[1], 0);
+  fast.mutable_velocity_m_s()->set_x(3);  // the mission allows 5 m/s, b 1.5
+  v1::PlanPathResponse path;
+  const grpc::Status status = PlanFor(service.stub(), "team", "b", fast, "pb", &path);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(status.error_message(), ::testing::HasSubstr("spec.team[1].flight.max_speed_m_s"));
+  fast = At(kStarts[0], 0);
+  fast.mutable_velocity_m_s()->set_x(3);
+  EXPECT_TRUE(PlanFor(service.stub(), "team", "a", fast, "pa", &path).ok());
+}
+
 TEST(TeamMemberTest, TheSpecAnswersEveryMembersSettingsFilledIn) {
   InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
   v1::MissionSpec spec = MixedTeam();

@@ -96,6 +96,14 @@ TEST(FlightTest, AMemberFliesWithItsOwnRadiusAndCamera) {
   EXPECT_NEAR(own.fx_px, 0.5 * own.width_px / std::tan(15.0 * M_PI / 180.0), 1e-9);
   EXPECT_NEAR(mission.fx_px, simulation->intrinsics().fx_px, 1e-12);
   EXPECT_GT(own.fx_px, mission.fx_px);
+  // The labels of one image span that camera's footprint: narrower for the
+  // member, by tan(15 deg) / tan(22.5 deg) across x.
+  const Vec3 high(0, 10, 12);
+  const absl::StatusOr<CellLabels> narrow = simulation->Labels(high, {}, "wide");
+  const absl::StatusOr<CellLabels> usual = simulation->Labels(high, {}, "a");
+  ASSERT_TRUE(narrow.ok() && usual.ok());
+  const double ratio = static_cast<double>(narrow->cells.size()) / usual->cells.size();
+  EXPECT_NEAR(ratio, std::tan(15.0 * M_PI / 180.0) / std::tan(22.5 * M_PI / 180.0), 0.1);
 }
 
 TEST(FlightTest, StopsAtTheFirstErrorOfTheCallback) {

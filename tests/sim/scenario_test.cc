@@ -62,6 +62,35 @@ TEST(ScenarioTest, WithDetectorNoiseTellsTheServerTheScenariosDetector) {
               HasSubstr("detector.fp_per_image_at_10m: a false-positive rate needs it positive"));
   scenario->mutable_detector()->clear_fp_per_image_at_10m();
 
+  // A team flies the one detector: a member's own noise settings give way to
+  // it, and a member with a narrower camera sees each image's false
+  // positives on less ground, tan(22.5 deg) / tan(15 deg) times as many a
+  // cell.
+  for (const char* id : {"a", "narrow"}) {
+    v1::TeamMember& m = *scenario->mutable_mission()->add_team();
+    m.set_uav_id(id);
+    m.mutable_start()->mutable_position_m()->set_x(id[0] == 'a' ? -10 : 10);
+    m.mutable_start()->mutable_position_m()->set_y(10);
+    m.mutable_start()->mutable_position_m()->set_z(10);
+  }
+  scenario->mutable_mission()->mutable_team(1)->mutable_sensor()->set_fov_x_deg(30);
+  scenario->mutable_mission()->mutable_team(1)->mutable_sensor()->set_noise_a_var(3);
+  const absl::StatusOr<v1::Scenario> team = WithDetectorNoise(*scenario, true);
+  ASSERT_TRUE(team.ok()) << team.status();
+  const v1::SensorSpec& narrow = team->mission().team(1).sensor();
+  EXPECT_FALSE(narrow.has_noise_a_var());
+  EXPECT_EQ(narrow.fov_x_deg(), 30);
+  EXPECT_NEAR(narrow.detector_noise().false_positive_rate(),
+              0.012936641077651672 * std::tan(22.5 * M_PI / 180) / std::tan(15 * M_PI / 180),
+              1e-12);
+  EXPECT_FALSE(team->mission().team(0).sensor().has_detector_noise());
+  const absl::StatusOr<Simulation> flown = Simulation::Create(*team);
+  ASSERT_TRUE(flown.ok()) << flown.status();
+  const api::UavKit kit = flown->config().KitOf("narrow");
+  ASSERT_TRUE(kit.noise.detector.has_value());
+  EXPECT_EQ(kit.noise.detector->p_max, 0.9);
+  scenario->mutable_mission()->clear_team();
+
   // A scenario's detector may be perfect; its noise would be zero.
   scenario->mutable_detector()->set_p_max(1.0);
   EXPECT_THAT(WithDetectorNoise(*scenario).status().message(),
