@@ -8,7 +8,12 @@ the same file.
     client/scenarios/make_e6.py > client/scenarios/e6.json
     client/scenarios/make_e6.py --name e6-km2 --half_m 500 --resolution_m 2 \
         --buildings 400 --people 60 --esdf_voxel_m 1 --budget_s 600 > client/scenarios/e6-km2.json
+    client/scenarios/make_e6.py --name e6-team4 --team 4 > client/scenarios/e6-team4.json
+
+With --team N the start becomes a team of N UAVs (uav-1 .. uav-N) on a ring
+around it, 10 m up, in the open square the buildings keep clear of.
 """
+import math
 import argparse
 import json
 import random
@@ -28,6 +33,7 @@ def main():
     parser.add_argument("--buildings", type=int, default=50)
     parser.add_argument("--people", type=int, default=20)
     parser.add_argument("--budget_s", type=float, default=1000.0)
+    parser.add_argument("--team", type=int, default=0, help="UAVs on a ring around the start; 0: one UAV")
     args = parser.parse_args()
     HALF = args.half_m
     rng = random.Random(args.seed)
@@ -74,6 +80,18 @@ def main():
         "detector": {"p_max": 0.95, "h_best_m": 10, "width_m": 7, "fp_per_image_at_10m": 0.3},
         "seed": 1,
     }
+    if args.team > 0:
+        # Neighbours on the ring at least 4.5 m apart (min_separation_m is 4).
+        radius = max(5.0, 4.5 / (2 * math.sin(math.pi / args.team))) if args.team > 1 else 0.0
+        if radius > 14.0:
+            parser.error("--team: too many UAVs for the open square around the start")
+        del scenario["mission"]["start"]
+        scenario["mission"]["team"] = [
+            {"uav_id": f"uav-{k + 1}",
+             "start": {"position_m": {"x": round(start[0] + radius * math.cos(2 * math.pi * k / args.team), 1) + 0.0,
+                                      "y": round(start[1] + radius * math.sin(2 * math.pi * k / args.team), 1) + 0.0,
+                                      "z": 10}}}
+            for k in range(args.team)]
     print(json.dumps(scenario, indent=1))
 
 

@@ -123,7 +123,8 @@ TEST(ScenarioTest, GeodeticTargetsAndObstaclesBecomeLocalMetres) {
 
 // Every committed scenario (client/scenarios and its folders) parses and
 // builds a world, its name matches its file, and the E5 settings and team
-// scenarios differ from e5.json only in what their name says.
+// scenarios differ from e5.json (e6-team4 from e6.json) only in what their
+// name says.
 TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   int files = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
@@ -137,7 +138,16 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 16);
+  EXPECT_EQ(files, 17);
+  // e6-team4: E6 with a team of 4 in place of its start.
+  auto e6 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6.json");
+  auto e6_team = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6-team4.json");
+  ASSERT_TRUE(e6.ok() && e6_team.ok());
+  EXPECT_EQ(e6_team->mission().team_size(), 4);
+  e6_team->set_name(e6->name());
+  e6_team->mutable_mission()->clear_team();
+  *e6_team->mutable_mission()->mutable_start() = e6->mission().start();
+  EXPECT_EQ(e6_team->SerializeAsString(), e6->SerializeAsString());
   auto base = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5.json");
   auto low = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/ceiling12-n4.json");
   ASSERT_TRUE(base.ok() && low.ok());
