@@ -132,6 +132,13 @@ class TeamStoreTest : public ::testing::Test {
     std::filesystem::create_directories(dir_);
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
+  // A restart test's limits, its store emptied first: snapshots after every
+  // measurement (snapshot_every 1: the restart reads a snapshot) or never
+  // (0: it replays the log).
+  RegistryLimits FreshStore(int snapshot_every) {
+    std::filesystem::remove_all(dir_ / "missions.db");
+    return {.max_missions = 8, .max_cells_per_mission = 1600, .snapshot_every = snapshot_every};
+  }
   std::unique_ptr<MissionStore> Open() {
     auto store = OpenSqliteStore((dir_ / "missions.db").string());
     EXPECT_TRUE(store.ok()) << store.status();

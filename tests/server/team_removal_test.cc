@@ -169,9 +169,7 @@ TEST_F(TeamRemovalRestartTest, ARemovalComesBackFromTheLogAndFromASnapshot) {
   const std::vector<Point> starts = {{-8, 8, 8}, {8, 8, 8}, {-8, -8, 8}};
   for (const int snapshot_every : {0, 1}) {
     SCOPED_TRACE(snapshot_every == 0 ? "from the log" : "from a snapshot");
-    std::filesystem::remove_all(dir_ / "missions.db");
-    const RegistryLimits limits{
-        .max_missions = 8, .max_cells_per_mission = 1600, .snapshot_every = snapshot_every};
+    const RegistryLimits limits = FreshStore(snapshot_every);
     std::unique_ptr<MissionStore> store = Open();
     v1::RemoveTeamMemberResponse first;
     {
