@@ -2,7 +2,8 @@
 //
 // registry.cc holds naming, create and delete, memory admission, listing
 // and recovery; registry_ownership.cc what a server of a cluster holds and
-// takes over; snapshot_writer.cc the snapshots written in the background;
+// takes over; registry_standby.cc the missions it keeps warm in case their
+// holder dies; snapshot_writer.cc the snapshots written in the background;
 // retention.cc the deletion of finished and idle missions.
 //
 //   MissionRegistry registry({.max_missions = 64});
@@ -14,6 +15,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -78,6 +80,14 @@ struct RegistryLimits {
   std::string holder = {};
   absl::Duration mission_lease = absl::Seconds(2);
   absl::Duration silent_after = absl::Milliseconds(500);
+  // Shared store: this server's id on the proxies' ring (HAProxy's server
+  // `id`; HashRing), 0 when the proxies' ring is not known. With it, the
+  // server keeps warm standbys (KeepStandbys): up to `max_standbys` of the
+  // missions the proxies would send it if their live holder died, read and
+  // replayed ahead, so that a takeover reads only what was written since.
+  // Valid: >= 0.
+  int ring_id = 0;
+  int max_standbys = 64;
   // Not limits but server-wide settings every mission gets (they are not
   // part of the spec, so a restored mission takes this server's): the
   // adaptive objective's solves in single precision
@@ -203,6 +213,19 @@ class MissionRegistry {
   // Missions taken over from another server (shared store) since start.
   [[nodiscard]] std::int64_t takeovers() const;
 
+  // Shared store with a ring_id: brings the warm standbys up to date. Reads
+  // who holds what (MissionStore::View); follows each mission that a live
+  // server other than this one holds and that the proxies' ring without
+  // that holder sends here (by id, at most max_standbys, while the memory
+  // held and standing by stays under max_memory_bytes): read once, then
+  // only the records written since (MissionStore::LoadAfter), replayed;
+  // forgets the others. Called every fraction of a second by the server; a
+  // takeover of a mission on standby claims only the records after it.
+  void KeepStandbys();
+  // Missions on standby now, and takeovers that started from one.
+  [[nodiscard]] int standbys() const;
+  [[nodiscard]] std::int64_t takeovers_from_standby() const;
+
   // Retention: deletes missions whose budget is spent and that have not
   // changed for `keep_finished`, and any mission unchanged for `keep_idle`
   // (absl::InfiniteDuration(): kept), with their records; forgets
@@ -273,6 +296,20 @@ class MissionRegistry {
   // Takeover: the mission as the store holds it now, read and rebuilt
   // while the lease is still its silent holder's (TakeOver).
   absl::StatusOr<ReadBack> Prefetch(const std::string& key);
+  // A warm standby (KeepStandbys): the mission as read so far, or nothing
+  // before its first read or after a failed one.
+  struct Standby {
+    absl::Mutex mu;
+    std::optional<ReadBack> read ABSL_GUARDED_BY(mu);
+    std::int64_t bytes = 0;  // its memory estimate, once read (under the registry's mu_)
+  };
+  // Brings `standby` of `key` up to `last_sequence`: the whole mission the
+  // first time (or when a snapshot later than what it has was stored),
+  // else the records after what it has.
+  absl::Status Follow(const std::string& key, Standby& standby, std::int64_t last_sequence)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(standby.mu);
+  // The standby of `key`, taken out of the map (nullptr without one).
+  std::shared_ptr<Standby> TakeStandby(const std::string& key);
   // Gives a mission's config this server's settings (RegistryLimits).
   void ApplyServerSettings(MissionConfig& config) const;
   // The mission held under `key`, or nullptr.
@@ -374,6 +411,9 @@ class MissionRegistry {
   };
   std::map<std::string, std::shared_ptr<Takeover>> takeovers_in_progress_ ABSL_GUARDED_BY(mu_);
   std::int64_t takeovers_ ABSL_GUARDED_BY(mu_) = 0;
+  std::int64_t takeovers_from_standby_ ABSL_GUARDED_BY(mu_) = 0;
+  // Warm standbys by key (KeepStandbys); KeepStandbys runs on one thread.
+  std::map<std::string, std::shared_ptr<Standby>> standbys_ ABSL_GUARDED_BY(mu_);
 
   // Held while a snapshot is read and written and while a mission is
   // deleted (before mu_), so that a snapshot of a deleted mission never

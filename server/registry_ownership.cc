@@ -8,6 +8,7 @@
 #include <functional>
 #include <future>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -75,13 +76,38 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
     // meanwhile from what the store holds (its snapshot, megabytes, and the
     // records after it), and the claim then reads and replays only what was
     // written since. A live holder's missions are never read this way.
+    // A mission on warm standby here (KeepStandbys) is read already.
+    std::optional<ReadBack> warm;
+    const std::shared_ptr<Standby> standby = TakeStandby(key);
+    if (standby != nullptr) {
+      absl::MutexLock lock(&standby->mu);
+      if (standby->read.has_value()) warm = std::move(*standby->read);
+      standby->read.reset();
+    }
     std::future<absl::StatusOr<ReadBack>> early;
-    OAIPP_RETURN_IF_ERROR(AcquireLease(key, name, [&] {
-      early = std::async(std::launch::async, [this, &key] { return Prefetch(key); });
-    }));
+    if (absl::Status leased = AcquireLease(key, name,
+                                           [&] {
+                                             if (warm.has_value()) return;
+                                             early = std::async(std::launch::async, [this, &key] {
+                                               return Prefetch(key);
+                                             });
+                                           });
+        !leased.ok()) {
+      if (warm.has_value()) {
+        // Still standing by (its holder is alive): kept for next time.
+        absl::MutexLock lock(&standby->mu);
+        standby->read = *std::move(warm);
+        absl::MutexLock registry_lock(&mu_);
+        standbys_.try_emplace(key, standby);
+      }
+      return leased;
+    }
     const absl::Time leased = absl::Now();
+    const bool from_standby = warm.has_value();
     absl::StatusOr<ReadBack> prefetched =
-        early.valid() ? early.get() : absl::StatusOr<ReadBack>(absl::UnavailableError(""));
+        warm.has_value() ? absl::StatusOr<ReadBack>(*std::move(warm))
+        : early.valid()  ? early.get()
+                         : absl::StatusOr<ReadBack>(absl::UnavailableError(""));
     const std::int64_t have_through =
         prefetched.ok() ? prefetched->mission->next_sequence() - 1 : 0;
     absl::StatusOr<StoredMission> claimed = store_->Claim(key, have_through);
@@ -113,6 +139,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
       Register(key, *mission);
       created_by_request_.Remember(claimed->request_id, {key, claimed->fingerprint});
       ++takeovers_;
+      if (from_standby && continued) ++takeovers_from_standby_;
     }
     if (replaced != nullptr) {
       replaced->MarkMoved(absl::UnavailableError(
@@ -120,12 +147,13 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
     }
     // ms: the whole takeover; waiting for the lease, reading the mission
     // (the claim) and rebuilding it are its three parts.
-    // read_early: whether the mission was read while waiting for the lease
-    // (records: then those written since).
+    // read_early: whether the mission was read before the claim, while
+    // waiting for the lease or ahead as a warm standby (standby) (records:
+    // then those written since).
     spdlog::info(
-        "mission event=taken_over name={} epoch={} read_early={} records={} ms={:.1f} "
-        "lease_ms={:.1f} claim_ms={:.1f} rebuild_ms={:.1f}",
-        std::string(name), claimed->epoch, continued, claimed->log.size(),
+        "mission event=taken_over name={} epoch={} read_early={} standby={} records={} "
+        "ms={:.1f} lease_ms={:.1f} claim_ms={:.1f} rebuild_ms={:.1f}",
+        std::string(name), claimed->epoch, continued, from_standby, claimed->log.size(),
         absl::ToDoubleMilliseconds(absl::Now() - started),
         absl::ToDoubleMilliseconds(leased - started), absl::ToDoubleMilliseconds(read - leased),
         absl::ToDoubleMilliseconds(absl::Now() - read));

@@ -140,6 +140,8 @@ absl::StatusOr<ServerParts> Server::PartsFromOptions() {
                                   .max_memory_bytes = max_memory,
                                   .shared_store = o.cluster,
                                   .holder = o.replica_id,
+                                  .ring_id = o.ring_id,
+                                  .max_standbys = o.standby_missions,
                                   .single_precision_objective = o.objective_precision == "single",
                                   .dense_backend = ChooseDenseBackend(o)},
                      .service = {.max_streams = o.max_streams,
@@ -171,7 +173,7 @@ absl::Status Server::Assemble(ServerParts parts) {
   if (parts.registry.shared_store && store_ != nullptr) {
     // Alive before the first call can take a mission over.
     if (absl::Status alive =
-            store_->Heartbeat(holder_, absl::ToUnixMicros(absl::Now() + silent_after_));
+            store_->Heartbeat(holder_, absl::ToUnixMicros(absl::Now() + silent_after_), o.ring_id);
         !alive.ok()) {
       return absl::Status(alive.code(), absl::StrCat("store: ", alive.message()));
     }
@@ -249,6 +251,10 @@ absl::Status Server::Assemble(ServerParts parts) {
                metrics_at_);
   health_watch_ = std::thread([this] { WatchHealth(); });
   sweeper_ = std::thread([this] { SweepRetention(); });
+  if (parts.registry.shared_store && parts.registry.ring_id > 0 &&
+      parts.registry.max_standbys > 0) {
+    standby_ = std::thread([this] { KeepStandbys(); });
+  }
   return absl::OkStatus();
 }
 
@@ -309,11 +315,19 @@ void Server::SweepRetention() {
   }
 }
 
+void Server::KeepStandbys() {
+  // Twice per silent_after (250 ms with the defaults): what a standby lacks
+  // when its holder dies is the records of its holder's last 250 ms.
+  while (!stopping_.WaitForNotificationWithTimeout(silent_after_ / 2)) {
+    registry_->KeepStandbys();
+  }
+}
+
 void Server::Heartbeat() {
   bool ok = true;
   while (!stopping_.WaitForNotificationWithTimeout(silent_after_ / 5)) {
-    const absl::Status alive =
-        store_->Heartbeat(holder_, absl::ToUnixMicros(absl::Now() + silent_after_));
+    const absl::Status alive = store_->Heartbeat(
+        holder_, absl::ToUnixMicros(absl::Now() + silent_after_), options_.ring_id);
     if (alive.ok() != ok) {
       ok = alive.ok();
       if (ok) {
@@ -348,6 +362,7 @@ void Server::Shutdown(absl::Duration grace) {
   if (registry_ != nullptr) registry_->FlushSnapshots();
   if (health_watch_.joinable()) health_watch_.join();
   if (sweeper_.joinable()) sweeper_.join();
+  if (standby_.joinable()) standby_.join();
   if (heartbeat_.joinable()) {
     heartbeat_.join();
     // Gone: the other replicas take this one's missions at their next call,

@@ -113,6 +113,9 @@ class Server {
   // A cluster's replica tells the store it is alive, five times per
   // RegistryLimits::silent_after.
   void Heartbeat();
+  // A replica on the proxies' ring keeps its warm standbys up to date
+  // (MissionRegistry::KeepStandbys) twice per silent_after.
+  void KeepStandbys();
 
   const ServerOptions options_;
   Authenticator auth_;
@@ -133,6 +136,7 @@ class Server {
   std::thread health_watch_;
   std::thread sweeper_;
   std::thread heartbeat_;
+  std::thread standby_;
   // Who this server is in the store's leases (RegistryLimits::holder).
   std::string holder_;
   absl::Duration silent_after_;

@@ -105,6 +105,12 @@ absl::Status ServerOptions::Validate() const {
       })) {
     p.Add("replica_id", "at most 64 letters, digits, '-', '_', '.' or ':'");
   }
+  if (ring_id < 0 || ring_id > 1'000'000) {
+    p.Add("ring_id", "must be 0 (none) or the proxies' id of this server, 1 to 1000000");
+  } else if (ring_id > 0 && !cluster) {
+    p.Add("ring_id", "is for a replica of a cluster (--cluster)");
+  }
+  p.AtLeast("standby_missions", standby_missions, 0);
   if (cluster && !absl::StartsWith(store, "postgres")) {
     p.Add("cluster", "needs a store the replicas share: --store=postgresql://...");
   }

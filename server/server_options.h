@@ -68,8 +68,10 @@ struct ServerOptions {
   absl::Duration keep_idle = absl::Hours(30 * 24);     // > 0
 
   // --- a cluster's replica
-  std::string replica_id;  // at most 64 of [A-Za-z0-9-_.:]
-  bool cluster = false;    // needs a postgresql:// store
+  std::string replica_id;     // at most 64 of [A-Za-z0-9-_.:]
+  bool cluster = false;       // needs a postgresql:// store
+  int ring_id = 0;            // 0..1000000, only with cluster; 0: no warm standbys
+  int standby_missions = 64;  // >= 0
 
   // --- what operators see
   std::string metrics_listen = "127.0.0.1:9464";  // empty: off

@@ -52,7 +52,7 @@ echo "cluster: PostgreSQL on 127.0.0.1:$pg_port ($dir/pg)"
 servers=""
 for i in $(seq 1 "$replicas"); do
   port=$((first_port + i))
-  setsid "$build/server/oaipp-server" --cluster --store="$store" --replica_id="replica-$i" \
+  setsid "$build/server/oaipp-server" --cluster --store="$store" --replica_id="replica-$i" --ring_id="$i" \
     --listen="127.0.0.1:$port" --metrics_listen="127.0.0.1:$((9470 + i))" \
     >"$dir/replica-$i.log" 2>&1 </dev/null &
   echo $! >"$dir/replica-$i.pid"

@@ -10,6 +10,15 @@
 ABSL_FLAG(std::string, replica_id, oaipp::server::kFlagDefaults.replica_id,
           "a name for this server, sent back on every call as the x-oaipp-replica header "
           "(which replica of a cluster answered); empty: not sent");
+ABSL_FLAG(int, ring_id, oaipp::server::kFlagDefaults.ring_id,
+          "with --cluster: this replica's id on the proxies' consistent-hash ring (HAProxy's "
+          "`server ... id N`, deploy/cluster/haproxy.cfg.in). With it, the replica keeps warm "
+          "standbys: the missions the proxies would send it if their holder died, read and "
+          "replayed ahead, so that taking one over reads only what was written since. 0: none");
+ABSL_FLAG(int, standby_missions, oaipp::server::kFlagDefaults.standby_missions,
+          "with --ring_id: at most this many missions on warm standby (each costs the memory of "
+          "a mission held, within --max_memory_mb, and the CPU of fusing its measurements "
+          "again); 0: none");
 ABSL_FLAG(bool, cluster, oaipp::server::kFlagDefaults.cluster,
           "this server is one of several replicas sharing a PostgreSQL --store behind a proxy "
           "that routes by the x-oaipp-mission header: it loads no mission at start, takes a "

@@ -50,6 +50,8 @@ ABSL_DECLARE_FLAG(absl::Duration, keep_finished);
 ABSL_DECLARE_FLAG(absl::Duration, keep_idle);
 ABSL_DECLARE_FLAG(std::string, replica_id);
 ABSL_DECLARE_FLAG(bool, cluster);
+ABSL_DECLARE_FLAG(int, ring_id);
+ABSL_DECLARE_FLAG(int, standby_missions);
 ABSL_DECLARE_FLAG(int, web_port);
 ABSL_DECLARE_FLAG(std::string, web_address);
 ABSL_DECLARE_FLAG(std::string, web_hosts);
@@ -98,6 +100,8 @@ ServerOptions ServerOptionsFromFlags() {
   options.keep_idle = absl::GetFlag(FLAGS_keep_idle);
   options.replica_id = absl::GetFlag(FLAGS_replica_id);
   options.cluster = absl::GetFlag(FLAGS_cluster);
+  options.ring_id = absl::GetFlag(FLAGS_ring_id);
+  options.standby_missions = absl::GetFlag(FLAGS_standby_missions);
   options.web_port = absl::GetFlag(FLAGS_web_port);
   options.web_address = absl::GetFlag(FLAGS_web_address);
   options.web_hosts = absl::GetFlag(FLAGS_web_hosts);

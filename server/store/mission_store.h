@@ -106,6 +106,23 @@ inline void KeepOnlyAfter(StoredMission& m, std::int64_t have_through) {
   std::erase_if(m.log, [&](const LogRecord& r) { return r.sequence <= have_through; });
 }
 
+// MissionStore::View.
+struct StoreView {
+  struct Alive {
+    std::string holder;
+    int ring_id = 0;
+  };
+  struct Held {
+    std::string mission_id;
+    std::string holder;
+    bool holder_alive = false;
+    int holder_ring_id = 0;
+    std::int64_t last_sequence = 0;
+  };
+  std::vector<Alive> alive;
+  std::vector<Held> held;
+};
+
 class MissionStore {
  public:
   virtual ~MissionStore() = default;
@@ -160,6 +177,16 @@ class MissionStore {
   [[nodiscard]] virtual absl::StatusOr<std::vector<StoredMission>> LoadAll() = 0;
   // One mission, as LoadAll gives it. NotFound for an unknown mission.
   [[nodiscard]] virtual absl::StatusOr<StoredMission> Load(const std::string& mission_id) = 0;
+  // As Load, less what a reader holding the mission through record
+  // `have_through` has already (KeepOnlyAfter, as Claim leaves it out), and
+  // without taking the mission: how a warm standby follows a mission that
+  // another server holds. A store may skip reading a snapshot it leaves out.
+  [[nodiscard]] virtual absl::StatusOr<StoredMission> LoadAfter(const std::string& mission_id,
+                                                                std::int64_t have_through) {
+    absl::StatusOr<StoredMission> m = Load(mission_id);
+    if (m.ok()) KeepOnlyAfter(*m, have_through);
+    return m;
+  }
   // The mission a request_id deleted, or NotFound.
   [[nodiscard]] virtual absl::StatusOr<std::string> DeletedBy(const std::string& request_id) = 0;
   // Forgets the request_ids of deletions made before `unix_us`, and the
@@ -192,9 +219,24 @@ class MissionStore {
       const std::string& name) = 0;
   // `holder` is alive until `until_us` (its clock): a server sharing the
   // store says so every fraction of that time. A holder that never said so,
-  // whose time has passed, or that retired is not alive.
-  [[nodiscard]] virtual absl::Status Heartbeat(const std::string& holder,
-                                               std::int64_t until_us) = 0;
+  // whose time has passed, or that retired is not alive. ring_id: its id on
+  // the proxies' ring (--ring_id; 0: none), for the others' View.
+  [[nodiscard]] virtual absl::Status Heartbeat(const std::string& holder, std::int64_t until_us,
+                                               int ring_id) = 0;
+  // What a server of a cluster sees of the others at `now_us`: the live
+  // holders (Heartbeat) with their ring ids, and every mission with a lease
+  // (named `lease_prefix` and the mission id in lower-case hex), expired or
+  // not (a live holder still has the mission in memory; a dead one's waits
+  // for a takeover), with its holder, whether that holder is alive, its
+  // ring id, and the last sequence stored for the mission (its last
+  // record's, or its snapshot's). Unimplemented for a store that cannot
+  // tell.
+  [[nodiscard]] virtual absl::StatusOr<StoreView> View(const std::string& lease_prefix,
+                                                       std::int64_t now_us) {
+    (void)lease_prefix;
+    (void)now_us;
+    return absl::UnimplementedError("this store keeps no view of the servers sharing it");
+  }
   // `holder` stops: it is no longer alive and holds no lease.
   [[nodiscard]] virtual absl::Status Retire(const std::string& holder) = 0;
   // Missions nothing was written to since `before_us` (created, and their

@@ -11,7 +11,7 @@ namespace oaipp::server::postgres {
 // 2: + missions.epoch (ownership, for servers sharing the store), an index
 //    of missions by request_id.
 // Later tables and indexes (the listing's index, secrets, leases, the
-// servers alive) come with
+// servers alive and their ring ids) come with
 // kSchema, which is idempotent and runs at every open.
 inline constexpr std::int64_t kSchemaVersion = 2;
 
@@ -66,6 +66,7 @@ CREATE INDEX IF NOT EXISTS store_leases_by_holder ON store_leases(holder);
 CREATE TABLE IF NOT EXISTS store_alive(
   holder bytea PRIMARY KEY,
   until_us bigint NOT NULL);
+ALTER TABLE store_alive ADD COLUMN IF NOT EXISTS ring_id integer NOT NULL DEFAULT 0;
 )sql";
 
 // Held while the schema is created: CREATE ... IF NOT EXISTS is not atomic

@@ -264,6 +264,18 @@ class PostgresStore final : public MissionStore {
     });
   }
 
+  absl::StatusOr<StoredMission> LoadAfter(const std::string& mission_id,
+                                          std::int64_t have_through) override {
+    const std::string what = absl::StrCat("load mission '", Printable(mission_id), "'");
+    return Call(what, [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<StoredMission> {
+      ReadOnly tx(conn);
+      OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found,
+                             LoadMissions(tx, &mission_id, have_through));
+      if (found.empty()) return NoMission(what);
+      return std::move(found.front());
+    });
+  }
+
   absl::StatusOr<StoredMission> Claim(const std::string& mission_id,
                                       std::int64_t have_through) override {
     const std::string what = absl::StrCat("claim mission '", Printable(mission_id), "'");
@@ -397,17 +409,50 @@ class PostgresStore final : public MissionStore {
                 });
   }
 
-  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
+  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us, int ring_id) override {
     return CallOn(heartbeat_pool_, "heartbeat",
                   [&](pqxx::connection& conn, CallState& state) -> absl::Status {
                     pqxx::work tx(conn);
                     tx.exec_params(
-                        "INSERT INTO store_alive(holder, until_us) VALUES($1, $2) "
-                        "ON CONFLICT (holder) DO UPDATE SET until_us = EXCLUDED.until_us",
-                        Blob(holder), until_us);
+                        "INSERT INTO store_alive(holder, until_us, ring_id) VALUES($1, $2, $3) "
+                        "ON CONFLICT (holder) DO UPDATE SET until_us = EXCLUDED.until_us, "
+                        "ring_id = EXCLUDED.ring_id",
+                        Blob(holder), until_us, ring_id);
                     Commit(tx, state);
                     return absl::OkStatus();
                   });
+  }
+
+  absl::StatusOr<StoreView> View(const std::string& lease_prefix, std::int64_t now_us) override {
+    return Call("view", [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<StoreView> {
+      ReadOnly tx(conn);
+      StoreView view;
+      for (const pqxx::row& row :
+           tx.exec_params("SELECT holder, ring_id FROM store_alive WHERE until_us >= $1 "
+                          "ORDER BY holder",
+                          now_us)) {
+        view.alive.push_back({.holder = ReadBytes(row[0]), .ring_id = row[1].as<int>()});
+      }
+      // A mission's last sequence: its last record's, or without records
+      // after its snapshot the snapshot's (both by primary key).
+      for (const pqxx::row& row : tx.exec_params(
+               "SELECT m.id, l.holder, coalesce(a.until_us >= $2, false), "
+               "coalesce(a.ring_id, 0), coalesce((SELECT max(r.sequence) FROM records r "
+               "WHERE r.mission_id = m.id), (SELECT s.sequence FROM snapshots s "
+               "WHERE s.mission_id = m.id), 0) "
+               "FROM store_leases l LEFT JOIN store_alive a ON a.holder = l.holder "
+               "JOIN missions m ON m.id = CASE WHEN substr(l.name, length($1) + 1) "
+               "~ '^([0-9a-f][0-9a-f])*$' THEN decode(substr(l.name, length($1) + 1), 'hex') END "
+               "WHERE starts_with(l.name, $1) ORDER BY m.id",
+               lease_prefix, now_us)) {
+        view.held.push_back({.mission_id = ReadBytes(row[0]),
+                             .holder = ReadBytes(row[1]),
+                             .holder_alive = row[2].as<bool>(),
+                             .holder_ring_id = row[3].as<int>(),
+                             .last_sequence = row[4].as<std::int64_t>()});
+      }
+      return view;
+    });
   }
 
   absl::Status Retire(const std::string& holder) override {

@@ -1,5 +1,9 @@
 #include "server/store/sqlite_leases.h"
 
+#include <algorithm>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/escaping.h"
 #include "core/common/status_macros.h"
 #include "server/store/sqlite_statement.h"
 
@@ -40,14 +44,68 @@ absl::StatusOr<std::int64_t> LeaseHolderAliveUntil(sqlite3* db, const std::strin
   return s.Int(0);
 }
 
-absl::Status Heartbeat(sqlite3* db, const std::string& holder, std::int64_t until_us) {
+absl::Status Heartbeat(sqlite3* db, const std::string& holder, std::int64_t until_us, int ring_id) {
   Statement s(db,
-              "INSERT INTO alive(holder, until_us) VALUES(?1, ?2) "
-              "ON CONFLICT(holder) DO UPDATE SET until_us = excluded.until_us");
+              "INSERT INTO alive(holder, until_us, ring_id) VALUES(?1, ?2, ?3) "
+              "ON CONFLICT(holder) DO UPDATE SET until_us = excluded.until_us, "
+              "ring_id = excluded.ring_id");
   OAIPP_RETURN_IF_ERROR(s.prepared("heartbeat"));
   s.Bind(1, holder);
   s.Bind(2, until_us);
+  s.Bind(3, static_cast<std::int64_t>(ring_id));
   return s.Done("heartbeat");
+}
+
+absl::StatusOr<StoreView> View(sqlite3* db, const std::string& lease_prefix, std::int64_t now_us) {
+  StoreView view;
+  {
+    Statement s(db, "SELECT holder, ring_id FROM alive WHERE until_us >= ?1 ORDER BY holder");
+    OAIPP_RETURN_IF_ERROR(s.prepared("view"));
+    s.Bind(1, now_us);
+    int code = SQLITE_ROW;
+    while ((code = s.Step()) == SQLITE_ROW) {
+      view.alive.push_back({.holder = s.Bytes(0), .ring_id = static_cast<int>(s.Int(1))});
+    }
+    if (code != SQLITE_DONE) return SqliteError(db, code, "view");
+  }
+  // SQLite 3.40 has no unhex(): the lease names are decoded here.
+  std::vector<StoreView::Held> leased;
+  {
+    Statement s(db,
+                "SELECT l.name, l.holder, coalesce(a.until_us >= ?2, 0), coalesce(a.ring_id, 0) "
+                "FROM leases l LEFT JOIN alive a ON a.holder = l.holder "
+                "WHERE substr(l.name, 1, length(?1)) = ?1 ORDER BY l.name");
+    OAIPP_RETURN_IF_ERROR(s.prepared("view"));
+    s.Bind(1, lease_prefix);
+    s.Bind(2, now_us);
+    int code = SQLITE_ROW;
+    while ((code = s.Step()) == SQLITE_ROW) {
+      const std::string name = s.Bytes(0);
+      const absl::string_view hex = absl::string_view(name).substr(lease_prefix.size());
+      if (hex.size() % 2 != 0 || !std::all_of(hex.begin(), hex.end(), absl::ascii_isxdigit)) {
+        continue;  // not a mission's lease
+      }
+      leased.push_back({.mission_id = absl::HexStringToBytes(hex),
+                        .holder = s.Bytes(1),
+                        .holder_alive = s.Int(2) != 0,
+                        .holder_ring_id = static_cast<int>(s.Int(3))});
+    }
+    if (code != SQLITE_DONE) return SqliteError(db, code, "view");
+  }
+  for (StoreView::Held& held : leased) {
+    Statement s(db,
+                "SELECT coalesce((SELECT max(sequence) FROM records WHERE mission_id = ?1), "
+                "(SELECT sequence FROM snapshots WHERE mission_id = ?1), 0) "
+                "FROM missions WHERE id = ?1");
+    OAIPP_RETURN_IF_ERROR(s.prepared("view"));
+    s.Bind(1, held.mission_id);
+    const int code = s.Step();
+    if (code == SQLITE_DONE) continue;  // deleted, its lease not yet
+    if (code != SQLITE_ROW) return SqliteError(db, code, "view");
+    held.last_sequence = s.Int(0);
+    view.held.push_back(std::move(held));
+  }
+  return view;
 }
 
 absl::Status Retire(sqlite3* db, const std::string& holder) {

@@ -50,7 +50,8 @@ CREATE TABLE IF NOT EXISTS leases(
   until_us INTEGER NOT NULL);
 CREATE TABLE IF NOT EXISTS alive(
   holder TEXT PRIMARY KEY,
-  until_us INTEGER NOT NULL);
+  until_us INTEGER NOT NULL,
+  ring_id INTEGER NOT NULL DEFAULT 0);
 CREATE INDEX IF NOT EXISTS missions_by_creation ON missions(create_time_us, id);
 )sql";
 

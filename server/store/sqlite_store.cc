@@ -61,7 +61,10 @@ class SqliteStore final : public MissionStore {
       OAIPP_RETURN_IF_ERROR(s.prepared("schema"));
       had_missions = s.Step() == SQLITE_ROW;
     }
-    if (version == sqlite::kSchemaVersion) return Exec(sqlite::kSchema, "schema");
+    if (version == sqlite::kSchemaVersion) {
+      OAIPP_RETURN_IF_ERROR(Exec(sqlite::kSchema, "schema"));
+      return AddRingIds();
+    }
     OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "schema"));
     absl::Status status = [&]() -> absl::Status {
       // A file of version 0 with tables is a version 1 file (it predates
@@ -79,7 +82,18 @@ class SqliteStore final : public MissionStore {
       (void)Exec("ROLLBACK", "schema");
       return status;
     }
-    return Exec("COMMIT", "schema");
+    OAIPP_RETURN_IF_ERROR(Exec("COMMIT", "schema"));
+    return AddRingIds();
+  }
+
+  // The servers' ring ids came after the table of the servers alive (whose
+  // rows are heartbeats, not data): the column is added where it is missing.
+  absl::Status AddRingIds() {
+    Statement s(db_, "SELECT 1 FROM pragma_table_info('alive') WHERE name = 'ring_id'");
+    OAIPP_RETURN_IF_ERROR(s.prepared("schema"));
+    if (s.Step() == SQLITE_ROW) return absl::OkStatus();
+    return Exec("ALTER TABLE alive ADD COLUMN ring_id INTEGER NOT NULL DEFAULT 0",
+                "schema upgrade");
   }
 
   absl::StatusOr<std::int64_t> NextMissionNumber() override {
@@ -322,9 +336,16 @@ class SqliteStore final : public MissionStore {
     absl::MutexLock lock(&mu_);
     return sqlite::LeaseHolderAliveUntil(db_, name);
   }
-  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
+  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us, int ring_id) override {
     absl::MutexLock lock(&mu_);
-    return sqlite::Heartbeat(db_, holder, until_us);
+    return sqlite::Heartbeat(db_, holder, until_us, ring_id);
+  }
+  absl::StatusOr<StoreView> View(const std::string& lease_prefix, std::int64_t now_us) override {
+    absl::MutexLock lock(&mu_);
+    OAIPP_RETURN_IF_ERROR(Exec("BEGIN", "view"));
+    absl::StatusOr<StoreView> view = sqlite::View(db_, lease_prefix, now_us);
+    (void)Exec("COMMIT", "view");
+    return view;
   }
   absl::Status Retire(const std::string& holder) override {
     absl::MutexLock lock(&mu_);

@@ -29,6 +29,7 @@
 #include "grpcpp/grpcpp.h"
 #include "gtest/gtest.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/hash_ring.h"
 #include "server/mission.h"
 #include "server/store/postgres_store.h"
 #include "tests/cluster/e1_flight.h"
@@ -276,6 +277,24 @@ TEST_F(ClusterTest, TheProxyRoutesEachMissionToOneReplica) {
     }
   }
   const std::string victim_name = LocalCluster::ReplicaName(victim);
+  // The replicas' own ring (server::HashRing, what their warm standbys go
+  // by) puts each mission where HAProxy routed it, and says where the
+  // victim's missions go once it is down.
+  std::vector<int> ring_ids, without_victim;
+  for (int i = 0; i < cluster_.replicas(); ++i) {
+    ring_ids.push_back(LocalCluster::RingId(i));
+    if (i != victim) without_victim.push_back(LocalCluster::RingId(i));
+  }
+  const auto replica_by_ring = [&](const std::vector<int>& ids, const std::string& id) {
+    const int ring_id = server::HashRing(ids).Pick(server::HashRing::RouteHash(id));
+    for (int i = 0; i < cluster_.replicas(); ++i) {
+      if (LocalCluster::RingId(i) == ring_id) return LocalCluster::ReplicaName(i);
+    }
+    return std::string("none");
+  };
+  for (const auto& [id, replica] : holder_of) {
+    EXPECT_EQ(replica_by_ring(ring_ids, id), replica) << id;
+  }
   const absl::Time killed = absl::Now();
   cluster_.replica(victim).Stop(SIGKILL);
   std::vector<std::thread> threads;
@@ -291,6 +310,8 @@ TEST_F(ClusterTest, TheProxyRoutesEachMissionToOneReplica) {
       const double ms = absl::ToDoubleMilliseconds(absl::Now() - killed);
       EXPECT_TRUE(got.ok()) << id << ": " << got.status();
       EXPECT_NE(own.last_replica(), victim_name) << id;
+      EXPECT_EQ(own.last_replica(), replica_by_ring(without_victim, id))
+          << id << " was taken over by a replica other than the one standing by for it";
       std::lock_guard<std::mutex> lock(mu);
       answered_ms.push_back(ms);
     });

@@ -75,8 +75,9 @@ class LocalCluster {
       const int port = FreePort();
       std::vector<std::string> args = {
           OAIPP_SERVER_BINARY, "--cluster", "--store=" + postgres_->uri("oaipp"),
-          "--replica_id=" + ReplicaName(i), absl::StrCat("--listen=127.0.0.1:", port),
-          "--metrics_listen=", "--log_level=warn", "--shutdown_grace_s=5",
+          "--replica_id=" + ReplicaName(i), absl::StrCat("--ring_id=", RingId(i)),
+          absl::StrCat("--listen=127.0.0.1:", port), "--metrics_listen=", "--log_level=warn",
+          "--shutdown_grace_s=5",
           // as the tests' in-process twins, which
           // they match to 1e-12 relative
           "--dense_backend=eigen"};

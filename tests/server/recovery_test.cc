@@ -328,8 +328,8 @@ class FailingStore final : public MissionStore {
                                 std::int64_t now_us, std::int64_t until_us, bool silent) override {
     return store_->TryLease(name, holder, now_us, until_us, silent);
   }
-  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us) override {
-    return store_->Heartbeat(holder, until_us);
+  absl::Status Heartbeat(const std::string& holder, std::int64_t until_us, int ring_id) override {
+    return store_->Heartbeat(holder, until_us, ring_id);
   }
   absl::Status Retire(const std::string& holder) override { return store_->Retire(holder); }
   absl::StatusOr<std::vector<std::pair<std::string, std::int64_t>>> IdleSince(

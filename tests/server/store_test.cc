@@ -9,11 +9,14 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <set>
 #include <string>
 #include <thread>
+#include <tuple>
 
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "gtest/gtest.h"
 #include "server/store/open_store.h"
@@ -187,15 +190,15 @@ TEST_P(StoreTest, ALeaseOfASilentHolderIsFreeToThoseWhoAskSo) {
     return held.value_or(false);
   };
   EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 0);  // nobody holds it
-  ASSERT_TRUE(store->Heartbeat("a", 500).ok());
+  ASSERT_TRUE(store->Heartbeat("a", 500, 0).ok());
   EXPECT_TRUE(lease("a", 100, true));  // a's until 1100, a alive until 500
   EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 500);
   EXPECT_FALSE(lease("b", 200, true));   // a is alive
   EXPECT_FALSE(lease("b", 600, false));  // a is silent, but b did not ask for that
   EXPECT_TRUE(lease("b", 600, true));    // a is silent: b's until 1600
   EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 0);  // b never said it is alive
-  ASSERT_TRUE(store->Heartbeat("a", 2000).ok());
-  ASSERT_TRUE(store->Heartbeat("b", 2000).ok());
+  ASSERT_TRUE(store->Heartbeat("a", 2000, 0).ok());
+  ASSERT_TRUE(store->Heartbeat("b", 2000, 0).ok());
   EXPECT_FALSE(lease("a", 700, true));  // b is alive and its lease runs
   EXPECT_EQ(*store->LeaseHolderAliveUntil("mission/m"), 2000);
   EXPECT_TRUE(lease("a", 1700, true));  // b's lease lapsed at 1600
@@ -207,6 +210,76 @@ TEST_P(StoreTest, ALeaseOfASilentHolderIsFreeToThoseWhoAskSo) {
   EXPECT_FALSE(lease("c", 2000, false, "mission/n"));
   ASSERT_TRUE(store->ForgetDeletionsBefore(3000).ok());  // b's lease lapses at 2900
   EXPECT_TRUE(lease("c", 2000, false, "mission/n"));     // forgotten
+}
+
+// What a standby reads (View): the live servers with their ring ids, and
+// each mission whose lease a live server holds (lapsed or not), with its
+// last stored sequence, its snapshot's when no record follows it; and
+// LoadAfter, which leaves out what the reader has.
+TEST_P(StoreTest, TheViewListsLiveServersAndTheMissionsTheyHold) {
+  std::unique_ptr<MissionStore> store = Open();
+  const std::string second("t/m\0\xff", 5);
+  for (const std::string& id : {std::string("m1"), second, std::string("m3")}) {
+    ASSERT_TRUE(store->CreateMission({.id = id, .spec = "s"}).ok());
+  }
+  for (int i = 1; i <= 4; ++i) ASSERT_TRUE(store->Append("m1", Record(i, "x")).ok());
+  for (int i = 1; i <= 2; ++i) ASSERT_TRUE(store->Append("m3", Record(i, "x")).ok());
+  ASSERT_TRUE(store->PutSnapshot("m3", {.sequence = 2, .state = "s2"}).ok());
+  ASSERT_TRUE(store->Heartbeat("a", 1000, 3).ok());
+  ASSERT_TRUE(store->Heartbeat("b", 1000, 0).ok());
+  ASSERT_TRUE(store->Heartbeat("c", 100, 2).ok());  // silent at 500
+  for (const auto& [id, holder] : std::vector<std::pair<std::string, std::string>>{
+           {"m1", "a"}, {second, "b"}, {"m3", "a"}, {"gone", "a"}}) {
+    ASSERT_TRUE(*store->TryLease(absl::StrCat("mission/", absl::BytesToHexString(id)), holder, 0,
+                                 200, false));
+  }
+  ASSERT_TRUE(*store->TryLease("mission/not-hex", "a", 0, 200, false));
+  ASSERT_TRUE(*store->TryLease("retention", "a", 0, 200, false));
+
+  absl::StatusOr<StoreView> view = store->View("mission/", 500);
+  ASSERT_TRUE(view.ok()) << view.status();
+  ASSERT_EQ(view->alive.size(), 2u);
+  EXPECT_EQ(view->alive[0].holder, "a");
+  EXPECT_EQ(view->alive[0].ring_id, 3);
+  EXPECT_EQ(view->alive[1].holder, "b");
+  EXPECT_EQ(view->alive[1].ring_id, 0);
+  // holder, alive, ring id, last sequence
+  using Seen = std::tuple<std::string, bool, int, std::int64_t>;
+  const auto held_in = [](const StoreView& v) {
+    std::map<std::string, Seen> held;
+    for (const StoreView::Held& h : v.held) {
+      held[h.mission_id] = {h.holder, h.holder_alive, h.holder_ring_id, h.last_sequence};
+    }
+    return held;
+  };
+  std::map<std::string, Seen> held = held_in(*view);
+  EXPECT_EQ(held.size(), 3u);  // no lease of a deleted mission, nor another kind
+  EXPECT_EQ(held["m1"], Seen("a", true, 3, 4));
+  EXPECT_EQ(held[second], Seen("b", true, 0, 0));
+  EXPECT_EQ(held["m3"], Seen("a", true, 3, 2));
+
+  // "a" and "b" fall silent: their missions are listed, their holders not
+  // alive.
+  view = store->View("mission/", 1500);
+  ASSERT_TRUE(view.ok()) << view.status();
+  EXPECT_TRUE(view->alive.empty());
+  held = held_in(*view);
+  EXPECT_EQ(held.size(), 3u);
+  EXPECT_EQ(held["m1"], Seen("a", false, 3, 4));
+
+  absl::StatusOr<StoredMission> after = store->LoadAfter("m1", 2);
+  ASSERT_TRUE(after.ok()) << after.status();
+  ASSERT_EQ(after->log.size(), 2u);
+  EXPECT_EQ(after->log[0].sequence, 3);
+  after = store->LoadAfter("m3", 1);  // the snapshot at 2 is later than what it has
+  ASSERT_TRUE(after.ok()) << after.status();
+  ASSERT_TRUE(after->snapshot.has_value());
+  EXPECT_EQ(after->snapshot->state, "s2");
+  after = store->LoadAfter("m3", 2);
+  ASSERT_TRUE(after.ok()) << after.status();
+  EXPECT_FALSE(after->snapshot.has_value());
+  EXPECT_TRUE(after->log.empty());
+  EXPECT_EQ(store->LoadAfter("nobody", 0).status().code(), absl::StatusCode::kNotFound);
 }
 
 // A mission is idle since a time when it was created before it and nothing

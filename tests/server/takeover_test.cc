@@ -268,7 +268,8 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
   // "b": "b" waits for "a" to fall silent, reading the mission once "a" has
   // missed two heartbeats (after 2/5 of silent_after). "a" stores one more
   // measurement after that (at 3/5), before it is found silent.
-  ASSERT_TRUE((*store)->Heartbeat("a", absl::ToUnixMicros(absl::Now() + limits.silent_after)).ok());
+  ASSERT_TRUE(
+      (*store)->Heartbeat("a", absl::ToUnixMicros(absl::Now() + limits.silent_after), 0).ok());
   absl::StatusOr<std::shared_ptr<Mission>> taken;
   std::thread call([&] { taken = b.Get("missions/m"); });
   absl::SleepFor(limits.silent_after * 3 / 5);
@@ -287,6 +288,114 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
       EXPECT_EQ(got.Covariance(), want.Covariance());
     });
   });
+  std::filesystem::remove_all(dir);
+}
+
+// Warm standbys: with three registries on one store, "a" (ring id 1) holds
+// two missions that the proxies' ring sends to it while it lives; without
+// it, the ring sends m-3 to ring id 3 and m-10 to ring id 2 (HashRingTest's
+// routes, recorded from HAProxy), so "c" stands by for m-3 and "b" for
+// m-10, each following what "a" stores. When
+// "a" falls silent, "b" takes m-10 over from its standby, claiming only
+// the record written after its last look, and ends with "a"'s map bit for
+// bit.
+TEST(StandbyTest, TheRingsSuccessorFollowsAMissionAndTakesItOverFromThere) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / absl::StrCat("oaipp-standby-", getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  absl::StatusOr<std::unique_ptr<MissionStore>> store =
+      OpenSqliteStore((dir / "missions.db").string());
+  ASSERT_TRUE(store.ok()) << store.status();
+  std::vector<std::unique_ptr<MissionRegistry>> servers;
+  for (int id = 1; id <= 3; ++id) {
+    RegistryLimits limits{.max_missions = 8,
+                          .max_cells_per_mission = 1600,
+                          .shared_store = true,
+                          .holder = std::string(1, static_cast<char>('a' + id - 1)),
+                          .silent_after = absl::Seconds(1),
+                          .ring_id = id};
+    servers.push_back(std::make_unique<MissionRegistry>(limits, store->get()));
+  }
+  MissionRegistry& a = *servers[0];
+  MissionRegistry& b = *servers[1];
+  MissionRegistry& c = *servers[2];
+  const auto alive = [&](const std::string& holder, int ring_id) {
+    ASSERT_TRUE((*store)
+                    ->Heartbeat(holder, absl::ToUnixMicros(absl::Now() + absl::Seconds(1)), ring_id)
+                    .ok());
+  };
+  alive("a", 1);
+  alive("b", 2);
+  alive("c", 3);
+
+  absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(testing::SmallSpec());
+  ASSERT_TRUE(config.ok()) << config.status();
+  std::vector<std::shared_ptr<Mission>> held;
+  for (const std::string id : {"m-3", "m-10"}) {
+    absl::StatusOr<std::shared_ptr<Mission>> created = a.Create(id, *config, "create-" + id);
+    ASSERT_TRUE(created.ok()) << created.status();
+    held.push_back(*created);
+  }
+  int measured = 0;
+  const auto measure = [&](Mission& mission) {
+    const int k = measured++;
+    v1::AddMeasurementRequest request = testing::LabelMeasurement(
+        "missions/" + mission.id(), -6.0 + k % 5, 1.0, 8.0, 2.0 * k, k % 2);
+    request.set_request_id(absl::StrCat("r", k));
+    absl::StatusOr<MeasurementInput> input = api::MeasurementFromProto(request);
+    ASSERT_TRUE(input.ok()) << input.status();
+    const std::string fingerprint = absl::StrCat("f", k);
+    ASSERT_TRUE(mission
+                    .AddMeasurement(
+                        *input, {request.request_id(), fingerprint},
+                        service_internal::Recorder(store->get(), mission, RecordKind::kMeasurement,
+                                                   request, fingerprint))
+                    .ok());
+  };
+  for (int k = 0; k < 3; ++k) {
+    measure(*held[0]);
+    measure(*held[1]);
+  }
+  a.KeepStandbys();
+  b.KeepStandbys();
+  c.KeepStandbys();
+  EXPECT_EQ(a.standbys(), 0);  // its own
+  EXPECT_EQ(b.standbys(), 1);
+  EXPECT_EQ(c.standbys(), 1);
+
+  // "b" follows m-10 as "a" goes on; one more record comes after its last
+  // look, and then "a" falls silent.
+  measure(*held[1]);
+  measure(*held[1]);
+  b.KeepStandbys();
+  measure(*held[1]);
+  absl::SleepFor(absl::Seconds(1.1));
+  alive("b", 2);
+  alive("c", 3);
+  absl::StatusOr<std::shared_ptr<Mission>> taken = b.Get("missions/m-10");
+  ASSERT_TRUE(taken.ok()) << taken.status();
+  EXPECT_EQ(b.takeovers(), 1);
+  EXPECT_EQ(b.takeovers_from_standby(), 1);
+  EXPECT_EQ(b.standbys(), 0);
+  EXPECT_EQ((*taken)->Snapshot().measurements_fused, 6);
+  EXPECT_EQ((*taken)->next_sequence(), held[1]->next_sequence());
+  held[1]->ReadMap([&](const GpMap& want) {
+    (*taken)->ReadMap([&](const GpMap& got) {
+      EXPECT_EQ(got.Mean(), want.Mean());
+      EXPECT_EQ(got.Covariance(), want.Covariance());
+    });
+  });
+
+  // With "a" gone, "b" now holds m-10, and m-3 stays with "c"'s standby
+  // until a call for it comes: "c" takes it from there.
+  b.KeepStandbys();
+  c.KeepStandbys();
+  EXPECT_EQ(b.standbys(), 0);
+  taken = c.Get("missions/m-3");
+  ASSERT_TRUE(taken.ok()) << taken.status();
+  EXPECT_EQ(c.takeovers_from_standby(), 1);
+  EXPECT_EQ((*taken)->Snapshot().measurements_fused, 3);
   std::filesystem::remove_all(dir);
 }
 
