@@ -140,7 +140,7 @@ absl::StatusOr<ServerParts> Server::PartsFromOptions() {
                                   .max_memory_bytes = max_memory,
                                   .shared_store = o.cluster,
                                   .holder = o.replica_id,
-                                  .ring_id = o.ring_id,
+                                  .ring_id = o.EffectiveRingId(),
                                   .max_standbys = o.standby_missions,
                                   .single_precision_objective = o.objective_precision == "single",
                                   .dense_backend = ChooseDenseBackend(o)},
@@ -172,8 +172,8 @@ absl::Status Server::Assemble(ServerParts parts) {
   silent_after_ = parts.registry.silent_after;
   if (parts.registry.shared_store && store_ != nullptr) {
     // Alive before the first call can take a mission over.
-    if (absl::Status alive =
-            store_->Heartbeat(holder_, absl::ToUnixMicros(absl::Now() + silent_after_), o.ring_id);
+    if (absl::Status alive = store_->Heartbeat(
+            holder_, absl::ToUnixMicros(absl::Now() + silent_after_), o.EffectiveRingId());
         !alive.ok()) {
       return absl::Status(alive.code(), absl::StrCat("store: ", alive.message()));
     }
@@ -327,7 +327,7 @@ void Server::Heartbeat() {
   bool ok = true;
   while (!stopping_.WaitForNotificationWithTimeout(silent_after_ / 5)) {
     const absl::Status alive = store_->Heartbeat(
-        holder_, absl::ToUnixMicros(absl::Now() + silent_after_), options_.ring_id);
+        holder_, absl::ToUnixMicros(absl::Now() + silent_after_), options_.EffectiveRingId());
     if (alive.ok() != ok) {
       ok = alive.ok();
       if (ok) {

@@ -6,6 +6,7 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 
@@ -110,6 +111,17 @@ absl::Status ServerOptions::Validate() const {
   } else if (ring_id > 0 && !cluster) {
     p.Add("ring_id", "is for a replica of a cluster (--cluster)");
   }
+  if (ring_id_from_ordinal) {
+    if (ring_id != 0) {
+      p.Add("ring_id_from_ordinal", "conflicts with --ring_id; give one of them");
+    } else if (!cluster) {
+      p.Add("ring_id_from_ordinal", "is for a replica of a cluster (--cluster)");
+    } else if (EffectiveRingId() == 0) {
+      p.Add("ring_id_from_ordinal",
+            "needs a --replica_id that ends in a number below 1000000 (a StatefulSet pod's "
+            "name, oaipp-server-0)");
+    }
+  }
   p.AtLeast("standby_missions", standby_missions, 0);
   if (cluster && !absl::StartsWith(store, "postgres")) {
     p.Add("cluster", "needs a store the replicas share: --store=postgresql://...");
@@ -123,6 +135,21 @@ absl::Status ServerOptions::Validate() const {
     p.Add("web_port", absl::StrCat("must be in [0, 65535], got ", web_port));
   }
   return p.status();
+}
+
+int ServerOptions::EffectiveRingId() const {
+  if (!ring_id_from_ordinal) return ring_id;
+  // The digits that end replica_id: at least one, at most six.
+  std::size_t start = replica_id.size();
+  while (start > 0 && absl::ascii_isdigit(static_cast<unsigned char>(replica_id[start - 1]))) {
+    --start;
+  }
+  int ordinal = 0;
+  if (start == replica_id.size() || replica_id.size() - start > 6 ||
+      !absl::SimpleAtoi(absl::string_view(replica_id).substr(start), &ordinal)) {
+    return 0;
+  }
+  return ordinal + 1;
 }
 
 bool IsLoopbackAddress(const std::string& address) {

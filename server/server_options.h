@@ -72,6 +72,10 @@ struct ServerOptions {
   bool cluster = false;       // needs a postgresql:// store
   int ring_id = 0;            // 0..1000000, only with cluster; 0: no warm standbys
   int standby_missions = 64;  // >= 0
+  // Only with cluster, not with ring_id: the ring id is the number that
+  // ends replica_id, plus one (a StatefulSet's pod oaipp-server-0 is the
+  // proxies' id 1).
+  bool ring_id_from_ordinal = false;
 
   // --- what operators see
   std::string metrics_listen = "127.0.0.1:9464";  // empty: off
@@ -85,6 +89,9 @@ struct ServerOptions {
   // --web_port: ..."). Files (TLS, tokens) and addresses are checked when
   // the server starts, where they are used.
   [[nodiscard]] absl::Status Validate() const;
+  // ring_id, or with ring_id_from_ordinal the one replica_id gives (0 when
+  // it gives none; Validate refuses that).
+  [[nodiscard]] int EffectiveRingId() const;
 };
 
 // Whether `address` (host:port, [v6]:port or unix:path) can be reached only

@@ -15,6 +15,10 @@ ABSL_FLAG(int, ring_id, oaipp::server::kFlagDefaults.ring_id,
           "`server ... id N`, deploy/cluster/haproxy.cfg.in). With it, the replica keeps warm "
           "standbys: the missions the proxies would send it if their holder died, read and "
           "replayed ahead, so that taking one over reads only what was written since. 0: none");
+ABSL_FLAG(bool, ring_id_from_ordinal, oaipp::server::kFlagDefaults.ring_id_from_ordinal,
+          "with --cluster, instead of --ring_id: the ring id is the number that ends "
+          "--replica_id, plus one (a StatefulSet's pod oaipp-server-0 is the proxies' "
+          "`server ... id 1`, deploy/k8s/cluster/proxy.yaml)");
 ABSL_FLAG(int, standby_missions, oaipp::server::kFlagDefaults.standby_missions,
           "with --ring_id: at most this many missions on warm standby (each costs the memory of "
           "a mission held, within --max_memory_mb, and the CPU of fusing its measurements "

@@ -1187,6 +1187,11 @@ def check_server_line(ov, cfg, sv, options, host, swhere, ids):
         return errors
     if not re.fullmatch(rf"{re.escape(sts)}-[0-9]+", pod):
         errors.append(f"{swhere}: {pod} is not a pod of the StatefulSet {sts}")
+    elif s is not None and hasattr(s, "bool") and s.bool("ring_id_from_ordinal") and \
+            sid is not None and sid != str(int(pod.rsplit("-", 1)[1]) + 1):
+        errors.append(f"{swhere}: id {sid}, but {pod} stands by as ring id "
+                      f"{int(pod.rsplit('-', 1)[1]) + 1} (--ring_id_from_ordinal: its ordinal "
+                      "plus one)")
     if (s.doc.get("spec") or {}).get("serviceName") != service:
         errors.append(f"{swhere}: {service} is not the StatefulSet's serviceName, so {host} "
                       "does not resolve")
@@ -1268,7 +1273,14 @@ def check_proxy(ov):
         if not hash_type or hash_type[-1][1:2] != ["consistent"]:
             errors.append(f"{bwhere}: no 'hash-type consistent' (a replica leaving would move "
                           "every mission)")
-        if ["option", "redispatch"] not in [w_[:2] for w_ in inherited]:
+        standbys = ov.server is not None and (ov.server.bool("ring_id_from_ordinal") or
+                                              str(ov.server.get("ring_id") or "0") != "0")
+        redispatch = ["option", "redispatch"] in [w_[:2] for w_ in inherited]
+        if standbys and redispatch:
+            errors.append(f"{bwhere}: 'option redispatch' with replicas on warm standby: a call "
+                          "a dead replica refuses would go to whichever server follows on the "
+                          "ring, not always the one standing by for its mission")
+        if not standbys and not redispatch:
             errors.append(f"{bwhere}: no 'option redispatch'")
         default_server = [word for w_ in inherited if w_[0] == "default-server" for word in w_[1:]]
         servers = directive(blines, "server") + directive(blines, "server-template")
@@ -1640,8 +1652,11 @@ FAULTS = [
      lambda rs: proxy_cfg(rs, lambda t: re.sub(r"(bind :50051.*) proto h2", r"\1", t))),
     ("cluster", "no health checks on the servers", "proxy",
      lambda rs: proxy_cfg(rs, lambda t: re.sub(r"(default-server .*) check\b", r"\1", t))),
-    ("cluster", "option redispatch dropped", "proxy",
-     lambda rs: proxy_cfg(rs, lambda t: t.replace("option redispatch", ""))),
+    ("cluster", "option redispatch with replicas on standby", "proxy",
+     lambda rs: proxy_cfg(rs, lambda t: t.replace("hash-type consistent",
+                                                  "hash-type consistent\n        option redispatch"))),
+    ("cluster", "a server line's id off its pod's ordinal + 1", "proxy",
+     lambda rs: proxy_cfg(rs, lambda t: t.replace(":50051\" id 1", ":50051\" id 9"))),
     ("cluster", "servers named under a ClusterIP Service", "proxy",
      lambda rs: proxy_cfg(rs, lambda t: t.replace("oaipp-server-replicas.", "oaipp."))),
     ("cluster", "two proxies with a server-template", "proxy",
