@@ -1,8 +1,11 @@
 #include "core/mapping/sparse_gp_map.h"
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -14,10 +17,19 @@
 // it: Debian resolves libblas.so.3 to OpenBLAS when it is installed, with
 // kernels for the CPU at hand, where Eigen's own product is built for
 // generic x86-64.
-extern "C" void dgemm_(const char* transa, const char* transb, const int* m, const int* n,
-                       const int* k, const double* alpha, const double* a, const int* lda,
-                       const double* b, const int* ldb, const double* beta, double* c,
-                       const int* ldc);
+extern "C" {
+void dgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
+            const double* alpha, const double* a, const int* lda, const double* b, const int* ldb,
+            const double* beta, double* c, const int* ldc);
+void dsymm_(const char* side, const char* uplo, const int* m, const int* n, const double* alpha,
+            const double* a, const int* lda, const double* b, const int* ldb, const double* beta,
+            double* c, const int* ldc);
+void dsyrk_(const char* uplo, const char* trans, const int* n, const int* k, const double* alpha,
+            const double* a, const int* lda, const double* beta, double* c, const int* ldc);
+void dtrsm_(const char* side, const char* uplo, const char* transa, const char* diag, const int* m,
+            const int* n, const double* alpha, const double* a, const int* lda, double* b,
+            const int* ldb);
+}
 
 namespace oaipp {
 
@@ -61,83 +73,198 @@ cholmod_sparse View(const Eigen::SparseMatrix<double, Eigen::ColMajor, int>& q) 
 }
 
 // diag((L L^T)^-1) from CHOLMOD's supernodal factor, by the Takahashi
-// recursion a supernode at a time, from the last. For a supernode S (its
-// own columns, lower-triangular block L_SS) with rows R below it (block
-// L_RS), and U = L_RS L_SS^-1:
+// recursion a supernode at a time, each after every supernode above it. For
+// a supernode S (its own columns, lower-triangular block L_SS) with rows R
+// below it (block L_RS), and U = L_RS L_SS^-1:
 //   Z_RS = -Z_RR U,    Z_SS = L_SS^-T L_SS^-1 - U^T Z_RS,
-// where Z = (L L^T)^-1. Every entry of Z_RR lies in the pattern of a later
-// supernode (the filled graph is chordal), so Z is kept in L's own layout
-// and Z_RR gathered from it. Returns the diagonal in pivot order.
-Eigen::VectorXd SupernodalTakahashiDiagonal(const cholmod_factor& f) {
-  using Eigen::MatrixXd;
-  const int n = static_cast<int>(f.n);
-  const int nsuper = static_cast<int>(f.nsuper);
-  const int* super = static_cast<const int*>(f.super);
-  const int* pi = static_cast<const int*>(f.pi);
-  const int* px = static_cast<const int*>(f.px);
-  const int* rows = static_cast<const int*>(f.s);
-  const double* lx = static_cast<const double*>(f.x);
-  std::vector<int> super_of(n);
-  for (int t = 0; t < nsuper; ++t) {
-    for (int k = super[t]; k < super[t + 1]; ++k) super_of[k] = t;
+// where Z = (L L^T)^-1. Every entry of Z_RR lies in the pattern of a
+// supernode above S (the filled graph is chordal), so Z is kept in L's own
+// layout and Z_RR gathered from it; only lower triangles are ever read.
+// Supernodes in disjoint subtrees of the supernodal elimination tree read
+// and write disjoint parts of Z, so below the top of the tree two threads
+// take a share of the subtrees each. Returns the diagonal in pivot order.
+// The threads OpenBLAS runs its products on (1 without OpenBLAS). With
+// more than one, two threads of ours calling it at once contend for them
+// (three times slower, measured at 90,000 cells): the tree then runs in one
+// thread and the products in OpenBLAS's.
+int BlasThreads() {
+  using Get = int (*)();
+  static const Get get = reinterpret_cast<Get>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  return get != nullptr ? get() : 1;
+}
+
+class Takahashi {
+ public:
+  explicit Takahashi(const cholmod_factor& f)
+      : n_(static_cast<int>(f.n)),
+        nsuper_(static_cast<int>(f.nsuper)),
+        super_(static_cast<const int*>(f.super)),
+        pi_(static_cast<const int*>(f.pi)),
+        px_(static_cast<const int*>(f.px)),
+        rows_(static_cast<const int*>(f.s)),
+        lx_(static_cast<const double*>(f.x)),
+        super_of_(n_),
+        z_(f.xsize, 0.0),
+        diagonal_(n_) {
+    for (int t = 0; t < nsuper_; ++t) {
+      for (int k = super_[t]; k < super_[t + 1]; ++k) super_of_[k] = t;
+    }
   }
-  std::vector<double> z(f.xsize, 0.0);
-  std::vector<int> pos;
-  MatrixXd zrr, u, zrs, inverse, inverse_product;
-  Eigen::VectorXd diagonal(n);
-  for (int t = nsuper - 1; t >= 0; --t) {
-    const int w = super[t + 1] - super[t];
-    const int nr = pi[t + 1] - pi[t];
+
+  Eigen::VectorXd Run() {
+    // The tree: a supernode's parent holds the first row below its own
+    // columns. CHOLMOD numbers supernodes in postorder, so a subtree is the
+    // range [first, root]; checked, and without it everything runs in order.
+    std::vector<int> parent(nsuper_, -1), first(nsuper_);
+    std::vector<double> cost(nsuper_);
+    std::vector<std::vector<int>> children(nsuper_);
+    std::vector<int> roots;
+    for (int t = 0; t < nsuper_; ++t) first[t] = t;
+    bool postorder = true;
+    for (int t = 0; t < nsuper_; ++t) {
+      const double w = super_[t + 1] - super_[t];
+      const double r = pi_[t + 1] - pi_[t] - w;
+      cost[t] += r * r * w + 2 * r * w * w + w * w * w + r * r;
+      if (r > 0) {
+        parent[t] = super_of_[rows_[pi_[t] + static_cast<int>(w)]];
+        postorder = postorder && parent[t] > t;
+        if (!postorder) break;
+        first[parent[t]] = std::min(first[parent[t]], first[t]);
+        cost[parent[t]] += cost[t];
+        children[parent[t]].push_back(t);
+      } else {
+        roots.push_back(t);
+      }
+    }
+    // A postorder: each subtree's size is the length of its range.
+    std::vector<int> size(nsuper_, 1);
+    for (int t = 0; postorder && t < nsuper_; ++t) {
+      if (parent[t] >= 0) size[parent[t]] += size[t];
+      postorder = size[t] == t - first[t] + 1;
+    }
+    Scratch main;
+    if (!postorder || BlasThreads() > 1) {
+      for (int t = nsuper_ - 1; t >= 0; --t) Supernode(t, main);
+      return diagonal_;
+    }
+    // The top of the tree in order, largest subtree first, until no subtree
+    // left holds more than half of what remains; then those subtrees shared
+    // by two threads, largest first to the one with less.
+    std::vector<int> frontier = roots;
+    const auto by_cost = [&](int a, int b) { return cost[a] < cost[b]; };
+    while (!frontier.empty()) {
+      const auto largest = std::max_element(frontier.begin(), frontier.end(), by_cost);
+      double total = 0;
+      for (int t : frontier) total += cost[t];
+      if (cost[*largest] <= total / 2 && frontier.size() >= 2) break;
+      const int t = *largest;
+      frontier.erase(largest);
+      Supernode(t, main);
+      frontier.insert(frontier.end(), children[t].begin(), children[t].end());
+    }
+    std::sort(frontier.begin(), frontier.end(), [&](int a, int b) { return cost[a] > cost[b]; });
+    std::vector<int> shares[2];
+    double load[2] = {0, 0};
+    for (int t : frontier) {
+      const int k = load[0] <= load[1] ? 0 : 1;
+      shares[k].push_back(t);
+      load[k] += cost[t];
+    }
+    const auto run = [&](const std::vector<int>& subtrees, Scratch& scratch) {
+      for (int root : subtrees) {
+        for (int t = root; t >= first[root]; --t) Supernode(t, scratch);
+      }
+    };
+    Scratch other;
+    std::thread second([&] { run(shares[1], other); });
+    run(shares[0], main);
+    second.join();
+    return diagonal_;
+  }
+
+ private:
+  struct Scratch {
+    std::vector<int> pos;
+    std::vector<double> zrr, u, zrs, inverse, zss;
+  };
+
+  void Supernode(int t, Scratch& s) {
+    const int w = super_[t + 1] - super_[t];
+    const int nr = pi_[t + 1] - pi_[t];
     const int r = nr - w;
-    const int* below = rows + pi[t] + w;
-    const Eigen::Map<const MatrixXd> l(lx + px[t], nr, w);
-    // Gather Z_RR (lower triangle, then mirrored), one later supernode at a
-    // time: R's columns in supernode T are consecutive, and the rows of R
-    // from there on all lie in T's row list.
-    zrr.resize(r, r);
+    const int* below = rows_ + pi_[t] + w;
+    const double* l = lx_ + px_[t];
+    const double one = 1.0, minus_one = -1.0, zero = 0.0;
+    // Gather Z_RR's lower triangle, one supernode above at a time: R's
+    // columns in supernode T are consecutive, and the rows of R from there
+    // on all lie in T's row list.
+    s.zrr.assign(static_cast<std::size_t>(r) * r, 0.0);
     for (int b = 0; b < r;) {
-      const int tt = super_of[below[b]];
-      const int* t_rows = rows + pi[tt];
-      const int t_nr = pi[tt + 1] - pi[tt];
+      const int tt = super_of_[below[b]];
+      const int* t_rows = rows_ + pi_[tt];
+      const int t_nr = pi_[tt + 1] - pi_[tt];
       int e = b;
-      while (e < r && below[e] < super[tt + 1]) ++e;
-      pos.resize(r - b);
+      while (e < r && below[e] < super_[tt + 1]) ++e;
+      s.pos.resize(r - b);
       for (int q = b, p = 0; q < r; ++q) {
         while (t_rows[p] < below[q]) ++p;
-        pos[q - b] = p;
+        s.pos[q - b] = p;
       }
       for (int a = b; a < e; ++a) {
         const double* column =
-            z.data() + px[tt] + static_cast<std::size_t>(below[a] - super[tt]) * t_nr;
-        for (int q = a; q < r; ++q) zrr(q, a) = column[pos[q - b]];
+            z_.data() + px_[tt] + static_cast<std::size_t>(below[a] - super_[tt]) * t_nr;
+        double* out = s.zrr.data() + static_cast<std::size_t>(a) * r;
+        for (int q = a; q < r; ++q) out[q] = column[s.pos[q - b]];
       }
       b = e;
     }
-    zrr.triangularView<Eigen::StrictlyUpper>() = zrr.transpose();
-    const auto lss = l.topRows(w).triangularView<Eigen::Lower>();
-    inverse = lss.solve(MatrixXd::Identity(w, w));
-    Eigen::Map<MatrixXd> zt(z.data() + px[t], nr, w);
+    // L_SS^-1 (a triangular solve against the identity), and Z_SS's lower
+    // triangle starting as L_SS^-T L_SS^-1.
+    s.inverse.assign(static_cast<std::size_t>(w) * w, 0.0);
+    for (int k = 0; k < w; ++k) s.inverse[static_cast<std::size_t>(k) * w + k] = 1.0;
+    dtrsm_("L", "L", "N", "N", &w, &w, &one, l, &nr, s.inverse.data(), &w);
+    s.zss.assign(static_cast<std::size_t>(w) * w, 0.0);
+    dsyrk_("L", "T", &w, &w, &one, s.inverse.data(), &w, &zero, s.zss.data(), &w);
+    double* zt = z_.data() + px_[t];
     if (r > 0) {
-      // u = L_RS L_SS^-1, zrs = -zrr u and Z_SS -= u^T zrs: the products
-      // that cost, on BLAS.
-      const double minus_one = -1.0, one = 1.0, zero = 0.0;
-      u.resize(r, w);
-      zrs.resize(r, w);
-      dgemm_("N", "N", &r, &w, &w, &one, lx + px[t] + w, &nr, inverse.data(), &w, &zero, u.data(),
+      // U = L_RS L_SS^-1, Z_RS = -Z_RR U (Z_RR symmetric, its lower
+      // triangle), Z_SS -= U^T Z_RS.
+      s.u.resize(static_cast<std::size_t>(r) * w);
+      for (int k = 0; k < w; ++k) {
+        std::copy_n(l + static_cast<std::size_t>(k) * nr + w, r,
+                    s.u.data() + static_cast<std::size_t>(k) * r);
+      }
+      dtrsm_("R", "L", "N", "N", &r, &w, &one, l, &nr, s.u.data(), &r);
+      s.zrs.resize(static_cast<std::size_t>(r) * w);
+      dsymm_("L", "L", &r, &w, &minus_one, s.zrr.data(), &r, s.u.data(), &r, &zero, s.zrs.data(),
              &r);
-      dgemm_("N", "N", &r, &w, &r, &minus_one, zrr.data(), &r, u.data(), &r, &zero, zrs.data(), &r);
-      zt.bottomRows(r) = zrs;
-      inverse_product.noalias() = inverse.transpose() * inverse;
-      dgemm_("T", "N", &w, &w, &r, &minus_one, u.data(), &r, zrs.data(), &r, &one,
-             inverse_product.data(), &w);
-      zt.topRows(w) = inverse_product;
-    } else {
-      zt.topRows(w).noalias() = inverse.transpose() * inverse;
+      dgemm_("T", "N", &w, &w, &r, &minus_one, s.u.data(), &r, s.zrs.data(), &r, &one, s.zss.data(),
+             &w);
+      for (int k = 0; k < w; ++k) {
+        std::copy_n(s.zrs.data() + static_cast<std::size_t>(k) * r, r,
+                    zt + static_cast<std::size_t>(k) * nr + w);
+      }
     }
-    for (int k = 0; k < w; ++k) diagonal[super[t] + k] = zt(k, k);
+    for (int k = 0; k < w; ++k) {
+      std::copy_n(s.zss.data() + static_cast<std::size_t>(k) * w, w,
+                  zt + static_cast<std::size_t>(k) * nr);
+      diagonal_[super_[t] + k] = s.zss[static_cast<std::size_t>(k) * w + k];
+    }
   }
-  return diagonal;
-}
+
+  const int n_;
+  const int nsuper_;
+  const int* const super_;
+  const int* const pi_;
+  const int* const px_;
+  const int* const rows_;
+  const double* const lx_;
+  std::vector<int> super_of_;
+  std::vector<double> z_;
+  Eigen::VectorXd diagonal_;
+};
+
+Eigen::VectorXd SupernodalTakahashiDiagonal(const cholmod_factor& f) { return Takahashi(f).Run(); }
 
 }  // namespace
 
