@@ -218,6 +218,44 @@ TEST_F(TakeoverTest, ALiveHolderKeepsItsMissionUntilItStops) {
   EXPECT_EQ(b_->registry().takeovers(), 1);
 }
 
+// A SQLite store in a folder of its own, removed with it: two or three
+// registries share it, without servers, so that a test says when each one
+// heartbeats and what it writes.
+struct FolderStore {
+  explicit FolderStore(const std::string& name)
+      : dir(std::filesystem::temp_directory_path() / absl::StrCat(name, "-", getpid())) {
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    absl::StatusOr<std::unique_ptr<MissionStore>> opened =
+        OpenSqliteStore((dir / "missions.db").string());
+    EXPECT_TRUE(opened.ok()) << opened.status();
+    if (opened.ok()) store = *std::move(opened);
+  }
+  ~FolderStore() {
+    store.reset();
+    std::filesystem::remove_all(dir);
+  }
+  std::filesystem::path dir;
+  std::unique_ptr<MissionStore> store;
+};
+
+// Measurement k (request r<k>) of a mission as its holder applies and stores
+// it, at x along the field.
+void StoreMeasurement(MissionStore& store, Mission& mission, int k, double x) {
+  v1::AddMeasurementRequest request =
+      testing::LabelMeasurement("missions/" + mission.id(), x, 1.0, 8.0, 2.0 * k, k % 2);
+  request.set_request_id(absl::StrCat("r", k));
+  absl::StatusOr<MeasurementInput> input = api::MeasurementFromProto(request);
+  ASSERT_TRUE(input.ok()) << input.status();
+  const std::string fingerprint = absl::StrCat("f", k);
+  ASSERT_TRUE(
+      mission
+          .AddMeasurement(*input, {request.request_id(), fingerprint},
+                          service_internal::Recorder(&store, mission, RecordKind::kMeasurement,
+                                                     request, fingerprint))
+          .ok());
+}
+
 // A holder that dies (its heartbeats stop) while a call for its mission
 // reaches another server: that server reads and rebuilds the mission while
 // it waits for the holder to be found silent, then claims only what was
@@ -225,13 +263,9 @@ TEST_F(TakeoverTest, ALiveHolderKeepsItsMissionUntilItStops) {
 // the early read. Two registries on one store, without servers, so that
 // the test says when "a" heartbeats (once) and what it writes.
 TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / absl::StrCat("oaipp-early-read-", getpid());
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  absl::StatusOr<std::unique_ptr<MissionStore>> store =
-      OpenSqliteStore((dir / "missions.db").string());
-  ASSERT_TRUE(store.ok()) << store.status();
+  FolderStore folder("oaipp-early-read");
+  ASSERT_NE(folder.store, nullptr);
+  MissionStore* const store = folder.store.get();
   // silent_after longer than a server's 500 ms, so that the steps below
   // keep their order under the sanitizers' slowness too.
   const RegistryLimits limits{.max_missions = 8,
@@ -241,35 +275,21 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
   RegistryLimits a_limits = limits, b_limits = limits;
   a_limits.holder = "a";
   b_limits.holder = "b";
-  MissionRegistry a(a_limits, store->get()), b(b_limits, store->get());
+  MissionRegistry a(a_limits, store), b(b_limits, store);
 
   // "a" creates the mission and stores three measurements.
   absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(testing::SmallSpec());
   ASSERT_TRUE(config.ok()) << config.status();
   absl::StatusOr<std::shared_ptr<Mission>> held = a.Create("m", *config, "create-m");
   ASSERT_TRUE(held.ok()) << held.status();
-  const auto measure = [&](int k) {
-    v1::AddMeasurementRequest request =
-        testing::LabelMeasurement("missions/m", -6.0 + 3 * k, 1.0, 8.0, 2.0 * k, k % 2);
-    request.set_request_id(absl::StrCat("r", k));
-    absl::StatusOr<MeasurementInput> input = api::MeasurementFromProto(request);
-    ASSERT_TRUE(input.ok()) << input.status();
-    const std::string fingerprint = absl::StrCat("f", k);
-    ASSERT_TRUE((*held)
-                    ->AddMeasurement(
-                        *input, {request.request_id(), fingerprint},
-                        service_internal::Recorder(store->get(), **held, RecordKind::kMeasurement,
-                                                   request, fingerprint))
-                    .ok());
-  };
+  const auto measure = [&](int k) { StoreMeasurement(*store, **held, k, -6.0 + 3 * k); };
   for (int k = 0; k < 3; ++k) measure(k);
 
   // "a" says once that it is alive for silent_after, and a call reaches
   // "b": "b" waits for "a" to fall silent, reading the mission once "a" has
   // missed two heartbeats (after 2/5 of silent_after). "a" stores one more
   // measurement after that (at 3/5), before it is found silent.
-  ASSERT_TRUE(
-      (*store)->Heartbeat("a", absl::ToUnixMicros(absl::Now() + limits.silent_after), 0).ok());
+  ASSERT_TRUE(store->Heartbeat("a", absl::ToUnixMicros(absl::Now() + limits.silent_after), 0).ok());
   absl::StatusOr<std::shared_ptr<Mission>> taken;
   std::thread call([&] { taken = b.Get("missions/m"); });
   absl::SleepFor(limits.silent_after * 3 / 5);
@@ -288,7 +308,6 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
       EXPECT_EQ(got.Covariance(), want.Covariance());
     });
   });
-  std::filesystem::remove_all(dir);
 }
 
 // Warm standbys: with three registries on one store, "a" (ring id 1) holds
@@ -300,13 +319,9 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
 // the record written after its last look, and ends with "a"'s map bit for
 // bit.
 TEST(StandbyTest, TheRingsSuccessorFollowsAMissionAndTakesItOverFromThere) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / absl::StrCat("oaipp-standby-", getpid());
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  absl::StatusOr<std::unique_ptr<MissionStore>> store =
-      OpenSqliteStore((dir / "missions.db").string());
-  ASSERT_TRUE(store.ok()) << store.status();
+  FolderStore folder("oaipp-standby");
+  ASSERT_NE(folder.store, nullptr);
+  MissionStore* const store = folder.store.get();
   std::vector<std::unique_ptr<MissionRegistry>> servers;
   for (int id = 1; id <= 3; ++id) {
     RegistryLimits limits{.max_missions = 8,
@@ -315,7 +330,7 @@ TEST(StandbyTest, TheRingsSuccessorFollowsAMissionAndTakesItOverFromThere) {
                           .holder = std::string(1, static_cast<char>('a' + id - 1)),
                           .silent_after = absl::Seconds(1),
                           .ring_id = id};
-    servers.push_back(std::make_unique<MissionRegistry>(limits, store->get()));
+    servers.push_back(std::make_unique<MissionRegistry>(limits, store));
   }
   MissionRegistry& a = *servers[0];
   MissionRegistry& b = *servers[1];
@@ -324,7 +339,7 @@ TEST(StandbyTest, TheRingsSuccessorFollowsAMissionAndTakesItOverFromThere) {
   // makes it); "a" until it is made to fall silent below.
   const auto alive = [&](const std::string& holder, int ring_id, absl::Duration for_how_long) {
     ASSERT_TRUE(
-        (*store)->Heartbeat(holder, absl::ToUnixMicros(absl::Now() + for_how_long), ring_id).ok());
+        store->Heartbeat(holder, absl::ToUnixMicros(absl::Now() + for_how_long), ring_id).ok());
   };
   alive("a", 1, absl::Minutes(10));
   alive("b", 2, absl::Minutes(10));
@@ -341,18 +356,7 @@ TEST(StandbyTest, TheRingsSuccessorFollowsAMissionAndTakesItOverFromThere) {
   int measured = 0;
   const auto measure = [&](Mission& mission) {
     const int k = measured++;
-    v1::AddMeasurementRequest request = testing::LabelMeasurement(
-        "missions/" + mission.id(), -6.0 + k % 5, 1.0, 8.0, 2.0 * k, k % 2);
-    request.set_request_id(absl::StrCat("r", k));
-    absl::StatusOr<MeasurementInput> input = api::MeasurementFromProto(request);
-    ASSERT_TRUE(input.ok()) << input.status();
-    const std::string fingerprint = absl::StrCat("f", k);
-    ASSERT_TRUE(mission
-                    .AddMeasurement(
-                        *input, {request.request_id(), fingerprint},
-                        service_internal::Recorder(store->get(), mission, RecordKind::kMeasurement,
-                                                   request, fingerprint))
-                    .ok());
+    StoreMeasurement(*store, mission, k, -6.0 + k % 5);
   };
   for (int k = 0; k < 3; ++k) {
     measure(*held[0]);
@@ -396,7 +400,6 @@ TEST(StandbyTest, TheRingsSuccessorFollowsAMissionAndTakesItOverFromThere) {
   ASSERT_TRUE(taken.ok()) << taken.status();
   EXPECT_EQ(c.takeovers_from_standby(), 1);
   EXPECT_EQ((*taken)->Snapshot().measurements_fused, 3);
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
