@@ -194,6 +194,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
     }
     missions_[key] = nullptr;  // reserve the id while the map is built
     building_bytes_[key] = estimate;
+    TrimStandbys();
   }
   // Whatever happens while the mission is built (an error, or an exception
   // such as running out of memory), a reservation that did not become a
@@ -248,6 +249,7 @@ void MissionRegistry::Register(const std::string& key, std::shared_ptr<Mission> 
     number_of_[key] = next_number_;
     order_[next_number_++] = key;
   }
+  TrimStandbys();  // a mission taken over may need what a standby holds
 }
 
 std::shared_ptr<Mission> MissionRegistry::Find(const std::string& key) const {

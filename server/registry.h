@@ -310,6 +310,10 @@ class MissionRegistry {
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(standby.mu);
   // The standby of `key`, taken out of the map (nullptr without one).
   std::shared_ptr<Standby> TakeStandby(const std::string& key);
+  // Standbys give way to missions: drops them (the last keys first) until
+  // what the missions held and being built need and what the standbys hold
+  // fit max_memory_bytes again.
+  void TrimStandbys() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Gives a mission's config this server's settings (RegistryLimits).
   void ApplyServerSettings(MissionConfig& config) const;
   // The mission held under `key`, or nullptr.

@@ -131,6 +131,18 @@ std::shared_ptr<MissionRegistry::Standby> MissionRegistry::TakeStandby(const std
   return standby;
 }
 
+void MissionRegistry::TrimStandbys() {
+  if (limits_.max_memory_bytes <= 0 || standbys_.empty()) return;
+  std::int64_t standing = 0;
+  for (const auto& [key, standby] : standbys_) standing += standby->bytes;
+  const std::int64_t reserved = ReservedBytes();
+  while (!standbys_.empty() && reserved + standing > limits_.max_memory_bytes) {
+    const auto last = std::prev(standbys_.end());
+    standing -= last->second->bytes;
+    standbys_.erase(last);
+  }
+}
+
 int MissionRegistry::standbys() const {
   absl::MutexLock lock(&mu_);
   return static_cast<int>(standbys_.size());

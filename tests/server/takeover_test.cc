@@ -402,5 +402,41 @@ TEST(StandbyTest, TheRingsSuccessorFollowsAMissionAndTakesItOverFromThere) {
   EXPECT_EQ((*taken)->Snapshot().measurements_fused, 3);
 }
 
+// Standbys give way to missions: "b", with memory for two missions, stands
+// by for one of "a"'s; when it creates two of its own, the standby goes
+// (what it holds and stands by for would not fit), and "b" does not stand by
+// again while they are there.
+TEST(StandbyTest, StandbysGiveWayToTheMissionsAServerHolds) {
+  FolderStore folder("oaipp-standby-memory");
+  ASSERT_NE(folder.store, nullptr);
+  MissionStore* const store = folder.store.get();
+  absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(testing::SmallSpec());
+  ASSERT_TRUE(config.ok()) << config.status();
+  const std::int64_t mission_bytes = EstimateMissionBytes(*config).total();
+  const auto limits = [&](const std::string& holder, int ring_id) {
+    return RegistryLimits{.max_missions = 8,
+                          .max_cells_per_mission = 1600,
+                          .max_memory_bytes = 2 * mission_bytes + mission_bytes / 2,
+                          .shared_store = true,
+                          .holder = holder,
+                          .ring_id = ring_id};
+  };
+  MissionRegistry a(limits("a", 1), store), b(limits("b", 2), store);
+  for (const auto& [holder, ring_id] : {std::pair<std::string, int>{"a", 1}, {"b", 2}}) {
+    ASSERT_TRUE(
+        store->Heartbeat(holder, absl::ToUnixMicros(absl::Now() + absl::Minutes(10)), ring_id)
+            .ok());
+  }
+  ASSERT_TRUE(a.Create("m-10", *config, "create-m-10").ok());
+  b.KeepStandbys();
+  EXPECT_EQ(b.standbys(), 1);  // with only "b" left, the ring sends everything to it
+  ASSERT_TRUE(b.Create("b-1", *config, "create-b-1").ok());
+  EXPECT_EQ(b.standbys(), 1);  // one held, one standing by: 2 of 2.5
+  ASSERT_TRUE(b.Create("b-2", *config, "create-b-2").ok());
+  EXPECT_EQ(b.standbys(), 0);
+  b.KeepStandbys();
+  EXPECT_EQ(b.standbys(), 0);
+}
+
 }  // namespace
 }  // namespace oaipp::server
