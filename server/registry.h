@@ -301,6 +301,8 @@ class MissionRegistry {
   struct Standby {
     absl::Mutex mu;
     std::optional<ReadBack> read ABSL_GUARDED_BY(mu);
+    // A takeover has it: KeepStandbys must not read the mission again.
+    bool taken ABSL_GUARDED_BY(mu) = false;
     std::int64_t bytes = 0;  // its memory estimate, once read (under the registry's mu_)
   };
   // Brings `standby` of `key` up to `last_sequence`: the whole mission the

@@ -83,6 +83,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
       absl::MutexLock lock(&standby->mu);
       if (standby->read.has_value()) warm = std::move(*standby->read);
       standby->read.reset();
+      standby->taken = true;
     }
     std::future<absl::StatusOr<ReadBack>> early;
     if (absl::Status leased = AcquireLease(key, name,
@@ -97,6 +98,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
         // Still standing by (its holder is alive): kept for next time.
         absl::MutexLock lock(&standby->mu);
         standby->read = *std::move(warm);
+        standby->taken = false;
         absl::MutexLock registry_lock(&mu_);
         standbys_.try_emplace(key, standby);
       }

@@ -77,6 +77,7 @@ void MissionRegistry::KeepStandbys() {
     absl::Status followed;
     {
       absl::MutexLock lock(&standby->mu);
+      if (standby->taken) continue;  // a takeover is reading it already
       followed = Follow(key, *standby, wanted[key]);
       if (!followed.ok()) standby->read.reset();
     }
