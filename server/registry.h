@@ -316,6 +316,8 @@ class MissionRegistry {
   // what the missions held and being built need and what the standbys hold
   // fit max_memory_bytes again.
   void TrimStandbys() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // What the standbys hold, by their estimates.
+  std::int64_t StandbyBytes() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Gives a mission's config this server's settings (RegistryLimits).
   void ApplyServerSettings(MissionConfig& config) const;
   // The mission held under `key`, or nullptr.

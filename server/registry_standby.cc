@@ -99,10 +99,8 @@ absl::Status MissionRegistry::Follow(const std::string& key, Standby& standby,
     const std::int64_t bytes = EstimateMissionBytes(read.mission->config()).total();
     {
       absl::MutexLock lock(&mu_);
-      std::int64_t standing = 0;
-      for (const auto& [other, s] : standbys_) standing += s->bytes;
       if (limits_.max_memory_bytes > 0 &&
-          ReservedBytes() + standing + bytes > limits_.max_memory_bytes) {
+          ReservedBytes() + StandbyBytes() + bytes > limits_.max_memory_bytes) {
         return absl::ResourceExhaustedError("no memory left to stand by for it");
       }
       standby.bytes = bytes;
@@ -134,14 +132,19 @@ std::shared_ptr<MissionRegistry::Standby> MissionRegistry::TakeStandby(const std
 
 void MissionRegistry::TrimStandbys() {
   if (limits_.max_memory_bytes <= 0 || standbys_.empty()) return;
-  std::int64_t standing = 0;
-  for (const auto& [key, standby] : standbys_) standing += standby->bytes;
+  std::int64_t standing = StandbyBytes();
   const std::int64_t reserved = ReservedBytes();
   while (!standbys_.empty() && reserved + standing > limits_.max_memory_bytes) {
     const auto last = std::prev(standbys_.end());
     standing -= last->second->bytes;
     standbys_.erase(last);
   }
+}
+
+std::int64_t MissionRegistry::StandbyBytes() const {
+  std::int64_t total = 0;
+  for (const auto& [key, standby] : standbys_) total += standby->bytes;
+  return total;
 }
 
 int MissionRegistry::standbys() const {

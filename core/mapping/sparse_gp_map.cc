@@ -198,7 +198,7 @@ class Takahashi {
     // Gather Z_RR's lower triangle, one supernode above at a time: R's
     // columns in supernode T are consecutive, and the rows of R from there
     // on all lie in T's row list.
-    s.zrr.assign(static_cast<std::size_t>(r) * r, 0.0);
+    s.zrr.resize(static_cast<std::size_t>(r) * r);  // its lower triangle is written and read
     for (int b = 0; b < r;) {
       const int tt = super_of_[below[b]];
       const int* t_rows = rows_ + pi_[tt];

@@ -255,13 +255,7 @@ class PostgresStore final : public MissionStore {
   }
 
   absl::StatusOr<StoredMission> Load(const std::string& mission_id) override {
-    const std::string what = absl::StrCat("load mission '", Printable(mission_id), "'");
-    return Call(what, [&](pqxx::connection& conn, CallState&) -> absl::StatusOr<StoredMission> {
-      ReadOnly tx(conn);
-      OAIPP_ASSIGN_OR_RETURN(std::vector<StoredMission> found, LoadMissions(tx, &mission_id));
-      if (found.empty()) return NoMission(what);
-      return std::move(found.front());
-    });
+    return LoadAfter(mission_id, 0);
   }
 
   absl::StatusOr<StoredMission> LoadAfter(const std::string& mission_id,

@@ -2,6 +2,10 @@
 // older file up to them. Internal to server/store/.
 #pragma once
 
+#include <sqlite3.h>
+
+#include "absl/status/status.h"
+
 namespace oaipp::server::sqlite {
 
 // The schema version this code reads and writes (PRAGMA user_version).
@@ -66,5 +70,10 @@ ALTER TABLE deletions ADD COLUMN time_us INTEGER NOT NULL DEFAULT 0;
 inline constexpr const char* kFromVersion2 = R"sql(
 ALTER TABLE missions ADD COLUMN epoch INTEGER NOT NULL DEFAULT 1;
 )sql";
+
+// Sets the connection up (WAL, full sync, foreign keys) and creates the
+// tables or brings an older file up to kSchemaVersion; FailedPrecondition
+// for a file a newer server wrote (sqlite_schema.cc).
+[[nodiscard]] absl::Status OpenSchema(sqlite3* db);
 
 }  // namespace oaipp::server::sqlite

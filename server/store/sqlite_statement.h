@@ -28,6 +28,12 @@ inline absl::Status SqliteError(sqlite3* db, int code, absl::string_view what) {
   }
 }
 
+// Runs `sql` (statements without results); the error names `what`.
+inline absl::Status Exec(sqlite3* db, const char* sql, absl::string_view what) {
+  const int code = sqlite3_exec(db, sql, nullptr, nullptr, nullptr);
+  return code == SQLITE_OK ? absl::OkStatus() : SqliteError(db, code, what);
+}
+
 // A prepared statement, finalized when it goes out of scope.
 class Statement {
  public:

@@ -17,8 +17,6 @@
 namespace oaipp::server {
 namespace {
 
-using sqlite::kFromVersion1;
-using sqlite::kFromVersion2;
 using sqlite::SqliteError;
 using sqlite::Statement;
 
@@ -41,59 +39,7 @@ class SqliteStore final : public MissionStore {
 
   absl::Status Init() {
     absl::MutexLock lock(&mu_);
-    OAIPP_RETURN_IF_ERROR(Exec("PRAGMA journal_mode=WAL", "journal mode"));
-    OAIPP_RETURN_IF_ERROR(Exec("PRAGMA synchronous=FULL", "synchronous"));
-    OAIPP_RETURN_IF_ERROR(Exec("PRAGMA foreign_keys=ON", "foreign keys"));
-    std::int64_t version = 0;
-    {
-      Statement s(db_, "PRAGMA user_version");
-      OAIPP_RETURN_IF_ERROR(s.prepared("schema version"));
-      if (s.Step() == SQLITE_ROW) version = s.Int(0);
-    }
-    if (version > sqlite::kSchemaVersion) {
-      return absl::FailedPreconditionError(
-          absl::StrCat("store: the file has schema version ", version, "; this server reads up to ",
-                       sqlite::kSchemaVersion, " (a newer server wrote it)"));
-    }
-    bool had_missions = false;
-    {
-      Statement s(db_, "SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'missions'");
-      OAIPP_RETURN_IF_ERROR(s.prepared("schema"));
-      had_missions = s.Step() == SQLITE_ROW;
-    }
-    if (version == sqlite::kSchemaVersion) {
-      OAIPP_RETURN_IF_ERROR(Exec(sqlite::kSchema, "schema"));
-      return AddRingIds();
-    }
-    OAIPP_RETURN_IF_ERROR(Exec("BEGIN IMMEDIATE", "schema"));
-    absl::Status status = [&]() -> absl::Status {
-      // A file of version 0 with tables is a version 1 file (it predates
-      // the version number).
-      if (had_missions && version <= 1) {
-        OAIPP_RETURN_IF_ERROR(Exec(kFromVersion1, "schema upgrade"));
-      }
-      if (had_missions && version <= 2) {
-        OAIPP_RETURN_IF_ERROR(Exec(kFromVersion2, "schema upgrade"));
-      }
-      OAIPP_RETURN_IF_ERROR(Exec(sqlite::kSchema, "schema"));
-      return Exec(absl::StrCat("PRAGMA user_version = ", sqlite::kSchemaVersion).c_str(), "schema");
-    }();
-    if (!status.ok()) {
-      (void)Exec("ROLLBACK", "schema");
-      return status;
-    }
-    OAIPP_RETURN_IF_ERROR(Exec("COMMIT", "schema"));
-    return AddRingIds();
-  }
-
-  // The servers' ring ids came after the table of the servers alive (whose
-  // rows are heartbeats, not data): the column is added where it is missing.
-  absl::Status AddRingIds() {
-    Statement s(db_, "SELECT 1 FROM pragma_table_info('alive') WHERE name = 'ring_id'");
-    OAIPP_RETURN_IF_ERROR(s.prepared("schema"));
-    if (s.Step() == SQLITE_ROW) return absl::OkStatus();
-    return Exec("ALTER TABLE alive ADD COLUMN ring_id INTEGER NOT NULL DEFAULT 0",
-                "schema upgrade");
+    return sqlite::OpenSchema(db_);
   }
 
   absl::StatusOr<std::int64_t> NextMissionNumber() override {
@@ -561,8 +507,7 @@ class SqliteStore final : public MissionStore {
     return status;
   }
   absl::Status Exec(const char* sql, absl::string_view what) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {
-    const int code = sqlite3_exec(db_, sql, nullptr, nullptr, nullptr);
-    return code == SQLITE_OK ? absl::OkStatus() : SqliteError(db_, code, what);
+    return sqlite::Exec(db_, sql, what);
   }
   absl::StatusOr<std::int64_t> EpochLocked(const std::string& mission_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_) {

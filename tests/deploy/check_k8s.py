@@ -1187,8 +1187,7 @@ def check_server_line(ov, cfg, sv, options, host, swhere, ids):
         return errors
     if not re.fullmatch(rf"{re.escape(sts)}-[0-9]+", pod):
         errors.append(f"{swhere}: {pod} is not a pod of the StatefulSet {sts}")
-    elif s is not None and hasattr(s, "bool") and s.bool("ring_id_from_ordinal") and \
-            sid is not None and sid != str(int(pod.rsplit("-", 1)[1]) + 1):
+    elif s.bool("ring_id_from_ordinal") and sid is not None and sid != str(int(pod.rsplit("-", 1)[1]) + 1):
         errors.append(f"{swhere}: id {sid}, but {pod} stands by as ring id "
                       f"{int(pod.rsplit('-', 1)[1]) + 1} (--ring_id_from_ordinal: its ordinal "
                       "plus one)")
