@@ -3,6 +3,7 @@
 #include <dlfcn.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numeric>
 #include <thread>
@@ -13,8 +14,8 @@
 #include "cholmod.h"
 #include "core/common/status_macros.h"
 
-// The reference BLAS interface (Fortran symbols), as CHOLMOD itself calls
-// it: Debian resolves libblas.so.3 to OpenBLAS when it is installed, with
+// The reference BLAS and LAPACK interfaces (Fortran symbols), as CHOLMOD
+// itself calls them: Debian resolves libblas.so.3 to OpenBLAS when it is installed, with
 // kernels for the CPU at hand, where Eigen's own product is built for
 // generic x86-64.
 extern "C" {
@@ -24,11 +25,13 @@ void dgemm_(const char* transa, const char* transb, const int* m, const int* n, 
 void dsymm_(const char* side, const char* uplo, const int* m, const int* n, const double* alpha,
             const double* a, const int* lda, const double* b, const int* ldb, const double* beta,
             double* c, const int* ldc);
-void dsyrk_(const char* uplo, const char* trans, const int* n, const int* k, const double* alpha,
-            const double* a, const int* lda, const double* beta, double* c, const int* ldc);
 void dtrsm_(const char* side, const char* uplo, const char* transa, const char* diag, const int* m,
             const int* n, const double* alpha, const double* a, const int* lda, double* b,
             const int* ldb);
+// LAPACK: a triangular matrix's inverse, and L^T L of a lower triangle, in place.
+void dtrtri_(const char* uplo, const char* diag, const int* n, double* a, const int* lda,
+             int* info);
+void dlauum_(const char* uplo, const int* n, double* a, const int* lda, int* info);
 }
 
 namespace oaipp {
@@ -144,7 +147,7 @@ class Takahashi {
     }
     Scratch main;
     if (!postorder || BlasThreads() > 1) {
-      for (int t = nsuper_ - 1; t >= 0; --t) Supernode(t, main);
+      for (int t = nsuper_ - 1; t >= 0; --t) Supernode(t, main, /*split=*/false);
       return diagonal_;
     }
     // The top of the tree in order, largest subtree first, until no subtree
@@ -159,7 +162,7 @@ class Takahashi {
       if (cost[*largest] <= total / 2 && frontier.size() >= 2) break;
       const int t = *largest;
       frontier.erase(largest);
-      Supernode(t, main);
+      Supernode(t, main, /*split=*/true);
       frontier.insert(frontier.end(), children[t].begin(), children[t].end());
     }
     std::sort(frontier.begin(), frontier.end(), [&](int a, int b) { return cost[a] > cost[b]; });
@@ -172,7 +175,7 @@ class Takahashi {
     }
     const auto run = [&](const std::vector<int>& subtrees, Scratch& scratch) {
       for (int root : subtrees) {
-        for (int t = root; t >= first[root]; --t) Supernode(t, scratch);
+        for (int t = root; t >= first[root]; --t) Supernode(t, scratch, /*split=*/false);
       }
     };
     Scratch other;
@@ -182,13 +185,33 @@ class Takahashi {
     return diagonal_;
   }
 
+  // Whether every diagonal block was inverted (false for a singular factor).
+  [[nodiscard]] bool ok() const { return ok_; }
+
  private:
   struct Scratch {
     std::vector<int> pos;
-    std::vector<double> zrr, u, zrs, inverse, zss;
+    std::vector<double> zrr, u, zrs, zss;
   };
 
-  void Supernode(int t, Scratch& s) {
+  // f(begin, count) over [0, n): in two halves at once when `split`, the
+  // second on a thread of its own (each calling the one-threaded BLAS).
+  template <typename F>
+  static void Halves(bool split, int n, const F& f) {
+    if (!split || n < 2) {
+      f(0, n);
+      return;
+    }
+    const int half = n / 2;
+    std::thread other([&] { f(half, n - half); });
+    f(0, half);
+    other.join();
+  }
+
+  // One supernode's step. With `split`, its products are shared by two
+  // threads (the top of the tree, which runs alone), when large enough to
+  // pay for a thread.
+  void Supernode(int t, Scratch& s, bool split) {
     const int w = super_[t + 1] - super_[t];
     const int nr = pi_[t + 1] - pi_[t];
     const int r = nr - w;
@@ -218,13 +241,18 @@ class Takahashi {
       }
       b = e;
     }
-    // L_SS^-1 (a triangular solve against the identity), and Z_SS's lower
-    // triangle starting as L_SS^-T L_SS^-1.
-    s.inverse.assign(static_cast<std::size_t>(w) * w, 0.0);
-    for (int k = 0; k < w; ++k) s.inverse[static_cast<std::size_t>(k) * w + k] = 1.0;
-    dtrsm_("L", "L", "N", "N", &w, &w, &one, l, &nr, s.inverse.data(), &w);
+    // Z_SS's lower triangle starting as L_SS^-T L_SS^-1: LAPACK's
+    // triangular inverse and its L^T L, in place (a third of the work of a
+    // solve against the identity and a rank-k update).
     s.zss.assign(static_cast<std::size_t>(w) * w, 0.0);
-    dsyrk_("L", "T", &w, &w, &one, s.inverse.data(), &w, &zero, s.zss.data(), &w);
+    for (int k = 0; k < w; ++k) {
+      std::copy_n(l + static_cast<std::size_t>(k) * nr + k, w - k,
+                  s.zss.data() + static_cast<std::size_t>(k) * w + k);
+    }
+    int info = 0;
+    dtrtri_("L", "N", &w, s.zss.data(), &w, &info);
+    if (info == 0) dlauum_("L", &w, s.zss.data(), &w, &info);
+    if (info != 0) ok_ = false;
     double* zt = z_.data() + px_[t];
     if (r > 0) {
       // U = L_RS L_SS^-1, Z_RS = -Z_RR U (Z_RR symmetric, its lower
@@ -234,12 +262,19 @@ class Takahashi {
         std::copy_n(l + static_cast<std::size_t>(k) * nr + w, r,
                     s.u.data() + static_cast<std::size_t>(k) * r);
       }
-      dtrsm_("R", "L", "N", "N", &r, &w, &one, l, &nr, s.u.data(), &r);
+      // Shared by rows of U, then by columns of Z_RS and of Z_SS.
+      const bool large = split && static_cast<double>(r) * r * w > kSplitFlops;
+      Halves(large, r, [&](int a, int m) {
+        dtrsm_("R", "L", "N", "N", &m, &w, &one, l, &nr, s.u.data() + a, &r);
+      });
       s.zrs.resize(static_cast<std::size_t>(r) * w);
-      dsymm_("L", "L", &r, &w, &minus_one, s.zrr.data(), &r, s.u.data(), &r, &zero, s.zrs.data(),
-             &r);
-      dgemm_("T", "N", &w, &w, &r, &minus_one, s.u.data(), &r, s.zrs.data(), &r, &one, s.zss.data(),
-             &w);
+      Halves(large, w, [&](int c, int m) {
+        const std::size_t at = static_cast<std::size_t>(c) * r;
+        dsymm_("L", "L", &r, &m, &minus_one, s.zrr.data(), &r, s.u.data() + at, &r, &zero,
+               s.zrs.data() + at, &r);
+        dgemm_("T", "N", &w, &m, &r, &minus_one, s.u.data(), &r, s.zrs.data() + at, &r, &one,
+               s.zss.data() + static_cast<std::size_t>(c) * w, &w);
+      });
       for (int k = 0; k < w; ++k) {
         std::copy_n(s.zrs.data() + static_cast<std::size_t>(k) * r, r,
                     zt + static_cast<std::size_t>(k) * nr + w);
@@ -252,6 +287,10 @@ class Takahashi {
     }
   }
 
+  // A supernode's products are split over two threads above this many
+  // multiply-adds (r^2 w, the symmetric product's): about a millisecond.
+  static constexpr double kSplitFlops = 4e6;
+
   const int n_;
   const int nsuper_;
   const int* const super_;
@@ -262,9 +301,17 @@ class Takahashi {
   std::vector<int> super_of_;
   std::vector<double> z_;
   Eigen::VectorXd diagonal_;
+  std::atomic<bool> ok_{true};  // every diagonal block inverted (both threads write it)
 };
 
-Eigen::VectorXd SupernodalTakahashiDiagonal(const cholmod_factor& f) { return Takahashi(f).Run(); }
+absl::StatusOr<Eigen::VectorXd> SupernodalTakahashiDiagonal(const cholmod_factor& f) {
+  Takahashi takahashi(f);
+  Eigen::VectorXd diagonal = takahashi.Run();
+  if (!takahashi.ok()) {
+    return absl::InternalError("selected inversion: a diagonal block of the factor is singular");
+  }
+  return diagonal;
+}
 
 }  // namespace
 
@@ -417,7 +464,7 @@ absl::StatusOr<Eigen::VectorXd> SparseGpMap::Variances() const {
   OAIPP_RETURN_IF_ERROR(Refresh());
   if (variances_ != nullptr) return *variances_;
   const cholmod_factor& f = *cholmod_->factor;
-  const Eigen::VectorXd pivoted = SupernodalTakahashiDiagonal(f);
+  OAIPP_ASSIGN_OR_RETURN(const Eigen::VectorXd pivoted, SupernodalTakahashiDiagonal(f));
   Eigen::VectorXd states(pivoted.size());
   const int* perm = static_cast<const int*>(f.Perm);
   for (Eigen::Index k = 0; k < pivoted.size(); ++k) states[perm[k]] = pivoted[k];
