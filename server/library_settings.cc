@@ -1,4 +1,4 @@
-#include "server/openblas_kernels.h"
+#include "server/library_settings.h"
 
 #include <unistd.h>
 
@@ -7,15 +7,23 @@
 #include "core/mapping/dense_backend.h"
 
 namespace oaipp::server {
+namespace {
 
-void RestartWithOpenBlasKernels(char** argv) {
-  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return;
-  const char* core = OpenBlasCoreTypeForThisCpu();
-  if (core == nullptr || setenv("OPENBLAS_CORETYPE", core, 0) != 0) return;
-  // Read when the library loads, like the kernels: no thread pool to start.
-  setenv("OPENBLAS_NUM_THREADS", "1", 0);
-  execv("/proc/self/exe", argv);
-  // Still here: the restart failed; go on with what OpenBLAS picked.
+// Sets `name` to `value` unless it is set; true when it set it.
+bool SetIfUnset(const char* name, const char* value) {
+  return std::getenv(name) == nullptr && value != nullptr && setenv(name, value, 0) == 0;
+}
+
+}  // namespace
+
+void RestartWithLibrarySettings(char** argv) {
+  bool changed = SetIfUnset("OPENBLAS_CORETYPE", OpenBlasCoreTypeForThisCpu());
+  changed = SetIfUnset("OPENBLAS_NUM_THREADS", "1") || changed;
+  changed = SetIfUnset("OMP_THREAD_LIMIT", "1") || changed;
+  // After the restart every variable is set (or, for the kernels, has no
+  // better value), so this returns there.
+  if (changed) execv("/proc/self/exe", argv);
+  // Still here: nothing to change, or the restart failed.
 }
 
 }  // namespace oaipp::server

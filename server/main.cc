@@ -17,7 +17,7 @@
 #include "absl/flags/parse.h"
 #include "google/protobuf/stubs/logging.h"
 #include "server/flags/flags.h"
-#include "server/openblas_kernels.h"
+#include "server/library_settings.h"
 #include "server/server.h"
 #include "server/stop_signals.h"
 #include "spdlog/spdlog.h"
@@ -32,8 +32,8 @@ int ExitCode(const absl::Status& status) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // OpenBLAS picks its kernels when it is loaded, with the program.
-  oaipp::server::RestartWithOpenBlasKernels(argv);
+  // OpenBLAS and OpenMP read their settings when they are loaded, with the program.
+  oaipp::server::RestartWithLibrarySettings(argv);
   oaipp::server::SetServerFlagsUsage(
       "OA-IPP planning service (oaipp.v1.MissionService)\n\n"
       "  oaipp-server --listen=127.0.0.1:50051 --data_dir=./data\n\n"

@@ -30,7 +30,7 @@
 // (OpenCV and pagmo2 link LAPACK), before main() runs. Choosing kernels is
 // therefore a program's business, not this library's: the server's main()
 // sets the variable from OpenBlasCoreTypeForThisCpu() and executes itself
-// again (server/openblas_kernels.h).
+// again (server/library_settings.h).
 //
 // Results differ from Eigen's in the last bits (another summation order),
 // and between kernels; for one machine and backend they are deterministic.

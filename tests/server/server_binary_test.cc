@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <sstream>
 #include <string>
@@ -363,6 +364,36 @@ TEST(ServerBinaryTest, LateReorderedAndRepeatedMeasurementsGiveTheInOrderMap) {
   const int status = server.Stop(SIGTERM);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "wait status " << status;
   std::filesystem::remove_all(data);
+}
+
+// The variables of a process, from /proc (as its libraries read them when
+// they loaded).
+std::map<std::string, std::string> EnvironmentOf(pid_t pid) {
+  std::ifstream file("/proc/" + std::to_string(pid) + "/environ", std::ios::binary);
+  std::map<std::string, std::string> env;
+  std::string entry;
+  while (std::getline(file, entry, '\0')) {
+    const std::size_t eq = entry.find('=');
+    if (eq != std::string::npos) env[entry.substr(0, eq)] = entry.substr(eq + 1);
+  }
+  return env;
+}
+
+// The server runs OpenBLAS and CHOLMOD's OpenMP loops on one thread per
+// call unless the operator says otherwise: CHOLMOD's loops ask for four
+// threads, and on two cores that tripled the large map's refactorisation.
+TEST(ServerBinaryTest, RunsTheNumericLibrariesOnOneThreadPerCallUnlessTold) {
+  for (const std::string& limit : {std::string(), std::string("2")}) {
+    SCOPED_TRACE("OMP_THREAD_LIMIT=" + (limit.empty() ? std::string("(unset)") : limit));
+    testing::ServerProcess server(testing::FreePort(), {"--store=memory"});
+    server.SetEnv("OMP_THREAD_LIMIT", limit);
+    server.SetEnv("OPENBLAS_NUM_THREADS", "");
+    ASSERT_TRUE(server.Start()) << "oaipp-server did not start on " << server.address();
+    const std::map<std::string, std::string> env = EnvironmentOf(server.pid());
+    EXPECT_EQ(env.count("OMP_THREAD_LIMIT") ? env.at("OMP_THREAD_LIMIT") : "(unset)",
+              limit.empty() ? "1" : limit);
+    EXPECT_EQ(env.count("OPENBLAS_NUM_THREADS") ? env.at("OPENBLAS_NUM_THREADS") : "(unset)", "1");
+  }
 }
 
 // Kubernetes stops a pod with SIGTERM, and operators set OPENBLAS_CORETYPE:

@@ -19,6 +19,7 @@
 #include "absl/flags/parse.h"
 #include "core/planning/large_field.h"
 #include "core/planning/planners.h"
+#include "server/library_settings.h"
 #include "tests/core/planning/scenes.h"
 
 ABSL_FLAG(int, seeds, 25, "missions per map, seeds 1 .. N");
@@ -97,6 +98,8 @@ double Fly(std::uint32_t seed, bool sparse, double budget_s) {
 }  // namespace oaipp
 
 int main(int argc, char** argv) {
+  // As the server does: the numeric libraries' kernels and threads.
+  oaipp::server::RestartWithLibrarySettings(argv);
   absl::ParseCommandLine(argc, argv);
   const int seeds = absl::GetFlag(FLAGS_seeds);
   const double budget_s = absl::GetFlag(FLAGS_budget_s);

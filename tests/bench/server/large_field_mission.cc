@@ -27,6 +27,7 @@
 #include "api/plan.h"
 #include "grpcpp/grpcpp.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/library_settings.h"
 #include "server/server.h"
 #include "sim/scenario.h"
 #include "sim/simulation.h"
@@ -176,6 +177,8 @@ int Run() {
 }  // namespace oaipp
 
 int main(int argc, char** argv) {
+  // As the server does: the numeric libraries' kernels and threads.
+  oaipp::server::RestartWithLibrarySettings(argv);
   absl::ParseCommandLine(argc, argv);
   return oaipp::Run();
 }

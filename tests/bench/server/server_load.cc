@@ -47,7 +47,7 @@
 #include "grpcpp/grpcpp.h"
 #include "nlohmann/json.hpp"
 #include "server/flags/flags.h"
-#include "server/openblas_kernels.h"
+#include "server/library_settings.h"
 #include "server/server.h"
 #include "server/service.h"
 #include "server/store/open_store.h"
@@ -516,7 +516,7 @@ void SetLoadDefaults() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  oaipp::server::RestartWithOpenBlasKernels(argv);
+  oaipp::server::RestartWithLibrarySettings(argv);
   absl::SetProgramUsageMessage(
       "Many E1 missions at once on one server in process; takes oaipp-server's flags too "
       "(--help lists them).");

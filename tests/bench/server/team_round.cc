@@ -29,7 +29,7 @@
 #include "api/plan.h"
 #include "grpcpp/grpcpp.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
-#include "server/openblas_kernels.h"
+#include "server/library_settings.h"
 #include "server/server.h"
 #include "sim/scenario.h"
 #include "sim/simulation.h"
@@ -217,8 +217,8 @@ int Run() {
 }  // namespace oaipp
 
 int main(int argc, char** argv) {
-  // As the server does: OpenBLAS's kernels for this CPU (server/openblas_kernels.h).
-  oaipp::server::RestartWithOpenBlasKernels(argv);
+  // As the server does: the numeric libraries' kernels and threads (server/library_settings.h).
+  oaipp::server::RestartWithLibrarySettings(argv);
   absl::ParseCommandLine(argc, argv);
   return oaipp::Run();
 }

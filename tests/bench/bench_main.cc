@@ -1,0 +1,15 @@
+// main() of every Google Benchmark program here: the numeric libraries set
+// up as the server sets them up (server/library_settings.h: OpenBLAS's
+// kernels for this CPU, one thread per BLAS call and per OpenMP loop), so
+// that what is timed is what the server runs.
+#include "benchmark/benchmark.h"
+#include "server/library_settings.h"
+
+int main(int argc, char** argv) {
+  oaipp::server::RestartWithLibrarySettings(argv);
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}
