@@ -10,17 +10,30 @@
 #include "absl/strings/string_view.h"
 #include "opencv2/core.hpp"
 #include "opencv2/imgproc.hpp"
+#include "render/labels.h"
 #include "render/map_checks.h"
 #include "render/png.h"
 
 namespace oaipp::render {
 namespace {
 
+using labels::Font;
+using labels::HAlign;
+using labels::kBlack;
+using labels::kWhite;
+using labels::MakeTicks;
+using labels::MeasureText;
+using labels::PutText;
+using labels::PutTextUp;
+using labels::TextExtent;
+using labels::Tick;
+using labels::Ticks;
+using labels::UpTextWidth;
+using labels::VAlign;
+
 // ---------------------------------------------------------------------------
 // Colours (OpenCV order: blue, green, red).
 
-const cv::Scalar kWhite(255, 255, 255);
-const cv::Scalar kBlack(0, 0, 0);
 const cv::Scalar kObstacleFill(150, 150, 150);
 const cv::Scalar kObstacleEdge(80, 80, 80);
 const cv::Scalar kTargetColour(0, 200, 0);
@@ -29,131 +42,8 @@ const cv::Scalar kPlannedColour(230, 0, 230);
 const cv::Scalar kDetectionColour(0, 140, 255);
 constexpr double kObstacleFillAlpha = 0.6;  // share of grey over the map
 
-constexpr int kFontFace = cv::FONT_HERSHEY_SIMPLEX;
 constexpr int kSubpixelBits = 4;  // fixed-point shift for overlay drawing
 constexpr double kSubpixel = 1 << kSubpixelBits;
-
-struct Font {
-  double scale = 0.45;
-  int thickness = 1;
-};
-
-// ---------------------------------------------------------------------------
-// Text.
-
-struct TextExtent {
-  int width = 0;
-  int cap = 0;      // height above the baseline
-  int descent = 0;  // below it
-};
-
-TextExtent MeasureText(const std::string& text, const Font& font) {
-  int baseline = 0;
-  const cv::Size size = cv::getTextSize(text, kFontFace, font.scale, font.thickness, &baseline);
-  return {size.width, size.height, baseline};
-}
-
-enum class HAlign { kLeft, kCentre, kRight };
-enum class VAlign { kTop, kMiddle };
-
-// Writes `text` horizontally, its box placed against (x, y) as the alignments
-// say (vertical alignment by the capital height, descenders hang below).
-void PutText(cv::Mat& image, const std::string& text, int x, int y, HAlign h, VAlign v,
-             const Font& font) {
-  const TextExtent e = MeasureText(text, font);
-  const int left = h == HAlign::kLeft ? x : h == HAlign::kCentre ? x - e.width / 2 : x - e.width;
-  const int baseline = v == VAlign::kTop ? y + e.cap : y + e.cap / 2;
-  cv::putText(image, text, cv::Point(left, baseline), kFontFace, font.scale, kBlack, font.thickness,
-              cv::LINE_AA);
-}
-
-// Width a PutTextUp label takes across the page.
-int UpTextWidth(const std::string& text, const Font& font) {
-  const TextExtent e = MeasureText(text, font);
-  return e.cap + e.descent + 2 * (font.thickness + 1);
-}
-
-// Writes `text` reading bottom to top (turned 90 degrees counter-clockwise),
-// centred on (cx, cy). Drawn on white and laid over the image by darkening,
-// so it only adds black ink.
-void PutTextUp(cv::Mat& image, const std::string& text, int cx, int cy, const Font& font) {
-  const TextExtent e = MeasureText(text, font);
-  const int pad = font.thickness + 1;
-  cv::Mat flat(e.cap + e.descent + 2 * pad, e.width + 2 * pad, CV_8UC3, kWhite);
-  cv::putText(flat, text, cv::Point(pad, pad + e.cap), kFontFace, font.scale, kBlack,
-              font.thickness, cv::LINE_AA);
-  cv::Mat up;
-  cv::rotate(flat, up, cv::ROTATE_90_COUNTERCLOCKWISE);
-  const cv::Rect where(cx - up.cols / 2, cy - up.rows / 2, up.cols, up.rows);
-  const cv::Rect inside = where & cv::Rect(0, 0, image.cols, image.rows);
-  if (inside.empty()) return;
-  cv::Mat target = image(inside);
-  cv::min(target, up(inside - where.tl()), target);
-}
-
-// ---------------------------------------------------------------------------
-// Ticks.
-
-// The smallest of 1, 2, 5 x 10^n that is >= range / max_ticks.
-double NiceStep(double range, int max_ticks) {
-  const double raw = range / std::max(max_ticks, 1);
-  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
-  for (const double m : {1.0, 2.0, 5.0}) {
-    if (m * magnitude >= raw * (1 - 1e-9)) return m * magnitude;
-  }
-  return 10.0 * magnitude;
-}
-
-// Decimals needed to print multiples of a 1-2-5 step.
-int DecimalsFor(double step) {
-  return std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9)));
-}
-
-std::string FormatNumber(double value, int decimals) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", decimals, value);
-  std::string text(buffer);
-  if (text.front() == '-' && text.find_first_not_of("-0.") == std::string::npos) text.erase(0, 1);
-  return text;
-}
-
-struct Tick {
-  double value = 0.0;
-  std::string label;
-};
-
-struct Ticks {
-  double step = 1.0;
-  std::vector<Tick> ticks;
-};
-
-// Multiples of a 1-2-5 step (at least min_step) in [lo, hi], at most one per
-// min_spacing_px (the axis spans span_px for the range) and far enough apart
-// that labels do not overlap: label_width(label) is the room a label needs
-// along the axis.
-template <typename Width>
-Ticks MakeTicks(double lo, double hi, int span_px, double min_spacing_px, Width label_width,
-                double min_step = 0.0) {
-  const double range = hi - lo;
-  double step = std::max(NiceStep(range, static_cast<int>(span_px / min_spacing_px)), min_step);
-  std::vector<Tick> ticks;
-  for (int attempt = 0; attempt < 64; ++attempt) {
-    ticks.clear();
-    const int decimals = DecimalsFor(step);
-    const double first = std::ceil(lo / step - 1e-9);
-    const double last = std::floor(hi / step + 1e-9);
-    int widest = 0;
-    for (double i = first; i <= last; i += 1.0) {
-      Tick tick{i * step, FormatNumber(i * step, decimals)};
-      widest = std::max(widest, label_width(tick.label));
-      ticks.push_back(std::move(tick));
-    }
-    const double step_px = step / range * span_px;
-    if (ticks.size() <= 1 || step_px >= widest) break;
-    step = NiceStep(1.5 * step, 1);  // the next 1-2-5 step
-  }
-  return {step, std::move(ticks)};
-}
 
 // ---------------------------------------------------------------------------
 // Layout.
