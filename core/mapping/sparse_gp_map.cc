@@ -147,7 +147,7 @@ class Takahashi {
     }
     Scratch main;
     if (!postorder || BlasThreads() > 1) {
-      for (int t = nsuper_ - 1; t >= 0; --t) Supernode(t, main, /*split=*/false);
+      for (int t = nsuper_ - 1; t >= 0; --t) Supernode(t, main);
       return diagonal_;
     }
     // The top of the tree in order, largest subtree first, until no subtree
@@ -162,7 +162,7 @@ class Takahashi {
       if (cost[*largest] <= total / 2 && frontier.size() >= 2) break;
       const int t = *largest;
       frontier.erase(largest);
-      Supernode(t, main, /*split=*/true);
+      Supernode(t, main);
       frontier.insert(frontier.end(), children[t].begin(), children[t].end());
     }
     std::sort(frontier.begin(), frontier.end(), [&](int a, int b) { return cost[a] > cost[b]; });
@@ -175,7 +175,7 @@ class Takahashi {
     }
     const auto run = [&](const std::vector<int>& subtrees, Scratch& scratch) {
       for (int root : subtrees) {
-        for (int t = root; t >= first[root]; --t) Supernode(t, scratch, /*split=*/false);
+        for (int t = root; t >= first[root]; --t) Supernode(t, scratch);
       }
     };
     Scratch other;
@@ -194,24 +194,7 @@ class Takahashi {
     std::vector<double> zrr, u, zrs, zss;
   };
 
-  // f(begin, count) over [0, n): in two halves at once when `split`, the
-  // second on a thread of its own (each calling the one-threaded BLAS).
-  template <typename F>
-  static void Halves(bool split, int n, const F& f) {
-    if (!split || n < 2) {
-      f(0, n);
-      return;
-    }
-    const int half = n / 2;
-    std::thread other([&] { f(half, n - half); });
-    f(0, half);
-    other.join();
-  }
-
-  // One supernode's step. With `split`, its products are shared by two
-  // threads (the top of the tree, which runs alone), when large enough to
-  // pay for a thread.
-  void Supernode(int t, Scratch& s, bool split) {
+  void Supernode(int t, Scratch& s) {
     const int w = super_[t + 1] - super_[t];
     const int nr = pi_[t + 1] - pi_[t];
     const int r = nr - w;
@@ -262,19 +245,12 @@ class Takahashi {
         std::copy_n(l + static_cast<std::size_t>(k) * nr + w, r,
                     s.u.data() + static_cast<std::size_t>(k) * r);
       }
-      // Shared by rows of U, then by columns of Z_RS and of Z_SS.
-      const bool large = split && static_cast<double>(r) * r * w > kSplitFlops;
-      Halves(large, r, [&](int a, int m) {
-        dtrsm_("R", "L", "N", "N", &m, &w, &one, l, &nr, s.u.data() + a, &r);
-      });
+      dtrsm_("R", "L", "N", "N", &r, &w, &one, l, &nr, s.u.data(), &r);
       s.zrs.resize(static_cast<std::size_t>(r) * w);
-      Halves(large, w, [&](int c, int m) {
-        const std::size_t at = static_cast<std::size_t>(c) * r;
-        dsymm_("L", "L", &r, &m, &minus_one, s.zrr.data(), &r, s.u.data() + at, &r, &zero,
-               s.zrs.data() + at, &r);
-        dgemm_("T", "N", &w, &m, &r, &minus_one, s.u.data(), &r, s.zrs.data() + at, &r, &one,
-               s.zss.data() + static_cast<std::size_t>(c) * w, &w);
-      });
+      dsymm_("L", "L", &r, &w, &minus_one, s.zrr.data(), &r, s.u.data(), &r, &zero, s.zrs.data(),
+             &r);
+      dgemm_("T", "N", &w, &w, &r, &minus_one, s.u.data(), &r, s.zrs.data(), &r, &one, s.zss.data(),
+             &w);
       for (int k = 0; k < w; ++k) {
         std::copy_n(s.zrs.data() + static_cast<std::size_t>(k) * r, r,
                     zt + static_cast<std::size_t>(k) * nr + w);
@@ -286,10 +262,6 @@ class Takahashi {
       diagonal_[super_[t] + k] = s.zss[static_cast<std::size_t>(k) * w + k];
     }
   }
-
-  // A supernode's products are split over two threads above this many
-  // multiply-adds (r^2 w, the symmetric product's): about a millisecond.
-  static constexpr double kSplitFlops = 4e6;
 
   const int n_;
   const int nsuper_;
