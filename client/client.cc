@@ -18,6 +18,26 @@
 
 namespace oaipp::client {
 
+bool AskAgain(const grpc::Status& status) {
+  switch (status.error_code()) {
+    case grpc::StatusCode::UNAVAILABLE:
+      return true;
+    // This client never cancels its own attempts, so a CANCELLED came from
+    // the other end: a server stopping under it, or a proxy resetting the
+    // stream when its backend went away.
+    case grpc::StatusCode::CANCELLED:
+      return true;
+    // gRPC's own transport names a stream removed under a call (a proxy
+    // that reset it when its backend closed the connection mid-call, as in
+    // a rolling restart) UNKNOWN "Stream removed": a lost answer, not the
+    // server's. Any other UNKNOWN is the server's and final.
+    case grpc::StatusCode::UNKNOWN:
+      return status.error_message() == "Stream removed";
+    default:
+      return false;
+  }
+}
+
 namespace {
 
 // The whole file at `path` into *pem; `what` names the option.
@@ -129,15 +149,7 @@ absl::StatusOr<Response> Client::Call(const char* what, Method method, const Req
         continue;
       }
     }
-    // This client never cancels its own attempts, so a CANCELLED came from
-    // the other end: a server stopping under it, or a proxy resetting the
-    // stream when its backend went away. Like UNAVAILABLE it is asked
-    // again; the request_id keeps a mutation that did land from landing
-    // twice.
-    if (status.error_code() != grpc::StatusCode::UNAVAILABLE &&
-        status.error_code() != grpc::StatusCode::CANCELLED) {
-      break;
-    }
+    if (!AskAgain(status)) break;
     if (attempt < options_.max_attempts) ++retried_calls_;
   }
   return api::FromGrpcStatus(status, what);

@@ -1,6 +1,7 @@
 // A client library over the generated MissionService stub: a deadline on
-// every call, retries of UNAVAILABLE and of CANCELLED (which only the other
-// end can cause: the client never cancels its own calls) with the same
+// every call, retries of UNAVAILABLE, of CANCELLED (which only the other
+// end can cause: the client never cancels its own calls) and of gRPC's
+// UNKNOWN "Stream removed" (a stream reset under the call) with the same
 // request_id (so a retried mutation is never applied twice), and
 // absl::Status errors that keep the server's message. Every call carries
 // the routing header kRouteHeader with the mission it is about, so that a
@@ -23,10 +24,15 @@
 
 namespace oaipp::client {
 
+// Whether a call that ended with `status` is asked again (with the same
+// request_id, so that a mutation that did land is not applied twice):
+// UNAVAILABLE, CANCELLED, and the transport's UNKNOWN "Stream removed".
+[[nodiscard]] bool AskAgain(const grpc::Status& status);
+
 struct ClientOptions {
   absl::Duration call_timeout = absl::Seconds(30);  // every call but PlanPath
   absl::Duration plan_timeout = absl::Seconds(60);  // PlanPath (the planner is anytime)
-  // Attempts for UNAVAILABLE or CANCELLED, waiting first_backoff, then
+  // Attempts for the failures AskAgain names, waiting first_backoff, then
   // twice as long each time up to max_backoff: the defaults keep trying for
   // about 9 s, long enough for a proxy to notice a dead server and for
   // another to take its missions over.
@@ -80,7 +86,7 @@ class Client {
   // The server that answered the last call (api::kReplicaHeader), or ""
   // when it names none.
   [[nodiscard]] std::string last_replica() const;
-  // Attempts that got UNAVAILABLE or CANCELLED and were tried again, since
+  // Attempts that AskAgain sent again, since
   // creation.
   [[nodiscard]] std::int64_t retried_calls() const { return retried_calls_.load(); }
   // Calls asked again after the delay a RESOURCE_EXHAUSTED named, since

@@ -1,9 +1,11 @@
 // The client's retries against the real service in-process, with a server
-// interceptor that turns the answer of a call that did land into CANCELLED,
-// as a proxy does when the server behind it goes away mid-call.
+// interceptor that turns the answer of a call that did land into CANCELLED
+// or UNKNOWN "Stream removed", as a proxy's reset does when the server
+// behind it goes away mid-call.
 #include <atomic>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "client/client.h"
@@ -18,16 +20,17 @@ namespace {
 constexpr char kAddMeasurement[] = "/oaipp.v1.MissionService/AddMeasurement";
 
 // Replaces the status of the first `count` AddMeasurement answers with
-// CANCELLED, after the service has applied them.
+// `status`, after the service has applied them.
 class CancelAnswers : public grpc::experimental::Interceptor {
  public:
-  CancelAnswers(bool is_add, std::atomic<int>* left) : is_add_(is_add), left_(left) {}
+  CancelAnswers(bool is_add, std::atomic<int>* left, grpc::Status status)
+      : is_add_(is_add), left_(left), status_(std::move(status)) {}
   void Intercept(grpc::experimental::InterceptorBatchMethods* methods) override {
     if (is_add_ &&
         methods->QueryInterceptionHookPoint(
             grpc::experimental::InterceptionHookPoints::PRE_SEND_STATUS) &&
         left_->fetch_sub(1) > 0) {
-      methods->ModifySendStatus(grpc::Status(grpc::StatusCode::CANCELLED, "stream reset"));
+      methods->ModifySendStatus(status_);
     }
     methods->Proceed();
   }
@@ -35,27 +38,31 @@ class CancelAnswers : public grpc::experimental::Interceptor {
  private:
   bool is_add_;
   std::atomic<int>* left_;
+  grpc::Status status_;
 };
 
 class CancelAnswersFactory : public grpc::experimental::ServerInterceptorFactoryInterface {
  public:
-  explicit CancelAnswersFactory(std::atomic<int>* left) : left_(left) {}
+  CancelAnswersFactory(std::atomic<int>* left, grpc::Status status)
+      : left_(left), status_(std::move(status)) {}
   grpc::experimental::Interceptor* CreateServerInterceptor(
       grpc::experimental::ServerRpcInfo* info) override {
-    return new CancelAnswers(std::string(info->method()) == kAddMeasurement, left_);
+    return new CancelAnswers(std::string(info->method()) == kAddMeasurement, left_, status_);
   }
 
  private:
   std::atomic<int>* left_;
+  grpc::Status status_;
 };
 
 // The real service behind a CancelAnswers interceptor.
 class RetryTest : public ::testing::Test {
  protected:
-  void Start(int answers_to_cancel) {
+  void Start(int answers_to_cancel,
+             grpc::Status status = grpc::Status(grpc::StatusCode::CANCELLED, "stream reset")) {
     answers_to_cancel_ = answers_to_cancel;
     std::vector<std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>> creators;
-    creators.push_back(std::make_unique<CancelAnswersFactory>(&answers_to_cancel_));
+    creators.push_back(std::make_unique<CancelAnswersFactory>(&answers_to_cancel_, status));
     server_ = std::make_unique<server::testing::InProcessService>(
         server::ServerParts{.registry = {.max_missions = 4, .max_cells_per_mission = 1600},
                             .planning_threads = 1,
@@ -103,6 +110,27 @@ TEST_F(RetryTest, ACancelledAnswerIsGivenUpAfterMaxAttempts) {
   absl::StatusOr<v1::Mission> mission = client.GetMission("missions/m");
   ASSERT_TRUE(mission.ok()) << mission.status();
   EXPECT_EQ(mission->measurements_fused(), 1);  // applied by the first attempt, once
+}
+
+// gRPC reports a stream reset under a call as UNKNOWN "Stream removed"
+// (seen through HAProxy in a rolling restart): asked again like CANCELLED,
+// and fused once. An UNKNOWN with any other message is the server's own
+// answer and is not asked again.
+TEST_F(RetryTest, AStreamRemovedUnderTheCallIsAskedAgainAndOtherUnknownsAreNot) {
+  for (const std::string& message : {std::string("Stream removed"), std::string("boom")}) {
+    SCOPED_TRACE(message);
+    const bool removed = message == "Stream removed";
+    Start(2, grpc::Status(grpc::StatusCode::UNKNOWN, message));
+    Client client = Connect(8);
+    ASSERT_TRUE(client.CreateMission(server::testing::SmallSpec(), "m").ok());
+    absl::StatusOr<v1::AddMeasurementResponse> fused =
+        client.AddMeasurement(server::testing::LabelMeasurement("missions/m", 3, 3, 10, 1.0, 1.0));
+    EXPECT_EQ(fused.ok(), removed) << fused.status();
+    EXPECT_EQ(client.retried_calls(), removed ? 2 : 0);
+    absl::StatusOr<v1::Mission> mission = client.GetMission("missions/m");
+    ASSERT_TRUE(mission.ok()) << mission.status();
+    EXPECT_EQ(mission->measurements_fused(), 1);  // landed once either way
+  }
 }
 
 }  // namespace
