@@ -17,7 +17,10 @@
 #include "grpc/health/v1/health.grpc.pb.h"
 
 namespace oaipp::client {
+namespace {
 
+// Whether a call that ended with `status` is asked again (with the same
+// request_id, so that a mutation that did land is not applied twice).
 bool AskAgain(const grpc::Status& status) {
   switch (status.error_code()) {
     case grpc::StatusCode::UNAVAILABLE:
@@ -37,6 +40,8 @@ bool AskAgain(const grpc::Status& status) {
       return false;
   }
 }
+
+}  // namespace
 
 namespace {
 

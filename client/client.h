@@ -24,15 +24,10 @@
 
 namespace oaipp::client {
 
-// Whether a call that ended with `status` is asked again (with the same
-// request_id, so that a mutation that did land is not applied twice):
-// UNAVAILABLE, CANCELLED, and the transport's UNKNOWN "Stream removed".
-[[nodiscard]] bool AskAgain(const grpc::Status& status);
-
 struct ClientOptions {
   absl::Duration call_timeout = absl::Seconds(30);  // every call but PlanPath
   absl::Duration plan_timeout = absl::Seconds(60);  // PlanPath (the planner is anytime)
-  // Attempts for the failures AskAgain names, waiting first_backoff, then
+  // Attempts for the failures retried (above), waiting first_backoff, then
   // twice as long each time up to max_backoff: the defaults keep trying for
   // about 9 s, long enough for a proxy to notice a dead server and for
   // another to take its missions over.
@@ -86,7 +81,7 @@ class Client {
   // The server that answered the last call (api::kReplicaHeader), or ""
   // when it names none.
   [[nodiscard]] std::string last_replica() const;
-  // Attempts that AskAgain sent again, since
+  // Attempts that failed as retried (above) and were sent again, since
   // creation.
   [[nodiscard]] std::int64_t retried_calls() const { return retried_calls_.load(); }
   // Calls asked again after the delay a RESOURCE_EXHAUSTED named, since

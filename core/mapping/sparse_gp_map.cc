@@ -15,9 +15,9 @@
 #include "core/common/status_macros.h"
 
 // The reference BLAS and LAPACK interfaces (Fortran symbols), as CHOLMOD
-// itself calls them: Debian resolves libblas.so.3 to OpenBLAS when it is installed, with
-// kernels for the CPU at hand, where Eigen's own product is built for
-// generic x86-64.
+// itself calls them: Debian resolves libblas.so.3 to OpenBLAS when it is
+// installed, with kernels for the CPU at hand, where Eigen's own product is
+// built for generic x86-64.
 extern "C" {
 void dgemm_(const char* transa, const char* transb, const int* m, const int* n, const int* k,
             const double* alpha, const double* a, const int* lda, const double* b, const int* ldb,
