@@ -44,6 +44,10 @@ ABSL_FLAG(double, flight_budget_s, 0.0,
           "left of it)");
 ABSL_FLAG(std::string, objective_precision, "double", "the server's objective precision");
 ABSL_FLAG(std::string, dense_backend, "openblas", "openblas (the server's default) or eigen");
+ABSL_FLAG(double, plan_latency_s, 0.0,
+          "the server's --plan_latency_s: every plan's search ends this long after its call "
+          "arrived, the wait included (docs/capacity.md); 0: no bound");
+ABSL_FLAG(double, shed_above, 2.0, "the server's --shed_above (0: never shed)");
 ABSL_FLAG(double, round_s, 20.0 / 3.0,
           "mission time between rounds (default: E5's shot period, 1 / 0.15 Hz)");
 
@@ -74,6 +78,8 @@ int Run() {
   options.dense_backend = absl::GetFlag(FLAGS_dense_backend);
   options.planning_threads = absl::GetFlag(FLAGS_planning_threads);
   options.planning_queue = 2 * team;
+  options.plan_latency_s = absl::GetFlag(FLAGS_plan_latency_s);
+  options.shed_above = absl::GetFlag(FLAGS_shed_above);
   options.store = "memory";
   // Composed as oaipp-server composes itself from its flags (the dense
   // backend and the objective's precision among them).
@@ -103,17 +109,20 @@ int Run() {
   double now_s = mission.spec().team(0).start().mission_time_s();
   for (const v1::TeamMember& m : mission.spec().team()) states.push_back(m.start());
   std::mt19937_64 rng(scenario->seed());
-  std::vector<double> round_ms, plan_ms;
+  std::vector<double> round_ms, plan_ms, evaluations;
+  int cut_short = 0;  // plans whose search a deadline or the shedding ended
   double planner_max_s = 0.0;
   std::int64_t last_version = 0;
   const int rounds = absl::GetFlag(FLAGS_rounds);
   const double budget_s = absl::GetFlag(FLAGS_planning_budget_s);
   std::printf(
-      "%s: %d UAVs, %d rounds, %d planning threads, planning_budget_s %s, %s, %s "
-      "precision\n",
+      "%s: %d UAVs, %d rounds, %d planning threads, planning_budget_s %s, plan_latency_s %s, "
+      "shed_above %g, %s, %s precision\n",
       scenario->name().c_str(), team, rounds, absl::GetFlag(FLAGS_planning_threads),
       budget_s > 0 ? std::to_string(budget_s).c_str() : "unset",
-      (*server)->dense_backend().name().c_str(), options.objective_precision.c_str());
+      options.plan_latency_s > 0 ? std::to_string(options.plan_latency_s).c_str() : "unset",
+      options.shed_above, (*server)->dense_backend().name().c_str(),
+      options.objective_precision.c_str());
   for (int round = 0; round < rounds; ++round) {
     std::vector<grpc::Status> status(static_cast<std::size_t>(team));
     std::vector<double> ms(static_cast<std::size_t>(team));
@@ -144,6 +153,11 @@ int Run() {
         return 1;
       }
       plan_ms.push_back(ms[k]);
+      evaluations.push_back(static_cast<double>(paths[k].stats().evaluations()));
+      if (paths[k].stats().stop_reason() == "deadline" ||
+          paths[k].stats().search_fraction() < 1.0) {
+        ++cut_short;
+      }
       if (const v1::PlannerStats& st = paths[k].stats(); st.wall_time_s() > 1.0) {
         std::printf(
             "    %s: planner %.2f s, %lld evaluations, %d generations, stop %s, "
@@ -206,10 +220,12 @@ int Run() {
   }
   std::printf(
       "round of %d plans: median %.0f ms, p95 %.0f ms; one plan: median %.0f ms, p95 %.0f ms; "
-      "planner at most %.2f s; plan_version reached %lld\n",
+      "planner at most %.2f s; plan_version reached %lld; evaluations a plan: median %.0f; "
+      "searches cut short: %d of %zu\n",
       team, bench::Quantile(round_ms, 0.5), bench::Quantile(round_ms, 0.95),
       bench::Quantile(plan_ms, 0.5), bench::Quantile(plan_ms, 0.95), planner_max_s,
-      static_cast<long long>(last_version));
+      static_cast<long long>(last_version), bench::Quantile(evaluations, 0.5), cut_short,
+      plan_ms.size());
   return 0;
 }
 
