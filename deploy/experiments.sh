@@ -54,7 +54,9 @@
 # (out/eval/replan-on-detection-<experiment>[-seeds<first>-<last>]).
 # Not in the default list (hours on two cores): E6 flies OA-IPP, lawnmower
 # and random on the 300 x 300 m field of client/scenarios/e6.json
-# (E6_TRIALS each, default 10); E6-km2 flies one OA-IPP mission over the
+# (E6_TRIALS each, default 10); E6-confirm flies them with the detector's
+# noise, OA-IPP with the confirmation options (E6_TRIALS, default 5, 30 min);
+# E6-km2 flies one OA-IPP mission over the
 # 1 km^2 field of e6-km2.json at 2 m (250,000 cells) to out/e6-km2.
 # E7 flies teams of 1, 2, 4 and 8 UAVs in E5's world, coordinated and the
 # two baselines (docs/experiments.md), at E7_BUDGET_S seconds of flight
@@ -218,6 +220,11 @@ for e in $experiments; do
           --variants=oaipp_confirm --replan_on_detection --out="out/eval/replan-on-detection-$x"
       done ;;
     E6) "${client[@]}" eval E6 --trials="${E6_TRIALS:-10}" ;;
+    E6-confirm)
+      # E6 with the detector's noise and false positives for every variant,
+      # and OA-IPP with E5's best confirmation options (oaipp_confirm).
+      "${client[@]}" eval E6 --trials="${E6_TRIALS:-5}" "${sharp_look[@]}" --confirmation_phase_s=45 \
+        --replan_on_detection --variants=oaipp_confirm,lawnmower,random --out=out/eval/E6-confirm ;;
     E6-km2) "${client[@]}" run client/scenarios/e6-km2.json --out=out/e6-km2 ;;
     E7) "${client[@]}" eval E7 --trials="$trials" --e7_budget_s="${E7_BUDGET_S:-0}" ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;

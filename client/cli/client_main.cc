@@ -100,7 +100,7 @@ Commands:
                            map (teamN-alone): time to find everyone, team
                            efficiency, plan latency, separation.
                       --confirmation_weight=W (> 0) adds oaipp_confirm
-                      to E1, E4 and E5: OA-IPP with the confirmation
+                      to E1, E4, E5 and E6: OA-IPP with the confirmation
                       objective at weight W, same seeds;
                       --confirmation_phase_s=S adds a confirmation phase
                       over its last S seconds, at

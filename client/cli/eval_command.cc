@@ -41,7 +41,7 @@ ABSL_FLAG(double, e7_budget_s, 0,
           "one UAV rarely finds all of E5's people in 150 s");
 ABSL_FLAG(double, e3_budget_s, 300, "eval E3: flight budget of each mission, seconds");
 ABSL_FLAG(double, confirmation_weight, 0.0,
-          "eval E1, E4, E5: > 0 adds the variant oaipp_confirm, OA-IPP with the confirmation "
+          "eval E1, E4, E5, E6: > 0 adds the variant oaipp_confirm, OA-IPP with the confirmation "
           "objective at this weight (docs/method.md 6.4); 0 leaves it out");
 ABSL_FLAG(double, confirmation_phase_s, 0.0,
           "eval: with --confirmation_weight, oaipp_confirm also confirms over the last this many "
@@ -186,9 +186,9 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
         "--second_look_sharpness: shapes the second look; set --second_look_weight");
   }
   if (confirm.weight > 0.0) {
-    if (name != "E1" && name != "E4" && name != "E5") {
+    if (name != "E1" && name != "E4" && name != "E5" && name != "E6") {
       return absl::InvalidArgumentError(
-          "--confirmation_weight: adds a variant to E1, E4 and E5 only");
+          "--confirmation_weight: adds a variant to E1, E4, E5 and E6 only");
     }
     e.variants.push_back(oaipp::client::ConfirmationVariant(scenario, confirm));
   }
