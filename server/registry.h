@@ -76,7 +76,10 @@ struct RegistryLimits {
   // be found silent, and nothing is rebuilt. When the holder falls silent
   // (no heartbeat for `silent_after`) or retires, its missions are free at
   // once; a mission whose calls go elsewhere is free `mission_lease` after
-  // its last call here.
+  // its last call here. The lease must outlast the wait: renewed every
+  // quarter of it, at least 3/4 of it is left when a call reaches another
+  // server, so mission_lease > 4/3 silent_after (the server gives it 4 x
+  // silent_after, --silent_after).
   std::string holder = {};
   absl::Duration mission_lease = absl::Seconds(2);
   absl::Duration silent_after = absl::Milliseconds(500);

@@ -140,6 +140,11 @@ absl::StatusOr<ServerParts> Server::PartsFromOptions() {
                                   .max_memory_bytes = max_memory,
                                   .shared_store = o.cluster,
                                   .holder = o.replica_id,
+                                  // A waiting replica waits up to silent_after for the
+                                  // holder to fall silent: the lease, renewed every quarter of
+                                  // it, must outlast that wait.
+                                  .mission_lease = 4 * o.silent_after,
+                                  .silent_after = o.silent_after,
                                   .ring_id = o.EffectiveRingId(),
                                   .max_standbys = o.standby_missions,
                                   .single_precision_objective = o.objective_precision == "single",

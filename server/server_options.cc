@@ -123,6 +123,12 @@ absl::Status ServerOptions::Validate() const {
     }
   }
   p.AtLeast("standby_missions", standby_missions, 0);
+  if (silent_after < absl::Milliseconds(50) || silent_after > absl::Seconds(60)) {
+    p.Add("silent_after",
+          absl::StrCat("must be in [50ms, 60s], got ", absl::FormatDuration(silent_after)));
+  } else if (silent_after != kDefaultSilentAfter && !cluster) {
+    p.Add("silent_after", "is for a replica of a cluster (--cluster)");
+  }
   if (cluster && !absl::StartsWith(store, "postgres")) {
     p.Add("cluster", "needs a store the replicas share: --store=postgresql://...");
   }

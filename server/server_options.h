@@ -20,6 +20,10 @@
 
 namespace oaipp::server {
 
+// How long a replica of a cluster may say nothing before it is silent
+// (ServerOptions::silent_after).
+inline constexpr absl::Duration kDefaultSilentAfter = absl::Milliseconds(500);
+
 struct ServerOptions {
   // --- calls
   std::string listen = "127.0.0.1:50051";  // host:port, [v6]:port or unix:path
@@ -72,6 +76,10 @@ struct ServerOptions {
   bool cluster = false;       // needs a postgresql:// store
   int ring_id = 0;            // 0..1000000, only with cluster; 0: no warm standbys
   int standby_missions = 64;  // >= 0
+  // Only with cluster: a replica whose heartbeats have stopped for this
+  // long is silent, and its missions are free (RegistryLimits::
+  // silent_after). 50 ms .. 60 s.
+  absl::Duration silent_after = kDefaultSilentAfter;
   // Only with cluster, not with ring_id: the ring id is the number that
   // ends replica_id, plus one (a StatefulSet's pod oaipp-server-0 is the
   // proxies' id 1).

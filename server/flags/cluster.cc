@@ -23,6 +23,13 @@ ABSL_FLAG(int, standby_missions, oaipp::server::kFlagDefaults.standby_missions,
           "with --ring_id: at most this many missions on warm standby (each costs the memory of "
           "a mission held, within --max_memory_mb, and the CPU of fusing its measurements "
           "again); 0: none");
+ABSL_FLAG(absl::Duration, silent_after, oaipp::server::kFlagDefaults.silent_after,
+          "with --cluster: a replica that has said nothing for this long is silent, and the "
+          "others take its missions over. It says it is alive five times in this time; raise it "
+          "where a replica can stall longer than that (a CPU quota, a slow store) and a live "
+          "replica's missions would move. Takeovers after a kill take this much longer, and a "
+          "mission whose calls go to another replica (the ring changed) moves four times this "
+          "after its last call. 50ms to 60s");
 ABSL_FLAG(bool, cluster, oaipp::server::kFlagDefaults.cluster,
           "this server is one of several replicas sharing a PostgreSQL --store behind a proxy "
           "that routes by the x-oaipp-mission header: it loads no mission at start, takes a "

@@ -52,6 +52,7 @@ ABSL_DECLARE_FLAG(std::string, replica_id);
 ABSL_DECLARE_FLAG(bool, cluster);
 ABSL_DECLARE_FLAG(int, ring_id);
 ABSL_DECLARE_FLAG(int, standby_missions);
+ABSL_DECLARE_FLAG(absl::Duration, silent_after);
 ABSL_DECLARE_FLAG(bool, ring_id_from_ordinal);
 ABSL_DECLARE_FLAG(int, web_port);
 ABSL_DECLARE_FLAG(std::string, web_address);
@@ -103,6 +104,7 @@ ServerOptions ServerOptionsFromFlags() {
   options.cluster = absl::GetFlag(FLAGS_cluster);
   options.ring_id = absl::GetFlag(FLAGS_ring_id);
   options.standby_missions = absl::GetFlag(FLAGS_standby_missions);
+  options.silent_after = absl::GetFlag(FLAGS_silent_after);
   options.ring_id_from_ordinal = absl::GetFlag(FLAGS_ring_id_from_ordinal);
   options.web_port = absl::GetFlag(FLAGS_web_port);
   options.web_address = absl::GetFlag(FLAGS_web_address);

@@ -407,6 +407,13 @@ class PostgresStore final : public MissionStore {
     return CallOn(heartbeat_pool_, "heartbeat",
                   [&](pqxx::connection& conn, CallState& state) -> absl::Status {
                     pqxx::work tx(conn);
+                    // Not waiting for the disk: a heartbeat that a crash of
+                    // the store loses only makes its server look silent
+                    // sooner, and a mission taken over then is fenced by the
+                    // claim's epoch, which is committed durably (Claim). A
+                    // slow fsync, by contrast, could make a live server look
+                    // silent to the others.
+                    tx.exec("SET LOCAL synchronous_commit TO OFF");
                     tx.exec_params(
                         "INSERT INTO store_alive(holder, until_us, ring_id) VALUES($1, $2, $3) "
                         "ON CONFLICT (holder) DO UPDATE SET until_us = EXCLUDED.until_us, "

@@ -1,5 +1,6 @@
 // A replica's ring id: given, or read from the end of its replica id (a
 // StatefulSet pod's name) plus one; refused where it cannot mean anything.
+// Likewise how long a replica may say nothing before it is silent.
 #include "server/server_options.h"
 
 #include "gmock/gmock.h"
@@ -53,6 +54,25 @@ TEST(ServerOptionsTest, ARingIdThatCannotMeanAnythingIsRefusedNamingItsFlag) {
   o.replica_id = "r-1";
   EXPECT_THAT(std::string(o.Validate().message()),
               HasSubstr("--ring_id_from_ordinal: is for a replica of a cluster"));
+}
+
+TEST(ServerOptionsTest, ASilenceOutOfRangeOrWithoutAClusterIsRefusedNamingItsFlag) {
+  ServerOptions o = Replica("r-1");
+  o.silent_after = absl::Seconds(2);
+  EXPECT_TRUE(o.Validate().ok()) << o.Validate();
+  o.silent_after = absl::Milliseconds(49);
+  EXPECT_THAT(std::string(o.Validate().message()),
+              HasSubstr("--silent_after: must be in [50ms, 60s], got 49ms"));
+  o.silent_after = absl::Seconds(61);
+  EXPECT_THAT(std::string(o.Validate().message()), HasSubstr("--silent_after: must be in"));
+  o.silent_after = -absl::Seconds(1);
+  EXPECT_THAT(std::string(o.Validate().message()), HasSubstr("--silent_after: must be in"));
+  o = ServerOptions();
+  o.silent_after = absl::Seconds(2);
+  EXPECT_THAT(std::string(o.Validate().message()),
+              HasSubstr("--silent_after: is for a replica of a cluster"));
+  o.silent_after = absl::Milliseconds(500);  // the default, given
+  EXPECT_TRUE(o.Validate().ok()) << o.Validate();
 }
 
 }  // namespace
