@@ -67,6 +67,19 @@ class OwnClusterTest : public ::testing::Test {
       GTEST_SKIP() << "PostgreSQL 15 or HAProxy is not installed";
     }
   }
+
+  // Three replicas with `flags` behind the proxy, and a client of it that
+  // retries patiently.
+  client::Client StartCluster(const std::vector<std::string>& flags) {
+    EXPECT_TRUE(cluster_.Start({.replicas = 3, .replica_flags = flags}));
+    return client::Client::Connect(cluster_.proxy_address(), Patient());
+  }
+
+  static client::ClientOptions Patient() {
+    return PatientClient(40, absl::Milliseconds(100), absl::Seconds(1));
+  }
+
+  LocalCluster cluster_;
 };
 using ClusterRetentionTest = OwnClusterTest;
 using ForgedHeaderTest = OwnClusterTest;
@@ -80,10 +93,6 @@ class ClusterTest : public OwnClusterTest {
     ASSERT_TRUE(cluster_.Start(
         {.replicas = 3,
          .replica_flags = {"--snapshot_every=4", "--planning_queue=64", "--worker_threads=64"}}));
-  }
-
-  static client::ClientOptions Patient() {
-    return PatientClient(40, absl::Milliseconds(100), absl::Seconds(1));
   }
 
   // Flies kMissions E1 missions at once; `on_ack` runs after every
@@ -161,7 +170,6 @@ class ClusterTest : public OwnClusterTest {
     return {holding.begin(), holding.end()};
   }
 
-  LocalCluster cluster_;
   std::atomic<std::int64_t> retried_{0};
   std::mutex holders_mu_;
   std::vector<std::string> holders_;
@@ -387,10 +395,8 @@ TEST_F(ClusterTest, ARollingRestartLosesNothing) {
 // (its holder was killed); a replica that still holds one answers
 // NOT_FOUND for it afterwards.
 TEST_F(ClusterRetentionTest, IdleMissionsLeaveTheStoreWhoeverHoldsThem) {
-  LocalCluster cluster;
-  ASSERT_TRUE(cluster.Start({.replicas = 3, .replica_flags = {"--keep_idle=4s"}}));
-  client::Client client = client::Client::Connect(
-      cluster.proxy_address(), PatientClient(40, absl::Milliseconds(100), absl::Seconds(1)));
+  client::Client client = StartCluster({"--keep_idle=4s"});
+  ASSERT_FALSE(HasFailure());
   ASSERT_TRUE(client.CreateMission(E1FlightSpec(1, 60), "orphan").ok());
   const std::string orphans_holder = client.last_replica();
   // A mission held by another replica than the orphan's.
@@ -402,14 +408,14 @@ TEST_F(ClusterRetentionTest, IdleMissionsLeaveTheStoreWhoeverHoldsThem) {
   }
   ASSERT_FALSE(held.empty()) << "every mission hashed to " << orphans_holder;
   int victim = -1;
-  for (int i = 0; i < cluster.replicas(); ++i) {
+  for (int i = 0; i < cluster_.replicas(); ++i) {
     if (LocalCluster::ReplicaName(i) == orphans_holder) victim = i;
   }
   ASSERT_GE(victim, 0) << orphans_holder;
-  cluster.replica(victim).Stop(SIGKILL);
+  cluster_.replica(victim).Stop(SIGKILL);
 
   absl::StatusOr<std::unique_ptr<server::MissionStore>> store =
-      server::OpenPostgresStore(cluster.store_uri());
+      server::OpenPostgresStore(cluster_.store_uri());
   ASSERT_TRUE(store.ok()) << store.status();
   auto gone = [&](const std::string& id) {
     return (*store)->Load(id).status().code() == absl::StatusCode::kNotFound;
@@ -434,14 +440,12 @@ TEST_F(ClusterRetentionTest, IdleMissionsLeaveTheStoreWhoeverHoldsThem) {
 // rather than 500 ms, so that a loaded machine stalling the holder for
 // half a second (which rightly frees its missions) does not count here.
 TEST_F(ForgedHeaderTest, AForgedHeaderTakesNothingFromALiveHolder) {
-  LocalCluster cluster;
-  ASSERT_TRUE(cluster.Start({.replicas = 3, .replica_flags = {"--silent_after=2s"}}));
-  client::Client client = client::Client::Connect(
-      cluster.proxy_address(), PatientClient(40, absl::Milliseconds(100), absl::Seconds(1)));
+  client::Client client = StartCluster({"--silent_after=2s"});
+  ASSERT_FALSE(HasFailure());
   ASSERT_TRUE(client.CreateMission(E1FlightSpec(1, 60), "held").ok());
   const std::string holder = client.last_replica();
   auto stub = v1::MissionService::NewStub(
-      grpc::CreateChannel(cluster.proxy_address(), grpc::InsecureChannelCredentials()));
+      grpc::CreateChannel(cluster_.proxy_address(), grpc::InsecureChannelCredentials()));
   int refused = 0;
   for (int k = 0; k < 24 && refused < 3; ++k) {
     ASSERT_TRUE(client.GetMission("missions/held").ok());
@@ -464,7 +468,7 @@ TEST_F(ForgedHeaderTest, AForgedHeaderTakesNothingFromALiveHolder) {
   }
   EXPECT_EQ(refused, 3) << "24 forged headers all hashed to one replica";
   absl::StatusOr<std::unique_ptr<server::MissionStore>> store =
-      server::OpenPostgresStore(cluster.store_uri());
+      server::OpenPostgresStore(cluster_.store_uri());
   ASSERT_TRUE(store.ok()) << store.status();
   absl::StatusOr<std::int64_t> epoch = (*store)->Epoch("held");
   ASSERT_TRUE(epoch.ok()) << epoch.status();
