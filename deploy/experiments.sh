@@ -60,7 +60,9 @@
 # 1 km^2 field of e6-km2.json at 2 m (250,000 cells) to out/e6-km2.
 # E7 flies teams of 1, 2, 4 and 8 UAVs in E5's world, coordinated and the
 # two baselines (docs/experiments.md), at E7_BUDGET_S seconds of flight
-# (default: the scenarios' 150).
+# (default: the scenarios' 150). Not in the default list: E7-e6 flies one
+# UAV and a team of 4 (the three variants) on E6's 300 x 300 m field
+# (E7_E6_TRIALS each, default 4, 300 s of flight: 45 min on two cores).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -227,6 +229,10 @@ for e in $experiments; do
         --replan_on_detection --variants=oaipp_confirm,lawnmower,random --out=out/eval/E6-confirm ;;
     E6-km2) "${client[@]}" run client/scenarios/e6-km2.json --out=out/e6-km2 ;;
     E7) "${client[@]}" eval E7 --trials="$trials" --e7_budget_s="${E7_BUDGET_S:-0}" ;;
+    E7-e6)
+      "${client[@]}" eval E7 --trials="${E7_E6_TRIALS:-4}" --scenario=client/scenarios/e6.json \
+        --team_scenarios=client/scenarios/e6-team4.json --e7_budget_s="${E7_BUDGET_S:-300}" \
+        --out=out/eval/E7-e6 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
