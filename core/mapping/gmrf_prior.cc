@@ -39,12 +39,14 @@ void Dft2(std::vector<Complex>& data, int n, bool inverse) {
 
 // Autocovariance over lags (row-major, lags wrapped) of the prior whose
 // spectrum on the lattice is `spectrum`, after the published code's noise
-// term: S / (1 + S / sn2).
+// term and `observed` label^-2 of uniform observation of every cell:
+// S / (1 + S (1 / sn2 + observed)).
 std::vector<double> PublishedPriorLags(const std::vector<double>& spectrum, double noise_var,
-                                       int n) {
+                                       double observed, int n) {
+  const double precision = 1.0 / noise_var + observed;
   std::vector<Complex> data(spectrum.size());
   for (std::size_t k = 0; k < spectrum.size(); ++k) {
-    data[k] = spectrum[k] / (1.0 + spectrum[k] / noise_var);
+    data[k] = spectrum[k] / (1.0 + spectrum[k] * precision);
   }
   Dft2(data, n, /*inverse=*/true);
   std::vector<double> lags(data.size());
@@ -52,14 +54,22 @@ std::vector<double> PublishedPriorLags(const std::vector<double>& spectrum, doub
   return lags;
 }
 
-// The lattice spectrum of the GMRF with K = a I + G, Q = K^3 / s.
-std::vector<double> GmrfSpectrum(double a, double scale, const std::vector<double>& lambda) {
+// The long-wavelength term for K = a I + G and scale s: what lifts the
+// GMRF's precision at zero frequency, a^3 / s, to the kernel's
+// `zero_frequency_precision` (none where it is already there).
+double LongWavelengthPrecision(double a, double scale, double zero_frequency_precision) {
+  return std::max(0.0, zero_frequency_precision - a * a * a / scale);
+}
+
+// The lattice spectrum of the GMRF with K = a I + G, Q = K^3 / s + d I.
+std::vector<double> GmrfSpectrum(double a, double scale, double d,
+                                 const std::vector<double>& lambda) {
   const int n = static_cast<int>(lambda.size());
   std::vector<double> s(static_cast<std::size_t>(n) * n);
   for (int i = 0; i < n; ++i) {
     for (int j = 0; j < n; ++j) {
-      const double d = a + lambda[i] + lambda[j];
-      s[i * n + j] = scale / (d * d * d);
+      const double k = a + lambda[i] + lambda[j];
+      s[i * n + j] = 1.0 / (k * k * k / scale + d);
     }
   }
   return s;
@@ -70,6 +80,12 @@ double MeanPublished(const std::vector<double>& spectrum, double noise_var) {
   for (double v : spectrum) sum += v / (1.0 + v / noise_var);
   return sum / static_cast<double>(spectrum.size());
 }
+
+// The uniform observation precisions, label^-2 added to 1 / sn2, at which
+// the fit compares covariances: the prior itself, and every cell seen with
+// about the precision of one look from 20 m (1.6 under the paper's
+// noise), two to three looks, and many (docs/method.md §3.9).
+constexpr double kFittedObservation[] = {0.0, 1.0, 3.0, 10.0};
 
 }  // namespace
 
@@ -90,7 +106,11 @@ GmrfFit FitGmrfToPublishedPrior(const GpParams& params, double resolution_m) {
   Dft2(kernel, n, /*inverse=*/false);
   std::vector<double> dense_spectrum(kernel.size());
   for (std::size_t k = 0; k < kernel.size(); ++k) dense_spectrum[k] = kernel[k].real();
-  const std::vector<double> dense = PublishedPriorLags(dense_spectrum, params.noise_var, n);
+  const double zero_frequency_precision = 1.0 / dense_spectrum[0];
+  std::vector<std::vector<double>> dense;
+  for (double observed : kFittedObservation) {
+    dense.push_back(PublishedPriorLags(dense_spectrum, params.noise_var, observed, n));
+  }
 
   std::vector<double> lambda(n);
   for (int k = 0; k < n; ++k) lambda[k] = 2.0 - 2.0 * std::cos(2.0 * std::numbers::pi * k / n);
@@ -101,23 +121,33 @@ GmrfFit FitGmrfToPublishedPrior(const GpParams& params, double resolution_m) {
       if (std::hypot(i, j) * h <= 3.0 * l) fitted.push_back(i * n + j);
     }
   }
+  auto spectrum = [&](double a, double scale) {
+    return GmrfSpectrum(a, scale, LongWavelengthPrecision(a, scale, zero_frequency_precision),
+                        lambda);
+  };
   // For a given a: the scale whose P0 has the dense interior variance
   // (bisection on log s; the variance grows with s).
   auto scale_for = [&](double a) {
     double lo = std::log(1e-12), hi = std::log(1e12);
     for (int it = 0; it < 80; ++it) {
       const double mid = 0.5 * (lo + hi);
-      const double v = MeanPublished(GmrfSpectrum(a, std::exp(mid), lambda), params.noise_var);
-      (v < dense[0] ? lo : hi) = mid;
+      const double v = MeanPublished(spectrum(a, std::exp(mid)), params.noise_var);
+      (v < dense[0][0] ? lo : hi) = mid;
     }
     return std::exp(0.5 * (lo + hi));
   };
+  // Squared differences over the fitted lags, each observation level's
+  // relative to its dense variance.
   auto misfit = [&](double log_a) {
     const double a = std::exp(log_a);
-    const std::vector<double> lags =
-        PublishedPriorLags(GmrfSpectrum(a, scale_for(a), lambda), params.noise_var, n);
+    const std::vector<double> fitted_spectrum = spectrum(a, scale_for(a));
     double sum = 0.0;
-    for (int k : fitted) sum += (lags[k] - dense[k]) * (lags[k] - dense[k]);
+    for (std::size_t level = 0; level < std::size(kFittedObservation); ++level) {
+      const std::vector<double> lags =
+          PublishedPriorLags(fitted_spectrum, params.noise_var, kFittedObservation[level], n);
+      const std::vector<double>& target = dense[level];
+      for (int k : fitted) sum += std::pow((lags[k] - target[k]) / target[0], 2);
+    }
     return sum;
   };
   // Brent's minimisation on log a (Boost.Math), to about 1e-7 relative in a.
@@ -127,12 +157,13 @@ GmrfFit FitGmrfToPublishedPrior(const GpParams& params, double resolution_m) {
   GmrfFit fit;
   fit.a = std::exp(log_a);
   fit.scale = scale_for(fit.a);
+  fit.long_wavelength = LongWavelengthPrecision(fit.a, fit.scale, zero_frequency_precision);
   const std::vector<double> lags =
-      PublishedPriorLags(GmrfSpectrum(fit.a, fit.scale, lambda), params.noise_var, n);
-  fit.dense_p0_variance = dense[0];
+      PublishedPriorLags(spectrum(fit.a, fit.scale), params.noise_var, 0.0, n);
+  fit.dense_p0_variance = dense[0][0];
   fit.fitted_p0_variance = lags[0];
   for (int k : fitted) {
-    fit.worst_lag_difference = std::max(fit.worst_lag_difference, std::abs(lags[k] - dense[k]));
+    fit.worst_lag_difference = std::max(fit.worst_lag_difference, std::abs(lags[k] - dense[0][k]));
   }
   return fit;
 }
@@ -191,6 +222,7 @@ absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& p
     prior.field_state[cell] =
         (grid.Row(cell) + prior.margin_cells) * lx + grid.Col(cell) + prior.margin_cells;
   }
+  for (int s = 0; s < n; ++s) q.coeffRef(s, s) += prior.fit.long_wavelength;
   for (int s : prior.field_state) q.coeffRef(s, s) += 1.0 / params.noise_var;
   prior.precision = q.triangularView<Eigen::Lower>();
   prior.precision.makeCompressed();

@@ -9,12 +9,18 @@
 // What the map works with is the published code's prior
 // P0 = (K^-1 + I / sn2)^-1 (docs/method.md §3), here
 // (Q_spde + I_field / sn2)^-1: the noise term only adds to the field
-// cells' diagonal. Its two parameters are fitted to that prior, not to the
-// kernel alone, on the infinite lattice of the field's resolution, by exact
-// spectral sums (FitGmrfToPublishedPrior):
+// cells' diagonal. Q_spde's parameters are fitted to that prior, not to
+// the kernel alone, on the infinite lattice of the field's resolution, by
+// exact spectral sums (FitGmrfToPublishedPrior):
+// - a long-wavelength term d I makes Q_spde's precision at zero frequency
+//   the kernel's (the SPDE's own falls short of it once kappa is fitted);
 // - the scale makes an interior cell's P0 variance equal the dense prior's;
-// - kappa then makes P0's covariances at every lag within 3 l of a cell
-//   agree best in least squares.
+// - kappa then makes the covariances at every lag within 3 l of a cell
+//   agree best in least squares, relative to the cell's variance, for P0
+//   and for the posteriors of every cell observed uniformly with 1, 3 and
+//   10 label^-2 of precision. Fitted to P0 alone, the posterior after
+//   a search's measurements came out 2-3 % too uncertain, which searched
+//   measurably differently from the dense map (docs/method.md §3.9).
 // nu = 2 and not nu = 1: P0 is what the noise term leaves of the kernel's
 // spectrum, its high frequencies, where nu = 1 has far more power than
 // Matérn 3/2 (its P0 variance comes out ~40 % high), nu = 2 a little less.
@@ -27,8 +33,9 @@
 // On the lattice with spacing h (the field's resolution), K = a I + G with
 // a = kappa^2 h^2 and G the graph Laplacian (4 on the diagonal inside, the
 // node's degree at an edge; -1 to each of the four neighbours), and
-//   Q_spde = K^3 / s,
-// s the covariance scale: a 25-point stencil, at most 25 non-zeros a row.
+//   Q_spde = K^3 / s + d I,
+// s the covariance scale, d >= 0 the long-wavelength term: a 25-point
+// stencil, at most 25 non-zeros a row, positive definite for any a, s > 0.
 //
 //   OAIPP_ASSIGN_OR_RETURN(GmrfPrior prior, MakeGmrfPrior(grid, GpParams::PaperPreset(1.0)));
 //   // prior.precision: lower triangle of Q (states x states)
@@ -49,6 +56,13 @@
 
 namespace oaipp {
 
+// The version of FitGmrfToPublishedPrior's criterion. A large-field map's
+// numbers depend on it, so a variance or trace kept from a build with
+// another is not this build's (server/store/state_codec.cc). 1: fitted to
+// P0 alone; 2: to P0 and uniformly observed posteriors, with the
+// long-wavelength term.
+inline constexpr unsigned kGmrfFitVersion = 2;
+
 struct GmrfOptions {
   // Lattice nodes added beyond the field on each side, in units of the
   // prior's range 4 / kappa (the distance at which the nu = 2 correlation
@@ -62,6 +76,9 @@ struct GmrfOptions {
 struct GmrfFit {
   double a = 0.0;      // kappa^2 h^2
   double scale = 0.0;  // s
+  // d, label^-2: Q_spde's precision at zero frequency, a^3 / s + d, is the
+  // Matérn kernel's.
+  double long_wavelength = 0.0;
   // The dense and the fitted P0's interior variance and, over the lags
   // fitted, the largest difference of a covariance (both in label units
   // squared).

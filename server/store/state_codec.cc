@@ -8,6 +8,7 @@
 #include "api/geometry.h"
 #include "api/plan.h"
 #include "core/common/status_macros.h"
+#include "core/mapping/gmrf_prior.h"
 #include "oaipp/store/mission_state.pb.h"
 
 namespace oaipp::server {
@@ -54,6 +55,7 @@ std::string EncodeMissionState(const MissionState& state) {
     if (state.trace.has_value()) {
       out.set_trace(*state.trace);
       out.set_trace_measurements_fused(state.trace_measurements_fused);
+      out.set_trace_prior_fit(kGmrfFitVersion);
     }
   }
   const auto n = static_cast<std::size_t>(state.mean.size());
@@ -129,8 +131,11 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
         return Corrupt(
             "the sparse map's trace is negative, not finite or ahead of its measurements");
       }
-      state.trace = in.trace();
-      state.trace_measurements_fused = in.trace_measurements_fused();
+      // A trace of another build's prior is not this map's.
+      if (in.trace_prior_fit() == kGmrfFitVersion) {
+        state.trace = in.trace();
+        state.trace_measurements_fused = in.trace_measurements_fused();
+      }
     }
   } else {
     DecodeDenseMap(in, n, state);

@@ -3,6 +3,7 @@
 // server wrote are refused with DataLoss, not restored.
 #include "server/store/state_codec.h"
 
+#include "core/mapping/gmrf_prior.h"
 #include "oaipp/store/mission_state.pb.h"
 
 #include "gtest/gtest.h"
@@ -101,6 +102,20 @@ TEST(StateCodecTest, ASparseMapsStateComesBackExactly) {
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_EQ(back->trace, 12.75);
   EXPECT_EQ(back->trace_measurements_fused, s.measurements_fused - 1);
+  // One computed on another fit of the sparse prior (an earlier build's, or
+  // written before the fit was recorded: 0) is not this map's trace: none
+  // comes back, and the map and its measurements do.
+  for (const unsigned fit : {0u, kGmrfFitVersion - 1, kGmrfFitVersion + 1}) {
+    store::MissionState other;
+    ASSERT_TRUE(other.ParseFromString(EncodeMissionState(s)));
+    ASSERT_EQ(other.trace_prior_fit(), kGmrfFitVersion);
+    other.set_trace_prior_fit(fit);
+    absl::StatusOr<MissionState> older = DecodeMissionState(other.SerializeAsString());
+    ASSERT_TRUE(older.ok()) << older.status();
+    EXPECT_FALSE(older->trace.has_value()) << fit;
+    EXPECT_EQ(older->added_precision, s.added_precision);
+    EXPECT_EQ(older->measurements_fused, s.measurements_fused);
+  }
   for (const auto& [trace, included] :
        {std::pair{-1.0, s.measurements_fused}, std::pair{1.0, s.measurements_fused + 1}}) {
     MissionState wrong = s;

@@ -92,8 +92,8 @@ TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
     k.setFromTriplets(entries.begin(), entries.end());
     identity.setIdentity();
     const Eigen::SparseMatrix<double> k2 = k * k;
-    const Eigen::SparseMatrix<double> q =
-        (1.0 / fit.scale) * Eigen::SparseMatrix<double>(k2 * k) + identity / params.noise_var;
+    const Eigen::SparseMatrix<double> q = (1.0 / fit.scale) * Eigen::SparseMatrix<double>(k2 * k) +
+                                          identity * (fit.long_wavelength + 1.0 / params.noise_var);
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
     VectorXd e = VectorXd::Zero(n);
     e[centre] = 1.0;
@@ -108,7 +108,9 @@ TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
 // At the field's edges the published prior's variance is higher than
 // inside (its noise term reduces less where a cell has fewer neighbours);
 // the sparse prior, whose lattice runs on past the field so that the SPDE's
-// own free boundary stays outside, follows the dense prior there too.
+// own free boundary stays outside, follows the dense prior there too: equal
+// inside, a few per cent high at an edge and at a corner, where the fit's
+// weight on the posteriors (gmrf_prior.h) costs most (docs/method.md §3.9).
 TEST(GmrfPriorTest, EdgesFollowTheDensePrior) {
   const FieldGrid grid = testing::CentredGrid(24, 24, 1.0);
   const GpParams params = GpParams::PaperPreset(1.0);
@@ -117,8 +119,11 @@ TEST(GmrfPriorTest, EdgesFollowTheDensePrior) {
   absl::StatusOr<MatrixXd> dense = PriorCovariance(grid, params);
   ASSERT_TRUE(dense.ok());
   const MatrixXd p = DenseFieldCovariance(*prior);
-  for (int cell : {grid.Index(12, 12), grid.Index(0, 0), grid.Index(0, 12), grid.Index(23, 23)}) {
-    EXPECT_NEAR(p(cell, cell), (*dense)(cell, cell), 0.02 * (*dense)(cell, cell))
+  for (const auto& [cell, bound] : {std::pair{grid.Index(12, 12), 0.001},
+                                    {grid.Index(0, 12), 0.03},
+                                    {grid.Index(0, 0), 0.06},
+                                    {grid.Index(23, 23), 0.06}}) {
+    EXPECT_NEAR(p(cell, cell), (*dense)(cell, cell), bound * (*dense)(cell, cell))
         << "cell " << cell;
   }
   EXPECT_GT((*dense)(0, 0), 1.5 * (*dense)(grid.Index(12, 12), grid.Index(12, 12)));
@@ -263,8 +268,10 @@ TEST(SparseGpMapTest, BadInputIsRefusedAndChangesNothing) {
 
 // How far the sparse prior is from the mission's Matérn 3/2 prior (the
 // dense map's), on E1's field (40 x 40 cells at 0.75 m) before and after 25
-// shots: the figures docs/method.md §3.9 quotes (0.015 / +0.13 % and
-// 0.010 / +2.3 %), held to bounds a little above them.
+// shots: the figures docs/method.md §3.9 quotes (worst cell 0.049 of the
+// prior variance / trace +0.42 % and 0.008 / +0.42 %), held to bounds a
+// little above them; after the shots, the trace within the 0.5 % the
+// large-field map is held to.
 TEST(SparseGpMapTest, StaysCloseToTheMatern32Map) {
   const FieldGrid grid = testing::CentredGrid(40, 40, 0.75);
   const GpParams params = GpParams::PaperPreset(0.75);
@@ -286,12 +293,13 @@ TEST(SparseGpMapTest, StaysCloseToTheMatern32Map) {
     EXPECT_LT(worst, var_bound) << when;
     EXPECT_LT(std::abs(trace), trace_bound) << when;
   };
-  compare("prior", 0.02, 0.005);
+  // The worst cells are the field's corners (EdgesFollowTheDensePrior).
+  compare("prior", 0.06, 0.005);
   for (const auto& shot : RandomShots(grid, 25, 5)) {
     ASSERT_TRUE(dense->Update(shot).ok());
     ASSERT_TRUE(sparse->Update(shot).ok());
   }
-  compare("posterior", 0.015, 0.03);
+  compare("posterior", 0.01, 0.005);
 }
 
 }  // namespace
