@@ -57,7 +57,7 @@ struct FieldWindow {
 
 struct FieldWindowOptions {
   // Lattice kept beyond the window on each side before the rest is
-  // conditioned on, in prior ranges (4 / kappa; GmrfOptions). Valid: >= 0,
+  // conditioned on, in prior ranges (GmrfFit::range_cells). Valid: >= 0,
   // finite.
   double margin_ranges = 1.0;
 };

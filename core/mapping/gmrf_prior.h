@@ -2,9 +2,9 @@
 // §3.9): the Gaussian Markov random field of the SPDE
 //   (kappa^2 - Laplacian)^(3/2) u = W / tau
 // on a regular lattice (Lindgren, Rue and Lindström 2011, alpha = 3), whose
-// solution is a Matérn field of smoothness nu = 2. It stands in for the
-// mission's Matérn 3/2 GP where a dense covariance (8 n^2 bytes) cannot be
-// held.
+// solution is a Matérn field of smoothness nu = 2, with a long-wavelength
+// term added to its precision (below). It stands in for the mission's
+// Matérn 3/2 GP where a dense covariance (8 n^2 bytes) cannot be held.
 //
 // What the map works with is the published code's prior
 // P0 = (K^-1 + I / sn2)^-1 (docs/method.md §3), here
@@ -65,8 +65,8 @@ inline constexpr unsigned kGmrfFitVersion = 2;
 
 struct GmrfOptions {
   // Lattice nodes added beyond the field on each side, in units of the
-  // prior's range 4 / kappa (the distance at which the nu = 2 correlation
-  // falls to about 0.1). Valid: >= 0, finite.
+  // prior's range (GmrfFit::range_cells, about where its correlation falls
+  // to 0.1). Valid: >= 0, finite.
   double margin_ranges = 1.0;
   bool operator==(const GmrfOptions&) const = default;
 };
@@ -85,9 +85,15 @@ struct GmrfFit {
   double dense_p0_variance = 0.0;
   double fitted_p0_variance = 0.0;
   double worst_lag_difference = 0.0;
-  // The range 4 / kappa (the correlation falls to about 0.1), in lattice
-  // cells.
-  [[nodiscard]] double range_cells() const { return 4.0 / std::sqrt(a); }
+  // The range, in lattice cells: 4 / kappa for the SPDE alone (its
+  // correlation falls to about 0.1 there), longer with the long-wavelength
+  // term:
+  // With d = 0 the covariance decays as exp(-kappa r); d > 0 moves the
+  // spectrum's poles, in the squared frequency, from -a to
+  // -a + c e^(i pi (2m + 1) / 3), c = (d s)^(1/3), and the slowest of them
+  // decays at Im sqrt(-a + c e^(i pi / 3)) (0.87 kappa for c = a), so the
+  // range is 4 over that rate.
+  [[nodiscard]] double range_cells() const;
 };
 
 // The fit above for a field of resolution h = resolution_m. Precondition:

@@ -53,7 +53,7 @@ std::string EncodeMissionState(const MissionState& state) {
     AppendDoubles(state.added_precision.data(), n, out.mutable_added_precision());
     AppendDoubles(state.added_information.data(), n, out.mutable_added_information());
     if (state.trace.has_value()) {
-      out.set_trace(*state.trace);
+      out.set_fitted_trace(*state.trace);
       out.set_trace_measurements_fused(state.trace_measurements_fused);
       out.set_trace_prior_fit(kGmrfFitVersion);
     }
@@ -125,15 +125,16 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
     state.added_information.resize(n);
     std::memcpy(state.added_precision.data(), in.added_precision().data(), bytes_of(n));
     std::memcpy(state.added_information.data(), in.added_information().data(), bytes_of(n));
-    if (in.has_trace()) {
-      if (!std::isfinite(in.trace()) || in.trace() < 0.0 || in.trace_measurements_fused() < 0 ||
+    if (in.has_fitted_trace()) {
+      if (!std::isfinite(in.fitted_trace()) || in.fitted_trace() < 0.0 ||
+          in.trace_measurements_fused() < 0 ||
           in.trace_measurements_fused() > in.measurements_fused()) {
         return Corrupt(
             "the sparse map's trace is negative, not finite or ahead of its measurements");
       }
       // A trace of another build's prior is not this map's.
       if (in.trace_prior_fit() == kGmrfFitVersion) {
-        state.trace = in.trace();
+        state.trace = in.fitted_trace();
         state.trace_measurements_fused = in.trace_measurements_fused();
       }
     }

@@ -3,6 +3,8 @@
 // server wrote are refused with DataLoss, not restored.
 #include "server/store/state_codec.h"
 
+#include <vector>
+
 #include "core/mapping/gmrf_prior.h"
 #include "oaipp/store/mission_state.pb.h"
 
@@ -102,17 +104,26 @@ TEST(StateCodecTest, ASparseMapsStateComesBackExactly) {
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_EQ(back->trace, 12.75);
   EXPECT_EQ(back->trace_measurements_fused, s.measurements_fused - 1);
-  // One computed on another fit of the sparse prior (an earlier build's, or
-  // written before the fit was recorded: 0) is not this map's trace: none
-  // comes back, and the map and its measurements do.
-  for (const unsigned fit : {0u, kGmrfFitVersion - 1, kGmrfFitVersion + 1}) {
-    store::MissionState other;
-    ASSERT_TRUE(other.ParseFromString(EncodeMissionState(s)));
-    ASSERT_EQ(other.trace_prior_fit(), kGmrfFitVersion);
-    other.set_trace_prior_fit(fit);
-    absl::StatusOr<MissionState> older = DecodeMissionState(other.SerializeAsString());
+  // One computed on another fit of the sparse prior (a later build's, or an
+  // earlier one's) is not this map's trace: none comes back, and the map
+  // and its measurements do. Nor does one written where builds before the
+  // fit was recorded wrote it (on the first fit), and this build does not
+  // write there, so that those builds compute their own.
+  store::MissionState written;
+  ASSERT_TRUE(written.ParseFromString(EncodeMissionState(s)));
+  EXPECT_FALSE(written.has_trace());
+  ASSERT_EQ(written.trace_prior_fit(), kGmrfFitVersion);
+  std::vector<store::MissionState> others(4, written);
+  others[0].set_trace_prior_fit(0);
+  others[1].set_trace_prior_fit(kGmrfFitVersion - 1);
+  others[2].set_trace_prior_fit(kGmrfFitVersion + 1);
+  others[3].clear_fitted_trace();
+  others[3].clear_trace_prior_fit();
+  others[3].set_trace(12.75);
+  for (std::size_t i = 0; i < others.size(); ++i) {
+    absl::StatusOr<MissionState> older = DecodeMissionState(others[i].SerializeAsString());
     ASSERT_TRUE(older.ok()) << older.status();
-    EXPECT_FALSE(older->trace.has_value()) << fit;
+    EXPECT_FALSE(older->trace.has_value()) << i;
     EXPECT_EQ(older->added_precision, s.added_precision);
     EXPECT_EQ(older->measurements_fused, s.measurements_fused);
   }
