@@ -89,12 +89,6 @@ constexpr double kFittedObservation[] = {0.0, 1.0, 3.0, 10.0};
 
 }  // namespace
 
-double GmrfFit::range_cells() const {
-  const double c = std::cbrt(long_wavelength * scale);
-  const Complex slowest = std::sqrt(Complex(-a, 0.0) + std::polar(c, std::numbers::pi / 3.0));
-  return 4.0 / std::min(std::sqrt(a), slowest.imag());
-}
-
 GmrfFit FitGmrfToPublishedPrior(const GpParams& params, double resolution_m) {
   const double h = resolution_m, l = params.length_scale_m;
   // Lags out to 8 l and beyond wrap-around; a power of two for the DFT.

@@ -65,8 +65,8 @@ inline constexpr unsigned kGmrfFitVersion = 2;
 
 struct GmrfOptions {
   // Lattice nodes added beyond the field on each side, in units of the
-  // prior's range (GmrfFit::range_cells, about where its correlation falls
-  // to 0.1). Valid: >= 0, finite.
+  // prior's range (GmrfFit::range_cells, beyond which its correlation is
+  // below 0.1). Valid: >= 0, finite.
   double margin_ranges = 1.0;
   bool operator==(const GmrfOptions&) const = default;
 };
@@ -85,15 +85,13 @@ struct GmrfFit {
   double dense_p0_variance = 0.0;
   double fitted_p0_variance = 0.0;
   double worst_lag_difference = 0.0;
-  // The range, in lattice cells: 4 / kappa for the SPDE alone (its
-  // correlation falls to about 0.1 there), longer with the long-wavelength
-  // term:
-  // With d = 0 the covariance decays as exp(-kappa r); d > 0 moves the
-  // spectrum's poles, in the squared frequency, from -a to
-  // -a + c e^(i pi (2m + 1) / 3), c = (d s)^(1/3), and the slowest of them
-  // decays at Im sqrt(-a + c e^(i pi / 3)) (0.87 kappa for c = a), so the
-  // range is 4 over that rate.
-  [[nodiscard]] double range_cells() const;
+  // The range 4 / kappa, in lattice cells. For the SPDE alone its
+  // correlation falls to about 0.14 there; the long-wavelength term lowers
+  // the fitted field's correlation at that lag (to 0.05 for the paper's
+  // preset), although its tail, oscillating, decays more slowly (at 0.87
+  // kappa when d s = a^3): at one range and beyond, what the margin cuts is
+  // smaller than for the SPDE alone (TheRangeIsWhereTheCorrelationIsSmall).
+  [[nodiscard]] double range_cells() const { return 4.0 / std::sqrt(a); }
 };
 
 // The fit above for a field of resolution h = resolution_m. Precondition:

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -103,6 +104,53 @@ TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
                    absl::StrCat(fit.worst_lag_difference));
     EXPECT_LT(fit.worst_lag_difference, 0.05 * fit.dense_p0_variance);
   }
+}
+
+// The range the lattice's margin is counted in, 4 / kappa: the fitted
+// field's correlation (the SPDE and its long-wavelength term, without the
+// noise term), measured along a row of an 81 x 81 lattice from its centre
+// by a sparse solve, is below a tenth there and stays below it beyond, its
+// slower oscillating tail included (gmrf_prior.h).
+TEST(GmrfPriorTest, TheRangeIsWhereTheCorrelationIsSmall) {
+  const GmrfFit fit = FitGmrfToPublishedPrior(GpParams::PaperPreset(1.0), 1.0);
+  ASSERT_GT(fit.long_wavelength, 0.0);
+  const int side = 81, n = side * side, centre = (side / 2) * side + side / 2;
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      const int s = r * side + c;
+      int degree = 0;
+      for (const auto& [dr, dc] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
+        const int rr = r + dr, cc = c + dc;
+        if (rr < 0 || rr >= side || cc < 0 || cc >= side) continue;
+        entries.emplace_back(s, rr * side + cc, -1.0);
+        ++degree;
+      }
+      entries.emplace_back(s, s, fit.a + degree);
+    }
+  }
+  Eigen::SparseMatrix<double> k(n, n), identity(n, n);
+  k.setFromTriplets(entries.begin(), entries.end());
+  identity.setIdentity();
+  const Eigen::SparseMatrix<double> k2 = k * k;
+  const Eigen::SparseMatrix<double> q =
+      (1.0 / fit.scale) * Eigen::SparseMatrix<double>(k2 * k) + identity * fit.long_wavelength;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
+  VectorXd e = VectorXd::Zero(n);
+  e[centre] = 1.0;
+  const VectorXd column = ldlt.solve(e);
+  const int range = static_cast<int>(std::ceil(fit.range_cells()));
+  double beyond = 0.0;  // the largest |correlation| from one range to 3
+  for (int lag = range; lag <= 3 * range && lag <= side / 2; ++lag) {
+    beyond = std::max(beyond, std::abs(column[centre + lag] / column[centre]));
+  }
+  const double at_range = column[centre + range] / column[centre];
+  RecordProperty("correlation_at_range", absl::StrCat(at_range));
+  RecordProperty("largest_beyond", absl::StrCat(beyond));
+  std::printf("range %d cells: correlation %.3f there, at most %.3f beyond\n", range, at_range,
+              beyond);
+  EXPECT_GT(at_range, 0.0);
+  EXPECT_LT(beyond, 0.1);
 }
 
 // At the field's edges the published prior's variance is higher than
