@@ -56,12 +56,14 @@
 
 namespace oaipp {
 
-// The version of FitGmrfToPublishedPrior's criterion. A large-field map's
-// numbers depend on it, so a variance or trace kept from a build with
-// another is not this build's (server/store/state_codec.cc). 1: fitted to
-// P0 alone; 2: to P0 and uniformly observed posteriors, with the
-// long-wavelength term.
-inline constexpr unsigned kGmrfFitVersion = 2;
+// The version of the sparse prior: its fit, the form of its precision and
+// its lattice (the margin). A large-field map's numbers depend on all
+// three, so a variance or trace kept from a build with another version is
+// not this build's (server/store/state_codec.cc); a change to any of them
+// takes a new number. 1: fitted to P0 alone; 2 and 3: to P0 and uniformly
+// observed posteriors, with the long-wavelength term (2 was briefly built
+// with a longer margin).
+inline constexpr unsigned kGmrfFitVersion = 3;
 
 struct GmrfOptions {
   // Lattice nodes added beyond the field on each side, in units of the
