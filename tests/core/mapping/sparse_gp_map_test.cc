@@ -59,63 +59,12 @@ double MaxRelative(const VectorXd& a, const VectorXd& b) {
   return ((a - b).array().abs() / b.array().abs().max(1e-300)).maxCoeff();
 }
 
-// The fit's spectral sums against dense computations: the dense P0's
-// interior variance against the centre of a dense published prior on a
-// 41 x 41 field, the fitted one against a solve with the GMRF's
-// precision on a 41 x 41 lattice; and the fit makes the two equal.
-TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
-  for (const double h : {0.75, 2.0}) {
-    SCOPED_TRACE(absl::StrCat("resolution ", h));
-    const GpParams params = GpParams::PaperPreset(h);
-    const GmrfFit fit = FitGmrfToPublishedPrior(params, h);
-    EXPECT_NEAR(fit.fitted_p0_variance, fit.dense_p0_variance, 1e-9 * fit.dense_p0_variance);
-
-    const int side = 41, n = side * side, centre = (side / 2) * side + side / 2;
-    absl::StatusOr<MatrixXd> p0 = PriorCovariance(testing::CentredGrid(side, side, h), params);
-    ASSERT_TRUE(p0.ok());
-    EXPECT_NEAR((*p0)(centre, centre), fit.dense_p0_variance, 1e-5 * fit.dense_p0_variance);
-
-    std::vector<Eigen::Triplet<double>> entries;
-    for (int r = 0; r < side; ++r) {
-      for (int c = 0; c < side; ++c) {
-        const int s = r * side + c;
-        int degree = 0;
-        for (const auto& [dr, dc] : {std::pair{-1, 0}, {1, 0}, {0, -1}, {0, 1}}) {
-          const int rr = r + dr, cc = c + dc;
-          if (rr < 0 || rr >= side || cc < 0 || cc >= side) continue;
-          entries.emplace_back(s, rr * side + cc, -1.0);
-          ++degree;
-        }
-        entries.emplace_back(s, s, fit.a + degree);
-      }
-    }
-    Eigen::SparseMatrix<double> k(n, n), identity(n, n);
-    k.setFromTriplets(entries.begin(), entries.end());
-    identity.setIdentity();
-    const Eigen::SparseMatrix<double> k2 = k * k;
-    const Eigen::SparseMatrix<double> q = (1.0 / fit.scale) * Eigen::SparseMatrix<double>(k2 * k) +
-                                          identity * (fit.long_wavelength + 1.0 / params.noise_var);
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
-    VectorXd e = VectorXd::Zero(n);
-    e[centre] = 1.0;
-    const double lattice = ldlt.solve(e)[centre];
-    EXPECT_NEAR(fit.fitted_p0_variance, lattice, 1e-6 * lattice);
-    RecordProperty(absl::StrCat("worst_lag_difference_at_", h),
-                   absl::StrCat(fit.worst_lag_difference));
-    EXPECT_LT(fit.worst_lag_difference, 0.05 * fit.dense_p0_variance);
-  }
-}
-
-// The range the lattice's margin is counted in, 4 / kappa: the fitted
-// field's correlation (the SPDE and its long-wavelength term, without the
-// noise term), measured along a row of an 81 x 81 lattice from its centre
-// by a sparse solve, is about 0.05 at the margin (ceil(4 / kappa) cells),
-// against about 0.14 for the SPDE alone, and no larger from there to
-// three margins, its slower oscillating tail included (gmrf_prior.h).
-TEST(GmrfPriorTest, TheRangeIsWhereTheCorrelationIsSmall) {
-  const GmrfFit fit = FitGmrfToPublishedPrior(GpParams::PaperPreset(1.0), 1.0);
-  ASSERT_GT(fit.long_wavelength, 0.0);
-  const int side = 81, n = side * side, centre = (side / 2) * side + side / 2;
+// The centre column of the inverse of the fitted field's precision on a
+// side x side lattice, built here from the fit's parameters (not by
+// MakeGmrfPrior), K^3 / s + (d + diagonal) I with K = a I + G, solved with
+// Eigen's sparse LDL^T.
+VectorXd LatticeCentreColumn(const GmrfFit& fit, int side, double diagonal) {
+  const int n = side * side, centre = (side / 2) * side + side / 2;
   std::vector<Eigen::Triplet<double>> entries;
   for (int r = 0; r < side; ++r) {
     for (int c = 0; c < side; ++c) {
@@ -134,12 +83,50 @@ TEST(GmrfPriorTest, TheRangeIsWhereTheCorrelationIsSmall) {
   k.setFromTriplets(entries.begin(), entries.end());
   identity.setIdentity();
   const Eigen::SparseMatrix<double> k2 = k * k;
-  const Eigen::SparseMatrix<double> q =
-      (1.0 / fit.scale) * Eigen::SparseMatrix<double>(k2 * k) + identity * fit.long_wavelength;
+  const Eigen::SparseMatrix<double> q = (1.0 / fit.scale) * Eigen::SparseMatrix<double>(k2 * k) +
+                                        identity * (fit.long_wavelength + diagonal);
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(q);
+  EXPECT_EQ(ldlt.info(), Eigen::Success);
   VectorXd e = VectorXd::Zero(n);
   e[centre] = 1.0;
-  const VectorXd column = ldlt.solve(e);
+  return ldlt.solve(e);
+}
+
+// The fit's spectral sums against dense computations: the dense P0's
+// interior variance against the centre of a dense published prior on a
+// 41 x 41 field, the fitted one against a solve with the GMRF's
+// precision on a 41 x 41 lattice; and the fit makes the two equal.
+TEST(GmrfPriorTest, FitAgreesWithDenseComputations) {
+  for (const double h : {0.75, 2.0}) {
+    SCOPED_TRACE(absl::StrCat("resolution ", h));
+    const GpParams params = GpParams::PaperPreset(h);
+    const GmrfFit fit = FitGmrfToPublishedPrior(params, h);
+    EXPECT_NEAR(fit.fitted_p0_variance, fit.dense_p0_variance, 1e-9 * fit.dense_p0_variance);
+
+    const int side = 41, centre = (side / 2) * side + side / 2;
+    absl::StatusOr<MatrixXd> p0 = PriorCovariance(testing::CentredGrid(side, side, h), params);
+    ASSERT_TRUE(p0.ok());
+    EXPECT_NEAR((*p0)(centre, centre), fit.dense_p0_variance, 1e-5 * fit.dense_p0_variance);
+
+    const double lattice = LatticeCentreColumn(fit, side, 1.0 / params.noise_var)[centre];
+    EXPECT_NEAR(fit.fitted_p0_variance, lattice, 1e-6 * lattice);
+    RecordProperty(absl::StrCat("worst_lag_difference_at_", h),
+                   absl::StrCat(fit.worst_lag_difference));
+    EXPECT_LT(fit.worst_lag_difference, 0.05 * fit.dense_p0_variance);
+  }
+}
+
+// The range the lattice's margin is counted in, 4 / kappa: the fitted
+// field's correlation (the SPDE and its long-wavelength term, without the
+// noise term), measured along a row of an 81 x 81 lattice from its centre
+// by a sparse solve, is about 0.05 at the margin (ceil(4 / kappa) cells),
+// against about 0.14 for the SPDE alone, and no larger from there to
+// three margins, its slower oscillating tail included (gmrf_prior.h).
+TEST(GmrfPriorTest, TheRangeIsWhereTheCorrelationIsSmall) {
+  const GmrfFit fit = FitGmrfToPublishedPrior(GpParams::PaperPreset(1.0), 1.0);
+  ASSERT_GT(fit.long_wavelength, 0.0);
+  const int side = 81, centre = (side / 2) * side + side / 2;
+  const VectorXd column = LatticeCentreColumn(fit, side, /*diagonal=*/0.0);
   const int range = static_cast<int>(std::ceil(fit.range_cells()));
   double beyond = 0.0;  // the largest |correlation| from one range to 3
   for (int lag = range; lag <= 3 * range && lag <= side / 2; ++lag) {
