@@ -7,6 +7,7 @@
 // cascade, and many missions can append at once.
 #include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -16,10 +17,13 @@
 #include <thread>
 #include <tuple>
 
+#include <pqxx/pqxx>
+
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "gtest/gtest.h"
 #include "server/store/open_store.h"
+#include "server/store/postgres_schema.h"
 #include "server/store/postgres_store.h"
 #include "server/store/sqlite_store.h"
 #include "tests/server/postgres_instance.h"
@@ -599,6 +603,41 @@ TEST_P(StoreTest, ClaimsRacingAppendsLoseNoAcknowledgedRecord) {
     EXPECT_EQ(final_state->log[i].payload, absl::StrCat("p", i + 1));
   }
   EXPECT_EQ(final_state->epoch, kFirstEpoch + 20);
+}
+
+// A server opening a store that running servers use takes table locks for
+// its (idempotent) schema that their transactions may hold in the other
+// order. Here a transaction reads the missions table, the open waits for it
+// while holding the schema lock, and the transaction then asks for that
+// lock: PostgreSQL breaks the deadlock by rolling back the open, which
+// waited first. The open is tried again and succeeds once the other commits.
+TEST_P(StoreTest, AnOpenRolledBackByADeadlockIsTriedAgain) {
+  if (GetParam() != "postgresql") GTEST_SKIP() << "a PostgreSQL deadlock";
+  ASSERT_NE(Open(), nullptr);
+  pqxx::connection other(uri_);
+  pqxx::work held(other);
+  held.exec("SELECT 1 FROM missions LIMIT 1");
+  absl::StatusOr<std::unique_ptr<MissionStore>> reopened =
+      absl::UnknownError("the open has not returned");
+  std::thread opener([&] { reopened = OpenPostgresStore(uri_); });
+  pqxx::connection watcher(uri_);
+  bool waiting = false;
+  for (int i = 0; i < 200 && !waiting; ++i) {
+    pqxx::nontransaction query(watcher);
+    waiting = query
+                  .exec1(
+                      "SELECT count(*) FROM pg_locks l JOIN pg_class c ON c.oid = l.relation "
+                      "WHERE NOT l.granted AND c.relname = 'missions'")[0]
+                  .as<int>() > 0;
+    if (!waiting) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  if (!waiting) held.abort();
+  ASSERT_TRUE(waiting) << "the open never waited for the missions table";
+  held.exec_params("SELECT pg_advisory_xact_lock($1)", postgres::kSchemaLockKey);
+  held.commit();
+  opener.join();
+  ASSERT_TRUE(reopened.ok()) << reopened.status();
+  EXPECT_TRUE((*reopened)->Health().ok());
 }
 
 TEST_P(StoreTest, ManyMissionsAppendAtOnce) {
