@@ -67,7 +67,7 @@ absl::StatusOr<std::shared_ptr<const LargeFieldMap::Reading>> LargeFieldMap::Rea
   OAIPP_ASSIGN_OR_RETURN(reading->mean, map_.Mean());
   OAIPP_ASSIGN_OR_RETURN(reading->variances, map_.Variances());
   reading->trace = reading->variances.sum();
-  // The factor and, while the variances were computed, Z in its layout.
+  // The factor and, once a variance map was computed, Z in its layout.
   bytes_.store(std::max(bytes_.load(), map_.bytes()));
   absl::MutexLock latest_lock(&latest_mu_);
   // Readers may finish out of order: the newest stays.

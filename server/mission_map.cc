@@ -14,7 +14,7 @@ std::int64_t Mission::MemoryBytes() const {
     absl::MutexLock lock(&summary_mu_);
     env = summary_.env;
   }
-  // A sparse map: its factor at the peak, and the additions (16 bytes a
+  // A sparse map: its factor and workspace, and the additions (16 bytes a
   // cell) with a reader's copy.
   const std::int64_t map_bytes = large_ == nullptr
                                      ? map_bytes_ + team_chain_.bytes()

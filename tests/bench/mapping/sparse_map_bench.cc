@@ -11,7 +11,8 @@
 // BM_SparseMean/side/res_cm: that Update and then the mean (the numeric
 //   refactorisation and the mean's solve).
 // BM_SparseVariances/side/res_cm: every field cell's variance after an
-//   update (the selected inversion).
+//   update (the refactorisation and the selected inversion), on a map whose
+//   variances were computed once before.
 // BM_SparseWindow/side/res_cm/half_width_m: the planner's dense window
 //   (core/mapping/field_window.h) around a point that moves across the
 //   field, after an update whose mean is already computed, on OpenBLAS where
@@ -93,6 +94,9 @@ void BM_SparseVariances(benchmark::State& state) {
   const FieldGrid grid = Grid(state);
   absl::StatusOr<SparseGpMap> map =
       SparseGpMap::Create(grid, GpParams::PaperPreset(grid.resolution_m()));
+  // A mission asks for its map more than once: the first variance map,
+  // which allocates the inversion's workspace, is not timed.
+  benchmark::DoNotOptimize(map->Variances());
   int i = 0;
   for (auto _ : state) {
     state.PauseTiming();
@@ -131,7 +135,7 @@ void Sizes(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_SparseCreate)->Apply(Sizes)->Iterations(1);
 BENCHMARK(BM_SparseFuse)->Apply(Sizes)->Iterations(50);
 BENCHMARK(BM_SparseMean)->Apply(Sizes)->Iterations(10);
-BENCHMARK(BM_SparseVariances)->Apply(Sizes)->Iterations(1);
+BENCHMARK(BM_SparseVariances)->Apply(Sizes)->Iterations(3);
 BENCHMARK(BM_SparseWindow)
     ->Args({300, 100, 20})
     ->Args({300, 100, 30})
