@@ -506,7 +506,8 @@ std::int64_t SparseGpMap::factor_nonzeros() const {
 std::int64_t SparseGpMap::bytes() const {
   const std::int64_t q = 2 * (12 * prior_.precision.nonZeros() + 4 * prior_.precision.cols());
   const std::int64_t vectors = 8 * (2 * prior_.num_states() + 4 * num_cells());
-  // The factor, and Z in its layout once a variance map was asked for.
+  // The factor, and Z in its layout (allocated by the first variance map
+  // and kept).
   return q + vectors + 16 * factor_nonzeros();
 }
 

@@ -120,7 +120,9 @@ class SparseGpMap {
                                                    const Eigen::VectorXd& added_information);
 
   // The non-zeros of the Cholesky factor and the bytes the map holds
-  // (prior, factor, vectors), for memory estimates and benchmarks.
+  // (prior, factor, the variances' workspace as large as the factor, which
+  // the first variance map allocates and later ones reuse, vectors), for
+  // memory estimates and benchmarks.
   [[nodiscard]] std::int64_t factor_nonzeros() const;
   [[nodiscard]] std::int64_t bytes() const;
 
