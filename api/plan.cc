@@ -74,6 +74,9 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
       v1::TeammatePlan& mate = *out->add_checked_against();
       mate.set_uav_id(uav_id);
       mate.set_plan_version(version);
+      if (auto it = path.team.shots_counted.find(uav_id); it != path.team.shots_counted.end()) {
+        mate.set_shots_counted(it->second);
+      }
     }
   }
 }
@@ -145,6 +148,7 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
   path.team.start_mission_s = response.start_mission_s();
   for (const v1::TeammatePlan& mate : response.checked_against()) {
     path.team.checked_against.emplace_back(mate.uav_id(), mate.plan_version());
+    if (mate.shots_counted() > 0) path.team.shots_counted[mate.uav_id()] = mate.shots_counted();
   }
   return path;
 }

@@ -358,6 +358,9 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     OAIPP_RETURN_IF_ERROR(FuseIntoMap(observations, /*defer=*/true));
     ++measurements_fused_;
     mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
+    if (auto [it, added] = last_shot_s_.try_emplace(input.uav_id, input.mission_time_s); !added) {
+      it->second = std::max(it->second, input.mission_time_s);
+    }
     log_.push_back(input);
     log_bytes_ += entry_bytes;
     Publish(/*obstacles_changed=*/false);
@@ -423,7 +426,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                   ? call.deadline
                                   : std::min(call.deadline, absl::Now() + call.budget);
   std::vector<std::pair<std::string, std::int64_t>> versions;
-  const std::vector<Teammate> teammates = TeammatesOf(call.uav_id, state.mission_time_s, &versions);
+  std::map<std::string, int> shots_counted;
+  const std::vector<Teammate> teammates = TeammatesOf(
+      call.uav_id, state.mission_time_s, plan_map.last_shot_s, &versions, &shots_counted);
   const PlanningContext context{.environment = env.get(),
                                 .map = map.get(),
                                 .camera = kit.camera,
@@ -469,7 +474,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     path->team = {.uav_id = call.uav_id,
                   .plan_version = paths_planned_.load() + 1,
                   .start_mission_s = state.mission_time_s,
-                  .checked_against = std::move(versions)};
+                  .checked_against = std::move(versions),
+                  .shots_counted = std::move(shots_counted)};
   }
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.

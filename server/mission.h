@@ -308,6 +308,8 @@ class Mission {
     std::shared_ptr<ConditionedCache> conditioned;
     const FieldGrid* field = nullptr;  // the whole field, when map is a window
     std::int64_t version = 0;          // a dense map's dense_version_
+    // last_shot_s_ as the map holds it (taken under the same lock).
+    std::map<std::string, double> last_shot_s;
   };
   absl::StatusOr<PlanMap> MapForPlan(const Vec2& centre_W, std::shared_ptr<const Environment>* env);
   // config.MakeEnvironment(), or a clone of the world cache's copy under
@@ -342,11 +344,16 @@ class Mission {
   [[nodiscard]] bool Removed(const std::string& uav_id) const;
   // A team's other UAVs as the plan for `uav_id` at mission time `now_s`
   // must keep clear of them: each one's committed trajectory (or, before
-  // its first plan, its start, held), with its shots still to come; and
-  // their plan versions (0: none yet), in uav_id order.
+  // its first plan, its start, held), with its shots still to come: at or
+  // after now_s and after the last measurement of that UAV the plan's map
+  // holds (`last_shot_s`, by uav_id), which is in the map already. Also
+  // their plan versions (0: none yet), in uav_id order, and how many of
+  // each one's shots were counted.
   std::vector<Teammate> TeammatesOf(const std::string& uav_id, double now_s,
-                                    std::vector<std::pair<std::string, std::int64_t>>* versions)
-      const ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
+                                    const std::map<std::string, double>& last_shot_s,
+                                    std::vector<std::pair<std::string, std::int64_t>>* versions,
+                                    std::map<std::string, int>* shots_counted) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
 
   const std::string id_;
   const MissionConfig config_;
@@ -389,6 +396,10 @@ class Mission {
   std::atomic<std::int64_t> log_limit_{std::numeric_limits<std::int64_t>::max()};
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
+  // The mission time of the latest measurement fused from each UAV (by
+  // uav_id; "" without a team): a teammate's shot at or before it is in the
+  // map and no longer to come (TeammatesOf).
+  std::map<std::string, double> last_shot_s_ ABSL_GUARDED_BY(mu_);
   // request_id -> first result. Read and written with the lock of the
   // operation held, so that check and apply are one step.
   IdempotencyMemo answers_;

@@ -42,6 +42,7 @@ MissionState Mission::CaptureState() const {
   }
   state.measurements_fused = measurements_fused_;
   state.mission_time_s = mission_time_s_;
+  state.last_shot_s = last_shot_s_;
   state.paths_planned = paths_planned_.load();
   state.planner_state = planner_->SaveState();
   answers_.ForEach([&](const std::string& request_id, const RememberedAnswer& answer) {

@@ -81,6 +81,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
     mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
     mission->measurements_fused_ = state.measurements_fused;
     mission->mission_time_s_ = state.mission_time_s;
+    mission->last_shot_s_ = std::move(state.last_shot_s);
     if (sparse) {
       mission->added_ = std::make_shared<SparseGpMap::Additions>(
           SparseGpMap::Additions{.precision = std::move(state.added_precision),

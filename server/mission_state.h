@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -43,6 +44,8 @@ struct MissionState {
   std::vector<PlannedPath> committed = {};
   // Members taken out of the team (RemoveTeamMember), in the order removed.
   std::vector<std::string> removed_uav_ids = {};
+  // The mission time of the latest measurement fused from each UAV.
+  std::map<std::string, double> last_shot_s = {};
 };
 
 }  // namespace oaipp::server

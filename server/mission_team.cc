@@ -100,19 +100,26 @@ absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id,
 }
 
 std::vector<Teammate> Mission::TeammatesOf(
-    const std::string& uav_id, double now_s,
-    std::vector<std::pair<std::string, std::int64_t>>* versions) const {
+    const std::string& uav_id, double now_s, const std::map<std::string, double>& last_shot_s,
+    std::vector<std::pair<std::string, std::int64_t>>* versions,
+    std::map<std::string, int>* shots_counted) const {
   std::vector<Teammate> mates;
   for (const api::TeamMember& member : config_.team) {
     if (member.uav_id == uav_id || Removed(member.uav_id)) continue;
     if (auto it = committed_.find(member.uav_id); it != committed_.end()) {
       const PlannedPath& path = it->second;
+      // A shot at now_s may have been taken and fused already (teammates
+      // shoot on one clock and plan at their shots): then it is in the map,
+      // and counting it again would take its ground as seen twice.
+      const auto fused = last_shot_s.find(member.uav_id);
       std::vector<Vec3> pending;
       for (const MeasurementPose& shot : path.measurement_poses) {
-        if (config_.count_teammate_shots && shot.mission_time_s >= now_s) {
+        if (config_.count_teammate_shots && shot.mission_time_s >= now_s &&
+            (fused == last_shot_s.end() || shot.mission_time_s > fused->second)) {
           pending.push_back(shot.position_W);
         }
       }
+      if (!pending.empty()) (*shots_counted)[member.uav_id] = static_cast<int>(pending.size());
       mates.push_back({.uav_id = member.uav_id,
                        .trajectory = path.trajectory,
                        .start_mission_s = path.team.start_mission_s,

@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <map>
 #include <optional>
 #include <span>
 #include <string>
@@ -168,6 +169,9 @@ struct PlannedPath {
     std::int64_t plan_version = 0;
     double start_mission_s = 0.0;
     std::vector<std::pair<std::string, std::int64_t>> checked_against;
+    // Of those teammates, how many of each one's shots still to come the
+    // plan counted as taken (absent: none).
+    std::map<std::string, int> shots_counted = {};
   };
   TeamStamp team = {};
 };

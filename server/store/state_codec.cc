@@ -94,6 +94,7 @@ std::string EncodeMissionState(const MissionState& state) {
     }
   }
   for (const std::string& id : state.removed_uav_ids) out.add_removed_uav_ids(id);
+  out.mutable_last_shot_s()->insert(state.last_shot_s.begin(), state.last_shot_s.end());
   return out.SerializeAsString();
 }
 
@@ -196,6 +197,10 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
     state.committed.push_back(*std::move(path));
   }
   state.removed_uav_ids.assign(in.removed_uav_ids().begin(), in.removed_uav_ids().end());
+  for (const auto& [uav_id, time_s] : in.last_shot_s()) {
+    if (!std::isfinite(time_s)) return Corrupt("last_shot_s: a time that is not finite");
+    state.last_shot_s.emplace(uav_id, time_s);
+  }
   return state;
 }
 

@@ -280,6 +280,57 @@ TEST_F(TeamTest, TeammatesPendingShotsCountUnlessTheSpecSaysNot) {
   EXPECT_TRUE(compared) << "no seed in 1-10 gave b a path that earns anything";
 }
 
+// A teammate's shot counts as still to come only while it is not in the
+// map: at or after the plan's start and after that teammate's latest
+// measurement. Teammates shoot on one clock and plan at their shots, so a
+// shot at the plan's own start is often fused already; counted again, its
+// ground would be taken as seen twice. Every count is the number of a's
+// poses computed here from a's own path.
+TEST_F(TeamTest, ATeammatesShotAlreadyFusedIsNotCountedAgain) {
+  InProcessService service(RegistryLimits{.max_missions = 64, .max_cells_per_mission = 1600});
+  const std::vector<Point> starts = {{-3, 8, 8}, {3, 8, 8}};
+  for (const bool counted : {true, false}) {
+    v1::MissionSpec spec = TeamSpec(starts);
+    spec.set_count_teammate_shots(counted);
+    const std::string id = counted ? "counted" : "ignored";
+    v1::Mission team;
+    ASSERT_TRUE(CreateTeam(service.stub(), id, spec, &team).ok());
+    v1::PlanPathResponse a;
+    ASSERT_TRUE(PlanFor(service.stub(), id, "a", At(starts[0], 0), "pa", &a).ok());
+    const auto poses_after = [&](double t_s, bool strictly) {
+      int n = 0;
+      for (const v1::MeasurementPose& pose : a.measurement_poses()) {
+        n += strictly ? pose.mission_time_s() > t_s : pose.mission_time_s() >= t_s;
+      }
+      return n;
+    };
+    ASSERT_GE(a.measurement_poses_size(), 2);
+    ASSERT_EQ(a.measurement_poses(0).mission_time_s(), 0.0);  // its start shot, at 0
+    const auto b_counts = [&](const std::string& request_id) {
+      v1::PlanPathResponse b;
+      EXPECT_TRUE(PlanFor(service.stub(), id, "b", At(starts[1], 0), request_id, &b).ok());
+      EXPECT_EQ(b.checked_against_size(), 1);
+      return b.checked_against_size() == 1 ? b.checked_against(0).shots_counted() : -1;
+    };
+    // Before a's start shot is fused: every pose of a's path is to come.
+    EXPECT_EQ(b_counts("pb1"), counted ? poses_after(0.0, false) : 0) << id;
+    // a takes its start shot: it is in the map, and counts no more.
+    {
+      grpc::ClientContext c;
+      const v1::MeasurementPose& shot = a.measurement_poses(0);
+      v1::AddMeasurementRequest r =
+          testing::LabelMeasurement("missions/" + id, shot.position_m().x(), shot.position_m().y(),
+                                    shot.position_m().z(), shot.mission_time_s(), 0.0);
+      r.set_uav_id("a");
+      r.set_request_id("ma");
+      v1::AddMeasurementResponse fused;
+      ASSERT_TRUE(service.stub().AddMeasurement(&c, r, &fused).ok());
+    }
+    EXPECT_EQ(b_counts("pb2"), counted ? poses_after(0.0, true) : 0) << id;
+    EXPECT_EQ(poses_after(0.0, true), a.measurement_poses_size() - 1);
+  }
+}
+
 // The committed trajectories are durable: a server started on the same store
 // checks the next plan against them, whether it replays the log or restores
 // a snapshot, and a retried plan gets its first answer.
@@ -321,6 +372,17 @@ TEST_F(TeamTest, CommittedTrajectoriesComeBackAfterARestart) {
     EXPECT_EQ(c.checked_against(1).plan_version(), b.plan_version());
     EXPECT_GE(ClosestApproach({.path = c}, {.path = a}, 0.0), kSeparation - 1e-6);
     EXPECT_GE(ClosestApproach({.path = c}, {.path = b}, 0.0), kSeparation - 1e-6);
+    // b's measurement at 0.5 s comes back too: b's shots until then are in
+    // the map, and c counts only the later ones; all of a's.
+    const auto later = [](const v1::PlanPathResponse& path, double t_s) {
+      int n = 0;
+      for (const v1::MeasurementPose& pose : path.measurement_poses()) {
+        n += pose.mission_time_s() > t_s;
+      }
+      return n;
+    };
+    EXPECT_EQ(c.checked_against(0).shots_counted(), a.measurement_poses_size());
+    EXPECT_EQ(c.checked_against(1).shots_counted(), later(b, 0.5));
   }
 }
 
