@@ -345,8 +345,9 @@ class Mission {
   // A team's other UAVs as the plan for `uav_id` at mission time `now_s`
   // must keep clear of them: each one's committed trajectory (or, before
   // its first plan, its start, held), with its shots still to come: at or
-  // after now_s and after the last measurement of that UAV the plan's map
-  // holds (`last_shot_s`, by uav_id), which is in the map already. Also
+  // after now_s and more than half a camera period after the latest
+  // measurement of that UAV the plan's map holds (`last_shot_s`, by
+  // uav_id), which is in the map already. Also
   // their plan versions (0: none yet), in uav_id order, and how many of
   // each one's shots were counted.
   std::vector<Teammate> TeammatesOf(const std::string& uav_id, double now_s,

@@ -110,12 +110,16 @@ std::vector<Teammate> Mission::TeammatesOf(
       const PlannedPath& path = it->second;
       // A shot at now_s may have been taken and fused already (teammates
       // shoot on one clock and plan at their shots): then it is in the map,
-      // and counting it again would take its ground as seen twice.
+      // and counting it again would take its ground as seen twice. A
+      // camera's own clock may stamp a shot a little before or after its
+      // planned time, so a shot within half a period after the teammate's
+      // latest measurement counts as that measurement.
       const auto fused = last_shot_s.find(member.uav_id);
+      const double half_period_s = 0.5 / member.kit.camera.rate_hz;
       std::vector<Vec3> pending;
       for (const MeasurementPose& shot : path.measurement_poses) {
         if (config_.count_teammate_shots && shot.mission_time_s >= now_s &&
-            (fused == last_shot_s.end() || shot.mission_time_s > fused->second)) {
+            (fused == last_shot_s.end() || shot.mission_time_s > fused->second + half_period_s)) {
           pending.push_back(shot.position_W);
         }
       }

@@ -328,6 +328,24 @@ TEST_F(TeamTest, ATeammatesShotAlreadyFusedIsNotCountedAgain) {
     }
     EXPECT_EQ(b_counts("pb2"), counted ? poses_after(0.0, true) : 0) << id;
     EXPECT_EQ(poses_after(0.0, true), a.measurement_poses_size() - 1);
+    // a's next shot, stamped by its camera 10 ms before its planned time,
+    // is that shot too.
+    {
+      grpc::ClientContext c;
+      const v1::MeasurementPose& shot = a.measurement_poses(1);
+      v1::AddMeasurementRequest r =
+          testing::LabelMeasurement("missions/" + id, shot.position_m().x(), shot.position_m().y(),
+                                    shot.position_m().z(), shot.mission_time_s() - 0.01, 0.0);
+      r.set_uav_id("a");
+      r.set_request_id("ma2");
+      v1::AddMeasurementResponse fused;
+      ASSERT_TRUE(service.stub().AddMeasurement(&c, r, &fused).ok());
+    }
+    EXPECT_EQ(b_counts("pb3"),
+              counted ? poses_after(a.measurement_poses(1).mission_time_s(), true) : 0)
+        << id;
+    EXPECT_EQ(poses_after(a.measurement_poses(1).mission_time_s(), true),
+              a.measurement_poses_size() - 2);
   }
 }
 
