@@ -52,6 +52,12 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
           absl::StrCat("state: a removed UAV '", uav_id, "', which is not in the team"));
     }
   }
+  for (const auto& [uav_id, time_s] : state.last_shot_s) {
+    if (!uav_id.empty() && config.FindMember(uav_id) == nullptr) {
+      return absl::InvalidArgumentError(absl::StrCat("state: a measurement time of UAV '", uav_id,
+                                                     "', which is not in the team"));
+    }
+  }
   for (const PlannedPath& path : state.committed) {
     if (config.FindMember(path.team.uav_id) == nullptr) {
       return absl::InvalidArgumentError(absl::StrCat("state: a committed trajectory of UAV '",

@@ -353,6 +353,7 @@ TEST_F(TeamTest, ATeammatesShotAlreadyFusedIsNotCountedAgain) {
 // checks the next plan against them, whether it replays the log or restores
 // a snapshot, and a retried plan gets its first answer.
 TEST_F(TeamTest, CommittedTrajectoriesComeBackAfterARestart) {
+  constexpr double kRateHz = 0.15;  // the camera's, set: the shots' counts below depend on it
   const std::vector<Point> starts = {{-8, 8, 8}, {8, 8, 8}, {-8, -8, 8}};
   for (const int snapshot_every : {0, 1}) {
     SCOPED_TRACE(snapshot_every == 0 ? "from the log" : "from a snapshot");
@@ -362,7 +363,9 @@ TEST_F(TeamTest, CommittedTrajectoriesComeBackAfterARestart) {
     {
       InProcessService before(limits, 2, 64, store.get());
       v1::Mission team;
-      ASSERT_TRUE(CreateTeam(before.stub(), "t", TeamSpec(starts), &team).ok());
+      v1::MissionSpec spec = TeamSpec(starts);
+      spec.mutable_sensor()->set_rate_hz(kRateHz);
+      ASSERT_TRUE(CreateTeam(before.stub(), "t", spec, &team).ok());
       ASSERT_TRUE(PlanFor(before.stub(), "t", "a", At(starts[0], 0), "pa", &a).ok());
       {
         grpc::ClientContext c;
@@ -390,8 +393,10 @@ TEST_F(TeamTest, CommittedTrajectoriesComeBackAfterARestart) {
     EXPECT_EQ(c.checked_against(1).plan_version(), b.plan_version());
     EXPECT_GE(ClosestApproach({.path = c}, {.path = a}, 0.0), kSeparation - 1e-6);
     EXPECT_GE(ClosestApproach({.path = c}, {.path = b}, 0.0), kSeparation - 1e-6);
-    // b's measurement at 0.5 s comes back too: b's shots until then are in
-    // the map, and c counts only the later ones; all of a's.
+    // b's measurement at 0.5 s comes back too: b's shots until half a
+    // camera period after it are in the map, and c counts only the later
+    // ones; all of a's.
+    const double half_period_s = 0.5 / kRateHz;
     const auto later = [](const v1::PlanPathResponse& path, double t_s) {
       int n = 0;
       for (const v1::MeasurementPose& pose : path.measurement_poses()) {
@@ -400,7 +405,7 @@ TEST_F(TeamTest, CommittedTrajectoriesComeBackAfterARestart) {
       return n;
     };
     EXPECT_EQ(c.checked_against(0).shots_counted(), a.measurement_poses_size());
-    EXPECT_EQ(c.checked_against(1).shots_counted(), later(b, 0.5));
+    EXPECT_EQ(c.checked_against(1).shots_counted(), later(b, 0.5 + half_period_s));
   }
 }
 
