@@ -51,19 +51,20 @@ class PostgresStore final : public MissionStore {
  public:
   PostgresStore(std::string uri, int connections) : uri_(std::move(uri)), pool_(connections) {}
 
-  // Checks that commits are durable, then creates what is missing.
-  // Brings the schema up to this version. Its idempotent DDL takes table
-  // locks that the transactions of servers already running on the store
-  // may hold in another order, so the database can pick this transaction
-  // as a deadlock's victim: it is rolled back whole and tried again.
+  // Checks that commits are durable, then brings the schema up to this
+  // version. Its idempotent DDL takes table locks that the transactions of
+  // servers already running on the store may hold in another order, so the
+  // database can pick this transaction as a deadlock's victim: it is rolled
+  // back whole and tried again.
   absl::Status Init() {
     constexpr int kAttempts = 5;
-    absl::Status status;
-    for (int attempt = 1; attempt <= kAttempts; ++attempt) {
-      status = InitOnce();
-      if (status.code() != absl::StatusCode::kAborted) return status;
+    absl::Status status = InitOnce();
+    for (int attempt = 1; attempt < kAttempts && status.code() == absl::StatusCode::kAborted;
+         ++attempt) {
       absl::SleepFor(absl::Milliseconds(50 * attempt));
+      status = InitOnce();
     }
+    if (status.code() != absl::StatusCode::kAborted) return status;
     return absl::UnavailableError(absl::StrCat(status.message(), " (", kAttempts, " attempts)"));
   }
 
