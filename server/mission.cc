@@ -426,9 +426,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                   ? call.deadline
                                   : std::min(call.deadline, absl::Now() + call.budget);
   std::vector<std::pair<std::string, std::int64_t>> versions;
-  std::map<std::string, int> shots_counted;
-  const std::vector<Teammate> teammates = TeammatesOf(
-      call.uav_id, state.mission_time_s, plan_map.last_shot_s, &versions, &shots_counted);
+  const std::vector<Teammate> teammates =
+      TeammatesOf(call.uav_id, state.mission_time_s, plan_map.last_shot_s, &versions);
   const PlanningContext context{.environment = env.get(),
                                 .map = map.get(),
                                 .camera = kit.camera,
@@ -474,8 +473,12 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     path->team = {.uav_id = call.uav_id,
                   .plan_version = paths_planned_.load() + 1,
                   .start_mission_s = state.mission_time_s,
-                  .checked_against = std::move(versions),
-                  .shots_counted = std::move(shots_counted)};
+                  .checked_against = std::move(versions)};
+    for (const Teammate& mate : teammates) {
+      if (!mate.pending_shots_W.empty()) {
+        path->team.shots_counted[mate.uav_id] = static_cast<int>(mate.pending_shots_W.size());
+      }
+    }
   }
   // Answered only once durable; a failed write takes the planner back to
   // where it was, so the mission stays as the store has it.

@@ -347,13 +347,11 @@ class Mission {
   // its first plan, its start, held), with its shots still to come: at or
   // after now_s and more than half a camera period after the latest
   // measurement of that UAV the plan's map holds (`last_shot_s`, by
-  // uav_id), which is in the map already. Also
-  // their plan versions (0: none yet), in uav_id order, and how many of
-  // each one's shots were counted.
-  std::vector<Teammate> TeammatesOf(const std::string& uav_id, double now_s,
-                                    const std::map<std::string, double>& last_shot_s,
-                                    std::vector<std::pair<std::string, std::int64_t>>* versions,
-                                    std::map<std::string, int>* shots_counted) const
+  // uav_id), which is in the map already. Also their plan versions (0:
+  // none yet), in uav_id order.
+  std::vector<Teammate> TeammatesOf(
+      const std::string& uav_id, double now_s, const std::map<std::string, double>& last_shot_s,
+      std::vector<std::pair<std::string, std::int64_t>>* versions) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
 
   const std::string id_;

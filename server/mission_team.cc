@@ -101,8 +101,7 @@ absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id,
 
 std::vector<Teammate> Mission::TeammatesOf(
     const std::string& uav_id, double now_s, const std::map<std::string, double>& last_shot_s,
-    std::vector<std::pair<std::string, std::int64_t>>* versions,
-    std::map<std::string, int>* shots_counted) const {
+    std::vector<std::pair<std::string, std::int64_t>>* versions) const {
   std::vector<Teammate> mates;
   for (const api::TeamMember& member : config_.team) {
     if (member.uav_id == uav_id || Removed(member.uav_id)) continue;
@@ -123,7 +122,6 @@ std::vector<Teammate> Mission::TeammatesOf(
           pending.push_back(shot.position_W);
         }
       }
-      if (!pending.empty()) (*shots_counted)[member.uav_id] = static_cast<int>(pending.size());
       mates.push_back({.uav_id = member.uav_id,
                        .trajectory = path.trajectory,
                        .start_mission_s = path.team.start_mission_s,
