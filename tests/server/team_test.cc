@@ -413,11 +413,11 @@ TEST_F(TeamTest, CommittedTrajectoriesComeBackAfterARestart) {
 // every UAV plans twice, in a random order, and no two committed
 // trajectories ever come closer than min_separation_m, by this file's own
 // evaluation at 100 Hz. A team the server refuses (a start too close to the
-// tower) is drawn again, so that `count` missions fly: 12 in the slow tier;
-// OAIPP_RANDOM_TEAMS=200 runs more (docs/teams.md).
+// tower) is drawn again, so that `count` missions fly: 200 (in the slow
+// tier), or OAIPP_RANDOM_TEAMS (docs/teams.md).
 TEST_F(TeamTest, RandomTeamsNeverComeTooClose) {
   const char* asked = std::getenv("OAIPP_RANDOM_TEAMS");
-  const int count = asked != nullptr ? std::max(1, std::atoi(asked)) : 12;
+  const int count = asked != nullptr ? std::max(1, std::atoi(asked)) : 200;
   InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
   std::mt19937 rng(20261201);
   std::uniform_real_distribution<double> xy(-13.0, 13.0), z(4.0, 20.0);
