@@ -38,7 +38,6 @@ using postgres::ConnectionPool;
 using postgres::CurrentError;
 using postgres::FirstLine;
 using postgres::InDoubt;
-using postgres::kSchemaLockKey;
 using postgres::LoadMissions;
 using postgres::NoMission;
 using postgres::Printable;
@@ -523,47 +522,14 @@ class PostgresStore final : public MissionStore {
   absl::Status InitOnce() {
     return Call("open", [&](pqxx::connection& conn, CallState& state) -> absl::Status {
       try {
-        return InitSchema(conn, state);
+        pqxx::work tx(conn);
+        OAIPP_RETURN_IF_ERROR(postgres::BringSchemaUpToDate(tx));
+        Commit(tx, state);
+        return absl::OkStatus();
       } catch (const pqxx::deadlock_detected&) {
         return absl::AbortedError("store: open: deadlock detected");
       }
     });
-  }
-
-  absl::Status InitSchema(pqxx::connection& conn, CallState& state) {
-    pqxx::work tx(conn);
-    // A commit acknowledged before it is on disk would break the
-    // contract's "durably"; such a server is a configuration error, found
-    // here rather than after a crash.
-    const pqxx::row settings =
-        tx.exec1("SELECT current_setting('fsync'), current_setting('synchronous_commit')");
-    if (settings[0].as<std::string>() != "on" || settings[1].as<std::string>() == "off") {
-      return absl::FailedPreconditionError(
-          absl::StrCat("store: open: the database does not keep commits durable (fsync=",
-                       settings[0].as<std::string>(),
-                       ", synchronous_commit=", settings[1].as<std::string>(), ")"));
-    }
-    tx.exec_params("SELECT pg_advisory_xact_lock($1)", kSchemaLockKey);
-    // The version is read before the schema is touched: a newer server's
-    // database is refused unchanged. Everything in postgres::kSchema is idempotent,
-    // so an older database is brought up to this version by running it.
-    tx.exec0("CREATE TABLE IF NOT EXISTS store_info(key text PRIMARY KEY, value bigint NOT NULL)");
-    tx.exec_params0(
-        "INSERT INTO store_info(key, value) VALUES('schema_version', $1) "
-        "ON CONFLICT (key) DO NOTHING",
-        postgres::kSchemaVersion);
-    const auto version =
-        tx.exec1("SELECT value FROM store_info WHERE key = 'schema_version'")[0].as<std::int64_t>();
-    if (version > postgres::kSchemaVersion) {
-      return absl::FailedPreconditionError(absl::StrCat("store: open: schema version ", version,
-                                                        " is newer than this server's (",
-                                                        postgres::kSchemaVersion, ")"));
-    }
-    tx.exec0(postgres::kSchema);
-    tx.exec_params0("UPDATE store_info SET value = $1 WHERE key = 'schema_version'",
-                    postgres::kSchemaVersion);
-    Commit(tx, state);
-    return absl::OkStatus();
   }
 
   // Runs `body(connection, state)` on a connection borrowed from `pool`
