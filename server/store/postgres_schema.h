@@ -1,5 +1,5 @@
-// The PostgreSQL store's tables (docs/storage.md). Internal to
-// server/store/.
+// The PostgreSQL store's schema version and its set-up
+// (postgres_schema.cc; docs/storage.md). Internal to server/store/.
 #pragma once
 
 #include <cstdint>

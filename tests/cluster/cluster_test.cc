@@ -39,7 +39,7 @@ namespace oaipp::cluster_testing {
 namespace {
 
 // 12 E1 missions at once, each flying 60 s of its budget: about 220 calls
-// through the proxy, four missions a replica, enough for a kill and a
+// through the proxy, about four missions a replica, enough for a kill and a
 // takeover (or three restarts) in mid-flight. The sanitizer build (about
 // ten times slower) flies 3.
 // cluster_bench flies the full 150 s missions (docs/benchmarks.md).

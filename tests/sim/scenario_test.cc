@@ -123,8 +123,8 @@ TEST(ScenarioTest, GeodeticTargetsAndObstaclesBecomeLocalMetres) {
 
 // Every committed scenario (client/scenarios and its folders) parses and
 // builds a world, its name matches its file, and the E5 settings and team
-// scenarios differ from e5.json (e6-team4 from e6.json) only in what their
-// name says.
+// scenarios differ from e5.json (e6-team4 from e6.json, team4-n5 from
+// e5-team4.json) only in what their name says.
 TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   int files = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
@@ -176,6 +176,14 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     *team->mutable_mission()->mutable_start() = base->mission().start();
     EXPECT_EQ(team->SerializeAsString(), base->SerializeAsString()) << name;
   }
+  // e5-settings/team4-n5: e5-team4 with 5 waypoints.
+  auto team4 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-team4.json");
+  auto n5 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/team4-n5.json");
+  ASSERT_TRUE(team4.ok() && n5.ok());
+  EXPECT_EQ(n5->mission().planner().num_waypoints(), 5);
+  n5->set_name(team4->name());
+  n5->mutable_mission()->mutable_planner()->clear_num_waypoints();
+  EXPECT_EQ(n5->SerializeAsString(), team4->SerializeAsString());
 }
 
 TEST(ScenarioTest, MalformedJsonNamesTheLine) {
