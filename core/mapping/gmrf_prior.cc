@@ -13,6 +13,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
+#include "core/mapping/gp_map.h"
+#include "core/mapping/sparse_gp_map.h"
 
 namespace oaipp {
 namespace {
@@ -168,16 +170,13 @@ GmrfFit FitGmrfToPublishedPrior(const GpParams& params, double resolution_m) {
   return fit;
 }
 
-absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& params,
-                                        const GmrfOptions& options) {
-  OAIPP_RETURN_IF_ERROR(params.Validate());
-  if (!(options.margin_ranges >= 0.0) || !std::isfinite(options.margin_ranges)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("margin_ranges: must be >= 0 and finite, got ", options.margin_ranges));
-  }
-  const double h = grid.resolution_m();
+namespace {
+
+// The SPDE's field on the lattice, without the variance match below.
+absl::StatusOr<GmrfPrior> MakeUnmatchedPrior(const FieldGrid& grid, const GpParams& params,
+                                             const GmrfOptions& options, const GmrfFit& fit) {
   GmrfPrior prior;
-  prior.fit = FitGmrfToPublishedPrior(params, h);
+  prior.fit = fit;
   const double a = prior.fit.a;
   const double margin = std::ceil(options.margin_ranges * prior.fit.range_cells());
   const double nx = grid.nx() + 2.0 * margin, ny = grid.ny() + 2.0 * margin;
@@ -227,7 +226,72 @@ absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& p
   prior.precision = q.triangularView<Eigen::Lower>();
   prior.precision.makeCompressed();
   prior.prior_mean = params.prior_mean;
-  prior.information = q * Eigen::VectorXd::Constant(n, params.prior_mean);
+  return prior;
+}
+
+// Where field cell `index` (of `n` along one axis) lies in a reference
+// field of `reference_n` = min(n, 2 band + 1) along it: itself on a field
+// no wider than the reference, else the same distance from the nearer edge
+// within `band` of it, and the reference's middle farther in.
+int ReferenceIndex(int index, int n, int band, int reference_n) {
+  if (n == reference_n || index < band) return index;
+  if (n - 1 - index < band) return reference_n - (n - index);
+  return band;
+}
+
+}  // namespace
+
+int VarianceMatchBand(const GpParams& params, double resolution_m) {
+  return std::clamp(static_cast<int>(std::ceil(4.0 * params.length_scale_m / resolution_m)), 2,
+                    kMaxVarianceMatchBand);
+}
+
+absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& params,
+                                        const GmrfOptions& options) {
+  OAIPP_RETURN_IF_ERROR(params.Validate());
+  if (!(options.margin_ranges >= 0.0) || !std::isfinite(options.margin_ranges)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("margin_ranges: must be >= 0 and finite, got ", options.margin_ranges));
+  }
+  const double h = grid.resolution_m();
+  const GmrfFit fit = FitGmrfToPublishedPrior(params, h);
+  OAIPP_ASSIGN_OR_RETURN(GmrfPrior prior, MakeUnmatchedPrior(grid, params, options, fit));
+
+  // The variance match: both priors' variances on a reference field of at
+  // most (2 band + 1)^2 cells, the dense one's exactly, the unmatched sparse
+  // one's by its own inference (its lattice and margin as the field's).
+  // Edge effects reach about two length scales (gmrf_prior.h), so every cell
+  // farther than `band` from an edge has the reference's middle variance.
+  const int band = VarianceMatchBand(params, h);
+  const int ref_nx = std::min(grid.nx(), 2 * band + 1), ref_ny = std::min(grid.ny(), 2 * band + 1);
+  OAIPP_ASSIGN_OR_RETURN(const FieldGrid reference,
+                         FieldGrid::Create(grid.min_W(), ref_nx, ref_ny, h));
+  OAIPP_ASSIGN_OR_RETURN(const Eigen::MatrixXd dense, PriorCovariance(reference, params));
+  OAIPP_ASSIGN_OR_RETURN(GmrfPrior unmatched, MakeUnmatchedPrior(reference, params, options, fit));
+  unmatched.information = Eigen::VectorXd::Zero(unmatched.num_states());
+  OAIPP_ASSIGN_OR_RETURN(SparseGpMap reference_map,
+                         SparseGpMap::FromPrior(reference, std::move(unmatched)));
+  OAIPP_ASSIGN_OR_RETURN(const Eigen::VectorXd sparse, reference_map.Variances());
+
+  // Q <- D Q D with D = diag(sqrt(sparse / dense)) on the field's states
+  // (1 on the margin's): the covariance becomes D^-1 Sigma D^-1, every
+  // field cell's variance the dense prior's, every correlation unchanged,
+  // the pattern too.
+  Eigen::VectorXd d = Eigen::VectorXd::Ones(prior.num_states());
+  for (int cell = 0; cell < grid.num_cells(); ++cell) {
+    const int r = ReferenceIndex(grid.Row(cell), grid.ny(), band, ref_ny);
+    const int c = ReferenceIndex(grid.Col(cell), grid.nx(), band, ref_nx);
+    const int ref = reference.Index(r, c);
+    d[prior.field_state[cell]] = std::sqrt(sparse[ref] / dense(ref, ref));
+  }
+  using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+  for (int col = 0; col < prior.precision.outerSize(); ++col) {
+    for (SparseMatrix::InnerIterator it(prior.precision, col); it; ++it) {
+      it.valueRef() *= d[it.row()] * d[col];
+    }
+  }
+  const SparseMatrix q = prior.precision.selfadjointView<Eigen::Lower>();
+  prior.information = q * Eigen::VectorXd::Constant(prior.num_states(), params.prior_mean);
   return prior;
 }
 

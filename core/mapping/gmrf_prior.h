@@ -30,12 +30,27 @@
 // lies outside the field; the margin's states are marginalised exactly by
 // the inference and never reported.
 //
+// The published prior's variance is not the same everywhere: its noise term
+// reduces it less where a cell has fewer neighbours, so it is 40 % higher at
+// an edge and twice as high at a corner, and the fitted field follows that
+// only to a few per cent. The variance match makes every field cell's prior
+// variance the dense prior's: Q <- D Q D, D diagonal (so the pattern, the
+// correlations and the exactness of the inference are unchanged), with
+// D^2 the ratio of the two variances. Both differ from their interior value
+// only within about two length scales of an edge (by less than 1e-5 of it
+// beyond), so the ratios come from a reference field of (2 band + 1)^2
+// cells, band = VarianceMatchBand, computed whole for each prior (about
+// 0.25 s for the paper's preset), and a cell of the field takes the
+// reference cell at its distance from the nearer edges.
+//
 // On the lattice with spacing h (the field's resolution), K = a I + G with
 // a = kappa^2 h^2 and G the graph Laplacian (4 on the diagonal inside, the
 // node's degree at an edge; -1 to each of the four neighbours), and
 //   Q_spde = K^3 / s + d I,
 // s the covariance scale, d >= 0 the long-wavelength term: a 25-point
 // stencil, at most 25 non-zeros a row, positive definite for any a, s > 0.
+// The prior's precision is D (Q_spde + I_field / sn2) D (the variance
+// match above).
 //
 //   OAIPP_ASSIGN_OR_RETURN(GmrfPrior prior, MakeGmrfPrior(grid, GpParams::PaperPreset(1.0)));
 //   // prior.precision: lower triangle of Q (states x states)
@@ -62,8 +77,13 @@ namespace oaipp {
 // not this build's (server/store/state_codec.cc); a change to any of them
 // takes a new number. 1: fitted to P0 alone; 2 and 3: to P0 and uniformly
 // observed posteriors, with the long-wavelength term (2 was briefly built
-// with a longer margin).
-inline constexpr unsigned kGmrfFitVersion = 3;
+// with a longer margin); 4: 3 with the variance match.
+inline constexpr unsigned kGmrfFitVersion = 4;
+
+// The variance match's band, in cells: 4 length scales, at least 2 and at
+// most kMaxVarianceMatchBand (its reference field then has 1,681 cells).
+inline constexpr int kMaxVarianceMatchBand = 20;
+[[nodiscard]] int VarianceMatchBand(const GpParams& params, double resolution_m);
 
 struct GmrfOptions {
   // Lattice nodes added beyond the field on each side, in units of the
@@ -108,7 +128,8 @@ struct GmrfPrior {
   int margin_cells = 0;
   GmrfFit fit;
   // Lower triangle (column-major) of the prior precision over all states:
-  // Q_spde + I_field / sn2. Exactly symmetric as a whole.
+  // D (Q_spde + I_field / sn2) D, D the variance match. Exactly symmetric
+  // as a whole.
   Eigen::SparseMatrix<double, Eigen::ColMajor, int> precision;
   // Q mu0 (the prior mean is mu0 at every state).
   Eigen::VectorXd information;
