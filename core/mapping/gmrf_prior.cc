@@ -242,8 +242,8 @@ int ReferenceIndex(int index, int n, int band, int reference_n) {
 }  // namespace
 
 int VarianceMatchBand(const GpParams& params, double resolution_m) {
-  return std::clamp(static_cast<int>(std::ceil(4.0 * params.length_scale_m / resolution_m)), 2,
-                    kMaxVarianceMatchBand);
+  const double band = std::ceil(4.0 * params.length_scale_m / resolution_m);
+  return static_cast<int>(std::clamp(band, 2.0, static_cast<double>(kMaxVarianceMatchBand)));
 }
 
 absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& params,

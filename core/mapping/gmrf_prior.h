@@ -8,9 +8,9 @@
 //
 // What the map works with is the published code's prior
 // P0 = (K^-1 + I / sn2)^-1 (docs/method.md §3), here
-// (Q_spde + I_field / sn2)^-1: the noise term only adds to the field
-// cells' diagonal. Q_spde's parameters are fitted to that prior, not to
-// the kernel alone, on the infinite lattice of the field's resolution, by
+// (D (Q_spde + I_field / sn2) D)^-1: the noise term only adds to the field
+// cells' diagonal, and the diagonal D is the variance match (below). Q_spde's parameters are fitted
+// to that prior, not to the kernel alone, on the infinite lattice of the field's resolution, by
 // exact spectral sums (FitGmrfToPublishedPrior):
 // - a long-wavelength term d I makes Q_spde's precision at zero frequency
 //   the kernel's (the SPDE's own falls short of it once kappa is fitted);
@@ -82,6 +82,10 @@ inline constexpr unsigned kGmrfFitVersion = 4;
 
 // The variance match's band, in cells: 4 length scales, at least 2 and at
 // most kMaxVarianceMatchBand (its reference field then has 1,681 cells).
+// The cap binds for length scales above 5 cells (the paper's preset has
+// 3.7): then the band holds fewer than 4 length scales, and from about 9
+// cells (the band under 2.2 of them) the reference's middle is no longer
+// free of its edges' effect, so the match there is close, not exact.
 inline constexpr int kMaxVarianceMatchBand = 20;
 [[nodiscard]] int VarianceMatchBand(const GpParams& params, double resolution_m);
 

