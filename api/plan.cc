@@ -66,6 +66,7 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
   stats.set_stop_first_s(path.stats.stop_first_s);
   stats.set_search_fraction(path.stats.search_fraction);
   stats.set_queued_s(path.stats.queued_s);
+  stats.set_search_budget_s(path.stats.search_budget_s);
   if (!path.team.uav_id.empty()) {
     out->set_uav_id(path.team.uav_id);
     out->set_plan_version(path.team.plan_version);
@@ -142,7 +143,8 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
                 .search_fraction = response.stats().search_fraction() > 0.0
                                        ? response.stats().search_fraction()
                                        : 1.0,
-                .queued_s = response.stats().queued_s()};
+                .queued_s = response.stats().queued_s(),
+                .search_budget_s = response.stats().search_budget_s()};
   path.team.uav_id = response.uav_id();
   path.team.plan_version = response.plan_version();
   path.team.start_mission_s = response.start_mission_s();

@@ -467,6 +467,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   if (!path.ok()) return path.status();
   path->stats.queued_s = absl::ToDoubleSeconds(call.queued);
+  path->stats.search_budget_s =
+      call.budget == absl::InfiniteDuration() ? 0.0 : absl::ToDoubleSeconds(call.budget);
   if (!config_.team.empty()) {
     // Plans are made one at a time (planner_mu_), so the count is this
     // one's version.

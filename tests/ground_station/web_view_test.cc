@@ -12,7 +12,6 @@
 #include <cstdlib>
 #include <filesystem>
 #include <string>
-#include <thread>
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
@@ -243,23 +242,27 @@ TEST_F(WebViewTest, TheEventStreamNamesWhatHappened) {
   httplib::Client client("127.0.0.1", view_.port());
   client.set_read_timeout(10, 0);
   std::string received;
-  std::thread measure([&] {
-    std::this_thread::sleep_for(std::chrono::milliseconds(300));
-    api::MeasurementInput input;
-    input.mission_time_s = 1.0;
-    input.pose.p_WC = Vec3(0, 0, 10);
-    input.labels = CellLabels{{20 * 40 + 20}, {0.0}};
-    EXPECT_TRUE(alpha_->AddMeasurement(input, "e-1").ok());
-  });
-  // Reads until the first event arrives (or 15 s pass), then hangs up.
+  bool measured = false;
+  // Reads until the first event arrives (or 15 s pass), then hangs up. The
+  // stream greets once the server has subscribed it to the mission (events
+  // are not replayed), so the measurement is made after the greeting, not
+  // after a guess at how long subscribing takes.
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(15);
   (void)client.Get("/api/missions/survey/events", {{"Authorization", "Bearer token-a"}},
                    [&](const char* data, std::size_t length) {
                      received.append(data, length);
+                     if (!measured && absl::StrContains(received, ": connected")) {
+                       measured = true;
+                       api::MeasurementInput input;
+                       input.mission_time_s = 1.0;
+                       input.pose.p_WC = Vec3(0, 0, 10);
+                       input.labels = CellLabels{{20 * 40 + 20}, {0.0}};
+                       EXPECT_TRUE(alpha_->AddMeasurement(input, "e-1").ok());
+                     }
                      return !absl::StrContains(received, "measurement_fused") &&
                             std::chrono::steady_clock::now() < give_up;
                    });
-  measure.join();
+  EXPECT_TRUE(measured) << "the stream never greeted: " << received;
   EXPECT_TRUE(absl::StrContains(received, "event: mission")) << received;
   EXPECT_TRUE(absl::StrContains(received, R"("kind":"measurement_fused")")) << received;
   EXPECT_TRUE(absl::StrContains(received, R"("sequence":1)")) << received;
