@@ -37,9 +37,13 @@ def main():
 
     records = collections.defaultdict(dict)  # (variant, trial) -> {time: row}
     for path in args.trials:
+        seen_in = set()  # this file's trials
         with open(path, newline="") as f:
             for row in csv.DictReader(f):
                 key = (row["variant"], int(row["trial"]))
+                if key in records and key not in seen_in:
+                    sys.exit(f"{path}: {key[0]} trial {key[1]} is in an earlier file too")
+                seen_in.add(key)
                 records[key][float(row["time_s"])] = row
     seeds = sorted({t for v, t in records if v == args.a} & {t for v, t in records if v == args.b})
     if not seeds:

@@ -148,8 +148,8 @@ struct PlannerStats {
   // Seconds from the call's arrival until a planner took it up (set by the
   // server; 0 in-process).
   double queued_s = 0.0;
-  // Seconds the search was allowed after that (set by the server; 0: no
-  // budget but the call's deadline).
+  // Seconds the search was allowed (set by the server, 0 in-process;
+  // PlannerStats.search_budget_s in the proto says which budget).
   double search_budget_s = 0.0;
 };
 
