@@ -7,7 +7,8 @@
 #   E3_TRIALS=100 bash deploy/experiments.sh    # the paper's 100 per cell
 #   EXPERIMENTS="E1 E5" bash deploy/experiments.sh
 # E5-settings flies E5 once per file in client/scenarios/e5-settings (e5.json
-# with one or two settings changed) to out/eval/E5-<file>.
+# with one or two settings changed) to out/eval/E5-<file>; the team4-* files
+# there are E7's.
 # confirmation flies E1, E4, E5 and E5 under a 12 m ceiling with the extra
 # variant oaipp_confirm (the confirmation objective at CONFIRMATION_WEIGHT,
 # default 100) to out/eval/confirmation-<experiment>.
@@ -62,7 +63,11 @@
 # two baselines (docs/experiments.md), at E7_BUDGET_S seconds of flight
 # (default: the scenarios' 150). Not in the default list: E7-e6 flies one
 # UAV and a team of 4 (the three variants) on E6's 300 x 300 m field
-# (E7_E6_TRIALS each, default 4, 300 s of flight: 45 min on two cores).
+# (E7_E6_TRIALS each, default 4, 300 s of flight: 45 min on two cores);
+# E7-launch flies the three team variants of four UAVs launched together
+# (e5-settings/team4-launch.json, 50 trials, 14 min), the same with 1 m of
+# separation (team4-launch-sep1.json, two variants, 50, 10 min) and with the
+# confirmation term (team4-launch-confirm.json, 25, 12 min).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -90,6 +95,7 @@ for e in $experiments; do
     E3) "${client[@]}" eval E3 --trials="$e3_trials" ;;
     E5-settings)
       for f in client/scenarios/e5-settings/*.json; do
+        case "$(basename "$f")" in team4-*) continue ;; esac  # E7's team scenarios
         echo "== E5 with $(basename "$f")"
         "${client[@]}" eval E5 --trials="$trials" --scenario="$f" --out="out/eval/E5-$(basename "$f" .json)"
       done ;;
@@ -233,6 +239,14 @@ for e in $experiments; do
       "${client[@]}" eval E7 --trials="${E7_E6_TRIALS:-4}" --scenario=client/scenarios/e6.json \
         --team_scenarios=client/scenarios/e6-team4.json --e7_budget_s="${E7_BUDGET_S:-300}" \
         --out=out/eval/E7-e6 ;;
+    E7-launch)
+      for run in "team4-launch 50 team4,team4-noshots,team4-alone" \
+                 "team4-launch-sep1 50 team4,team4-noshots" \
+                 "team4-launch-confirm 25 team4,team4-noshots,team4-alone"; do
+        read -r f n variants <<< "$run"
+        "${client[@]}" eval E7 --trials="$n" --team_scenarios="client/scenarios/e5-settings/$f.json" \
+          --variants="$variants" --out="out/eval/E7-$f"
+      done ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done

@@ -124,8 +124,8 @@ TEST(ScenarioTest, GeodeticTargetsAndObstaclesBecomeLocalMetres) {
 // Every committed scenario (client/scenarios and its folders) parses and
 // builds a world, its name matches its file, and the E5 settings and team
 // scenarios differ from e5.json (e6-team4 from e6.json, team4-n5 and
-// team4-launch from e5-team4.json, team4-launch-confirm from team4-launch)
-// only in what their name says.
+// team4-launch from e5-team4.json, team4-launch-confirm and -sep1 from
+// team4-launch) only in what their name says.
 TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   int files = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
@@ -139,7 +139,7 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 20);
+  EXPECT_EQ(files, 21);
   // e6-team4: E6 with a team of 4 in place of its start.
   auto e6 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6.json");
   auto e6_team = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6-team4.json");
@@ -185,24 +185,30 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   n5->set_name(team4->name());
   n5->mutable_mission()->mutable_planner()->clear_num_waypoints();
   EXPECT_EQ(n5->SerializeAsString(), team4->SerializeAsString());
-  // e5-settings/team4-launch: e5-team4 starting together, on a 5 m square
-  // in the corner (-12, -12) to (-7, -7), 4 m apart or more.
+  // e5-settings/team4-launch: e5-team4 starting together, on the 5 m square
+  // (-12, -12) to (-7, -7) at e5-team4's altitude, 5 m apart or more.
   auto launch = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/team4-launch.json");
   auto confirm = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/team4-launch-confirm.json");
   ASSERT_TRUE(launch.ok() && confirm.ok());
   ASSERT_EQ(launch->mission().team_size(), 4);
+  const double corner[4][2] = {{-12.0, -12.0}, {-7.0, -12.0}, {-12.0, -7.0}, {-7.0, -7.0}};
   for (int i = 0; i < 4; ++i) {
-    const v1::Vector3& a = launch->mission().team(i).start().position_m();
-    EXPECT_TRUE(a.x() >= -12.0 && a.x() <= -7.0 && a.y() >= -12.0 && a.y() <= -7.0) << i;
-    for (int j = 0; j < i; ++j) {
-      const v1::Vector3& b = launch->mission().team(j).start().position_m();
-      EXPECT_GE(std::hypot(a.x() - b.x(), a.y() - b.y(), a.z() - b.z()), 4.0) << i << " " << j;
-    }
+    v1::UavState expected = team4->mission().team(i).start();
+    expected.mutable_position_m()->set_x(corner[i][0]);
+    expected.mutable_position_m()->set_y(corner[i][1]);
+    EXPECT_EQ(launch->mission().team(i).start().SerializeAsString(), expected.SerializeAsString())
+        << i;
   }
   EXPECT_EQ(confirm->mission().planner().confirmation_weight(), 1000.0);
   confirm->set_name(launch->name());
   confirm->mutable_mission()->mutable_planner()->clear_confirmation_weight();
   EXPECT_EQ(confirm->SerializeAsString(), launch->SerializeAsString());
+  auto sep1 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/team4-launch-sep1.json");
+  ASSERT_TRUE(sep1.ok());
+  EXPECT_EQ(sep1->mission().min_separation_m(), 1.0);
+  sep1->set_name(launch->name());
+  sep1->mutable_mission()->clear_min_separation_m();
+  EXPECT_EQ(sep1->SerializeAsString(), launch->SerializeAsString());
   launch->set_name(team4->name());
   for (int i = 0; i < 4; ++i) {
     *launch->mutable_mission()->mutable_team(i)->mutable_start() = team4->mission().team(i).start();
