@@ -14,16 +14,15 @@ import argparse
 import collections
 import csv
 import math
+import statistics
 import sys
 
 
 def mean_se(values):
-    n = len(values)
-    m = sum(values) / n
-    if n < 2:
+    m = statistics.fmean(values)
+    if len(values) < 2:
         return m, float("nan")
-    sd = math.sqrt(sum((v - m) ** 2 for v in values) / (n - 1))
-    return m, sd / math.sqrt(n)
+    return m, statistics.stdev(values) / math.sqrt(len(values))
 
 
 def main():
