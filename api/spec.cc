@@ -210,6 +210,7 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       OrDefault(p.has_confirmation_weight(), p.confirmation_weight(), info.confirmation_weight);
   common.information.decision_threshold =
       OrDefault(p.has_decision_threshold(), p.decision_threshold(), info.decision_threshold);
+  common.information.confirmation_preposterior = p.confirmation_preposterior();
   common.information.confirmation_phase_s =
       OrDefault(p.has_confirmation_phase_s(), p.confirmation_phase_s(), info.confirmation_phase_s);
   common.information.confirmation_phase_weight =
@@ -260,6 +261,12 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       CheckNonNegative("spec.planner.second_look_weight", common.information.second_look_weight));
   OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.second_look_sharpness",
                                          common.information.second_look_sharpness));
+  if (common.information.confirmation_preposterior &&
+      !(common.information.confirmation_weight > 0)) {
+    return absl::InvalidArgumentError(
+        "spec.planner.confirmation_preposterior: changes the confirmation term, which "
+        "confirmation_weight 0 leaves out");
+  }
   if (const double margin = common.information.ambiguity_margin; !(margin > 0.0 && margin <= 0.5)) {
     return absl::InvalidArgumentError(
         absl::StrCat("spec.planner.ambiguity_margin: must lie in (0, 0.5], got ", margin));

@@ -66,8 +66,10 @@
 # (E7_E6_TRIALS each, default 4, 300 s of flight: 45 min on two cores);
 # E7-launch flies the three team variants of four UAVs launched together
 # (e5-settings/team4-launch.json, 50 trials, 14 min), the same with 1 m of
-# separation (team4-launch-sep1.json, two variants, 50, 10 min) and with the
-# confirmation term (team4-launch-confirm.json, 25, 12 min).
+# separation (team4-launch-sep1.json, two variants, 50, 10 min), with the
+# confirmation term (team4-launch-confirm.json, 25, 12 min) and with that
+# term seen from the map's belief now (team4-launch-preposterior.json, 50,
+# 23 min).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -242,7 +244,8 @@ for e in $experiments; do
     E7-launch)
       for run in "team4-launch 50 team4,team4-noshots,team4-alone" \
                  "team4-launch-sep1 50 team4,team4-noshots" \
-                 "team4-launch-confirm 25 team4,team4-noshots,team4-alone"; do
+                 "team4-launch-confirm 25 team4,team4-noshots,team4-alone" \
+                 "team4-launch-preposterior 50 team4,team4-noshots,team4-alone"; do
         read -r f n variants <<< "$run"
         "${client[@]}" eval E7 --trials="$n" --team_scenarios="client/scenarios/e5-settings/$f.json" \
           --variants="$variants" --out="out/eval/E7-$f"

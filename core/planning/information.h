@@ -67,6 +67,15 @@ struct InformationParams {
   // Weight lambda of the confirmation term (adaptive objective only). 0 (the
   // default) is the paper's objective, unchanged. Valid: >= 0, finite.
   double confirmation_weight = 0.0;
+  // How the confirmation term reads a cell that earlier shots of the plan
+  // (the path's own, and teammates' pending ones) will see too. False (the
+  // default): as if the belief now were N(mu, predicted variance), the mean
+  // unmoved by those shots, which values a second look too much on the
+  // threshold and too little away from it. True:
+  // from the map's belief now, N(mu, variance now), over what those shots
+  // may show (docs/method.md "Confirmation"); for a cell no earlier shot
+  // sees, the two are equal.
+  bool confirmation_preposterior = false;
   // theta: a cell counts as a target where its mean exceeds it. Valid: in
   // (0, 1).
   double decision_threshold = 0.5;
@@ -124,7 +133,11 @@ struct InformationParams {
   // the altitude reward): mu + kappa sigma, plus the confirmation term when
   // its weight is positive, plus in the confirmation phase the ambiguity
   // term, or the second-look term for a cell outside the margin.
-  [[nodiscard]] double CellValue(double mean, double variance, double noise_variance) const;
+  // `prior_variance` is the cell's variance in the map now, before any shot
+  // of the plan; read only with confirmation_preposterior (negative: take
+  // `variance`).
+  [[nodiscard]] double CellValue(double mean, double variance, double noise_variance,
+                                 double prior_variance = -1.0) const;
   // The second-look term of a cell with predicted variance `variance`,
   // unweighted: the variance, or exp(-second_look_sharpness / variance); 0
   // for a variance that is not positive.
@@ -138,18 +151,31 @@ struct InformationParams {
 // cell whose variance is not positive: it has nothing left to learn.
 [[nodiscard]] double MisclassificationReduction(double mean, double variance, double noise_variance,
                                                 double threshold);
+// The same for a cell whose belief now is N(mean, prior_variance) and which
+// earlier observations will have left with `variance` <= prior_variance when
+// this one comes: the expected misclassification probability after those
+// observations less that after this one too, both over what the
+// observations may show, seen from now. Equal to MisclassificationReduction
+// when variance == prior_variance; 0 when variance is not positive.
+[[nodiscard]] double PreposteriorMisclassificationReduction(double mean, double prior_variance,
+                                                            double variance, double noise_variance,
+                                                            double threshold);
 
 inline double InformationParams::SecondLook(double variance) const {
   if (!(variance > 0.0)) return 0.0;
   return second_look_sharpness > 0.0 ? std::exp(-second_look_sharpness / variance) : variance;
 }
 
-inline double InformationParams::CellValue(double mean, double variance,
-                                           double noise_variance) const {
+inline double InformationParams::CellValue(double mean, double variance, double noise_variance,
+                                           double prior_variance) const {
   double value = mean + kappa * std::sqrt(std::max(variance, 0.0));
   if (confirmation_weight > 0.0) {
     value += confirmation_weight *
-             MisclassificationReduction(mean, variance, noise_variance, decision_threshold);
+             (confirmation_preposterior
+                  ? PreposteriorMisclassificationReduction(
+                        mean, prior_variance < 0.0 ? variance : prior_variance, variance,
+                        noise_variance, decision_threshold)
+                  : MisclassificationReduction(mean, variance, noise_variance, decision_threshold));
   }
   if (confirming && std::abs(mean - decision_threshold) < ambiguity_margin) {
     value += confirmation_phase_weight * std::max(variance, 0.0);

@@ -95,6 +95,8 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
   EXPECT_EQ(a.information.ambiguity_margin, b.information.ambiguity_margin) << what;
   EXPECT_EQ(a.information.second_look_weight, b.information.second_look_weight) << what;
   EXPECT_EQ(a.information.second_look_sharpness, b.information.second_look_sharpness) << what;
+  EXPECT_EQ(a.information.confirmation_preposterior, b.information.confirmation_preposterior)
+      << what;
   EXPECT_EQ(a.weights.k1, b.weights.k1) << what;
   EXPECT_EQ(a.weights.k2, b.weights.k2) << what;
   EXPECT_EQ(a.weights.min_flight_time_s, b.weights.min_flight_time_s) << what;
@@ -224,6 +226,22 @@ TEST(MissionSpecTest, DefaultSpecTakesTheProtoDocumentedDefaults) {
 }
 
 TEST(MissionSpecTest, DefaultSpecRoundTrips) { ExpectRoundTrip(v1::MissionSpec()); }
+
+// The preposterior form of the confirmation term is off unless asked for,
+// and kept through the answered spec when it is.
+TEST(MissionSpecTest, ConfirmationPreposteriorRoundTrips) {
+  v1::MissionSpec spec;
+  spec.mutable_planner()->set_confirmation_weight(100);
+  absl::StatusOr<MissionConfig> c = MissionSpecToConfig(spec);
+  ASSERT_TRUE(c.ok()) << c.status();
+  EXPECT_FALSE(c->planner.common.information.confirmation_preposterior);
+  spec.mutable_planner()->set_confirmation_preposterior(true);
+  c = MissionSpecToConfig(spec);
+  ASSERT_TRUE(c.ok()) << c.status();
+  EXPECT_TRUE(c->planner.common.information.confirmation_preposterior);
+  EXPECT_TRUE(ConfigToMissionSpec(*c).planner().confirmation_preposterior());
+  ExpectRoundTrip(spec);
+}
 
 TEST(MissionSpecTest, PaperPresetEqualsTheDefaultsAndRoundTrips) {
   v1::MissionSpec paper;
@@ -799,6 +817,11 @@ std::vector<BadCase> BadCases() {
          });
        },
        kInvalid, "spec.planner.second_look_sharpness: "},
+      {"preposterior confirmation without its weight",
+       [] {
+         return SpecWith([](auto& s) { s.mutable_planner()->set_confirmation_preposterior(true); });
+       },
+       kInvalid, "spec.planner.confirmation_preposterior: "},
       {"ambiguity margin above 0.5",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_ambiguity_margin(0.6); }); },
        kInvalid, "spec.planner.ambiguity_margin: "},

@@ -125,7 +125,8 @@ TEST(ScenarioTest, GeodeticTargetsAndObstaclesBecomeLocalMetres) {
 // builds a world, its name matches its file, and the E5 settings and team
 // scenarios differ from e5.json (e6-team4 from e6.json, team4-n5 and
 // team4-launch from e5-team4.json, team4-launch-confirm and -sep1 from
-// team4-launch) only in what their name says.
+// team4-launch, team4-launch-preposterior from team4-launch-confirm) only in
+// what their name says.
 TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   int files = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
@@ -139,7 +140,7 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 21);
+  EXPECT_EQ(files, 22);
   // e6-team4: E6 with a team of 4 in place of its start.
   auto e6 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6.json");
   auto e6_team = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6-team4.json");
@@ -207,6 +208,13 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   }
   EXPECT_EQ(launch_as_team4.SerializeAsString(), team4->SerializeAsString());
   EXPECT_EQ(confirm->mission().planner().confirmation_weight(), 1000.0);
+  auto preposterior =
+      LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/team4-launch-preposterior.json");
+  ASSERT_TRUE(preposterior.ok());
+  EXPECT_TRUE(preposterior->mission().planner().confirmation_preposterior());
+  preposterior->set_name(confirm->name());
+  preposterior->mutable_mission()->mutable_planner()->clear_confirmation_preposterior();
+  EXPECT_EQ(preposterior->SerializeAsString(), confirm->SerializeAsString());
   confirm->set_name(launch->name());
   confirm->mutable_mission()->mutable_planner()->clear_confirmation_weight();
   EXPECT_EQ(confirm->SerializeAsString(), launch->SerializeAsString());
