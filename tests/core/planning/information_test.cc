@@ -376,6 +376,16 @@ TEST(InformationTest, ParamsValidateNamesTheField) {
             std::string::npos);
 }
 
+// Simpson's rule for f over [a, b] with n (even) intervals.
+template <typename F>
+double Simpson(const F& f, double a, double b, int n) {
+  const double step = (b - a) / n;
+  double sum = 0.0;
+  for (int i = 0; i <= n; ++i)
+    sum += (i == 0 || i == n ? 1 : (i % 2 == 1 ? 4 : 2)) * f(a + i * step);
+  return sum * step / 3.0;
+}
+
 // The expected misclassification after one observation, integrated directly
 // over the measurement y ~ N(mu, v + r): the posterior mean and standard
 // deviation follow from the scalar Kalman update, and the posterior
@@ -391,17 +401,9 @@ double ExpectedMisclassificationAfter(double mu, double v, double r, double thet
     const double mu_post = mu + gain * (y - mu);
     return density * 0.5 * std::erfc(std::abs(mu_post - theta) / sigma_post / std::sqrt(2.0));
   };
-  const auto simpson = [&](double a, double b) {  // n even
-    const double step = (b - a) / n;
-    double sum = 0.0;
-    for (int i = 0; i <= n; ++i) {
-      sum += (i == 0 || i == n ? 1 : (i % 2 == 1 ? 4 : 2)) * integrand(a + i * step);
-    }
-    return sum * step / 3.0;
-  };
   const double lo = mu - 12 * sy, hi = mu + 12 * sy;
   const double kink = std::clamp(mu + (theta - mu) / gain, lo, hi);
-  return simpson(lo, kink) + simpson(kink, hi);
+  return Simpson(integrand, lo, kink, n) + Simpson(integrand, kink, hi, n);
 }
 
 TEST(InformationTest, MisclassificationReductionMatchesDirectIntegration) {
@@ -440,18 +442,10 @@ double PreposteriorReductionByIntegration(double mu, double p, double v, double 
     const double before = 0.5 * std::erfc(std::abs(m - theta) / std::sqrt(v) / std::sqrt(2.0));
     return density * (before - ExpectedMisclassificationAfter(m, v, r, theta, 2000));
   };
-  const auto simpson = [&](double a, double b) {
-    const int n = 400;  // even; each point integrates a look itself
-    const double step = (b - a) / n;
-    double sum = 0.0;
-    for (int i = 0; i <= n; ++i) {
-      sum += (i == 0 || i == n ? 1 : (i % 2 == 1 ? 4 : 2)) * integrand(a + i * step);
-    }
-    return sum * step / 3.0;
-  };
   const double lo = mu - 12 * sm, hi = mu + 12 * sm;
   const double kink = std::clamp(theta, lo, hi);
-  return simpson(lo, kink) + simpson(kink, hi);
+  const int n = 400;  // each point integrates a look itself
+  return Simpson(integrand, lo, kink, n) + Simpson(integrand, kink, hi, n);
 }
 
 TEST(InformationTest, PreposteriorMisclassificationReductionMatchesDirectIntegration) {
