@@ -53,8 +53,8 @@ inline v1::MissionSpec CustomSpec() {
   p.set_kappa(2);
   p.set_confirmation_weight(0);  // the only value the trace objective takes
   p.set_decision_threshold(0.4);
-  p.set_confirmation_preposterior(false);  // likewise: only with a positive weight
   p.set_confirmation_phase_s(0);           // likewise
+  p.set_confirmation_preposterior(false);  // only with a positive confirmation weight
   p.set_confirmation_phase_weight(500);
   p.set_ambiguity_margin(0.2);
   p.set_second_look_weight(40);
