@@ -264,8 +264,7 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   if (common.information.confirmation_preposterior &&
       !(common.information.confirmation_weight > 0)) {
     return absl::InvalidArgumentError(
-        "spec.planner.confirmation_preposterior: changes the confirmation term, which "
-        "confirmation_weight 0 leaves out");
+        "spec.planner.confirmation_preposterior: requires confirmation_weight > 0");
   }
   if (const double margin = common.information.ambiguity_margin; !(margin > 0.0 && margin <= 0.5)) {
     return absl::InvalidArgumentError(

@@ -69,7 +69,7 @@
 # separation (team4-launch-sep1.json, two variants, 50, 10 min), with the
 # confirmation term (team4-launch-confirm.json, 25, 12 min) and with that
 # term seen from the map's belief now (team4-launch-preposterior.json, 50,
-# 23 min).
+# 22 min).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"

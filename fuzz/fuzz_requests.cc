@@ -161,6 +161,7 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(planner.common.information.ambiguity_margin);
   OAIPP_FUZZ_SAME(planner.common.information.second_look_weight);
   OAIPP_FUZZ_SAME(planner.common.information.second_look_sharpness);
+  OAIPP_FUZZ_SAME(planner.common.information.confirmation_preposterior);
   OAIPP_FUZZ_SAME(planner.common.weights.k1);
   OAIPP_FUZZ_SAME(planner.common.weights.k2);
   OAIPP_FUZZ_SAME(planner.common.weights.min_flight_time_s);

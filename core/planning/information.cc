@@ -194,6 +194,10 @@ absl::Status InformationParams::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("decision_threshold: must lie in (0, 1), got ", decision_threshold));
   }
+  if (confirmation_preposterior && !(confirmation_weight > 0.0)) {
+    return absl::InvalidArgumentError(
+        "confirmation_preposterior: requires confirmation_weight > 0");
+  }
   if (confirmation_weight > 0.0 && kind != ObjectiveKind::kAdaptive) {
     return absl::InvalidArgumentError(
         "confirmation_weight: applies to the adaptive objective only, must be 0 for the "

@@ -74,7 +74,7 @@ struct InformationParams {
   // threshold and too little away from it. True:
   // from the map's belief now, N(mu, variance now), over what those shots
   // may show (docs/method.md "Confirmation"); for a cell no earlier shot
-  // sees, the two are equal.
+  // sees, the two are equal to rounding.
   bool confirmation_preposterior = false;
   // theta: a cell counts as a target where its mean exceeds it. Valid: in
   // (0, 1).
@@ -156,7 +156,8 @@ struct InformationParams {
 // this one comes: the expected misclassification probability after those
 // observations less that after this one too, both over what the
 // observations may show, seen from now. Equal to MisclassificationReduction
-// when variance == prior_variance; 0 when variance is not positive.
+// to rounding when variance == prior_variance; 0 when variance is not
+// positive.
 [[nodiscard]] double PreposteriorMisclassificationReduction(double mean, double prior_variance,
                                                             double variance, double noise_variance,
                                                             double threshold);

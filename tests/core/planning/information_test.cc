@@ -371,6 +371,11 @@ TEST(InformationTest, ParamsValidateNamesTheField) {
   EXPECT_NE(message({.second_look_sharpness = NAN}).find("second_look_sharpness"),
             std::string::npos);
   EXPECT_NE(message({.ambiguity_margin = 0.51}).find("ambiguity_margin"), std::string::npos);
+  EXPECT_NE(message({.confirmation_preposterior = true}).find("confirmation_preposterior"),
+            std::string::npos);
+  EXPECT_TRUE((InformationParams{.confirmation_weight = 2.0, .confirmation_preposterior = true})
+                  .Validate()
+                  .ok());
   EXPECT_NE(message({.kind = ObjectiveKind::kNonAdaptive, .confirmation_phase_s = 10})
                 .find("confirmation_phase_s"),
             std::string::npos);
@@ -471,7 +476,7 @@ TEST(InformationTest, PreposteriorMisclassificationReductionMatchesDirectIntegra
   // noise 0.39). On the threshold the narrowed form values it at 0.144
   // against the first look's 0.161, as if the first look left the cell as
   // undecided as before; seen from now it is worth 0.051, since the first
-  // look usually settles it. At a mean of 0.2 the narrowed form takes the
+  // look usually moves the mean off the threshold. At a mean of 0.2 the narrowed form takes the
   // cell as decided (0.0015), while seen from now the first look may move
   // it towards the threshold (0.0147). These figures come from integrating
   // both looks numerically apart from this code.
@@ -538,6 +543,46 @@ TEST(InformationTest, ConfirmationPreposteriorFastEqualsReference) {
   InformationParams params = plain;
   params.confirmation_preposterior = true;
   EXPECT_GT(CheckFastAgainstReference(map, params, plain, 47), 20);
+}
+
+// The preposterior form reads each cell's variance before the plan, not
+// the conditioned prefix's (a team's plan conditions on its teammates'
+// pending shots): with a conditioned prefix, Evaluate and the greedy
+// start's PoseValue, in double and in single precision, equal the oracle,
+// which starts from the unconditioned covariance.
+TEST(InformationTest, ConfirmationPreposteriorAfterAConditionedPrefixEqualsReference) {
+  const GpMap map = RandomPosterior(16, 15);
+  InformationParams params{.kappa = 1.0, .confirmation_weight = 4.0, .decision_threshold = 0.45};
+  params.confirmation_preposterior = true;
+  InformationParams single = params;
+  single.single_precision = true;
+  std::mt19937 rng(53);
+  std::vector<PoseObservation> prefix = RandomPoses(map.grid(), rng);
+  for (PoseObservation& pose : prefix) pose.scored = false;
+  InformationEvaluator fast(map.Mean(), map.Covariance(), params);
+  InformationEvaluator fast_single(map.Mean(), map.Covariance(), single);
+  ASSERT_TRUE(fast.Condition(prefix).ok());
+  ASSERT_TRUE(fast_single.Condition(prefix).ok());
+  double worst_single = 0.0;
+  for (int path = 0; path < 100; ++path) {
+    std::vector<PoseObservation> poses = prefix;
+    for (PoseObservation pose : RandomPoses(map.grid(), rng)) {
+      pose.scored = true;
+      pose.altitude_m = std::min(pose.altitude_m, 20.0);
+      poses.push_back(std::move(pose));
+    }
+    const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
+    EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference) + 1e-12)
+        << "path " << path;
+    worst_single = std::max(worst_single, std::abs(fast_single.Evaluate(poses) - reference) /
+                                              (std::abs(reference) + 1e-12));
+    const std::span<const PoseObservation> history(poses.data(), poses.size() - 1);
+    const double before = ReferenceInformation(map.Mean(), map.Covariance(), params, history);
+    EXPECT_NEAR(fast.PoseValue(poses.back(), fast.PosteriorVariances(history)), reference - before,
+                1e-9 * std::abs(reference) + 1e-9)
+        << "path " << path;
+  }
+  EXPECT_LT(worst_single, 1e-6);
 }
 
 // The confirmation phase starts when the flight budget left falls to
