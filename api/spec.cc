@@ -261,11 +261,6 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       CheckNonNegative("spec.planner.second_look_weight", common.information.second_look_weight));
   OAIPP_RETURN_IF_ERROR(CheckNonNegative("spec.planner.second_look_sharpness",
                                          common.information.second_look_sharpness));
-  if (common.information.confirmation_preposterior &&
-      !(common.information.confirmation_weight > 0)) {
-    return absl::InvalidArgumentError(
-        "spec.planner.confirmation_preposterior: requires confirmation_weight > 0");
-  }
   if (const double margin = common.information.ambiguity_margin; !(margin > 0.0 && margin <= 0.5)) {
     return absl::InvalidArgumentError(
         absl::StrCat("spec.planner.ambiguity_margin: must lie in (0, 0.5], got ", margin));

@@ -285,8 +285,9 @@ double PreposteriorMisclassificationReduction(double mean, double prior_variance
   const double h = (threshold - mean) / std::sqrt(prior_variance);
   const double r = std::max(noise_variance, 0.0);
   const double after = variance * r / (variance + r);  // this look's scalar update
-  return std::max(MisclassifiedAfter(h, prior_variance, std::min(variance, prior_variance)) -
-                      MisclassifiedAfter(h, prior_variance, std::min(after, prior_variance)),
+  // A variance at or above the prior (rounding) learns nothing: Phi(-|h|).
+  return std::max(MisclassifiedAfter(h, prior_variance, variance) -
+                      MisclassifiedAfter(h, prior_variance, after),
                   0.0);
 }
 
@@ -389,7 +390,7 @@ double InformationEvaluator::PoseValue(const PoseObservation& pose,
   if (reward <= 0.0) return 0.0;
   double av = 0.0;
   for (int c : pose.cells) {
-    av += params_.CellValue(mean_[c], variances[c], pose.variance, cov_(c, c));
+    av += params_.CellValue(mean_[c], variances[c], pose.variance, PriorVariance(c));
   }
   return av * reward;
 }
@@ -486,7 +487,7 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
       double av = 0.0;
       for (Eigen::Index j = 0; j < m; ++j) {
         const int cell = pose.cells[j];
-        av += params_.CellValue(mean_[cell], var[j], pose.variance, cov_(cell, cell));
+        av += params_.CellValue(mean_[cell], var[j], pose.variance, PriorVariance(cell));
       }
       total += av * reward;
     }

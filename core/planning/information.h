@@ -304,6 +304,12 @@ class InformationEvaluator {
   // first evaluations of a plan, which an anytime answer waits for, stay
   // cheap).
   [[nodiscard]] bool UseBaseSquared(Eigen::Index m, Eigen::Index n) const;
+  // Cell c's variance in the map now, which only the preposterior
+  // confirmation term reads (-1 otherwise: a strided read into P that the
+  // per-cell loops skip).
+  [[nodiscard]] double PriorVariance(int c) const {
+    return params_.confirmation_preposterior ? cov_(c, c) : -1.0;
+  }
 
   const Eigen::VectorXd& mean_;
   const Eigen::MatrixXd& cov_;
