@@ -140,7 +140,7 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 22);
+  EXPECT_EQ(files, 23);
   // e6-team4: E6 with a team of 4 in place of its start.
   auto e6 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6.json");
   auto e6_team = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6-team4.json");
@@ -212,6 +212,14 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
       LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/team4-launch-preposterior.json");
   ASSERT_TRUE(preposterior.ok());
   EXPECT_TRUE(preposterior->mission().planner().confirmation_preposterior());
+  // e5-settings/team4-launch-sigma35: the same with the altitude reward's
+  // width halved.
+  auto sigma35 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e5-settings/team4-launch-sigma35.json");
+  ASSERT_TRUE(sigma35.ok());
+  EXPECT_EQ(sigma35->mission().planner().sigma1_m(), 3.5);
+  sigma35->set_name(preposterior->name());
+  sigma35->mutable_mission()->mutable_planner()->clear_sigma1_m();
+  EXPECT_EQ(sigma35->SerializeAsString(), preposterior->SerializeAsString());
   preposterior->set_name(confirm->name());
   preposterior->mutable_mission()->mutable_planner()->clear_confirmation_preposterior();
   EXPECT_EQ(preposterior->SerializeAsString(), confirm->SerializeAsString());
