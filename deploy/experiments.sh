@@ -69,7 +69,9 @@
 # separation (team4-launch-sep1.json, two variants, 50, 10 min), with the
 # confirmation term (team4-launch-confirm.json, 25, 12 min) and with that
 # term seen from the map's belief now (team4-launch-preposterior.json, 50,
-# 22 min).
+# 22 min); E7-sigma35 flies them with the detector's noise and the altitude
+# reward's width halved (team4-launch-sigma35.json, 50, 27 min), where the
+# coordinated team is the fastest.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -250,6 +252,10 @@ for e in $experiments; do
         "${client[@]}" eval E7 --trials="$n" --team_scenarios="client/scenarios/e5-settings/$f.json" \
           --variants="$variants" --out="out/eval/E7-$f"
       done ;;
+    E7-sigma35)
+      "${client[@]}" eval E7 --trials=50 --detector_noise --detector_false_positives \
+        --team_scenarios=client/scenarios/e5-settings/team4-launch-sigma35.json \
+        --variants=team4,team4-noshots,team4-alone --out=out/eval/E7-team4-launch-sigma35 ;;
     *) "${client[@]}" eval "$e" --trials="$trials" ;;
   esac
 done
