@@ -9,8 +9,8 @@ For each variant, two tables:
 - the person each trial settled last: when it was first in view, when the
   map's mean there last crossed 0.5 upwards for good (from the rows'
   mean_after), the looks and misses until then, and the longest time
-  between two looks until then. Trials that never settle everyone are
-  counted apart.
+  between two looks until then (each a mean over the trials). Trials that
+  never settle everyone are counted apart.
 
   /usr/bin/python3 client/plots/sightings.py out/eval/E7/sightings.csv
 """
@@ -41,13 +41,16 @@ def main():
                  float(row["mean_after"])))
 
     variants = sorted({v for v, _, _ in looks})
+    # A person never in view in a trial has no rows there: a trial counts as
+    # settling everyone only when every person of the file has settled.
+    everyone = {target for _, _, target in looks}
     for variant in variants:
         bands = collections.defaultdict(lambda: [0, 0])
         trials = collections.defaultdict(dict)
         for (v, trial, target), rows in looks.items():
             if v != variant:
                 continue
-            rows.sort()
+            rows.sort(key=lambda r: r[0])  # stable: same-instant rows keep the fusion order
             for _, h, detected, _ in rows:
                 band = 2 * int(h // 2)
                 bands[band][0] += 1
@@ -72,7 +75,7 @@ def main():
         last = []
         unsettled = 0
         for per_target in trials.values():
-            if any(s is None for s, _ in per_target.values()):
+            if set(per_target) != everyone or any(s is None for s, _ in per_target.values()):
                 unsettled += 1
                 continue
             target = max(per_target, key=lambda k: per_target[k][0])
@@ -87,7 +90,7 @@ def main():
             mean = [statistics.fmean(x[i] for x in last) for i in range(6)]
             print(f"last person settled (means over {len(last)} trials; {unsettled} never "
                   f"settled everyone): first in view {mean[0]:.1f} s, settled {mean[1]:.1f} s, "
-                  f"{mean[2]:.2f} looks, {mean[3]:.2f} misses, longest gap {mean[4]:.1f} s, "
+                  f"{mean[2]:.2f} looks, {mean[3]:.2f} misses, longest gap {mean[4]:.1f} s on average, "
                   f"altitude {mean[5]:.1f} m\n")
         else:
             print(f"no trial settled everyone ({unsettled} trials)\n")

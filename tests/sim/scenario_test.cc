@@ -125,8 +125,9 @@ TEST(ScenarioTest, GeodeticTargetsAndObstaclesBecomeLocalMetres) {
 // builds a world, its name matches its file, and the E5 settings and team
 // scenarios differ from e5.json (e6-team4 from e6.json, team4-n5 and
 // team4-launch from e5-team4.json, team4-launch-confirm and -sep1 from
-// team4-launch, team4-launch-preposterior from team4-launch-confirm) only in
-// what their name says.
+// team4-launch, team4-launch-preposterior from team4-launch-confirm,
+// team4-launch-sigma35 from team4-launch-preposterior) only in what their
+// name says.
 TEST(ScenarioTest, EveryCommittedScenarioLoads) {
   int files = 0;
   for (const auto& entry : std::filesystem::recursive_directory_iterator(OAIPP_SCENARIO_DIR)) {
