@@ -49,6 +49,13 @@ absl::Status MissionConfig::CheckUavId(absl::string_view uav_id, absl::string_vi
   return absl::OkStatus();
 }
 
+double MissionConfig::PairDistance(absl::string_view a, absl::string_view b) const {
+  const PlannerLimits la = KitOf(a).limits;
+  const PlannerLimits lb = KitOf(b).limits;
+  return std::max(min_separation_m,
+                  la.uav_radius_m + la.tracking_error_m + lb.uav_radius_m + lb.tracking_error_m);
+}
+
 UavKit MissionConfig::KitOf(absl::string_view uav_id) const {
   if (const TeamMember* member = FindMember(uav_id); member != nullptr) return member->kit;
   return {.camera = camera, .noise = noise, .limits = planner.common.limits};

@@ -91,8 +91,12 @@ struct MissionConfig {
   // Several UAVs over the one map (proto MissionSpec.team); empty: one UAV,
   // uav_id "", at `start`.
   std::vector<TeamMember> team;
-  // Centre to centre, m, between any two members at every instant.
+  // Centre to centre, m, between any two members at every instant (a pair
+  // whose bodies need more keeps PairDistance).
   double min_separation_m = 4.0;
+  // Mission seconds without a report after which a member counts as silent
+  // (MissionSpec field of the same name).
+  double silent_after_s = 20.0;
   // A plan counts teammates' pending shots as taken (MissionSpec field of
   // the same name).
   bool count_teammate_shots = true;
@@ -115,6 +119,10 @@ struct MissionConfig {
   // What `uav_id` flies with: a member's own kit, or the mission's (camera,
   // noise, planner.common.limits) for "" and for a name not in the team.
   [[nodiscard]] UavKit KitOf(absl::string_view uav_id) const;
+  // How far apart the centres of members a and b stay: min_separation_m,
+  // or their radii and tracking errors added up when that is more
+  // (docs/teams.md "The guarantee").
+  [[nodiscard]] double PairDistance(absl::string_view a, absl::string_view b) const;
   // The planner's settings for `uav_id`: the mission's, with its limits.
   [[nodiscard]] PlannerConfig PlannerFor(absl::string_view uav_id) const;
   // OK when `uav_id` (a request's `field`) names one of the mission's UAVs:

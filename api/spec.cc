@@ -152,9 +152,15 @@ absl::Status FillLimitsOf(const v1::FlightSpec& f, const PlannerLimits& base,
   l.dynamics.max_accel_m_s2 =
       OrDefault(f.has_max_accel_m_s2(), f.max_accel_m_s2(), base.dynamics.max_accel_m_s2);
   l.uav_radius_m = OrDefault(f.has_uav_radius_m(), f.uav_radius_m(), base.uav_radius_m);
+  l.tracking_error_m =
+      OrDefault(f.has_tracking_error_m(), f.tracking_error_m(), base.tracking_error_m);
   OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "max_speed_m_s", l.dynamics.max_speed_m_s));
   OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "max_accel_m_s2", l.dynamics.max_accel_m_s2));
   OAIPP_RETURN_IF_ERROR(CheckPositive(prefix + "uav_radius_m", l.uav_radius_m));
+  if (!(l.tracking_error_m >= 0.0 && l.tracking_error_m <= 10.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(prefix, "tracking_error_m: must be in [0, 10], got ", l.tracking_error_m));
+  }
   return Prefixed(prefix, l.Validate());
 }
 
@@ -175,8 +181,12 @@ absl::Status FillFlight(const v1::FlightSpec& f, MissionConfig& c) {
         absl::StrCat("spec.flight.max_altitude_m: must exceed spec.flight.min_altitude_m (",
                      c.min_altitude_m, "), got ", c.max_altitude_m));
   }
-  OAIPP_RETURN_IF_ERROR(
-      FillLimitsOf(f, kDefaults.planner.common.limits, "spec.flight", c.planner.common.limits));
+  // The paper's preset keeps the paper's r / 2 from obstacles; the service
+  // keeps the UAV's whole body and its tracking error (docs/method.md).
+  PlannerLimits base = kDefaults.planner.common.limits;
+  base.obstacle_rule = c.preset == "paper" ? PlannerLimits::ObstacleRule::kPaperHalfRadius
+                                           : PlannerLimits::ObstacleRule::kBody;
+  OAIPP_RETURN_IF_ERROR(FillLimitsOf(f, base, "spec.flight", c.planner.common.limits));
   if (!(c.esdf.voxel_size_m > 0.0 && c.esdf.voxel_size_m <= 10.0)) {
     return absl::InvalidArgumentError(
         absl::StrCat("spec.flight.esdf_voxel_m: must be in (0, 10], got ", c.esdf.voxel_size_m));
@@ -377,6 +387,12 @@ absl::StatusOr<UavKit> FillMemberKit(const v1::TeamMember& m, const MissionConfi
 absl::Status FillTeam(const v1::MissionSpec& spec, MissionConfig& c) {
   if (spec.team().empty()) return absl::OkStatus();  // min_separation_m unused
   c.count_teammate_shots = !spec.has_count_teammate_shots() || spec.count_teammate_shots();
+  c.silent_after_s =
+      OrDefault(spec.has_silent_after_s(), spec.silent_after_s(), MissionConfig{}.silent_after_s);
+  if (!(c.silent_after_s > 0.0 && c.silent_after_s <= 3600.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.silent_after_s: must be in (0, 3600], got ", c.silent_after_s));
+  }
   const double radius = c.planner.common.limits.uav_radius_m;
   c.min_separation_m = OrDefault(spec.has_min_separation_m(), spec.min_separation_m(),
                                  MissionConfig{}.min_separation_m);
@@ -420,15 +436,21 @@ absl::Status FillTeam(const v1::MissionSpec& spec, MissionConfig& c) {
           ".start.mission_time_s: the team shares one mission clock: must equal spec.team[0]'s (",
           c.team.front().start.mission_time_s, "), got ", start.mission_time_s));
     }
+    c.team.push_back({.uav_id = m.uav_id(), .start = start, .kit = std::move(kit)});
+    // As far apart as every plan's final check asks (its 0.05 m margin
+    // included), so that a team accepted here can plan from its starts.
     for (int j = 0; j < i; ++j) {
       const double d = (start.position_W - c.team[j].start.position_W).norm();
-      if (d < c.min_separation_m) {
+      const double required = c.PairDistance(c.team.back().uav_id, c.team[j].uav_id) +
+                              0.5 * c.planner.common.limits.exact_check_spacing_m;
+      if (d < required) {
         return absl::InvalidArgumentError(absl::StrCat(
             field, ".start.position_m: ", d, " m from spec.team[", j, "] ('", c.team[j].uav_id,
-            "'), closer than min_separation_m (", c.min_separation_m, ")"));
+            "'), closer than the ", required,
+            " m every plan keeps (min_separation_m or the two bodies with their tracking "
+            "errors, whichever is more, and the final check's margin)"));
       }
     }
-    c.team.push_back({.uav_id = m.uav_id(), .start = start, .kit = std::move(kit)});
   }
   c.start = c.team.front().start;
   return absl::OkStatus();

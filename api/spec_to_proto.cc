@@ -31,6 +31,7 @@ void WriteLimits(const PlannerLimits& limits, v1::FlightSpec& f) {
   f.set_max_speed_m_s(limits.dynamics.max_speed_m_s);
   f.set_max_accel_m_s2(limits.dynamics.max_accel_m_s2);
   f.set_uav_radius_m(limits.uav_radius_m);
+  f.set_tracking_error_m(limits.tracking_error_m);
 }
 
 }  // namespace
@@ -100,6 +101,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
     }
     spec.set_min_separation_m(c.min_separation_m);
     spec.set_count_teammate_shots(c.count_teammate_shots);
+    spec.set_silent_after_s(c.silent_after_s);
   }
   spec.set_budget_s(c.budget_s);
   if (c.geo_origin.has_value()) *spec.mutable_geo_origin() = GeoPointToProto(*c.geo_origin);

@@ -64,6 +64,7 @@ absl::Status WithApiFieldNames(const absl::Status& status) {
                          {"limits.max_speed_m_s", "spec.flight.max_speed_m_s"},
                          {"limits.max_accel_m_s2", "spec.flight.max_accel_m_s2"},
                          {"limits.uav_radius_m", "spec.flight.uav_radius_m"},
+                         {"limits.tracking_error_m", "spec.flight.tracking_error_m"},
                          {"esdf.voxel_size_m", "spec.flight.esdf_voxel_m"},
                          {"esdf.truncation_m", "spec.flight.esdf_truncation_m"},
                          {"esdf: ", "spec.flight.esdf_voxel_m: "},

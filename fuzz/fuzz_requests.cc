@@ -147,6 +147,8 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(planner.common.limits.dynamics.max_speed_m_s);
   OAIPP_FUZZ_SAME(planner.common.limits.dynamics.max_accel_m_s2);
   OAIPP_FUZZ_SAME(planner.common.limits.uav_radius_m);
+  OAIPP_FUZZ_SAME(planner.common.limits.tracking_error_m);
+  OAIPP_FUZZ_SAME(planner.common.limits.obstacle_rule);
   OAIPP_FUZZ_SAME(planner.common.limits.collision_sample_rate_hz);
   OAIPP_FUZZ_SAME(planner.common.limits.exact_check_spacing_m);
   OAIPP_FUZZ_SAME(planner.common.information.kind);
@@ -182,6 +184,8 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(planner.lawnmower.detour_margin_m);
   OAIPP_FUZZ_SAME(planner.random.max_attempts);
   OAIPP_FUZZ_SAME(budget_s);
+  OAIPP_FUZZ_SAME(min_separation_m);
+  OAIPP_FUZZ_SAME(silent_after_s);
   if (a.geo_origin != b.geo_origin) return "geo_origin";
 #undef OAIPP_FUZZ_SAME
   if (std::string d = ObstaclesDifference(a.obstacles, b.obstacles); !d.empty()) {

@@ -51,6 +51,19 @@ std::int64_t LogEntryBytes(const LogEntry& entry) {
 
 }  // namespace
 
+namespace {
+
+// The longest time between two shots of any of the mission's cameras, s.
+double LongestShotPeriod(const MissionConfig& config) {
+  double period = 1.0 / config.camera.rate_hz;
+  for (const api::TeamMember& member : config.team) {
+    period = std::max(period, 1.0 / member.kit.camera.rate_hz);
+  }
+  return period;
+}
+
+}  // namespace
+
 Mission::Mission(std::string id, MissionConfig config, FieldGrid grid, Environment env,
                  std::shared_ptr<GpMap> map, std::unique_ptr<LargeFieldMap> large,
                  std::unique_ptr<Planner> planner, const SiteCaches& caches)
@@ -101,22 +114,22 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   std::vector<Start> starts;
   if (config.team.empty()) {
     starts.push_back(
-        {"spec.start", config.start.position_W, 0.5 * config.planner.common.limits.uav_radius_m});
+        {"spec.start", config.start.position_W, config.planner.common.limits.ObstacleClearance()});
   }
   for (std::size_t i = 0; i < config.team.size(); ++i) {
     starts.push_back({absl::StrCat("spec.team[", i, "].start"), config.team[i].start.position_W,
-                      0.5 * config.team[i].kit.limits.uav_radius_m});
+                      config.team[i].kit.limits.ObstacleClearance()});
   }
   for (const auto& [field, start, needed] : starts) {
     const double clearance = env.SignedDistance(start);
     if (clearance < needed) {
       return absl::InvalidArgumentError(absl::StrFormat(
           "%s.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of clearance "
-          "(uav_radius_m / 2)",
+          "(%s)",
           field, start.x(), start.y(), start.z(),
           clearance < 0 ? "inside an obstacle"
                         : absl::StrFormat("%.3g m from an obstacle", clearance),
-          needed));
+          needed, ClearanceRuleName(config.planner.common.limits)));
     }
   }
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
@@ -358,9 +371,10 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     OAIPP_RETURN_IF_ERROR(FuseIntoMap(observations, /*defer=*/true));
     ++measurements_fused_;
     mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
-    if (auto [it, added] = last_shot_s_.try_emplace(input.uav_id, input.mission_time_s); !added) {
-      it->second = std::max(it->second, input.mission_time_s);
-    }
+    fused_shots_.Add(input.uav_id, input.mission_time_s);
+    // No plan may start earlier than this (TeamTimelines::kMaxLag_s), nor
+    // so ask whether a shot of any camera period before it is fused.
+    fused_shots_.Prune(mission_time_s_ - TeamTimelines::kMaxLag_s - LongestShotPeriod(config_));
     log_.push_back(input);
     log_bytes_ += entry_bytes;
     Publish(/*obstacles_changed=*/false);
@@ -416,6 +430,10 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   // copies (MutableMap) and count from the next plan.
   std::shared_ptr<const Environment> env;
   OAIPP_ASSIGN_OR_RETURN(PlanMap plan_map, MapForPlan(state.position_W.head<2>(), &env));
+  if (!config_.team.empty()) {
+    OAIPP_RETURN_IF_ERROR(
+        timelines_.CheckStart(call.uav_id, state.mission_time_s, plan_map.mission_time_s));
+  }
   std::shared_ptr<const GpMap> map = std::move(plan_map.map);
   std::shared_ptr<ConditionedCache> conditioned = std::move(plan_map.conditioned);
   const FieldGrid* field = plan_map.field;
@@ -426,8 +444,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                   ? call.deadline
                                   : std::min(call.deadline, absl::Now() + call.budget);
   std::vector<std::pair<std::string, std::int64_t>> versions;
-  const std::vector<Teammate> teammates =
-      TeammatesOf(call.uav_id, state.mission_time_s, plan_map.last_shot_s, &versions);
+  const std::vector<Teammate> teammates = TeammatesOf(
+      call.uav_id, state.mission_time_s, plan_map.mission_time_s, plan_map.fused_shots, &versions);
   const PlanningContext context{.environment = env.get(),
                                 .map = map.get(),
                                 .camera = kit.camera,
@@ -490,7 +508,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     return written;
   }
   ++paths_planned_;
-  if (!config_.team.empty()) committed_.insert_or_assign(call.uav_id, *path);
+  if (!config_.team.empty()) {
+    timelines_.Commit(*path, std::max(plan_map.mission_time_s, state.mission_time_s));
+  }
   // The remembered answer counts against the mission's memory until newer
   // ids push it out (IdempotencyMemo::bytes).
   answers_.Remember(request, *path);
@@ -539,6 +559,7 @@ MissionSnapshot Mission::Snapshot() const {
     s.measurements_fused = summary_.measurements_fused;
     s.mission_time_s = summary_.mission_time_s;
     s.removed_uav_ids = removed_;
+    s.landed_uav_ids = landed_;
   }
   s.memory_bytes = MemoryBytes();
   s.paths_planned = paths_planned_.load();

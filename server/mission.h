@@ -49,12 +49,14 @@
 #include "core/planning/conditioning_chain.h"
 #include "core/planning/planners.h"
 #include "server/flight_track.h"
+#include "server/fused_shots.h"
 #include "server/idempotency_memo.h"
 #include "server/large_field_map.h"
 #include "server/mission_events.h"
 #include "server/mission_state.h"
 #include "server/site_caches.h"
 #include "server/snapshot_policy.h"
+#include "server/team_timelines.h"
 
 namespace oaipp::server {
 
@@ -79,6 +81,7 @@ struct MissionSnapshot {
   std::int64_t memory_bytes = 0;
   absl::Time create_time;
   std::vector<std::string> removed_uav_ids;  // taken out of the team, in order
+  std::vector<std::string> landed_uav_ids;   // of those, the ones that landed
 };
 
 // Writes the record of a change to durable storage, given its sequence
@@ -153,9 +156,11 @@ class Mission {
     // (PlannerStats::queued_s).
     absl::Duration queued = absl::ZeroDuration();
     // The UAV to plan for (MissionConfig::CheckUavId): "" without a team.
-    // With a team its path keeps min_separation_m from every teammate's
-    // committed trajectory, counts their shots still to come as taken, and
-    // becomes its own committed trajectory (PlannedPath::team stamped).
+    // With a team its path keeps PairDistance from every teammate's
+    // timeline (TeamTimelines), counts their shots still to come as taken,
+    // and joins its own timeline from its start (PlannedPath::team
+    // stamped); FailedPrecondition for a start before the plan it already
+    // holds or more than TeamTimelines::kMaxLag_s behind the mission.
     std::string uav_id = {};
   };
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
@@ -164,19 +169,23 @@ class Mission {
   // Recovery: a plan read back from storage, in log order. The planner takes
   // `planner_state`, the plan takes the next sequence number, a retry of
   // `request_id` is answered with `path`, and a team's path (its
-  // PlannedPath::team) is its UAV's committed trajectory again.
+  // PlannedPath::team) joins its UAV's timeline again.
   [[nodiscard]] absl::Status RestorePlan(const RequestKey& request, PlannedPath path,
                                          const std::string& planner_state);
   // OK when `uav_id` may ask for a plan: CheckUavId's rule for the request
   // field `uav_id`, and NotFound for a UAV removed from the team.
   [[nodiscard]] absl::Status CheckPlanningUav(const std::string& uav_id) const;
   // Takes `uav_id` out of the team (proto RemoveTeamMember), written by
-  // `persist` first as a mutation is: its committed trajectory is dropped,
-  // later plans of its teammates neither keep clear of it nor count its
-  // shots, and it may not plan again (NotFound); its measurements, late ones
-  // included, are still fused. FailedPrecondition without a team, for a UAV
-  // removed already and for the last one left; else as CheckUavId.
-  [[nodiscard]] absl::StatusOr<TeamResult> RemoveMember(const std::string& uav_id,
+  // `persist` first as a mutation is: it may not plan again (NotFound),
+  // later plans of its teammates no longer count its shots, and its
+  // measurements, late ones included, are still fused. A UAV that `landed`
+  // is forgotten; one still in the air stays an obstacle for its teammates
+  // (its timeline, then wherever it may have drifted since). A landed
+  // removal of a UAV removed before in the air completes it.
+  // FailedPrecondition without a team, for a UAV removed already (landed,
+  // or in the air and not landed now) and for the last one flying; else as
+  // CheckUavId.
+  [[nodiscard]] absl::StatusOr<TeamResult> RemoveMember(const std::string& uav_id, bool landed,
                                                         const RequestKey& request,
                                                         const PersistFn& persist = nullptr);
   // The sequence number the next change of the log will take (1 for a new
@@ -308,8 +317,10 @@ class Mission {
     std::shared_ptr<ConditionedCache> conditioned;
     const FieldGrid* field = nullptr;  // the whole field, when map is a window
     std::int64_t version = 0;          // a dense map's dense_version_
-    // last_shot_s_ as the map holds it (taken under the same lock).
-    std::map<std::string, double> last_shot_s;
+    // fused_shots_ as the map holds it (taken under the same lock).
+    FusedShots fused_shots;
+    // The newest mission time the mission has seen (mission_time_s_).
+    double mission_time_s = 0.0;
   };
   absl::StatusOr<PlanMap> MapForPlan(const Vec2& centre_W, std::shared_ptr<const Environment>* env);
   // config.MakeEnvironment(), or a clone of the world cache's copy under
@@ -340,17 +351,20 @@ class Mission {
   // of the UAV's limits replaced by the member's own fields.
   [[nodiscard]] absl::Status NamedForMember(const absl::Status& status,
                                             const std::string& uav_id) const;
-  // Whether `uav_id` was taken out of the team.
+  // Whether `uav_id` was taken out of the team; whether it landed.
   [[nodiscard]] bool Removed(const std::string& uav_id) const;
-  // A team's other UAVs as the plan for `uav_id` at mission time `now_s`
-  // must keep clear of them: each one's committed trajectory (or, before
-  // its first plan, its start, held), with its shots still to come: at or
-  // after now_s and more than half a camera period after the latest
-  // measurement of that UAV the plan's map holds (`last_shot_s`, by
-  // uav_id), which is in the map already. Also their plan versions (0:
-  // none yet), in uav_id order.
+  [[nodiscard]] bool Landed(const std::string& uav_id) const;
+  // A team's other UAVs in the air as the plan for `uav_id` at mission time
+  // `now_s` must keep clear of them (docs/teams.md "The guarantee"): each
+  // one's timeline (or, before its first plan, its start, held) and the
+  // distance the pair keeps (PairDistance); one removed in the air, or
+  // silent for more than silent_after_s before `newest_s`, may drift at
+  // its max speed from when it should be hovering. With them, the shots
+  // still to come of those flying: at or after now_s, on the plan in force
+  // when taken, and not yet in the plan's map (`fused`, FusedShots's rule).
+  // Also their plan versions (0: none yet), in uav_id order.
   std::vector<Teammate> TeammatesOf(
-      const std::string& uav_id, double now_s, const std::map<std::string, double>& last_shot_s,
+      const std::string& uav_id, double now_s, double newest_s, const FusedShots& fused,
       std::vector<std::pair<std::string, std::int64_t>>* versions) const
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
 
@@ -395,10 +409,10 @@ class Mission {
   std::atomic<std::int64_t> log_limit_{std::numeric_limits<std::int64_t>::max()};
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
-  // The mission time of the latest measurement fused from each UAV (by
-  // uav_id; "" without a team): a teammate's shot at or before it is in the
-  // map and no longer to come (TeammatesOf).
-  std::map<std::string, double> last_shot_s_ ABSL_GUARDED_BY(mu_);
+  // When each UAV's fused measurements were taken (by uav_id; "" without a
+  // team): which of a teammate's planned shots are in the map (TeammatesOf),
+  // and when it last reported.
+  FusedShots fused_shots_ ABSL_GUARDED_BY(mu_);
   // request_id -> first result. Read and written with the lock of the
   // operation held, so that check and apply are one step.
   IdempotencyMemo answers_;
@@ -422,12 +436,14 @@ class Mission {
   mutable absl::Mutex summary_mu_;
   mutable Summary summary_ ABSL_GUARDED_BY(summary_mu_);  // SettleMap sets a sparse trace
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
-  // Members taken out of the team, in the order removed (RemoveMember).
+  // Members taken out of the team, in the order removed (RemoveMember),
+  // and those of them that landed.
   std::vector<std::string> removed_ ABSL_GUARDED_BY(summary_mu_);
+  std::vector<std::string> landed_ ABSL_GUARDED_BY(summary_mu_);
   // A team's planners, each with its member's limits (PlannerOf).
   std::map<std::string, std::unique_ptr<Planner>> member_planners_ ABSL_GUARDED_BY(planner_mu_);
-  // A team's committed trajectories: uav_id -> its last plan.
-  std::map<std::string, PlannedPath> committed_ ABSL_GUARDED_BY(planner_mu_);
+  // A team's committed plans, a timeline per UAV.
+  TeamTimelines timelines_ ABSL_GUARDED_BY(planner_mu_);
   // Not under planner_mu_: that is held for a whole plan, and Snapshot
   // must not wait for one.
   std::atomic<std::int64_t> paths_planned_{0};

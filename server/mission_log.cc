@@ -42,16 +42,22 @@ MissionState Mission::CaptureState() const {
   }
   state.measurements_fused = measurements_fused_;
   state.mission_time_s = mission_time_s_;
-  state.last_shot_s = last_shot_s_;
+  state.fused_shot_s = fused_shots_.Times();
+  // The latest alone too, which is what builds before the times were kept
+  // read.
+  for (const auto& [uav_id, times] : state.fused_shot_s) {
+    state.last_shot_s[uav_id] = fused_shots_.Latest(uav_id);
+  }
   state.paths_planned = paths_planned_.load();
   state.planner_state = planner_->SaveState();
   answers_.ForEach([&](const std::string& request_id, const RememberedAnswer& answer) {
     state.answers.emplace_back(request_id, answer);
   });
-  for (const auto& [uav_id, path] : committed_) state.committed.push_back(path);
+  state.committed = timelines_.All();
   {
     absl::MutexLock summary_lock(&summary_mu_);
     state.removed_uav_ids = removed_;
+    state.landed_uav_ids = landed_;
   }
   return state;
 }

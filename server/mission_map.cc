@@ -72,7 +72,8 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
     *env = env_;
     plan.map = map_;
     plan.version = dense_version_;
-    plan.last_shot_s = last_shot_s_;
+    plan.fused_shots = fused_shots_;
+    plan.mission_time_s = mission_time_s_;
     // MutableMap lets go of start_map_ at the map's first change.
     if (start_map_ != nullptr && start_map_->map == map_)
       plan.conditioned = start_map_->conditioned;
@@ -83,7 +84,8 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
     absl::ReaderMutexLock lock(&mu_);
     *env = env_;
     target = SparseTarget();
-    plan.last_shot_s = last_shot_s_;
+    plan.fused_shots = fused_shots_;
+    plan.mission_time_s = mission_time_s_;
   }
   // The planner's reach: 20 cells each way (41 x 41 cells, docs/method.md
   // §3.10), whatever the resolution. OA-IPP's window leads towards the

@@ -3,6 +3,7 @@
 // taken back in order (RestorePlan).
 #include "server/mission.h"
 
+#include <algorithm>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -52,10 +53,23 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
           absl::StrCat("state: a removed UAV '", uav_id, "', which is not in the team"));
     }
   }
+  for (const std::string& uav_id : state.landed_uav_ids) {
+    if (std::find(state.removed_uav_ids.begin(), state.removed_uav_ids.end(), uav_id) ==
+        state.removed_uav_ids.end()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("state: a landed UAV '", uav_id, "', which was not removed"));
+    }
+  }
   for (const auto& [uav_id, time_s] : state.last_shot_s) {
     if (!uav_id.empty() && config.FindMember(uav_id) == nullptr) {
       return absl::InvalidArgumentError(absl::StrCat("state: a measurement time of UAV '", uav_id,
                                                      "', which is not in the team"));
+    }
+  }
+  for (const auto& [uav_id, times] : state.fused_shot_s) {
+    if (!uav_id.empty() && config.FindMember(uav_id) == nullptr) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("state: shot times of UAV '", uav_id, "', which is not in the team"));
     }
   }
   for (const PlannedPath& path : state.committed) {
@@ -87,7 +101,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
     mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
     mission->measurements_fused_ = state.measurements_fused;
     mission->mission_time_s_ = state.mission_time_s;
-    mission->last_shot_s_ = std::move(state.last_shot_s);
+    mission->fused_shots_.Restore(std::move(state.fused_shot_s), state.last_shot_s);
     if (sparse) {
       mission->added_ = std::make_shared<SparseGpMap::Additions>(
           SparseGpMap::Additions{.precision = std::move(state.added_precision),
@@ -119,12 +133,12 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   mission->paths_planned_ = state.paths_planned;
   {
     absl::MutexLock lock(&mission->planner_mu_);
-    for (PlannedPath& path : state.committed) {
-      std::string uav_id = path.team.uav_id;
-      mission->committed_.insert_or_assign(std::move(uav_id), std::move(path));
+    for (const PlannedPath& path : state.committed) {
+      mission->timelines_.Commit(path, state.mission_time_s);
     }
     absl::MutexLock summary_lock(&mission->summary_mu_);
     mission->removed_ = std::move(state.removed_uav_ids);
+    mission->landed_ = std::move(state.landed_uav_ids);
   }
   mission->snapshots_.StoredAt(state.sequence, state.measurements_fused);
   return mission;
@@ -155,7 +169,14 @@ absl::Status Mission::RestorePlan(const RequestKey& request, PlannedPath path,
   }
   OAIPP_RETURN_IF_ERROR(PersistPlan(nullptr, path, planner_state));
   ++paths_planned_;
-  if (!path.team.uav_id.empty()) committed_.insert_or_assign(path.team.uav_id, path);
+  if (!path.team.uav_id.empty()) {
+    double newest_s;
+    {
+      absl::ReaderMutexLock lock(&mu_);
+      newest_s = mission_time_s_;
+    }
+    timelines_.Commit(path, std::max(newest_s, path.team.start_mission_s));
+  }
   answers_.Remember(request, std::move(path));
   return absl::OkStatus();
 }

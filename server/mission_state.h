@@ -44,8 +44,12 @@ struct MissionState {
   std::vector<PlannedPath> committed = {};
   // Members taken out of the team (RemoveTeamMember), in the order removed.
   std::vector<std::string> removed_uav_ids = {};
+  std::vector<std::string> landed_uav_ids = {};  // of those, the ones that landed
   // The mission time of the latest measurement fused from each UAV.
   std::map<std::string, double> last_shot_s = {};
+  // When each UAV's fused shots still of use were taken (FusedShots); a
+  // snapshot that has none for a UAV gives its last_shot_s instead.
+  std::map<std::string, std::vector<double>> fused_shot_s = {};
 };
 
 }  // namespace oaipp::server

@@ -2,6 +2,7 @@
 // limits, the checks on a UAV that asks for a plan, taking a member out
 // (RemoveMember), and the teammates a plan keeps clear of (TeammatesOf).
 #include <algorithm>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -13,6 +14,16 @@
 #include "server/mission.h"
 
 namespace oaipp::server {
+namespace {
+
+// A UAV that has not planned yet, held at its start: a one-point trajectory.
+PolynomialTrajectory HeldAt(const UavState& start) {
+  PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
+  c.row(0) = start.position_W.transpose();
+  return *PolynomialTrajectory::FromCoefficients({1.0}, {c});
+}
+
+}  // namespace
 
 absl::StatusOr<Planner*> Mission::PlannerOf(const std::string& uav_id) {
   if (config_.team.empty()) return planner_.get();
@@ -32,11 +43,12 @@ absl::Status Mission::NamedForMember(const absl::Status& status, const std::stri
     // A member's limits are its own (spec.team[i].flight): a plan's error
     // names that field, not the mission's (api::WithApiFieldNames).
     const std::string own = absl::StrCat("spec.team[", i, "].flight.");
-    absl::Status out(
-        status.code(),
-        absl::StrReplaceAll(status.message(), {{"limits.max_speed_m_s", own + "max_speed_m_s"},
-                                               {"limits.max_accel_m_s2", own + "max_accel_m_s2"},
-                                               {"limits.uav_radius_m", own + "uav_radius_m"}}));
+    absl::Status out(status.code(),
+                     absl::StrReplaceAll(status.message(),
+                                         {{"limits.max_speed_m_s", own + "max_speed_m_s"},
+                                          {"limits.max_accel_m_s2", own + "max_accel_m_s2"},
+                                          {"limits.uav_radius_m", own + "uav_radius_m"},
+                                          {"limits.tracking_error_m", own + "tracking_error_m"}}));
     status.ForEachPayload(
         [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
     return out;
@@ -58,7 +70,12 @@ bool Mission::Removed(const std::string& uav_id) const {
   return std::find(removed_.begin(), removed_.end(), uav_id) != removed_.end();
 }
 
-absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id,
+bool Mission::Landed(const std::string& uav_id) const {
+  absl::MutexLock lock(&summary_mu_);
+  return std::find(landed_.begin(), landed_.end(), uav_id) != landed_.end();
+}
+
+absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id, bool landed,
                                                  const RequestKey& request,
                                                  const PersistFn& persist) {
   // No plan is in progress while the team changes, and the change takes
@@ -71,9 +88,13 @@ absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id,
         "uav_id: the mission flies one UAV without a team; there is no member to remove");
   }
   OAIPP_RETURN_IF_ERROR(config_.CheckUavId(uav_id, "uav_id"));
-  if (Removed(uav_id)) {
+  // A UAV removed in the air may be reported landed later; nothing else
+  // about a removed UAV changes.
+  const bool removed = Removed(uav_id);
+  if (removed && (!landed || Landed(uav_id))) {
     return absl::FailedPreconditionError(
-        absl::StrCat("uav_id: UAV '", uav_id, "' was removed from the team already"));
+        absl::StrCat("uav_id: UAV '", uav_id, "' was removed from the team already",
+                     Landed(uav_id) ? " and has landed" : "; only landed: true may follow"));
   }
   TeamResult result;
   for (const api::TeamMember& member : config_.team) {
@@ -81,7 +102,7 @@ absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id,
       result.flying_uav_ids.push_back(member.uav_id);
     }
   }
-  if (result.flying_uav_ids.empty()) {
+  if (result.flying_uav_ids.empty() && !removed) {
     return absl::FailedPreconditionError(absl::StrCat(
         "uav_id: UAV '", uav_id, "' is the last one in the team; delete the mission instead"));
   }
@@ -89,55 +110,71 @@ absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id,
   OAIPP_RETURN_IF_ERROR(Persist(persist));
   {
     absl::MutexLock lock(&summary_mu_);
-    removed_.push_back(uav_id);
+    if (!removed) removed_.push_back(uav_id);
+    if (landed) landed_.push_back(uav_id);
   }
-  committed_.erase(uav_id);
+  // In the air it stays an obstacle on its timeline (TeammatesOf); landed,
+  // it is gone.
+  if (landed) timelines_.Erase(uav_id);
   member_planners_.erase(uav_id);
   answers_.Remember(request, result);
-  events_.Emit(MissionEventData::MemberRemoved{uav_id});
+  if (!removed) events_.Emit(MissionEventData::MemberRemoved{uav_id});
   MaybeWantSnapshot();
   return result;
 }
 
 std::vector<Teammate> Mission::TeammatesOf(
-    const std::string& uav_id, double now_s, const std::map<std::string, double>& last_shot_s,
+    const std::string& uav_id, double now_s, double newest_s, const FusedShots& fused,
     std::vector<std::pair<std::string, std::int64_t>>* versions) const {
   std::vector<Teammate> mates;
   for (const api::TeamMember& member : config_.team) {
-    if (member.uav_id == uav_id || Removed(member.uav_id)) continue;
-    if (auto it = committed_.find(member.uav_id); it != committed_.end()) {
-      const PlannedPath& path = it->second;
-      // A shot at now_s may have been taken and fused already (teammates
-      // shoot on one clock and plan at their shots): then it is in the map,
-      // and counting it again would take its ground as seen twice. A
-      // camera's own clock may stamp a shot a little before or after its
-      // planned time, so a shot within half a period after the teammate's
-      // latest measurement counts as that measurement.
-      const auto fused = last_shot_s.find(member.uav_id);
+    if (member.uav_id == uav_id || Landed(member.uav_id)) continue;
+    const bool removed = Removed(member.uav_id);
+    const std::vector<PlannedPath>* line = timelines_.Of(member.uav_id);
+    Teammate mate{.uav_id = member.uav_id,
+                  .trajectory = line != nullptr ? line->back().trajectory : HeldAt(member.start),
+                  .start_mission_s = line != nullptr ? line->back().team.start_mission_s
+                                                     : member.start.mission_time_s,
+                  .min_distance_m = config_.PairDistance(uav_id, member.uav_id),
+                  .camera = member.kit.camera,
+                  .noise = member.kit.noise};
+    double last_report_s = mate.start_mission_s;
+    std::int64_t version = 0;
+    if (line != nullptr) {
+      for (std::size_t i = 0; i + 1 < line->size(); ++i) {
+        mate.earlier.push_back({(*line)[i].trajectory, (*line)[i].team.start_mission_s});
+      }
+      version = line->back().team.plan_version;
+      // Its shots still to come, each on the plan in force when it is
+      // taken, and not in the map yet: a shot at now_s may have been taken
+      // and fused already (teammates shoot on one clock and plan at their
+      // shots), a late one not yet, and counting a fused one again would
+      // take its ground as seen twice (FusedShots: a camera stamps a shot
+      // within half a period of when it was due).
       const double half_period_s = 0.5 / member.kit.camera.rate_hz;
-      std::vector<Vec3> pending;
-      for (const MeasurementPose& shot : path.measurement_poses) {
-        if (config_.count_teammate_shots && shot.mission_time_s >= now_s &&
-            (fused == last_shot_s.end() || shot.mission_time_s > fused->second + half_period_s)) {
-          pending.push_back(shot.position_W);
+      for (std::size_t i = 0; i < line->size() && config_.count_teammate_shots && !removed; ++i) {
+        const double until = i + 1 < line->size() ? (*line)[i + 1].team.start_mission_s
+                                                  : std::numeric_limits<double>::infinity();
+        for (const MeasurementPose& shot : (*line)[i].measurement_poses) {
+          if (shot.mission_time_s >= now_s && shot.mission_time_s < until &&
+              !fused.Fused(member.uav_id, shot.mission_time_s, half_period_s)) {
+            mate.pending_shots_W.push_back(shot.position_W);
+          }
         }
       }
-      mates.push_back({.uav_id = member.uav_id,
-                       .trajectory = path.trajectory,
-                       .start_mission_s = path.team.start_mission_s,
-                       .pending_shots_W = std::move(pending),
-                       .camera = member.kit.camera,
-                       .noise = member.kit.noise});
-      versions->emplace_back(member.uav_id, path.team.plan_version);
-      continue;
     }
-    // Not planned yet: held at its start (a one-point trajectory).
-    PolynomialTrajectory::SegmentCoefficients c = PolynomialTrajectory::SegmentCoefficients::Zero();
-    c.row(0) = member.start.position_W.transpose();
-    mates.push_back({.uav_id = member.uav_id,
-                     .trajectory = *PolynomialTrajectory::FromCoefficients({1.0}, {c}),
-                     .start_mission_s = member.start.mission_time_s});
-    versions->emplace_back(member.uav_id, 0);
+    last_report_s = std::max(last_report_s, fused.Latest(member.uav_id));
+    // Removed in the air, or silent: it may drift from where it should be
+    // hovering, at its max speed (docs/teams.md "Silent and removed UAVs").
+    if (removed || newest_s - last_report_s > config_.silent_after_s) {
+      const double hovering_from_s = line != nullptr
+                                         ? mate.start_mission_s + mate.trajectory.Duration()
+                                         : member.start.mission_time_s;
+      mate.drift_from_s = std::max(last_report_s, hovering_from_s);
+      mate.drift_m_s = member.kit.limits.dynamics.max_speed_m_s;
+    }
+    mates.push_back(std::move(mate));
+    versions->emplace_back(member.uav_id, version);
   }
   std::sort(versions->begin(), versions->end());
   return mates;

@@ -52,7 +52,8 @@ absl::Status Replay(Mission& mission, const LogRecord& record) {
     case RecordKind::kTeam: {
       v1::RemoveTeamMemberRequest request;
       if (!request.ParseFromString(record.payload)) break;
-      return mission.RemoveMember(request.uav_id(), {record.request_id, record.fingerprint})
+      return mission
+          .RemoveMember(request.uav_id(), request.landed(), {record.request_id, record.fingerprint})
           .status();
     }
     case RecordKind::kPlan: {

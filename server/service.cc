@@ -117,6 +117,7 @@ void FillMission(const Mission& mission, v1::Mission* out) {
   out->set_map_bytes(s.memory_bytes);
   *out->mutable_create_time() = TimeUtil::NanosecondsToTimestamp(absl::ToUnixNanos(s.create_time));
   for (const std::string& id : s.removed_uav_ids) out->add_removed_uav_ids(id);
+  for (const std::string& id : s.landed_uav_ids) out->add_landed_uav_ids(id);
 }
 
 }  // namespace
@@ -284,11 +285,12 @@ grpc::Status MissionServiceImpl::RemoveTeamMember(grpc::ServerContext* context,
         *context, *request, RecordKind::kTeam,
         [&](const std::shared_ptr<Mission>& mission, const v1::RemoveTeamMemberRequest& local,
             const RequestKey& key, const PersistFn& persist) -> absl::Status {
-          OAIPP_ASSIGN_OR_RETURN(TeamResult result,
-                                 mission->RemoveMember(local.uav_id(), key, persist));
+          OAIPP_ASSIGN_OR_RETURN(
+              TeamResult result,
+              mission->RemoveMember(local.uav_id(), local.landed(), key, persist));
           for (const std::string& id : result.flying_uav_ids) response->add_flying_uav_ids(id);
-          spdlog::info("mission event=team_member_removed name={} uav_id={}", local.name(),
-                       local.uav_id());
+          spdlog::info("mission event=team_member_removed name={} uav_id={} landed={}",
+                       local.name(), local.uav_id(), local.landed());
           return absl::OkStatus();
         });
   });

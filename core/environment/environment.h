@@ -72,7 +72,11 @@ class Environment final : public LineOfSight {
   [[nodiscard]] bool IsSegmentClear(const Vec3& a_W, const Vec3& b_W, double clearance_m) const;
   // The paper's collision test (Eq. 2): ESDF(p) < r_uav / 2.
   [[nodiscard]] bool InCollision(const Vec3& p_W, double uav_radius_m) const {
-    return esdf_.Distance(p_W) < 0.5 * uav_radius_m;
+    return CloserThan(p_W, 0.5 * uav_radius_m);
+  }
+  // By the ESDF: ESDF(p) < clearance_m (PlannerLimits::ObstacleClearance).
+  [[nodiscard]] bool CloserThan(const Vec3& p_W, double clearance_m) const {
+    return esdf_.Distance(p_W) < clearance_m;
   }
   // LineOfSight: true when the segment meets no obstacle's interior. A point
   // on the ground under a building is therefore never visible.

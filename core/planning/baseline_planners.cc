@@ -148,7 +148,7 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
     const int i = index % period;
     return i < static_cast<int>(pattern_.size()) ? pattern_[i] : pattern_[period - i];
   };
-  const double clearance = 0.5 * common_.limits.uav_radius_m;
+  const double clearance = common_.limits.ObstacleClearance();
 
   // Each pattern point is reached through a detour that keeps `margin` of
   // extra clearance, or less (down to detour_margin_m / 2, then none) where
@@ -282,7 +282,7 @@ absl::StatusOr<PlannedPath> RandomPlanner::Plan(const PlanningContext& mission,
   const Vec2 hi = scorer.field().max_W().cwiseMin(box.max_W.head<2>());
   std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y()),
       uz(box.min_W.z(), box.max_W.z());
-  const double clearance = 0.5 * common_.limits.uav_radius_m;
+  const double clearance = common_.limits.ObstacleClearance();
   PlannerStats stats;
   for (int attempt = 0; attempt < config_.max_attempts; ++attempt) {
     if (absl::Now() >= deadline) return absl::DeadlineExceededError("random: deadline passed");

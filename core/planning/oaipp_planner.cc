@@ -80,7 +80,7 @@ std::vector<Vec3> OaIppPlanner::GreedyStart(const PathScorer& scorer, std::uint6
   const Vec2 lo = grid.min_W().cwiseMax(box.min_W.head<2>());
   const Vec2 hi = grid.max_W().cwiseMin(box.max_W.head<2>());
   std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y());
-  const double clearance = 0.5 * common_.limits.uav_radius_m;
+  const double clearance = common_.limits.ObstacleClearance();
 
   std::vector<PoseObservation> fused = scorer.start_observations();
   std::vector<Vec3> waypoints;

@@ -18,6 +18,10 @@ constexpr double kStartShotTolerance_s = 1e-9;
 absl::Status PlannerLimits::Validate() const {
   OAIPP_RETURN_IF_ERROR(ValidateLimits(dynamics));
   OAIPP_RETURN_IF_ERROR(CheckPositive("limits.uav_radius_m", uav_radius_m));
+  if (!(tracking_error_m >= 0.0 && tracking_error_m <= 10.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("limits.tracking_error_m: must be in [0, 10], got ", tracking_error_m));
+  }
   OAIPP_RETURN_IF_ERROR(CheckPositive("limits.collision_sample_rate_hz", collision_sample_rate_hz));
   return CheckPositive("limits.exact_check_spacing_m", exact_check_spacing_m);
 }
@@ -81,10 +85,10 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   if (clearance < 0.0) {
     return absl::InvalidArgumentError("state.position_W: lies inside an obstacle");
   }
-  if (clearance < 0.5 * limits.uav_radius_m) {
+  if (clearance < limits.ObstacleClearance()) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "state.position_W: only ", clearance,
-        " m from an obstacle, closer than uav_radius_m / 2 = ", 0.5 * limits.uav_radius_m));
+        "state.position_W: only ", clearance, " m from an obstacle, closer than the ",
+        limits.ObstacleClearance(), " m a path keeps (", ClearanceRuleName(limits), ")"));
   }
   if (state.velocity_W_m_s.norm() > limits.dynamics.max_speed_m_s * (1 + 1e-6)) {
     return absl::InvalidArgumentError("state.velocity_W_m_s: faster than limits.max_speed_m_s");
@@ -97,12 +101,18 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
       return absl::InvalidArgumentError(absl::StrCat(
           "mission.min_separation_m: must be positive and finite, got ", mission.min_separation_m));
     }
+    // The final check's own margin included (CheckSeparationExact), so
+    // that a start this accepts can be planned from.
     for (const Teammate& mate : mission.teammates) {
       const Vec3 there = TeammatePosition(mate, state.mission_time_s);
-      if (!Separated(state.position_W, there, mission.min_separation_m)) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "state.position_W: ", (state.position_W - there).norm(), " m from UAV '", mate.uav_id,
-            "', closer than min_separation_m ", mission.min_separation_m));
+      const double required =
+          RequiredDistance(mate, state.mission_time_s, mission.min_separation_m) +
+          0.5 * limits.exact_check_spacing_m;
+      if (!Separated(state.position_W, there, required)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat("state.position_W: ", (state.position_W - there).norm(), " m from UAV '",
+                         mate.uav_id, "', closer than the ", required,
+                         " m the two must keep (min_separation_m ", mission.min_separation_m, ")"));
       }
     }
   }
@@ -199,7 +209,7 @@ absl::Status CheckTrajectoryExact(const Environment& env, const PolynomialTrajec
   // A curve with |acceleration| <= a leaves its chord over dt by at most
   // a dt^2 / 8.
   const double bulge = trajectory.MaxAcceleration() * dt * dt / 8.0;
-  const double clearance = 0.5 * limits.uav_radius_m + bulge;
+  const double clearance = limits.ObstacleClearance() + bulge;
   const int steps = static_cast<int>(std::ceil(trajectory.Duration() / dt));
   Vec3 previous = trajectory.Position(0.0);
   for (int i = 1; i <= steps; ++i) {
@@ -210,8 +220,9 @@ absl::Status CheckTrajectoryExact(const Environment& env, const PolynomialTrajec
           absl::StrCat("path leaves the flight volume at t = ", t, " s"));
     }
     if (!env.IsSegmentClear(previous, p, clearance)) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "path comes closer than uav_radius_m / 2 to an obstacle near t = ", t, " s"));
+      return absl::FailedPreconditionError(absl::StrCat("path comes closer than ",
+                                                        ClearanceRuleName(limits),
+                                                        " to an obstacle near t = ", t, " s"));
     }
     previous = p;
   }
@@ -233,12 +244,12 @@ double PathScorer::Objective(double information, int collision_samples, double d
 int PathScorer::CollisionSamples(const PolynomialTrajectory& trajectory, bool exact) const {
   const Environment& env = *mission_.environment;
   const double dt = 1.0 / limits_.collision_sample_rate_hz;
-  const double r = limits_.uav_radius_m;
+  const double clearance = limits_.ObstacleClearance();
   const int samples = static_cast<int>(std::floor(trajectory.Duration() / dt)) + 1;
   int count = 0;
   for (int i = 0; i <= samples; ++i) {
     const Vec3 p = trajectory.Position(std::min(i * dt, trajectory.Duration()));
-    const bool near = exact ? env.SignedDistance(p) < 0.5 * r : env.InCollision(p, r);
+    const bool near = exact ? env.SignedDistance(p) < clearance : env.CloserThan(p, clearance);
     if (!env.flight_volume().Contains(p) || near) ++count;
   }
   // Teammates by the one separation rule, at the same rate (to the last

@@ -35,10 +35,25 @@
 
 namespace oaipp {
 
+// One committed plan on a teammate's timeline: flown from start_mission_s
+// until the next piece of the timeline starts.
+struct TimelinePiece {
+  PolynomialTrajectory trajectory;
+  double start_mission_s = 0.0;
+};
+
 // Another UAV of the same mission, as a plan must keep clear of it
-// (core/planning/separation.h): its committed trajectory, starting at
-// start_mission_s on the mission clock. Before that it is taken to be at the
-// trajectory's first point, after its end hovering at its last.
+// (core/planning/separation.h, docs/teams.md "The guarantee"). Its future
+// is a timeline: `earlier` pieces, by start time, each flown until the next
+// one starts, then its newest plan (`trajectory`, from start_mission_s on),
+// after whose end it hovers at the last point. Before the timeline's first
+// start it is at that piece's first point.
+// A teammate that has gone silent (or was removed without landing) may
+// drift from where its timeline puts it once it should be hovering: from
+// drift_from_s on (mission time) it is anywhere within
+// drift_m_s * (t - drift_from_s) of that point.
+// A pair may need more room than the mission's min_separation_m (their
+// bodies and tracking errors, r_i + r_j + margin): min_distance_m.
 // Its shots still to come (pending_shots_W, where the camera will be) count
 // in a plan's objective as if already taken, so that a UAV does not plan to
 // look again at ground a teammate is about to see; each sees the teammate's
@@ -47,6 +62,10 @@ struct Teammate {
   std::string uav_id;  // names it in messages
   PolynomialTrajectory trajectory;
   double start_mission_s = 0.0;
+  std::vector<TimelinePiece> earlier = {};
+  double min_distance_m = 0.0;
+  double drift_from_s = std::numeric_limits<double>::infinity();
+  double drift_m_s = 0.0;
   std::vector<Vec3> pending_shots_W = {};
   std::optional<DownwardCamera> camera = std::nullopt;
   std::optional<SensorNoise> noise = std::nullopt;
@@ -116,16 +135,38 @@ struct UavState {
 // Settings shared by every planner; defaults from docs/method.md.
 struct PlannerLimits {
   TrajectoryLimits dynamics;  // 5 m/s, 3 m/s^2
-  // Radius of the smallest sphere holding the UAV; a pose collides when
-  // ESDF < r / 2 (Eq. 2). Metres, valid: > 0.
+  // Radius of the smallest sphere holding the UAV, metres, valid: > 0. A
+  // pose collides when it is closer to an obstacle than ObstacleClearance().
   double uav_radius_m = 1.0;
+  // How far the UAV may stray from its trajectory while its controller
+  // tracks it, metres; widens the distance two UAVs keep (docs/teams.md).
+  // Valid: [0, 10].
+  double tracking_error_m = 0.5;
   // Samples per second for the collision cost C_coll (Eq. 3). Valid: > 0.
   double collision_sample_rate_hz = 20.0;
   // Spacing of the final exact collision check along the path, metres.
   double exact_check_spacing_m = 0.1;
+  // How far a path keeps from obstacles (docs/method.md §2, "Clearance").
+  // kBody: the UAV's sphere and how far it strays, uav_radius_m +
+  // tracking_error_m (the service's default). kPaperHalfRadius: the paper's
+  // rule (Eq. 2), uav_radius_m / 2, which the "paper" preset asks for so
+  // that E1-E5 reproduce the paper; the core's default.
+  enum class ObstacleRule { kPaperHalfRadius, kBody };
+  ObstacleRule obstacle_rule = ObstacleRule::kPaperHalfRadius;
 
+  [[nodiscard]] double ObstacleClearance() const {
+    return obstacle_rule == ObstacleRule::kBody ? uav_radius_m + tracking_error_m
+                                                : 0.5 * uav_radius_m;
+  }
   [[nodiscard]] absl::Status Validate() const;
 };
+
+// The rule `limits` keeps from obstacles, as errors name it.
+[[nodiscard]] inline const char* ClearanceRuleName(const PlannerLimits& limits) {
+  return limits.obstacle_rule == PlannerLimits::ObstacleRule::kBody
+             ? "uav_radius_m + tracking_error_m"
+             : "uav_radius_m / 2";
+}
 
 // A measurement the camera will take along the path.
 struct MeasurementPose {

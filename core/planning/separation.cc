@@ -8,6 +8,14 @@
 
 namespace oaipp {
 
+double TimelineMaxSpeed(const Teammate& teammate) {
+  double fastest = teammate.trajectory.MaxSpeed();
+  for (const TimelinePiece& piece : teammate.earlier) {
+    fastest = std::max(fastest, piece.trajectory.MaxSpeed());
+  }
+  return fastest;
+}
+
 double SeparationHorizon(const PolynomialTrajectory& trajectory, double start_mission_s,
                          std::span<const Teammate> teammates) {
   double end = start_mission_s + trajectory.Duration();
@@ -31,6 +39,7 @@ SeparationSampler::SeparationSampler(double start_mission_s, std::span<const Tea
   // Two samples past the last end: a teammate's trajectory clamps its time
   // to its duration, so from there on each one is exactly at end_.
   const double dt = 1.0 / rate_hz;
+  dt_ = dt;
   grid_ = static_cast<int>(std::floor((last_end - start_mission_s) / dt)) + 3;
   positions_.reserve(static_cast<std::size_t>(grid_) * teammates.size());
   for (int i = 0; i < grid_; ++i) {
@@ -42,7 +51,7 @@ SeparationSampler::SeparationSampler(double start_mission_s, std::span<const Tea
 
 int SeparationSampler::Samples(const PolynomialTrajectory& trajectory) const {
   if (teammates_.empty()) return 0;
-  const double dt = 1.0 / rate_hz_;
+  const double dt = dt_;
   const double span =
       SeparationHorizon(trajectory, start_mission_s_, teammates_) - start_mission_s_;
   const int samples = static_cast<int>(std::floor(span / dt)) + 1;
@@ -56,7 +65,8 @@ int SeparationSampler::Samples(const PolynomialTrajectory& trajectory) const {
       const Vec3 there = !on_grid    ? TeammatePosition(teammates_[m], start_mission_s_ + t)
                          : i < grid_ ? positions_[static_cast<std::size_t>(i) * mates + m]
                                      : end_[m];
-      if (!Separated(p, there, min_separation_m_)) {
+      if (!Separated(p, there,
+                     RequiredDistance(teammates_[m], start_mission_s_ + t, min_separation_m_))) {
         ++count;
         break;
       }
@@ -77,8 +87,9 @@ absl::Status CheckSeparationExact(const PolynomialTrajectory& trajectory, double
                                   double spacing_m) {
   const double own_speed = trajectory.MaxSpeed();
   for (const Teammate& mate : teammates) {
-    // The two distances' rate of change is at most the sum of the speeds.
-    const double v = std::max(own_speed + mate.trajectory.MaxSpeed(), 1e-3);
+    // The slack's rate of change is at most the sum of the speeds plus the
+    // rate at which a silent teammate's reach grows.
+    const double v = std::max(own_speed + TimelineMaxSpeed(mate) + mate.drift_m_s, 1e-3);
     const double dt = spacing_m / v;
     const double margin = 0.5 * v * dt;
     const double from = start_mission_s;
@@ -88,10 +99,13 @@ absl::Status CheckSeparationExact(const PolynomialTrajectory& trajectory, double
     for (int i = 0; i <= steps; ++i) {
       const double t = from + i * step;
       const double d = (trajectory.Position(t - from) - TeammatePosition(mate, t)).norm();
-      if (d < min_separation_m + margin) {
+      const double required = RequiredDistance(mate, t, min_separation_m);
+      if (d < required + margin) {
         return absl::FailedPreconditionError(absl::StrFormat(
-            "path comes within %.2f m of UAV '%s' at mission time %.2f s (min_separation_m %g)", d,
-            mate.uav_id, t, min_separation_m));
+            "path comes within %.2f m of UAV '%s' at mission time %.2f s (it must keep %.2f m: "
+            "min_separation_m %g, the two bodies and tracking%s)",
+            d, mate.uav_id, t, required, min_separation_m,
+            t > mate.drift_from_s ? ", and how far the silent UAV may have drifted" : ""));
       }
     }
   }

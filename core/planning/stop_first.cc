@@ -139,14 +139,14 @@ absl::Status CheckStraightStop(const Environment& environment, const UavState& s
           kAxis[a], " min face at ", volume.min_W[a], " m"));
     }
   }
-  const double clearance = 0.5 * limits.uav_radius_m;
+  const double clearance = limits.ObstacleClearance();
   for (const auto& [id, obstacle] : environment.obstacles()) {
     const double d = SegmentSignedDistance(obstacle.shape, stop.from_W, stop.stop_W);
     if (d < clearance) {
       return absl::FailedPreconditionError(absl::StrFormat(
           "state.velocity_W_m_s: %s and would come within %.2f m of obstacle '%s' (closer than "
-          "uav_radius_m / 2 = %g m)",
-          how, std::max(d, 0.0), id.substr(0, 64), clearance));
+          "%s = %g m)",
+          how, std::max(d, 0.0), id.substr(0, 64), ClearanceRuleName(limits), clearance));
     }
   }
   return absl::OkStatus();

@@ -94,7 +94,11 @@ std::string EncodeMissionState(const MissionState& state) {
     }
   }
   for (const std::string& id : state.removed_uav_ids) out.add_removed_uav_ids(id);
+  for (const std::string& id : state.landed_uav_ids) out.add_landed_uav_ids(id);
   out.mutable_last_shot_s()->insert(state.last_shot_s.begin(), state.last_shot_s.end());
+  for (const auto& [uav_id, times] : state.fused_shot_s) {
+    (*out.mutable_fused_shot_s())[uav_id].mutable_mission_time_s()->Add(times.begin(), times.end());
+  }
   return out.SerializeAsString();
 }
 
@@ -197,9 +201,17 @@ absl::StatusOr<MissionState> DecodeMissionState(const std::string& bytes) {
     state.committed.push_back(*std::move(path));
   }
   state.removed_uav_ids.assign(in.removed_uav_ids().begin(), in.removed_uav_ids().end());
+  state.landed_uav_ids.assign(in.landed_uav_ids().begin(), in.landed_uav_ids().end());
   for (const auto& [uav_id, time_s] : in.last_shot_s()) {
     if (!std::isfinite(time_s)) return Corrupt("last_shot_s: a time that is not finite");
     state.last_shot_s.emplace(uav_id, time_s);
+  }
+  for (const auto& [uav_id, times] : in.fused_shot_s()) {
+    for (double t : times.mission_time_s()) {
+      if (!std::isfinite(t)) return Corrupt("fused_shot_s: a time that is not finite");
+    }
+    state.fused_shot_s.emplace(
+        uav_id, std::vector<double>(times.mission_time_s().begin(), times.mission_time_s().end()));
   }
   return state;
 }

@@ -80,6 +80,10 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
   EXPECT_EQ(a.limits.dynamics.max_speed_m_s, b.limits.dynamics.max_speed_m_s) << what;
   EXPECT_EQ(a.limits.dynamics.max_accel_m_s2, b.limits.dynamics.max_accel_m_s2) << what;
   EXPECT_EQ(a.limits.uav_radius_m, b.limits.uav_radius_m) << what;
+  EXPECT_EQ(a.limits.tracking_error_m, b.limits.tracking_error_m) << what;
+  EXPECT_EQ(a.limits.obstacle_rule == PlannerLimits::ObstacleRule::kBody,
+            b.limits.obstacle_rule == PlannerLimits::ObstacleRule::kBody)
+      << what;
   EXPECT_EQ(a.limits.collision_sample_rate_hz, b.limits.collision_sample_rate_hz) << what;
   EXPECT_EQ(a.limits.exact_check_spacing_m, b.limits.exact_check_spacing_m) << what;
   EXPECT_EQ(a.information.kind, b.information.kind) << what;
@@ -243,7 +247,10 @@ TEST(MissionSpecTest, ConfirmationPreposteriorRoundTrips) {
   ExpectRoundTrip(spec);
 }
 
-TEST(MissionSpecTest, PaperPresetEqualsTheDefaultsAndRoundTrips) {
+// The paper's preset is the defaults but for how far a path keeps from
+// obstacles: the paper's r / 2 (1 m radius: 0.5 m) against the UAV's body
+// and tracking error (1 + 0.5 m).
+TEST(MissionSpecTest, PaperPresetEqualsTheDefaultsButTheClearanceAndRoundTrips) {
   v1::MissionSpec paper;
   paper.set_preset("paper");
   ExpectRoundTrip(paper);
@@ -251,7 +258,11 @@ TEST(MissionSpecTest, PaperPresetEqualsTheDefaultsAndRoundTrips) {
   absl::StatusOr<MissionConfig> b = MissionSpecToConfig(v1::MissionSpec());
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(a->preset, "paper");
+  EXPECT_EQ(a->planner.common.limits.ObstacleClearance(), 0.5);
+  EXPECT_EQ(b->planner.common.limits.ObstacleClearance(), 1.5);
+  EXPECT_EQ(b->planner.common.limits.obstacle_rule, PlannerLimits::ObstacleRule::kBody);
   a->preset = "";
+  a->planner.common.limits.obstacle_rule = PlannerLimits::ObstacleRule::kBody;
   ExpectConfigsEqual(*a, *b);
 }
 
@@ -276,6 +287,7 @@ TEST(MissionSpecTest, FullyCustomSpecConvertsEveryFieldAndRoundTrips) {
   EXPECT_EQ(c->planner.common.limits.dynamics.max_speed_m_s, 7);
   EXPECT_EQ(c->planner.common.limits.dynamics.max_accel_m_s2, 4);
   EXPECT_EQ(c->planner.common.limits.uav_radius_m, 0.8);
+  EXPECT_EQ(c->planner.common.limits.tracking_error_m, 0.3);
   EXPECT_EQ(c->esdf.voxel_size_m, 0.25);
   EXPECT_EQ(c->esdf.truncation_m, 3);
   EXPECT_EQ(c->planner.kind, PlannerKind::kOaIppNonAdaptive);
@@ -749,6 +761,9 @@ std::vector<BadCase> BadCases() {
       {"zero UAV radius",
        [] { return SpecWith([](auto& s) { s.mutable_flight()->set_uav_radius_m(0); }); }, kInvalid,
        "spec.flight.uav_radius_m: "},
+      {"negative tracking error",
+       [] { return SpecWith([](auto& s) { s.mutable_flight()->set_tracking_error_m(-0.1); }); },
+       kInvalid, "spec.flight.tracking_error_m: "},
       {"ESDF voxel above 10 m",
        [] { return SpecWith([](auto& s) { s.mutable_flight()->set_esdf_voxel_m(11); }); }, kInvalid,
        "spec.flight.esdf_voxel_m: "},

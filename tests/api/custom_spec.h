@@ -40,6 +40,7 @@ inline v1::MissionSpec CustomSpec() {
   fl.set_max_speed_m_s(7);
   fl.set_max_accel_m_s2(4);
   fl.set_uav_radius_m(0.8);
+  fl.set_tracking_error_m(0.3);
   fl.set_esdf_voxel_m(0.25);
   fl.set_esdf_truncation_m(3);
   v1::PlannerSpec& p = *spec.mutable_planner();

@@ -31,6 +31,10 @@ MissionState SomeState() {
                 MeasurementResult{.cells_fused = 7, .trace = 1.0 / 3.0, .measurements_fused = 1}});
   s.answers.emplace_back("o1", RememberedAnswer{"", ObstacleResult{.obstacle_count = 2,
                                                                    .esdf_voxels_recomputed = 99}});
+  s.removed_uav_ids = {"c", "b"};
+  s.landed_uav_ids = {"b"};
+  s.last_shot_s = {{"a", 7.5}};
+  s.fused_shot_s = {{"a", {1.5, 7.5}}, {"d", {}}};
   return s;
 }
 
@@ -55,8 +59,12 @@ TEST(StateCodecTest, AStateComesBackExactly) {
   EXPECT_EQ(std::get<MeasurementResult>(back->answers[0].second.result).trace_measurements_fused,
             1);
   EXPECT_EQ(std::get<ObstacleResult>(back->answers[1].second.result).esdf_voxels_recomputed, 99);
+  EXPECT_EQ(back->removed_uav_ids, s.removed_uav_ids);
+  EXPECT_EQ(back->landed_uav_ids, s.landed_uav_ids);
+  EXPECT_EQ(back->last_shot_s, s.last_shot_s);
+  EXPECT_EQ(back->fused_shot_s, s.fused_shot_s);
   // Half the matrix: n means + n (n + 1) / 2 covariances, plus a little.
-  EXPECT_LT(bytes.size(), (5 + 15) * 8 + 200);
+  EXPECT_LT(bytes.size(), (5 + 15) * 8 + 240);
 }
 
 TEST(StateCodecTest, BytesThatAreNotAStateAreDataLoss) {

@@ -28,14 +28,17 @@ using testing::PlanFor;
 using testing::Point;
 using testing::TeamSpec;
 
+// Removes a UAV that has landed (one removed in the air stays an obstacle:
+// team_link_test.cc).
 grpc::Status Remove(v1::MissionService::Stub& stub, const std::string& mission,
                     const std::string& uav_id, const std::string& request_id,
-                    v1::RemoveTeamMemberResponse* out) {
+                    v1::RemoveTeamMemberResponse* out, bool landed = true) {
   grpc::ClientContext context;
   v1::RemoveTeamMemberRequest request;
   request.set_name("missions/" + mission);
   request.set_uav_id(uav_id);
   request.set_request_id(request_id);
+  request.set_landed(landed);
   return stub.RemoveTeamMember(&context, request, out);
 }
 

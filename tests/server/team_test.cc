@@ -73,6 +73,16 @@ TEST_F(TeamTest, ABadTeamIsRefusedNamingTheField) {
       {"starts too close", TeamSpec({{-8, 8, 8}, {-6, 8, 8}}), "spec.team[1].start.position_m"});
   {
     v1::MissionSpec s = TeamSpec(two);
+    s.set_silent_after_s(0);
+    cases.push_back({"no time to fall silent", s, "spec.silent_after_s"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
+    s.mutable_team(1)->mutable_flight()->set_tracking_error_m(11);
+    cases.push_back({"a member's tracking error", s, "spec.team[1].flight.tracking_error_m"});
+  }
+  {
+    v1::MissionSpec s = TeamSpec(two);
     s.mutable_planner()->set_kind(v1::PLANNER_KIND_LAWNMOWER);
     cases.push_back({"the lawnmower", s, "spec.planner.kind"});
   }

@@ -73,6 +73,62 @@ TEST(SeparationTest, TheExactCheckNamesTheTeammateAndTheTime) {
   EXPECT_GT(SeparationSamples(a, 0.0, {&b, 1}, kMinSeparation, 20.0), 0);
 }
 
+// A timeline: the first plan is flown from 0 s until the second starts at
+// 2 s, which is flown from there on (docs/teams.md "The guarantee").
+TEST(SeparationTest, ATeammateFliesEachPlanOfItsTimelineUntilTheNextStarts) {
+  const PolynomialTrajectory first = Line({0, 0, 10}, {10, 0, 10}, 4.0);
+  const PolynomialTrajectory second = Line({0, 5, 10}, {0, 15, 10}, 4.0);
+  const Teammate mate{
+      .uav_id = "2", .trajectory = second, .start_mission_s = 2.0, .earlier = {{first, 0.0}}};
+  // Before 2 s on the first plan (at 1 s: x of the rest-to-rest min-snap
+  // polynomial at s = 1/4, 10 * (126 s^5 - 420 s^6 + 540 s^7 - 315 s^8 +
+  // 70 s^9)), then on the second from its own start.
+  const double s = 0.25;
+  const double x = 10 * (126 * std::pow(s, 5) - 420 * std::pow(s, 6) + 540 * std::pow(s, 7) -
+                         315 * std::pow(s, 8) + 70 * std::pow(s, 9));
+  EXPECT_NEAR(TeammatePosition(mate, 1.0).x(), x, 1e-9);
+  EXPECT_NEAR(TeammatePosition(mate, 1.0).y(), 0.0, 1e-12);
+  EXPECT_TRUE(TeammatePosition(mate, -1.0).isApprox(Vec3(0, 0, 10)));
+  EXPECT_TRUE(TeammatePosition(mate, 2.0).isApprox(Vec3(0, 5, 10)));
+  EXPECT_NEAR(TeammatePosition(mate, 4.0).y(), 10.0, 1e-9);  // half way, by symmetry
+  EXPECT_TRUE(TeammatePosition(mate, 50.0).isApprox(Vec3(0, 15, 10)));
+
+  // A UAV parked at (5, 0, 10) clears the newest plan alone, but the first
+  // plan passes through it at 2 s: the check must see it.
+  const PolynomialTrajectory parked = Line({5, -0.001, 10}, {5, 0, 10}, 1.0);
+  const Teammate newest_only{.uav_id = "2", .trajectory = second, .start_mission_s = 2.0};
+  EXPECT_TRUE(CheckSeparationExact(parked, 0.5, {&newest_only, 1}, kMinSeparation).ok());
+  const absl::Status seen = CheckSeparationExact(parked, 0.5, {&mate, 1}, kMinSeparation);
+  EXPECT_EQ(seen.code(), absl::StatusCode::kFailedPrecondition) << seen;
+  EXPECT_GT(SeparationSamples(parked, 0.5, {&mate, 1}, kMinSeparation, 20.0), 0);
+}
+
+// The distance a pair keeps: the larger of min_separation_m and the pair's
+// own, plus a silent teammate's reach from when it should be hovering.
+TEST(SeparationTest, ASilentTeammatesReachGrowsAtItsDriftRate) {
+  Teammate mate{.uav_id = "3",
+                .trajectory = Line({0, 0, 10}, {1, 0, 10}, 2.0),
+                .start_mission_s = 0.0,
+                .min_distance_m = 3.0};
+  EXPECT_DOUBLE_EQ(RequiredDistance(mate, 10.0, 4.0), 4.0);
+  EXPECT_DOUBLE_EQ(RequiredDistance(mate, 10.0, 1.0), 3.0);
+  mate.drift_from_s = 2.0;
+  mate.drift_m_s = 5.0;
+  EXPECT_DOUBLE_EQ(RequiredDistance(mate, 1.0, 4.0), 4.0);
+  EXPECT_DOUBLE_EQ(RequiredDistance(mate, 3.5, 4.0), 4.0 + 7.5);
+  // A UAV hovering 10 m away is clear of it until 2 + 6 / 5 = 3.2 s: a
+  // trajectory that ends (and the check with it) at 3 s passes, one that
+  // runs to 5 s is refused at an instant after 3.2 s, naming the drift.
+  const PolynomialTrajectory short_hover = Line({11, 0, 10}, {11, 0.001, 10}, 3.0);
+  const PolynomialTrajectory long_hover = Line({11, 0, 10}, {11, 0.001, 10}, 5.0);
+  EXPECT_TRUE(CheckSeparationExact(short_hover, 0.0, {&mate, 1}, 4.0).ok());
+  const absl::Status refused = CheckSeparationExact(long_hover, 0.0, {&mate, 1}, 4.0);
+  EXPECT_EQ(refused.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(refused.message(), HasSubstr("drifted"));
+  EXPECT_GT(SeparationSamples(long_hover, 0.0, {&mate, 1}, 4.0, 20.0), 0);
+  EXPECT_EQ(SeparationSamples(short_hover, 0.0, {&mate, 1}, 4.0, 20.0), 0);
+}
+
 TEST(SeparationTest, TheExactCheckIsSoundAndNotFarFromTheTruth) {
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> xy(-15, 15), z(4, 20), duration(1.0, 6.0),
