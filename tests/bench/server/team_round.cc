@@ -13,6 +13,7 @@
 //
 //   build/tests/bench/server/team_round --rounds=10
 //   build/tests/bench/server/team_round --rounds=10 --flight_budget_s=3600
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <iostream>
@@ -24,11 +25,13 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
 #include "api/geometry.h"
 #include "api/measurement.h"
 #include "api/plan.h"
 #include "grpcpp/grpcpp.h"
 #include "oaipp/v1/mission_service.grpc.pb.h"
+#include "server/flags/flags.h"
 #include "server/library_settings.h"
 #include "server/server.h"
 #include "sim/scenario.h"
@@ -37,17 +40,10 @@
 
 ABSL_FLAG(std::string, scenario, OAIPP_SCENARIO_DIR "/e5-team8.json", "a team scenario");
 ABSL_FLAG(int, rounds, 10, "rounds of plans, one per UAV each (within the budget)");
-ABSL_FLAG(int, planning_threads, 2, "the server's planning threads");
 ABSL_FLAG(double, planning_budget_s, 0.0, "each plan's planning_budget_s; 0: unset");
 ABSL_FLAG(double, flight_budget_s, 0.0,
           "the mission's budget_s; 0: the scenario's (the planner's horizon follows what is "
           "left of it)");
-ABSL_FLAG(std::string, objective_precision, "double", "the server's objective precision");
-ABSL_FLAG(std::string, dense_backend, "openblas", "openblas (the server's default) or eigen");
-ABSL_FLAG(double, plan_latency_s, 0.0,
-          "the server's --plan_latency_s: every plan's search ends this long after its call "
-          "arrived, the wait included (docs/capacity.md); 0: no bound");
-ABSL_FLAG(double, shed_above, 2.0, "the server's --shed_above (0: never shed)");
 ABSL_FLAG(double, round_s, 20.0 / 3.0,
           "mission time between rounds (default: E5's shot period, 1 / 0.15 Hz)");
 
@@ -71,18 +67,16 @@ int Run() {
     std::cerr << "scenario: needs a team (mission.team) of 2 or more\n";
     return 2;
   }
-  server::ServerOptions options;
+  // The server's own flags (--plan_latency_s, --shed_above,
+  // --planning_threads, --dense_backend, ...) with their own defaults, as
+  // oaipp-server composes itself; only where it listens, the queue (a whole
+  // round fits) and the store (in memory) are this benchmark's.
+  server::ServerOptions options = server::ServerOptionsFromFlags();
   options.listen = "127.0.0.1:0";  // the rounds use InProcessChannel()
   options.metrics_listen = "";
-  options.objective_precision = absl::GetFlag(FLAGS_objective_precision);
-  options.dense_backend = absl::GetFlag(FLAGS_dense_backend);
-  options.planning_threads = absl::GetFlag(FLAGS_planning_threads);
-  options.planning_queue = 2 * team;
-  options.plan_latency_s = absl::GetFlag(FLAGS_plan_latency_s);
-  options.shed_above = absl::GetFlag(FLAGS_shed_above);
+  options.web_port = 0;
+  options.planning_queue = std::max(options.planning_queue, 2 * team);
   options.store = "memory";
-  // Composed as oaipp-server composes itself from its flags (the dense
-  // backend and the objective's precision among them).
   absl::StatusOr<std::unique_ptr<server::Server>> server = server::Server::Start(options);
   if (!server.ok()) {
     std::cerr << "server: " << server.status() << "\n";
@@ -118,7 +112,7 @@ int Run() {
   std::printf(
       "%s: %d UAVs, %d rounds, %d planning threads, planning_budget_s %s, plan_latency_s %s, "
       "shed_above %g, %s, %s precision\n",
-      scenario->name().c_str(), team, rounds, absl::GetFlag(FLAGS_planning_threads),
+      scenario->name().c_str(), team, rounds, options.planning_threads,
       budget_s > 0 ? std::to_string(budget_s).c_str() : "unset",
       options.plan_latency_s > 0 ? std::to_string(options.plan_latency_s).c_str() : "unset",
       options.shed_above, (*server)->dense_backend().name().c_str(),
@@ -235,6 +229,9 @@ int Run() {
 int main(int argc, char** argv) {
   // As the server does: the numeric libraries' kernels and threads (server/library_settings.h).
   oaipp::server::RestartWithLibrarySettings(argv);
+  absl::SetProgramUsageMessage(
+      "Rounds of a team's plans through the service in process; takes oaipp-server's flags "
+      "too (--helpfull lists them).");
   absl::ParseCommandLine(argc, argv);
   return oaipp::Run();
 }
