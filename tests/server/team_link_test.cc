@@ -271,8 +271,25 @@ Outcome FlyScenario(InProcessService& service, std::uint32_t seed, int size) {
   return outcome;
 }
 
-// The case: a and b 3.3 m apart, min_separation_m 3 (= their
-// bodies with tracking). Both plan at 0; a replans at 3 s; then b's
+// A pair 3.3 m apart with min_separation_m 3 (their bodies with tracking),
+// OA-IPP on odd seeds and random on even ones; `team` holds each at its
+// start. False when the mission was refused.
+bool CreatePair(InProcessService& service, const std::string& id, std::uint32_t seed,
+                std::map<std::string, FlownTimeline>& team) {
+  const std::vector<Point> starts = {{-1.65, 8, 10}, {1.65, 8, 10}};
+  v1::MissionSpec spec = TeamSpec(starts);
+  spec.set_min_separation_m(3.0);
+  spec.mutable_planner()->set_seed(seed);
+  if (seed % 2 == 0) spec.mutable_planner()->set_kind(v1::PLANNER_KIND_RANDOM);
+  v1::Mission created;
+  const grpc::Status made = CreateTeam(service.stub(), id, spec, &created);
+  EXPECT_TRUE(made.ok()) << made.error_message();
+  team["a"].hold = starts[0];
+  team["b"].hold = starts[1];
+  return made.ok();
+}
+
+// A late message: a and b 3.3 m apart (CreatePair). Both plan at 0; a replans at 3 s; then b's
 // replan, stamped 0.1 s (late), arrives. The server checks it against
 // what a really flies from 0.1 s: its first plan until 3 s, then its
 // second. The flown paths never come closer than 3 m.
@@ -280,17 +297,9 @@ TEST(TeamLinkTest, ALateReplanIsCheckedAgainstWhatTheTeammateWasReallyFlying) {
   InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
   int compared = 0;
   for (std::uint32_t seed = 1; seed <= 12; ++seed) {
-    const std::vector<Point> starts = {{-1.65, 8, 10}, {1.65, 8, 10}};
-    v1::MissionSpec spec = TeamSpec(starts);
-    spec.set_min_separation_m(3.0);
-    spec.mutable_planner()->set_seed(seed);
-    if (seed % 2 == 0) spec.mutable_planner()->set_kind(v1::PLANNER_KIND_RANDOM);
     const std::string id = absl::StrCat("late-", seed);
-    v1::Mission created;
-    ASSERT_TRUE(CreateTeam(service.stub(), id, spec, &created).ok());
     std::map<std::string, FlownTimeline> team;
-    team["a"].hold = starts[0];
-    team["b"].hold = starts[1];
+    ASSERT_TRUE(CreatePair(service, id, seed, team));
     Outcome outcome;
     PlanAndFollow(service.stub(), id, "a", 0.0, team, outcome);
     PlanAndFollow(service.stub(), id, "b", 0.0, team, outcome);
@@ -316,17 +325,9 @@ TEST(TeamLinkTest, APlanMadeAheadLeavesTheCurrentOneInForceUntilItStarts) {
   InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
   int compared = 0;
   for (std::uint32_t seed = 1; seed <= 100; ++seed) {
-    const std::vector<Point> starts = {{-1.65, 8, 10}, {1.65, 8, 10}};
-    v1::MissionSpec spec = TeamSpec(starts);
-    spec.set_min_separation_m(3.0);
-    spec.mutable_planner()->set_seed(seed);
-    if (seed % 2 == 0) spec.mutable_planner()->set_kind(v1::PLANNER_KIND_RANDOM);
     const std::string id = absl::StrCat("ahead-", seed);
-    v1::Mission created;
-    ASSERT_TRUE(CreateTeam(service.stub(), id, spec, &created).ok());
     std::map<std::string, FlownTimeline> team;
-    team["a"].hold = starts[0];
-    team["b"].hold = starts[1];
+    ASSERT_TRUE(CreatePair(service, id, seed, team));
     Outcome outcome;
     PlanAndFollow(service.stub(), id, "a", 0.0, team, outcome);
     PlanAndFollow(service.stub(), id, "a", 4.0, team, outcome);  // ahead, at 0
