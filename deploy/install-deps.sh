@@ -51,6 +51,10 @@ packages=(
   clang libclang-rt-14-dev
   # figures
   python3-matplotlib python3-numpy
+  # the SAREnv benchmark (client/sarenv/): GEOS for the area a search covers
+  # (buffered paths, as the benchmark measures it), PROJ and its database
+  # for the datasets' UTM frames
+  libgeos-dev libproj-dev proj-data
 )
 
 missing=()
