@@ -4,7 +4,7 @@
 // down to a smaller disc (a "size"), the SearchArea that the planners fly
 // over and the metrics score.
 //
-//   absl::StatusOr<Dataset> dataset = LoadDataset("/work/shared/sarenv/1");
+//   absl::StatusOr<Dataset> dataset = LoadDataset("../shared/sarenv/1");
 //   absl::StatusOr<SearchArea> area = CropToSize(*dataset, "medium");
 //   // area->heatmap is 120 x 120 for dataset 1, area->radius_m 1800.
 //   absl::Status saved = WriteSearchArea(*area, "crop.npy", "crop.json");
@@ -13,10 +13,10 @@
 #include <array>
 #include <cstdint>
 #include <string>
-#include "absl/strings/string_view.h"
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "client/sarenv/npy.h"
 
 namespace oaipp::sarenv {

@@ -1,9 +1,9 @@
 // oaipp-sarenv: runs the SAREnv benchmark's baselines through this
 // project's evaluator and compares the scores with the published ones.
 //
-//   oaipp-sarenv --sarenv=/work/shared/sarenv --datasets=1-10 --size=medium
+//   oaipp-sarenv --sarenv=../shared/sarenv --datasets=1-10 --size=medium
 //     --agents=1,2,5 --budget_m=100000 --algorithms=spiral,concentric,pizza,greedy,randomwalk
-//     --seed=1 --out=out/sarenv --published=/work/shared/sarenv/results
+//     --seed=1 --out=out/sarenv --published=../shared/sarenv/results
 //
 // Writes OUT/metrics.csv (one row per dataset x algorithm x drone count)
 // and, with --published, OUT/published_check.csv; prints the largest
@@ -34,7 +34,7 @@
 #include "client/sarenv/dataset.h"
 #include "client/sarenv/metrics.h"
 
-ABSL_FLAG(std::string, sarenv, "/work/shared/sarenv", "folder holding the datasets 1/, 2/, ...");
+ABSL_FLAG(std::string, sarenv, "../shared/sarenv", "folder holding the datasets 1/, 2/, ...");
 ABSL_FLAG(std::string, datasets, "1-10",
           "datasets to run: numbers and ranges, e.g. 1-10 or 1,3,5-7");
 ABSL_FLAG(std::string, size, "medium", "small, medium, large or xlarge");
