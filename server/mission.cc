@@ -49,10 +49,6 @@ std::int64_t LogEntryBytes(const LogEntry& entry) {
   return bytes;
 }
 
-}  // namespace
-
-namespace {
-
 // The longest time between two shots of any of the mission's cameras, s.
 double LongestShotPeriod(const MissionConfig& config) {
   double period = 1.0 / config.camera.rate_hz;
@@ -372,8 +368,8 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     ++measurements_fused_;
     mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
     fused_shots_.Add(input.uav_id, input.mission_time_s);
-    // No plan may start earlier than this (TeamTimelines::kMaxLag_s), nor
-    // so ask whether a shot of any camera period before it is fused.
+    // No plan starts more than TeamTimelines::kMaxLag_s behind the newest
+    // time, so none asks about a shot more than a camera period before that.
     fused_shots_.Prune(mission_time_s_ - TeamTimelines::kMaxLag_s - LongestShotPeriod(config_));
     log_.push_back(input);
     log_bytes_ += entry_bytes;
