@@ -28,6 +28,9 @@ inline constexpr double kMaxCoordinateM = 1e6;
 // as an id (a UUID takes 36). Every remembered answer holds a copy or two,
 // and the mission's log one more.
 inline constexpr int kMaxRequestIdBytes = 128;
+// A prior map's values in label units (GpSpec.prior_map): a label is 0 or
+// 1, so a prior mean past this says the units are wrong.
+inline constexpr double kMaxPriorMapValue = 1e6;
 // One gRPC message, either way (a 4096-cell GetMap with cells is 0.2 MB).
 inline constexpr std::int64_t kMaxMessageBytes = 16 << 20;
 

@@ -9,6 +9,11 @@
 
 namespace oaipp::api {
 
+Eigen::VectorXd MissionConfig::PriorMean(int num_cells) const {
+  if (prior_map != nullptr) return *prior_map;
+  return Eigen::VectorXd::Constant(num_cells, gp.prior_mean);
+}
+
 absl::StatusOr<FieldGrid> MissionConfig::MakeGrid() const {
   return FieldGrid::FromBounds(field_min_W, field_max_W, resolution_m);
 }

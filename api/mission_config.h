@@ -9,10 +9,12 @@
 //   Aabb volume = config.FlightVolume();
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "Eigen/Core"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
 #include "core/environment/environment.h"
@@ -37,6 +39,14 @@ enum class MapBackend {
   kAuto,    // the server chooses by the field's size (ResolveMapBackend)
   kDense,   // GpMap: the covariance, 8 n^2 bytes
   kSparse,  // SparseGpMap: a sparse precision, a few KB a cell
+};
+
+// What the values of a prior map are (proto PriorMapUnits). Both set the
+// prior mean of a cell's label to the value itself (docs/method.md §3.3);
+// the units decide only what is checked and how the spec says it.
+enum class PriorMapUnits {
+  kLabelMean,    // finite, in [0, kMaxPriorMapValue]
+  kProbability,  // each in [0, 1], their sum at most 1 (one person)
 };
 
 // What one UAV flies with: its camera (footprint and shot rate), the noise
@@ -74,6 +84,12 @@ struct MissionConfig {
   double resolution_m = 0.75;
   MapBackend map_backend = MapBackend::kAuto;
   GpParams gp = GpParams::PaperPreset(0.75);
+  // The prior mean of each cell's label in the grid's order (row-major,
+  // row along y): GpSpec.prior_map. Null: gp.prior_mean everywhere; set:
+  // gp.prior_mean is the map's average. Shared and never changed, so that a
+  // copy of a config stays cheap.
+  std::shared_ptr<const Eigen::VectorXd> prior_map;
+  PriorMapUnits prior_map_units = PriorMapUnits::kLabelMean;
   DownwardCamera camera;
   SensorNoise noise;
   // Flight altitudes over the field.
@@ -129,6 +145,9 @@ struct MissionConfig {
   // a member of the team, or "" without one. Else NotFound naming the field
   // (InvalidArgument for "" with a team: the call must say which UAV).
   [[nodiscard]] absl::Status CheckUavId(absl::string_view uav_id, absl::string_view field) const;
+  // The prior mean of each of the field's `num_cells` cells: prior_map, or
+  // gp.prior_mean everywhere.
+  [[nodiscard]] Eigen::VectorXd PriorMean(int num_cells) const;
   // The field's cells. Errors as FieldGrid::FromBounds.
   [[nodiscard]] absl::StatusOr<FieldGrid> MakeGrid() const;
   // The field's number of cells, from the corners and resolution (as the

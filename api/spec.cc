@@ -81,6 +81,54 @@ absl::Status FillField(const v1::FieldSpec& f, MissionConfig& c) {
   return absl::OkStatus();
 }
 
+// spec.gp.prior_map into c.prior_map (the field already filled in).
+absl::Status FillPriorMap(const v1::PriorMap& m, MissionConfig& c) {
+  switch (m.units()) {
+    case v1::PRIOR_MAP_UNITS_UNSPECIFIED:
+    case v1::PRIOR_MAP_UNITS_LABEL_MEAN:
+      c.prior_map_units = PriorMapUnits::kLabelMean;
+      break;
+    case v1::PRIOR_MAP_UNITS_PROBABILITY:
+      c.prior_map_units = PriorMapUnits::kProbability;
+      break;
+    default:
+      return absl::InvalidArgumentError(
+          absl::StrCat("spec.gp.prior_map.units: unknown value ", static_cast<int>(m.units()),
+                       " (expected PRIOR_MAP_UNITS_LABEL_MEAN or PRIOR_MAP_UNITS_PROBABILITY)"));
+  }
+  OAIPP_ASSIGN_OR_RETURN(const FieldGrid grid, c.MakeGrid());
+  if (m.values_size() != grid.num_cells()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "spec.gp.prior_map.values: ", m.values_size(), " values for a field of ", grid.nx(), " x ",
+        grid.ny(), " cells (expected ", grid.num_cells(), ", row-major along y)"));
+  }
+  const bool probability = c.prior_map_units == PriorMapUnits::kProbability;
+  const double bound = probability ? 1.0 : kMaxPriorMapValue;
+  auto values = std::make_shared<Eigen::VectorXd>(grid.num_cells());
+  double sum = 0.0;
+  for (int i = 0; i < m.values_size(); ++i) {
+    const double v = m.values(i);
+    if (!(v >= 0.0 && v <= bound)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("spec.gp.prior_map.values[", i, "]: ",
+                       probability ? "a probability must be in [0, 1]"
+                                   : absl::StrCat("must be in [0, ", bound, "] (label units)"),
+                       ", got ", v));
+    }
+    (*values)[i] = v;
+    sum += v;
+  }
+  // One person: the cells' probabilities add up to at most 1 (the rest is
+  // the probability that the person is outside the field).
+  if (probability && sum > 1.0 + 1e-6) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "spec.gp.prior_map.values: probabilities sum to ", sum, " (at most 1: one person)"));
+  }
+  c.gp.prior_mean = sum / grid.num_cells();
+  c.prior_map = std::move(values);
+  return absl::OkStatus();
+}
+
 absl::Status FillGp(const v1::GpSpec& g, MissionConfig& c) {
   const GpParams paper = GpParams::PaperPreset(c.resolution_m);
   c.gp.length_scale_m = OrDefault(g.has_length_scale_m(), g.length_scale_m(), paper.length_scale_m);
@@ -91,6 +139,13 @@ absl::Status FillGp(const v1::GpSpec& g, MissionConfig& c) {
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.gp.signal_var", c.gp.signal_var));
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.gp.noise_var", c.gp.noise_var));
   OAIPP_RETURN_IF_ERROR(CheckFinite("spec.gp.prior_mean", c.gp.prior_mean));
+  if (g.has_prior_map()) {
+    if (g.has_prior_mean()) {
+      return absl::InvalidArgumentError(
+          "spec.gp.prior_mean: not with spec.gp.prior_map (the map sets every cell's prior mean)");
+    }
+    OAIPP_RETURN_IF_ERROR(FillPriorMap(g.prior_map(), c));
+  }
   return Prefixed("spec.gp.", c.gp.Validate());
 }
 

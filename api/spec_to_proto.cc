@@ -54,7 +54,14 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   g.set_length_scale_m(c.gp.length_scale_m);
   g.set_signal_var(c.gp.signal_var);
   g.set_noise_var(c.gp.noise_var);
-  g.set_prior_mean(c.gp.prior_mean);
+  if (c.prior_map == nullptr) {
+    g.set_prior_mean(c.gp.prior_mean);
+  } else {
+    v1::PriorMap& m = *g.mutable_prior_map();
+    m.set_units(c.prior_map_units == PriorMapUnits::kProbability ? v1::PRIOR_MAP_UNITS_PROBABILITY
+                                                                 : v1::PRIOR_MAP_UNITS_LABEL_MEAN);
+    m.mutable_values()->Assign(c.prior_map->data(), c.prior_map->data() + c.prior_map->size());
+  }
 
   const PlannerCommon& common = c.planner.common;
   WriteSensor(c.camera, c.noise, *spec.mutable_sensor());

@@ -132,6 +132,11 @@ std::string ConfigDifference(const MissionConfig& a, const MissionConfig& b) {
   OAIPP_FUZZ_SAME(gp.signal_var);
   OAIPP_FUZZ_SAME(gp.noise_var);
   OAIPP_FUZZ_SAME(gp.prior_mean);
+  OAIPP_FUZZ_SAME(prior_map_units);
+  if ((a.prior_map == nullptr) != (b.prior_map == nullptr) ||
+      (a.prior_map != nullptr && *a.prior_map != *b.prior_map)) {
+    return "prior_map";
+  }
   OAIPP_FUZZ_SAME(camera.fov_x_deg);
   OAIPP_FUZZ_SAME(camera.fov_y_deg);
   OAIPP_FUZZ_SAME(camera.rate_hz);

@@ -8,9 +8,9 @@
 
 namespace oaipp::server {
 
-absl::StatusOr<std::unique_ptr<LargeFieldMap>> LargeFieldMap::Create(const FieldGrid& grid,
-                                                                     const GpParams& params,
-                                                                     GmrfPriorCache* priors) {
+absl::StatusOr<std::unique_ptr<LargeFieldMap>> LargeFieldMap::Create(
+    const FieldGrid& grid, const GpParams& params, GmrfPriorCache* priors,
+    const Eigen::VectorXd* prior_mean) {
   GmrfPrior prior;
   if (priors != nullptr) {
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<const GmrfPrior> shared, priors->Get(grid, params));
@@ -18,6 +18,7 @@ absl::StatusOr<std::unique_ptr<LargeFieldMap>> LargeFieldMap::Create(const Field
   } else {
     OAIPP_ASSIGN_OR_RETURN(prior, MakeGmrfPrior(grid, params));
   }
+  if (prior_mean != nullptr) OAIPP_RETURN_IF_ERROR(SetPriorMean(prior, grid, *prior_mean));
   // Its first factorisation is the first read's, at the mission's own
   // state (a factorisation at the prior would be thrown away): a restored
   // mission's additions keep Q positive definite (checked non-negative), and

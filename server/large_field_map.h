@@ -36,9 +36,12 @@ class LargeFieldMap {
  public:
   // The map at its prior (MakeGmrfPrior, about 1 s at 90,000 cells; with
   // `priors`, the site's, copied); its factorisation waits for the first
-  // Read or Window. Errors as MakeGmrfPrior.
+  // Read or Window. With `prior_mean` (one value per cell), the prior's
+  // mean is that map instead of params.prior_mean (SetPriorMean). Errors as
+  // MakeGmrfPrior and SetPriorMean.
   [[nodiscard]] static absl::StatusOr<std::unique_ptr<LargeFieldMap>> Create(
-      const FieldGrid& grid, const GpParams& params, GmrfPriorCache* priors = nullptr);
+      const FieldGrid& grid, const GpParams& params, GmrfPriorCache* priors = nullptr,
+      const Eigen::VectorXd* prior_mean = nullptr);
 
   // A mission's map as of one fusion: the additions and their version
   // (versions grow with every fusion, so a later one is a newer map).

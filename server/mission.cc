@@ -132,8 +132,9 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   if (config.ResolveMapBackend() == api::MapBackend::kSparse) {
     // The site's prior (each mission factorises its own map).
-    OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<LargeFieldMap> large,
-                           LargeFieldMap::Create(grid, config.gp, caches.gmrf_priors));
+    OAIPP_ASSIGN_OR_RETURN(
+        std::unique_ptr<LargeFieldMap> large,
+        LargeFieldMap::Create(grid, config.gp, caches.gmrf_priors, config.prior_map.get()));
     std::shared_ptr<Mission> mission(new Mission(std::move(id), std::move(config), grid,
                                                  std::move(env), nullptr, std::move(large),
                                                  std::move(planner), caches));
@@ -153,9 +154,15 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   // The map's updates run on the backend the objective's products run on
   // (the server's --dense_backend).
   auto prior = [&]() -> absl::StatusOr<GpMap> {
-    OAIPP_ASSIGN_OR_RETURN(GpMap map, caches.priors != nullptr
-                                          ? caches.priors->NewMap(grid, config.gp)
-                                          : GpMap::Create(grid, config.gp));
+    Eigen::VectorXd mean = config.PriorMean(grid.num_cells());
+    absl::StatusOr<GpMap> made;
+    if (caches.priors != nullptr) {
+      made = caches.priors->NewMap(grid, config.gp, std::move(mean));
+    } else {
+      OAIPP_ASSIGN_OR_RETURN(Eigen::MatrixXd p0, PriorCovariance(grid, config.gp));
+      made = GpMap::FromPrior(grid, std::move(mean), std::move(p0));
+    }
+    OAIPP_ASSIGN_OR_RETURN(GpMap map, std::move(made));
     map.set_dense_backend(config.planner.common.information.dense_backend);
     return map;
   };
@@ -168,13 +175,12 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
     // to the mission's own. MutableMap copies it before the first change.
     OAIPP_ASSIGN_OR_RETURN(
         std::shared_ptr<const StartMap> shared,
-        caches.start_maps->Get(
-            StartMapKey(world_key, config.gp), [&]() -> absl::StatusOr<StartMap> {
-              OAIPP_ASSIGN_OR_RETURN(GpMap fused, prior());
-              std::vector<int> cells = CellsUnder(fused.grid(), env);
-              OAIPP_RETURN_IF_ERROR(fused.FuseNearCertainZeros(cells));
-              return StartMap{std::make_shared<GpMap>(std::move(fused)), std::move(cells)};
-            }));
+        caches.start_maps->Get(StartMapKey(world_key, config), [&]() -> absl::StatusOr<StartMap> {
+          OAIPP_ASSIGN_OR_RETURN(GpMap fused, prior());
+          std::vector<int> cells = CellsUnder(fused.grid(), env);
+          OAIPP_RETURN_IF_ERROR(fused.FuseNearCertainZeros(cells));
+          return StartMap{std::make_shared<GpMap>(std::move(fused)), std::move(cells)};
+        }));
     map = shared->map;
     covered = shared->covered_cells;
     start_map = std::move(shared);

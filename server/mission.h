@@ -252,6 +252,7 @@ class Mission {
   [[nodiscard]] std::vector<LogEntry> Log() const;
   [[nodiscard]] const std::string& id() const { return id_; }
   [[nodiscard]] const MissionConfig& config() const { return config_; }
+  [[nodiscard]] const FieldGrid& grid() const { return grid_; }
 
   // The live view's track (a copy).
   [[nodiscard]] MissionTrack Track() const { return track_.Copy(); }

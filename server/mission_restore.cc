@@ -83,8 +83,9 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   OAIPP_RETURN_IF_ERROR(planner->RestoreState(state.planner_state));
   std::shared_ptr<Mission> mission;
   if (sparse) {
-    OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<LargeFieldMap> large,
-                           LargeFieldMap::Create(grid, config.gp, caches.gmrf_priors));
+    OAIPP_ASSIGN_OR_RETURN(
+        std::unique_ptr<LargeFieldMap> large,
+        LargeFieldMap::Create(grid, config.gp, caches.gmrf_priors, config.prior_map.get()));
     mission.reset(new Mission(std::move(id), std::move(config), std::move(grid), std::move(env),
                               nullptr, std::move(large), std::move(planner), caches));
   } else {

@@ -322,6 +322,12 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
     OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> mission,
                            registry_->Get(request->name(), tenant));
     render::MapLayers layers;
+    if (request->include_prior()) {
+      // The config never changes: no lock needed.
+      const api::MissionConfig& config = mission->config();
+      const Eigen::VectorXd prior = config.PriorMean(mission->grid().num_cells());
+      response->mutable_prior_mean()->Assign(prior.data(), prior.data() + prior.size());
+    }
     OAIPP_RETURN_IF_ERROR(mission->ReadMapView([&](const api::MapView& map) {
       MapToProto(map, request->include_cells(), response);
       if (!request->include_png()) return;

@@ -16,9 +16,16 @@ std::string WorldKey(const api::MissionConfig& config) {
                       config.esdf.voxel_size_m, "|", config.esdf.truncation_m);
 }
 
-std::string StartMapKey(const std::string& world_key, const GpParams& gp) {
-  return absl::StrFormat("%s|%a|%a|%a|%a", world_key, gp.length_scale_m, gp.signal_var,
-                         gp.noise_var, gp.prior_mean);
+std::string StartMapKey(const std::string& world_key, const api::MissionConfig& config) {
+  const GpParams& gp = config.gp;
+  std::string key = absl::StrFormat("%s|%a|%a|%a|%a|", world_key, gp.length_scale_m, gp.signal_var,
+                                    gp.noise_var, gp.prior_mean);
+  if (config.prior_map != nullptr) {
+    // Dense maps only (at most --max_dense_cells values): a few tens of KB.
+    absl::StrAppend(&key, absl::string_view(reinterpret_cast<const char*>(config.prior_map->data()),
+                                            config.prior_map->size() * sizeof(double)));
+  }
+  return key;
 }
 
 }  // namespace oaipp::server

@@ -64,8 +64,9 @@ struct SiteCaches {
 // voxel limit and the obstacles, as bytes.
 [[nodiscard]] std::string WorldKey(const api::MissionConfig& config);
 
-// The key of a site's StartMap: its world's key and the GP parameters,
-// exactly (hexadecimal floats).
-[[nodiscard]] std::string StartMapKey(const std::string& world_key, const GpParams& gp);
+// The key of a site's StartMap: its world's key, the GP parameters and the
+// prior map's values, exactly (hexadecimal floats, the map's bytes).
+[[nodiscard]] std::string StartMapKey(const std::string& world_key,
+                                      const api::MissionConfig& config);
 
 }  // namespace oaipp::server

@@ -23,6 +23,7 @@
 #include "client/cli/export_files.h"
 #include "client/cli/map_image.h"
 #include "client/cli/mission_runner.h"
+#include "client/cli/prior_map_file.h"
 #include "core/common/status_macros.h"
 #include "sim/random_world.h"
 #include "sim/scenario.h"
@@ -165,6 +166,9 @@ absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel() {
 // applied.
 absl::StatusOr<oaipp::v1::Scenario> LoadScenario(const std::string& path) {
   absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
+  if (scenario.ok()) {
+    if (absl::Status read = ReadPriorMapFile(*scenario, path); !read.ok()) return read;
+  }
   if (scenario.ok() && absl::GetFlag(FLAGS_replan_on_detection)) {
     scenario->set_replan_on_detection(true);
   }

@@ -295,6 +295,27 @@ absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& p
   return prior;
 }
 
+absl::Status SetPriorMean(GmrfPrior& prior, const FieldGrid& grid,
+                          const Eigen::VectorXd& field_mean) {
+  if (field_mean.size() != grid.num_cells() ||
+      static_cast<int>(prior.field_state.size()) != grid.num_cells()) {
+    return absl::InvalidArgumentError(absl::StrCat("field_mean: ", field_mean.size(),
+                                                   " values for a prior of ",
+                                                   prior.field_state.size(), " field cells"));
+  }
+  const int m = prior.margin_cells;
+  Eigen::VectorXd mu(prior.num_states());
+  for (int r = 0; r < prior.lattice_ny; ++r) {
+    const int row = std::clamp(r - m, 0, grid.ny() - 1);
+    for (int c = 0; c < prior.lattice_nx; ++c) {
+      const int col = std::clamp(c - m, 0, grid.nx() - 1);
+      mu[r * prior.lattice_nx + c] = field_mean[grid.Index(row, col)];
+    }
+  }
+  prior.information = prior.precision.selfadjointView<Eigen::Lower>() * mu;
+  return absl::OkStatus();
+}
+
 GmrfPriorCache::GmrfPriorCache(int capacity) : priors_(capacity) {}
 
 absl::StatusOr<std::shared_ptr<const GmrfPrior>> GmrfPriorCache::Get(const FieldGrid& grid,

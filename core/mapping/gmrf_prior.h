@@ -149,6 +149,13 @@ struct GmrfPrior {
 [[nodiscard]] absl::StatusOr<GmrfPrior> MakeGmrfPrior(const FieldGrid& grid, const GpParams& params,
                                                       const GmrfOptions& options = {});
 
+// Gives `prior` (made for `grid`) the mean `field_mean`, one value per cell
+// in the grid's order, and on each margin state the nearest field cell's,
+// so that a map reaching past the field continues it: information = Q mu.
+// The precision is unchanged. InvalidArgument when the sizes differ.
+[[nodiscard]] absl::Status SetPriorMean(GmrfPrior& prior, const FieldGrid& grid,
+                                        const Eigen::VectorXd& field_mean);
+
 // GMRF priors shared between large-field maps of the same shape: the fit and
 // the lattice's precision (about 1 s at 90,000 cells) depend only on the
 // grid's shape and resolution, the GP parameters and the options, not on

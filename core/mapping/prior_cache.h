@@ -63,6 +63,9 @@ class PriorCache {
   // GpMap::Create(grid, params) but with the covariance copied from the
   // cache. Errors as GpMap::Create.
   [[nodiscard]] absl::StatusOr<GpMap> NewMap(const FieldGrid& grid, const GpParams& params);
+  // The same with the prior mean `mean` per cell (grid order) instead.
+  [[nodiscard]] absl::StatusOr<GpMap> NewMap(const FieldGrid& grid, const GpParams& params,
+                                             Eigen::VectorXd mean);
 
   // How many priors were computed (cache misses), and how many are held.
   [[nodiscard]] std::int64_t computations() const;

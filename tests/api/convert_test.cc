@@ -117,6 +117,11 @@ void ExpectConfigsEqual(const MissionConfig& a, const MissionConfig& b) {
   EXPECT_EQ(a.gp.signal_var, b.gp.signal_var);
   EXPECT_EQ(a.gp.noise_var, b.gp.noise_var);
   EXPECT_EQ(a.gp.prior_mean, b.gp.prior_mean);
+  ASSERT_EQ(a.prior_map == nullptr, b.prior_map == nullptr);
+  if (a.prior_map != nullptr) {
+    EXPECT_EQ(*a.prior_map, *b.prior_map);
+  }
+  EXPECT_EQ(a.prior_map_units, b.prior_map_units);
   EXPECT_EQ(a.camera.fov_x_deg, b.camera.fov_x_deg);
   EXPECT_EQ(a.camera.fov_y_deg, b.camera.fov_y_deg);
   EXPECT_EQ(a.camera.rate_hz, b.camera.rate_hz);
@@ -383,6 +388,44 @@ TEST(MissionSpecTest, GpLengthScaleDefaultFollowsTheResolution) {
   absl::StatusOr<MissionConfig> c = MissionSpecToConfig(spec);
   ASSERT_TRUE(c.ok()) << c.status();
   EXPECT_DOUBLE_EQ(c->gp.length_scale_m, std::exp(1.3) * 0.5);
+}
+
+// The default field: 30 m / 0.75 m = 40 x 40 cells.
+constexpr int kDefaultCells = 40 * 40;
+
+// A prior map over the default field: `value` everywhere, `peak` at cell 17.
+void SetPriorMap(v1::MissionSpec& s, double value, double peak, v1::PriorMapUnits units) {
+  v1::PriorMap& m = *s.mutable_gp()->mutable_prior_map();
+  m.set_units(units);
+  for (int i = 0; i < kDefaultCells; ++i) m.add_values(i == 17 ? peak : value);
+}
+
+TEST(MissionSpecTest, PriorMapSetsEveryCellsMeanAndRoundTrips) {
+  for (v1::PriorMapUnits units : {v1::PRIOR_MAP_UNITS_LABEL_MEAN, v1::PRIOR_MAP_UNITS_PROBABILITY,
+                                  v1::PRIOR_MAP_UNITS_UNSPECIFIED}) {
+    v1::MissionSpec spec;
+    SetPriorMap(spec, 1.0 / 4096, 0.5, units);
+    absl::StatusOr<MissionConfig> c = MissionSpecToConfig(spec);
+    ASSERT_TRUE(c.ok()) << c.status();
+    ASSERT_NE(c->prior_map, nullptr);
+    const Eigen::VectorXd mean = c->PriorMean(kDefaultCells);
+    EXPECT_EQ(mean[17], 0.5);
+    EXPECT_EQ(mean[18], 1.0 / 4096);
+    // gp.prior_mean is the map's average, summed in the cells' order.
+    EXPECT_DOUBLE_EQ(c->gp.prior_mean, (0.5 + 1599.0 / 4096) / kDefaultCells);
+    EXPECT_EQ(c->prior_map_units, units == v1::PRIOR_MAP_UNITS_PROBABILITY
+                                      ? api::PriorMapUnits::kProbability
+                                      : api::PriorMapUnits::kLabelMean);
+    // The spec says the map, not a scalar mean.
+    const v1::MissionSpec effective = ConfigToMissionSpec(*c);
+    EXPECT_FALSE(effective.gp().has_prior_mean());
+    EXPECT_EQ(effective.gp().prior_map().values_size(), kDefaultCells);
+    ExpectRoundTrip(spec);
+  }
+  // Without a map: the scalar everywhere.
+  const MissionConfig plain = *MissionSpecToConfig(v1::MissionSpec());
+  EXPECT_EQ(plain.prior_map, nullptr);
+  EXPECT_EQ(plain.PriorMean(4), Eigen::VectorXd::Constant(4, 0.1));
 }
 
 TEST(MissionSpecTest, DefaultStartIsOverTheFieldCentre) {
@@ -683,6 +726,48 @@ std::vector<BadCase> BadCases() {
       {"infinite prior mean",
        [] { return SpecWith([](auto& s) { s.mutable_gp()->set_prior_mean(kInf); }); }, kInvalid,
        "spec.gp.prior_mean: "},
+      {"prior map of the wrong size",
+       [] {
+         return SpecWith([](auto& s) { s.mutable_gp()->mutable_prior_map()->add_values(0.1); });
+       },
+       kInvalid, "spec.gp.prior_map.values: 1 values for a field of 40 x 40 cells"},
+      {"negative prior map value",
+       [] {
+         return SpecWith(
+             [](auto& s) { SetPriorMap(s, 0.1, -0.2, v1::PRIOR_MAP_UNITS_LABEL_MEAN); });
+       },
+       kInvalid, "spec.gp.prior_map.values[17]: must be in [0, "},
+      {"NaN in a prior map",
+       [] {
+         return SpecWith(
+             [](auto& s) { SetPriorMap(s, 0.1, kNaN, v1::PRIOR_MAP_UNITS_UNSPECIFIED); });
+       },
+       kInvalid, "spec.gp.prior_map.values[17]: "},
+      {"a probability above 1",
+       [] {
+         return SpecWith([](auto& s) { SetPriorMap(s, 0, 1.5, v1::PRIOR_MAP_UNITS_PROBABILITY); });
+       },
+       kInvalid, "spec.gp.prior_map.values[17]: a probability must be in [0, 1]"},
+      {"probabilities summing past 1",
+       [] {
+         return SpecWith(
+             [](auto& s) { SetPriorMap(s, 0.001, 0.001, v1::PRIOR_MAP_UNITS_PROBABILITY); });
+       },
+       kInvalid, "spec.gp.prior_map.values: probabilities sum to 1.6"},
+      {"prior map and prior mean",
+       [] {
+         return SpecWith([](auto& s) {
+           SetPriorMap(s, 0.1, 0.1, v1::PRIOR_MAP_UNITS_LABEL_MEAN);
+           s.mutable_gp()->set_prior_mean(0.1);
+         });
+       },
+       kInvalid, "spec.gp.prior_mean: not with spec.gp.prior_map"},
+      {"unknown prior map units",
+       [] {
+         return SpecWith(
+             [](auto& s) { SetPriorMap(s, 0.1, 0.1, static_cast<v1::PriorMapUnits>(7)); });
+       },
+       kInvalid, "spec.gp.prior_map.units: unknown value 7"},
       {"zero noise variance",
        [] { return SpecWith([](auto& s) { s.mutable_gp()->set_noise_var(0); }); }, kInvalid,
        "spec.gp.noise_var: "},
