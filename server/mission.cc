@@ -457,8 +457,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .cancelled = call.cancelled,
                                 .search_fraction = call.search_fraction,
                                 .conditioned = conditioned.get(),
-                                .chain = config_.team.size() >= 2 && field == nullptr
-                                             ? ChainedPrefix{&team_chain_, plan_map.version}
+                                .chain = config_.team.size() >= 2
+                                             ? ChainedPrefix{&team_chain_, plan_map.key}
                                              : ChainedPrefix{},
                                 .teammates = teammates,
                                 .min_separation_m = config_.min_separation_m,

@@ -317,7 +317,10 @@ class Mission {
     std::shared_ptr<const GpMap> map;
     std::shared_ptr<ConditionedCache> conditioned;
     const FieldGrid* field = nullptr;  // the whole field, when map is a window
-    std::int64_t version = 0;          // a dense map's dense_version_
+    // What map's covariance is, for the team's conditioning chain: the
+    // version it was read at (dense_version_, or the sparse map's
+    // map_version_) and the block of the field's cells it covers.
+    CovarianceKey key;
     // fused_shots_ as the map holds it (taken under the same lock).
     FusedShots fused_shots;
     // The newest mission time the mission has seen (mission_time_s_).
@@ -420,8 +423,9 @@ class Mission {
 
   // The planner keeps state (lawnmower pattern): one plan at a time.
   mutable absl::Mutex planner_mu_;
-  // A team's plans condition the dense map on each other's pending shots
-  // from the last plan's conditioning (docs/teams.md).
+  // A team's plans condition the map (or a large field's window) on each
+  // other's pending shots from the last plan's conditioning when it was
+  // made from the same covariance (PlanMap::key; docs/method.md §7.8).
   ConditioningChain team_chain_;
   // What Snapshot() reports, published at the end of every change.
   struct Summary {

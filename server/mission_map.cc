@@ -71,7 +71,7 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
     map_->Settle();
     *env = env_;
     plan.map = map_;
-    plan.version = dense_version_;
+    plan.key = {.map_version = dense_version_, .rows = grid_.ny(), .cols = grid_.nx()};
     plan.fused_shots = fused_shots_;
     plan.mission_time_s = mission_time_s_;
     // MutableMap lets go of start_map_ at the map's first change.
@@ -101,6 +101,13 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
                                    : WindowCentre(grid_, target.added->precision,
                                                   large_->prior_variance(), centre_W, options);
   OAIPP_ASSIGN_OR_RETURN(GpMap window, large_->Window(target, window_centre_W, options));
+  const FieldGrid& block = window.grid();
+  const Vec2 offset = (block.min_W() - grid_.min_W()) / grid_.resolution_m();
+  plan.key = {.map_version = target.version,
+              .first_row = static_cast<int>(std::lround(offset.y())),
+              .first_col = static_cast<int>(std::lround(offset.x())),
+              .rows = block.ny(),
+              .cols = block.nx()};
   plan.map = std::make_shared<const GpMap>(std::move(window));
   plan.field = &grid_;
   return plan;

@@ -61,7 +61,7 @@ double Cost(std::int64_t k, Eigen::Index n) {
 }  // namespace
 
 absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>> ConditioningChain::Condition(
-    const Eigen::MatrixXd& cov, std::int64_t source, std::span<const PoseObservation> poses,
+    const Eigen::MatrixXd& cov, const CovarianceKey& source, std::span<const PoseObservation> poses,
     const DenseBackend& backend) {
   absl::MutexLock lock(&mu_);
   if (result_ != nullptr && source_ == source && steps_ < kMaxSteps &&

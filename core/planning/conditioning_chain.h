@@ -12,7 +12,7 @@
 //
 //   ConditioningChain chain;
 //   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<const Eigen::MatrixXd> p_c,
-//                          chain.Condition(map.Covariance(), map_version, prefix, backend));
+//                          chain.Condition(map.Covariance(), key, prefix, backend));
 //
 // The result equals FusePoses(prefix) on a copy of the covariance to
 // rounding, not bit for bit: it depends on the order of the calls before
@@ -52,11 +52,13 @@ class ConditioningChain {
 
   // `cov` (n x n, symmetric) conditioned on `poses`. `source` names `cov`:
   // the caller promises that a call with the source of the last call passes
-  // the same covariance, unchanged. A new source starts afresh. The result
+  // the same covariance, unchanged. A new source (another map version or
+  // another window) starts afresh. The result
   // stays valid, unchanged, for as long as it is held; the chain copies it
   // before changing it while it is.
   [[nodiscard]] absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>> Condition(
-      const Eigen::MatrixXd& cov, std::int64_t source, std::span<const PoseObservation> poses,
+      const Eigen::MatrixXd& cov, const CovarianceKey& source,
+      std::span<const PoseObservation> poses,
       const DenseBackend& backend);
 
   [[nodiscard]] Stats stats() const;
@@ -65,7 +67,7 @@ class ConditioningChain {
 
  private:
   mutable absl::Mutex mu_;
-  std::optional<std::int64_t> source_ ABSL_GUARDED_BY(mu_);
+  std::optional<CovarianceKey> source_ ABSL_GUARDED_BY(mu_);
   std::vector<PoseObservation> poses_ ABSL_GUARDED_BY(mu_);  // what result_ is conditioned on
   std::shared_ptr<Eigen::MatrixXd> result_ ABSL_GUARDED_BY(mu_);
   int steps_ ABSL_GUARDED_BY(mu_) = 0;  // incremental steps since the last fresh one

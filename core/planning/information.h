@@ -229,11 +229,24 @@ absl::Status RemovePoses(const DenseBackend& backend, std::span<const PoseObserv
 [[nodiscard]] std::int64_t DistinctCells(std::span<const PoseObservation> poses);
 
 class ConditioningChain;
+// Which covariance a ConditioningChain is handed, as its caller names it:
+// the version of the map it was read from and the block of the field's
+// cells it covers (a large field's planning window, or the whole field):
+// first row and column, rows and columns. Equal keys promise equal
+// covariances; a window read elsewhere or at another version differs.
+struct CovarianceKey {
+  std::int64_t map_version = 0;
+  int first_row = 0;
+  int first_col = 0;
+  int rows = 0;
+  int cols = 0;
+  bool operator==(const CovarianceKey&) const = default;
+};
 // A chain that makes a prefix's conditioned covariance from the one it made
-// last (conditioning_chain.h), with the caller's name for the covariance.
+// last (conditioning_chain.h), with the caller's key for the covariance.
 struct ChainedPrefix {
   ConditioningChain* chain = nullptr;
-  std::int64_t source = 0;
+  CovarianceKey source;
 };
 
 class InformationEvaluator {

@@ -196,8 +196,10 @@ void PlanAndFollow(v1::MissionService::Stub& stub, const std::string& mission,
 // to 2.5 s late (stamped earlier than plans of teammates already
 // committed), a plan made up to 2.5 s ahead, a UAV going silent (it flies
 // on without reporting), a UAV removed in the air. Returns the closest any
-// pair came.
-Outcome FlyScenario(InProcessService& service, std::uint32_t seed, int size) {
+// pair came. With `large`, the field is 90 x 90 m (3,600 cells) on the
+// sparse map: each plan reads a window of it (41 x 41 cells, docs/method.md
+// §3.10), and the team's conditioning chain is keyed by the window's place.
+Outcome FlyScenario(InProcessService& service, std::uint32_t seed, int size, bool large = false) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::vector<Point> starts;
@@ -218,6 +220,14 @@ Outcome FlyScenario(InProcessService& service, std::uint32_t seed, int size) {
     if (apart) starts.push_back(p);
   }
   v1::MissionSpec spec = TeamSpec(starts);
+  if (large) {
+    v1::FieldSpec& field = *spec.mutable_field();
+    field.set_x_min_m(-45);
+    field.set_y_min_m(-45);
+    field.set_x_max_m(45);
+    field.set_y_max_m(45);
+    field.set_map_backend(v1::MAP_BACKEND_SPARSE);
+  }
   spec.set_min_separation_m(kBodies);
   spec.set_silent_after_s(4.0);
   spec.mutable_planner()->set_seed(seed);
@@ -544,6 +554,21 @@ TEST(TeamLinkTest, RandomScenariosOverALossyLinkNeverComeTooClose) {
   EXPECT_GE(plans, 3 * count);
   std::printf("lossy link: %d scenarios, %d plans, %d refused, closest %.3f m (bound %.1f m)\n",
               count, plans, refused, closest, kBodies);
+}
+
+// The same on a large field: every plan reads a window of the sparse map,
+// two in a row often the same window at the same version (the chain steps
+// from the last conditioning) and sometimes not (it starts afresh). Teams
+// of 2-4, OA-IPP on even seeds.
+TEST(TeamLinkTest, ATeamOnALargeFieldNeverComesTooClose) {
+  InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 4096});
+  int plans = 0;
+  for (int n = 0; n < 4; ++n) {
+    const Outcome o = FlyScenario(service, static_cast<std::uint32_t>(2000 + n), 2 + n % 3, true);
+    plans += o.plans;
+    EXPECT_GE(o.closest, kBodies - 1e-6) << "scenario " << 2000 + n;
+  }
+  EXPECT_GE(plans, 3 * 4);
 }
 
 }  // namespace

@@ -10,6 +10,12 @@
 namespace oaipp {
 namespace {
 
+// The chain's keys for the covariances below: a map at version 1, and a
+// block of the same version's field elsewhere (another covariance).
+constexpr CovarianceKey kField{.map_version = 1, .rows = 12, .cols = 12};
+constexpr CovarianceKey kWindow{
+    .map_version = 1, .first_row = 2, .first_col = 3, .rows = 12, .cols = 12};
+
 // The paper's prior on side x side cells of 0.75 m.
 struct Field {
   FieldGrid grid;
@@ -104,7 +110,7 @@ TEST(ConditioningChainTest, ATeamsPlansEqualTheReferenceAlongTheChain) {
     }
     const std::vector<PoseObservation> start = Footprints(grid, 1, 0.02, 0.4, rng);
     prefix.push_back(start[0]);
-    auto p_c = chain.Condition(prior, /*source=*/1, prefix, DenseBackend());
+    auto p_c = chain.Condition(prior, kField, prefix, DenseBackend());
     ASSERT_TRUE(p_c.ok()) << p_c.status();
     worst = std::max(worst, MaxAbs(**p_c - Reference(prior, prefix)) / MaxAbs(prior));
     pending[static_cast<std::size_t>(u)] = Footprints(grid, 3, 0.02, 0.4, rng);
@@ -124,15 +130,15 @@ TEST(ConditioningChainTest, ANewSourceOrTheSamePosesAgain) {
   std::mt19937 rng(2);
   const std::vector<PoseObservation> poses = Footprints(grid, 6, 0.05, 0.5, rng);
   ConditioningChain chain;
-  auto first = chain.Condition(prior, 1, poses, DenseBackend());
+  auto first = chain.Condition(prior, kField, poses, DenseBackend());
   ASSERT_TRUE(first.ok());
-  auto again = chain.Condition(prior, 1, poses, DenseBackend());
+  auto again = chain.Condition(prior, kField, poses, DenseBackend());
   ASSERT_TRUE(again.ok());
   EXPECT_EQ(first->get(), again->get());
-  // Another covariance under a new source name: afresh, from it.
+  // Another covariance (the same version's window elsewhere): afresh, from it.
   Eigen::MatrixXd other = prior;
   FusePoses(DenseBackend(), Footprints(grid, 2, 0.1, 0.2, rng), other);
-  auto from_other = chain.Condition(other, 2, poses, DenseBackend());
+  auto from_other = chain.Condition(other, kWindow, poses, DenseBackend());
   ASSERT_TRUE(from_other.ok());
   EXPECT_LT(MaxAbs(**from_other - Reference(other, poses)), 1e-10);
   EXPECT_EQ(chain.stats().fresh, 2);
@@ -147,11 +153,11 @@ TEST(ConditioningChainTest, AResultHeldByAPlanIsNotChanged) {
   std::mt19937 rng(4);
   std::vector<PoseObservation> poses = Footprints(grid, 8, 0.05, 0.5, rng);
   ConditioningChain chain;
-  auto held = chain.Condition(prior, 1, poses, DenseBackend());
+  auto held = chain.Condition(prior, kField, poses, DenseBackend());
   ASSERT_TRUE(held.ok());
   const Eigen::MatrixXd copy = **held;
   poses.pop_back();
-  auto next = chain.Condition(prior, 1, poses, DenseBackend());
+  auto next = chain.Condition(prior, kField, poses, DenseBackend());
   ASSERT_TRUE(next.ok());
   EXPECT_EQ(chain.stats().incremental, 1);
   EXPECT_NE(held->get(), next->get());
@@ -169,10 +175,10 @@ TEST(ConditioningChainTest, NearCertainShotsAreConditionedAfresh) {
   std::vector<PoseObservation> poses = Footprints(grid, 6, 1e-6, 1e-6, rng);
   const std::vector<PoseObservation> more = Footprints(grid, 1, 0.1, 0.1, rng);
   ConditioningChain chain;
-  ASSERT_TRUE(chain.Condition(prior, 1, poses, DenseBackend()).ok());
+  ASSERT_TRUE(chain.Condition(prior, kField, poses, DenseBackend()).ok());
   poses.erase(poses.begin());
   poses.push_back(more[0]);
-  auto p_c = chain.Condition(prior, 1, poses, DenseBackend());
+  auto p_c = chain.Condition(prior, kField, poses, DenseBackend());
   ASSERT_TRUE(p_c.ok());
   EXPECT_EQ(chain.stats().fresh, 2);
   EXPECT_EQ(chain.stats().incremental, 0);
