@@ -67,10 +67,9 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   OAIPP_RETURN_IF_ERROR(CheckFinite("state.accel_W_m_s2", state.accel_W_m_s2));
   OAIPP_RETURN_IF_ERROR(CheckFinite("state.mission_time_s", state.mission_time_s));
   OAIPP_RETURN_IF_ERROR(CheckFinite("mission.next_shot_mission_s", mission.next_shot_mission_s));
-  if (!(mission.remaining_budget_s > 0.0)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "mission.remaining_budget_s: no flight time left (", mission.remaining_budget_s, " s)"));
-  }
+  // What the request says is checked first (InvalidArgument); what the
+  // mission's present state refuses comes after (FailedPrecondition: the
+  // flight time spent, an obstacle or a teammate where the UAV is).
   if (mission.next_shot_mission_s < state.mission_time_s - 1e-9) {
     return absl::InvalidArgumentError(
         absl::StrCat("mission.next_shot_mission_s: ", mission.next_shot_mission_s,
@@ -81,20 +80,24 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
     return absl::InvalidArgumentError(absl::StrCat("state.position_W: (", p.x(), ", ", p.y(), ", ",
                                                    p.z(), ") lies outside the flight volume"));
   }
-  const double clearance = mission.environment->SignedDistance(state.position_W);
-  if (clearance < 0.0) {
-    return absl::InvalidArgumentError("state.position_W: lies inside an obstacle");
-  }
-  if (clearance < limits.ObstacleClearance()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "state.position_W: only ", clearance, " m from an obstacle, closer than the ",
-        limits.ObstacleClearance(), " m a path keeps (", ClearanceRuleName(limits), ")"));
-  }
   if (state.velocity_W_m_s.norm() > limits.dynamics.max_speed_m_s * (1 + 1e-6)) {
     return absl::InvalidArgumentError("state.velocity_W_m_s: faster than limits.max_speed_m_s");
   }
   if (state.accel_W_m_s2.norm() > limits.dynamics.max_accel_m_s2 * (1 + 1e-6)) {
     return absl::InvalidArgumentError("state.accel_W_m_s2: beyond limits.max_accel_m_s2");
+  }
+  if (!(mission.remaining_budget_s > 0.0)) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "mission.remaining_budget_s: no flight time left (", mission.remaining_budget_s, " s)"));
+  }
+  const double clearance = mission.environment->SignedDistance(state.position_W);
+  if (clearance < 0.0) {
+    return absl::FailedPreconditionError("state.position_W: lies inside an obstacle");
+  }
+  if (clearance < limits.ObstacleClearance()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "state.position_W: only ", clearance, " m from an obstacle, closer than the ",
+        limits.ObstacleClearance(), " m a path keeps (", ClearanceRuleName(limits), ")"));
   }
   if (!mission.teammates.empty()) {
     if (!(mission.min_separation_m > 0.0) || !std::isfinite(mission.min_separation_m)) {
@@ -109,7 +112,7 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
           RequiredDistance(mate, state.mission_time_s, mission.min_separation_m) +
           0.5 * limits.exact_check_spacing_m;
       if (!Separated(state.position_W, there, required)) {
-        return absl::InvalidArgumentError(
+        return absl::FailedPreconditionError(
             absl::StrCat("state.position_W: ", (state.position_W - there).norm(), " m from UAV '",
                          mate.uav_id, "', closer than the ", required,
                          " m the two must keep (min_separation_m ", mission.min_separation_m, ")"));

@@ -231,7 +231,12 @@ std::vector<BadCase> Cases() {
        [](auto& s) {
          return Plan(s, [](auto& r) { r.mutable_state()->mutable_velocity_m_s()->set_y(NAN); });
        }},
-      {"plan from inside the building", kInvalid, "inside an obstacle",
+      // A well-formed state the mission's world refuses (the building may
+      // have been added after the UAV got there): FAILED_PRECONDITION.
+      {"plan after the budget is spent", grpc::StatusCode::FAILED_PRECONDITION,
+       "state.mission_time_s: the flight budget of 60 s is spent",
+       [](auto& s) { return Plan(s, [](auto& r) { r.mutable_state()->set_mission_time_s(61); }); }},
+      {"plan from inside the building", grpc::StatusCode::FAILED_PRECONDITION, "inside an obstacle",
        [](auto& s) {
          return Plan(s, [](auto& r) {
            r.mutable_state()->mutable_position_m()->set_x(0);
@@ -435,13 +440,13 @@ void AddLimitCases(std::vector<BadCase>& cases) {
   cases.push_back({"negative planning budget", kInvalid, "planning_budget_s",
                    [](auto& s) { return Plan(s, [](auto& r) { r.set_planning_budget_s(-1); }); }});
   // The core's own field names never reach the caller.
-  cases.push_back(
-      {"inside a building, by the API's name", kInvalid, "state.position_m:", [](auto& s) {
-         return Plan(s, [](auto& r) {
-           r.mutable_state()->mutable_position_m()->set_x(0);
-           r.mutable_state()->mutable_position_m()->set_y(-2);
-         });
-       }});
+  cases.push_back({"inside a building, by the API's name", grpc::StatusCode::FAILED_PRECONDITION,
+                   "state.position_m:", [](auto& s) {
+                     return Plan(s, [](auto& r) {
+                       r.mutable_state()->mutable_position_m()->set_x(0);
+                       r.mutable_state()->mutable_position_m()->set_y(-2);
+                     });
+                   }});
   cases.push_back(
       {"too fast, by the API's names", kInvalid, "spec.flight.max_speed_m_s", [](auto& s) {
          return Plan(s, [](auto& r) { r.mutable_state()->mutable_velocity_m_s()->set_x(20); });

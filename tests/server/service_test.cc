@@ -410,7 +410,7 @@ TEST(ServiceTest, PlanPathReturnsASafeTrajectoryAndObstaclesMatter) {
   EXPECT_GT(updated.esdf_voxels_recomputed(), 0);
   grpc::ClientContext context;
   const grpc::Status blocked = s.stub().PlanPath(&context, request, &path);
-  EXPECT_EQ(blocked.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(blocked.error_code(), grpc::StatusCode::FAILED_PRECONDITION);
   EXPECT_THAT(blocked.error_message(), HasSubstr("inside an obstacle"));
 }
 

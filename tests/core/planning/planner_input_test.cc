@@ -36,18 +36,21 @@ TEST_P(PlannerInputTest, StartInsideAnObstacleIsRefused) {
   UavState s = scene_->start;
   s.position_W = Vec3(0, -1, 10);  // inside the building
   const absl::Status st = PlanFrom(s);
-  EXPECT_EQ(st.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(st.code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(st.message(), HasSubstr("inside an obstacle"));
   s.position_W = Vec3(5.3, -1, 10);  // 0.3 m from the wall: closer than r / 2
+  EXPECT_EQ(PlanFrom(s).code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(PlanFrom(s).message(), HasSubstr("uav_radius_m"));
 }
 
 TEST_P(PlannerInputTest, OutsideTheVolumeOrOutOfBudgetIsRefused) {
   UavState s = scene_->start;
   s.position_W.z() = 40;
+  EXPECT_EQ(PlanFrom(s).code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(PlanFrom(s).message(), HasSubstr("outside the flight volume"));
   PlanningContext spent = scene_->View();
   spent.remaining_budget_s = 0;
+  EXPECT_EQ(PlanFrom(scene_->start, &spent).code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(PlanFrom(scene_->start, &spent).message(), HasSubstr("remaining_budget_s"));
   s = scene_->start;
   s.mission_time_s = 10;
