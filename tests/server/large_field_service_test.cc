@@ -18,6 +18,7 @@
 #include "server/mission.h"
 #include "server/store/state_codec.h"
 #include "tests/core/mapping/gmrf_reference.h"
+#include "tests/server/label_shots.h"
 #include "tests/server/service_fixture.h"
 
 namespace oaipp::server {
@@ -25,10 +26,13 @@ namespace {
 
 using ::oaipp::testing::DenseFieldCovariance;
 
+using testing::AddLabelShots;
 using testing::Eventually;
+using testing::FuseAsTheSmallMissionWould;
 using ::testing::HasSubstr;
 using testing::InProcessService;
 using testing::LabelMeasurement;
+using testing::LabelShot;
 using testing::SmallSpec;
 
 v1::MissionSpec SparseSpec() {
@@ -39,11 +43,8 @@ v1::MissionSpec SparseSpec() {
 
 // Shots over the small field: (x, y, altitude, label), some overlapping,
 // one over the building's ground.
-struct Shot {
-  double x, y, z, label;
-};
-const Shot kShots[] = {{-4, 4, 8, 0.0},  {3, 3, 12, 1.0}, {-3.6, 4.2, 5, 0.0},
-                       {0, -2, 22, 1.0}, {5, -5, 3, 0.0}, {3.2, 2.9, 6, 1.0}};
+const LabelShot kShots[] = {{-4, 4, 8, 0.0},  {3, 3, 12, 1.0}, {-3.6, 4.2, 5, 0.0},
+                            {0, -2, 22, 1.0}, {5, -5, 3, 0.0}, {3.2, 2.9, 6, 1.0}};
 constexpr std::int64_t kShotCount = std::ssize(kShots);
 
 // The map the mission should hold after kShots: a dense Kalman filter
@@ -58,36 +59,12 @@ GpMap ReferenceMap(const api::MissionConfig& config) {
       GpMap::FromPrior(grid, Eigen::VectorXd::Constant(grid.num_cells(), prior->prior_mean),
                        DenseFieldCovariance(*prior));
   EXPECT_TRUE(map.ok()) << map.status();
-  const std::vector<int> under = grid.CellsUnderObstacles([](const Vec3& p) {
-    return std::abs(p.x()) < 1.0 && p.y() > -4.0 && p.y() < 0.0 && p.z() < 20.0;
-  });
-  EXPECT_FALSE(under.empty());
-  EXPECT_TRUE(map->FuseNearCertainZeros(under).ok());
-  for (const Shot& s : kShots) {
-    const v1::AddMeasurementRequest request = LabelMeasurement("", s.x, s.y, s.z, 0, s.label);
-    const std::vector<int> cells(request.labels().cells().begin(), request.labels().cells().end());
-    const std::vector<double> labels(request.labels().labels().begin(),
-                                     request.labels().labels().end());
-    absl::StatusOr<std::vector<CellObservation>> observations =
-        LabelsToObservations(grid, config.noise, s.z, cells, labels);
-    EXPECT_TRUE(observations.ok()) << observations.status();
-    EXPECT_TRUE(map->Update(*observations).ok());
-  }
+  FuseAsTheSmallMissionWould(*map, config.noise, kShots);
   return *std::move(map);
 }
 
 void AddShots(v1::MissionService::Stub& stub, const std::string& name) {
-  double time_s = 1.0;
-  for (const Shot& s : kShots) {
-    grpc::ClientContext context;
-    v1::AddMeasurementResponse response;
-    const grpc::Status status = stub.AddMeasurement(
-        &context, LabelMeasurement(name, s.x, s.y, s.z, time_s, s.label), &response);
-    ASSERT_TRUE(status.ok()) << status.error_message();
-    EXPECT_EQ(response.cells_fused(), 9);
-    EXPECT_LE(response.trace_measurements_fused(), response.measurements_fused());
-    time_s += 1.0;
-  }
+  AddLabelShots(stub, name, kShots);
 }
 
 TEST(LargeFieldServiceTest, ASparseMissionsMapIsADenseKalmanFiltersOnTheSamePrior) {
@@ -182,7 +159,7 @@ TEST(LargeFieldServiceTest, ASparseMissionComesBackFromItsSnapshotAndItsLogExact
   absl::StatusOr<std::shared_ptr<Mission>> live = Mission::Create("m", config);
   ASSERT_TRUE(live.ok()) << live.status();
   double time_s = 1.0;
-  for (const Shot& s : kShots) {
+  for (const LabelShot& s : kShots) {
     api::MeasurementInput input;
     input.mission_time_s = time_s++;
     input.pose.p_WC = Vec3(s.x, s.y, s.z);

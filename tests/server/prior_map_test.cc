@@ -15,6 +15,7 @@
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/core/mapping/gmrf_reference.h"
+#include "tests/server/label_shots.h"
 #include "tests/server/service_fixture.h"
 #include "tests/server/team_fixture.h"
 
@@ -22,8 +23,10 @@ namespace oaipp::server {
 namespace {
 
 using ::oaipp::testing::DenseFieldCovariance;
+using testing::AddLabelShots;
+using testing::FuseAsTheSmallMissionWould;
 using testing::InProcessService;
-using testing::LabelMeasurement;
+using testing::LabelShot;
 using testing::SmallSpec;
 using ::testing::StartsWith;
 
@@ -65,22 +68,7 @@ grpc::Status CreatePrior(v1::MissionService::Stub& stub, const std::string& id,
 }
 
 // Labelled shots over the small field: (x, y, altitude, label).
-struct PriorShot {
-  double x, y, z, label;
-};
-const PriorShot kPriorShots[] = {{-4, 4, 8, 0.0}, {3, 3, 12, 1.0}, {4, 4, 5, 0.0}, {5, -5, 3, 1.0}};
-
-void AddPriorShots(v1::MissionService::Stub& stub, const std::string& name) {
-  double time_s = 1.0;
-  for (const PriorShot& s : kPriorShots) {
-    grpc::ClientContext context;
-    v1::AddMeasurementResponse response;
-    const grpc::Status status = stub.AddMeasurement(
-        &context, LabelMeasurement(name, s.x, s.y, s.z, time_s, s.label), &response);
-    ASSERT_TRUE(status.ok()) << status.error_message();
-    time_s += 1.0;
-  }
-}
+const LabelShot kPriorShots[] = {{-4, 4, 8, 0.0}, {3, 3, 12, 1.0}, {4, 4, 5, 0.0}, {5, -5, 3, 1.0}};
 
 v1::GetMapResponse PriorMapOf(v1::MissionService::Stub& stub, const std::string& name) {
   grpc::ClientContext context;
@@ -115,20 +103,7 @@ GpMap ReferenceMap(const api::MissionConfig& config, const std::vector<double>& 
   absl::StatusOr<GpMap> map = GpMap::FromPrior(
       grid, Eigen::Map<const Eigen::VectorXd>(prior.data(), std::ssize(prior)), covariance);
   EXPECT_TRUE(map.ok()) << map.status();
-  const std::vector<int> under = grid.CellsUnderObstacles([](const Vec3& p) {
-    return std::abs(p.x()) < 1.0 && p.y() > -4.0 && p.y() < 0.0 && p.z() < 20.0;
-  });
-  EXPECT_TRUE(map->FuseNearCertainZeros(under).ok());
-  for (const PriorShot& s : kPriorShots) {
-    const v1::AddMeasurementRequest request = LabelMeasurement("", s.x, s.y, s.z, 0, s.label);
-    const std::vector<int> cells(request.labels().cells().begin(), request.labels().cells().end());
-    const std::vector<double> labels(request.labels().labels().begin(),
-                                     request.labels().labels().end());
-    absl::StatusOr<std::vector<CellObservation>> observations =
-        LabelsToObservations(grid, config.noise, s.z, cells, labels);
-    EXPECT_TRUE(observations.ok()) << observations.status();
-    EXPECT_TRUE(map->Update(*observations).ok());
-  }
+  FuseAsTheSmallMissionWould(*map, config.noise, kPriorShots);
   return *std::move(map);
 }
 
@@ -145,7 +120,7 @@ TEST(PriorMapTest, EachBackendsMapIsAKalmanFilterStartedFromThePriorMap) {
     const v1::GetMapResponse start = PriorMapOf(s.stub(), "missions/p");
     ASSERT_EQ(start.prior_mean_size(), kSide * kSide);
     EXPECT_TRUE(std::equal(prior.begin(), prior.end(), start.prior_mean().begin()));
-    AddPriorShots(s.stub(), "missions/p");
+    AddLabelShots(s.stub(), "missions/p", kPriorShots);
     const v1::GetMapResponse got = PriorMapOf(s.stub(), "missions/p");
     const GpMap want = ReferenceMap(*api::MissionSpecToConfig(spec), prior, sparse);
     ASSERT_EQ(got.mean_size(), want.num_cells());
@@ -180,7 +155,7 @@ TEST_F(PriorMapRestartTest, APriorMapSurvivesARestartBitForBit) {
       {
         InProcessService first(limits, 2, 64, store.get());
         ASSERT_TRUE(CreatePrior(first.stub(), "p", PriorSpec(backend, prior)).ok());
-        AddPriorShots(first.stub(), "missions/p");
+        AddLabelShots(first.stub(), "missions/p", kPriorShots);
         if (snapshot_every > 0) first.registry().FlushSnapshots();
         before = PriorMapOf(first.stub(), "missions/p");
       }
