@@ -76,11 +76,10 @@ absl::StatusOr<std::shared_ptr<const LargeFieldMap::Reading>> LargeFieldMap::Rea
   return std::shared_ptr<const Reading>(std::move(reading));
 }
 
-absl::StatusOr<GpMap> LargeFieldMap::Window(const Target& target, const Vec2& centre_W,
+absl::StatusOr<GpMap> LargeFieldMap::Window(const Target& target, const FieldWindow& window,
                                             const LargeFieldPlanning& options) {
   absl::MutexLock lock(&mu_);
   OAIPP_RETURN_IF_ERROR(BringTo(target));
-  OAIPP_ASSIGN_OR_RETURN(FieldWindow window, WindowAround(grid_, centre_W, options.half_width_m));
   return WindowMap(map_, window, options.window, options.backend);
 }
 

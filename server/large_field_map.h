@@ -63,9 +63,9 @@ class LargeFieldMap {
   // computed. Errors: InvalidArgument for additions that do not fit the
   // field, Internal when CHOLMOD fails.
   [[nodiscard]] absl::StatusOr<std::shared_ptr<const Reading>> Read(const Target& target);
-  // The dense window around centre_W at `target`, for a plan
+  // The dense map of `window` (PlanningWindow) at `target`, for a plan
   // (core/planning/large_field.h). Errors as Read and WindowMap.
-  [[nodiscard]] absl::StatusOr<GpMap> Window(const Target& target, const Vec2& centre_W,
+  [[nodiscard]] absl::StatusOr<GpMap> Window(const Target& target, const FieldWindow& window,
                                              const LargeFieldPlanning& options);
   // The newest reading computed so far; nullptr until the first Read.
   [[nodiscard]] std::shared_ptr<const Reading> latest() const;

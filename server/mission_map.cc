@@ -87,28 +87,25 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
     plan.fused_shots = fused_shots_;
     plan.mission_time_s = mission_time_s_;
   }
-  // The planner's reach: 20 cells each way (41 x 41 cells, docs/method.md
-  // §3.10), whatever the resolution. OA-IPP's window leads towards the
-  // field's most uncertain square when its neighbourhood is spent; the
-  // baselines choose their destinations over the whole field themselves.
+  // The planner's window (docs/method.md §3.10): core's, with the settings
+  // core's tests check (LargeFieldPlanning::ForField). OA-IPP's leads
+  // towards the field's most uncertain square when its neighbourhood is
+  // spent.
   const bool oaipp = config_.planner.kind == PlannerKind::kOaIpp ||
                      config_.planner.kind == PlannerKind::kOaIppNonAdaptive;
-  LargeFieldPlanning options{.half_width_m = 20.0 * grid_.resolution_m(),
-                             .backend = config_.planner.common.information.dense_backend};
-  if (!oaipp) options.lead_fraction = 0.0;
-  const Vec2 window_centre_W = target.added == nullptr
-                                   ? centre_W
-                                   : WindowCentre(grid_, target.added->precision,
-                                                  large_->prior_variance(), centre_W, options);
-  OAIPP_ASSIGN_OR_RETURN(GpMap window, large_->Window(target, window_centre_W, options));
-  const FieldGrid& block = window.grid();
-  const Vec2 offset = (block.min_W() - grid_.min_W()) / grid_.resolution_m();
+  const LargeFieldPlanning options =
+      LargeFieldPlanning::ForField(grid_, oaipp, config_.planner.common.information.dense_backend);
+  OAIPP_ASSIGN_OR_RETURN(
+      const FieldWindow window,
+      PlanningWindow(grid_, target.added == nullptr ? nullptr : &target.added->precision,
+                     large_->prior_variance(), centre_W, options));
+  OAIPP_ASSIGN_OR_RETURN(GpMap local, large_->Window(target, window, options));
   plan.key = {.map_version = target.version,
-              .first_row = static_cast<int>(std::lround(offset.y())),
-              .first_col = static_cast<int>(std::lround(offset.x())),
-              .rows = block.ny(),
-              .cols = block.nx()};
-  plan.map = std::make_shared<const GpMap>(std::move(window));
+              .first_row = window.first_row,
+              .first_col = window.first_col,
+              .rows = window.grid.ny(),
+              .cols = window.grid.nx()};
+  plan.map = std::make_shared<const GpMap>(std::move(local));
   plan.field = &grid_;
   return plan;
 }

@@ -6,6 +6,7 @@
 #include <limits>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
 
 namespace oaipp {
@@ -49,17 +50,39 @@ Vec2 WindowCentre(const FieldGrid& field, const Eigen::VectorXd& added_precision
   return uav_W + (best_W - uav_W) * (options.lead_fraction * side_m / distance);
 }
 
-absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,
-                                         PlanningContext context, const UavState& state,
-                                         absl::Time deadline, const LargeFieldPlanning& options) {
+LargeFieldPlanning LargeFieldPlanning::ForField(const FieldGrid& field, bool lead,
+                                                const DenseBackend& backend) {
+  LargeFieldPlanning options{.half_width_m = kHalfWidthCells * field.resolution_m(),
+                             .backend = backend};
+  if (!lead) options.lead_fraction = 0.0;
+  return options;
+}
+
+absl::StatusOr<FieldWindow> PlanningWindow(const FieldGrid& field,
+                                           const Eigen::VectorXd* added_precision,
+                                           double prior_variance, const Vec2& uav_W,
+                                           const LargeFieldPlanning& options) {
   if (!(options.lead_fraction >= 0.0 && options.lead_fraction < 1.0)) {
     return absl::InvalidArgumentError("options.lead_fraction: must lie in [0, 1)");
   }
-  const Vec2 centre_W =
-      WindowCentre(map.grid(), map.AddedPrecision(), map.prior().fit.fitted_p0_variance,
-                   state.position_W.head<2>(), options);
-  OAIPP_ASSIGN_OR_RETURN(FieldWindow window,
-                         WindowAround(map.grid(), centre_W, options.half_width_m));
+  if (added_precision != nullptr && added_precision->size() != field.num_cells()) {
+    return absl::InvalidArgumentError(absl::StrCat("added_precision: ", added_precision->size(),
+                                                   " values for ", field.num_cells(), " cells"));
+  }
+  const Vec2 centre_W = added_precision == nullptr
+                            ? uav_W
+                            : WindowCentre(field, *added_precision, prior_variance, uav_W, options);
+  return WindowAround(field, centre_W, options.half_width_m);
+}
+
+absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,
+                                         PlanningContext context, const UavState& state,
+                                         absl::Time deadline, const LargeFieldPlanning& options) {
+  const bool added = (map.AddedPrecision().array() != 0.0).any();
+  OAIPP_ASSIGN_OR_RETURN(
+      FieldWindow window,
+      PlanningWindow(map.grid(), added ? &map.AddedPrecision() : nullptr,
+                     map.prior().fit.fitted_p0_variance, state.position_W.head<2>(), options));
   OAIPP_ASSIGN_OR_RETURN(GpMap local, WindowMap(map, window, options.window, options.backend));
   context.map = &local;
   // A conditioned-covariance cache belongs to one map: not this window's.

@@ -6,7 +6,10 @@
 // metre of travel; then it leads towards that square (WindowCentre), so a
 // search that has emptied its neighbourhood heads for what is left.
 //
-//   LargeFieldPlanning large{.half_width_m = 20.0};
+// The service plans through the same two steps (PlanningWindow, then the
+// window's map), with the settings of LargeFieldPlanning::ForField.
+//
+//   const LargeFieldPlanning large = LargeFieldPlanning::ForField(grid, /*lead=*/true, {});
 //   OAIPP_ASSIGN_OR_RETURN(PlannedPath path,
 //                          PlanInWindow(*planner, sparse_map, context, state, deadline, large));
 #pragma once
@@ -21,10 +24,12 @@
 namespace oaipp {
 
 struct LargeFieldPlanning {
+  // The service's reach: this many cells each way (41 x 41 cells, about
+  // 0.2 s to build at 90,000 cells, docs/benchmarks.md), whatever the
+  // resolution.
+  static constexpr int kHalfWidthCells = 20;
   // The window's half width around the UAV, metres: how far a plan's
-  // waypoints and shots may reach. 20 m gives 41 x 41 cells at 1 m (E1's
-  // field is 30 m wide), about 0.2 s to build at 90,000 cells
-  // (docs/benchmarks.md). Valid: > 0, finite.
+  // waypoints and shots may reach. Valid: > 0, finite.
   double half_width_m = 20.0;
   // How far the window's centre may lead the UAV towards a more uncertain
   // square, as a fraction of half_width_m (WindowCentre). 0 keeps the window
@@ -33,6 +38,13 @@ struct LargeFieldPlanning {
   FieldWindowOptions window = {};
   // For the window's dense inverse (the objective's is the planner's own).
   DenseBackend backend = {};
+
+  // What the service plans `field` with: kHalfWidthCells cells each way, a
+  // lead when `lead` (OA-IPP; the baselines choose their destinations over
+  // the whole field themselves, so their window stays on the UAV), the
+  // window's inverse on `backend`.
+  [[nodiscard]] static LargeFieldPlanning ForField(const FieldGrid& field, bool lead,
+                                                   const DenseBackend& backend);
 };
 
 // Where the window of a plan from uav_W goes (docs/method.md §3.10,
@@ -53,8 +65,19 @@ struct LargeFieldPlanning {
                                 double prior_variance, const Vec2& uav_W,
                                 const LargeFieldPlanning& options);
 
-// The window of `map` at WindowCentre (the prior's fitted variance as p0)
-// from state.position_W, and a plan on it by
+// The window a plan from uav_W reads: half_width_m each way around
+// WindowCentre. With no measurement added yet (`added_precision` null) it
+// is centred on the UAV: every square is then as uncertain as the prior,
+// and leading anywhere would be arbitrary. InvalidArgument for a
+// lead_fraction outside [0, 1) or additions that do not fit the field;
+// errors as WindowAround.
+[[nodiscard]] absl::StatusOr<FieldWindow> PlanningWindow(const FieldGrid& field,
+                                                         const Eigen::VectorXd* added_precision,
+                                                         double prior_variance, const Vec2& uav_W,
+                                                         const LargeFieldPlanning& options);
+
+// The window of `map` (PlanningWindow, the prior's fitted variance as p0,
+// its additions unless it has none) from state.position_W, and a plan on it by
 // `planner`, with context's map replaced by the window. Errors as
 // WindowAround, WindowMap and planner.Plan.
 [[nodiscard]] absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,

@@ -106,7 +106,8 @@ TEST(LargeFieldTest, OaIppFliesASparseMapThroughItsWindowSafely) {
   config.oaipp.generations = 8;
   auto planner = MakePlanner(config);
   ASSERT_TRUE(planner.ok());
-  const LargeFieldPlanning large{};
+  // What the service plans a large field with (20 cells, 20 m at 1 m).
+  const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/true, {});
   const DownwardCamera camera;
   const SensorNoise noise;
   PlanningContext context{world.env.get(), nullptr, camera, noise, 0.0};
@@ -163,7 +164,7 @@ TEST(LargeFieldTest, OaIppFliesASparseMapThroughItsWindowSafely) {
 TEST(LargeFieldTest, TheWindowLeadsTowardsTheOnlyUnobservedSquare) {
   auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
   ASSERT_TRUE(grid.ok());
-  const LargeFieldPlanning large{};
+  const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/true, {});
   ASSERT_EQ(large.half_width_m, 20.0);
   const double p0 = 1.5;
   const Vec2 uav(0.0, 0.0);
@@ -193,6 +194,29 @@ TEST(LargeFieldTest, TheWindowLeadsTowardsTheOnlyUnobservedSquare) {
   const Vec2 near_sw(-20.0, -20.0);
   const Vec2 towards_sw = WindowCentre(*grid, added, p0, near_sw, large);
   EXPECT_LT((towards_sw - Vec2(-50.0, -50.0)).norm(), (near_sw - Vec2(-50.0, -50.0)).norm());
+
+  // The window the service plans in (PlanningWindow): the cells overlapping
+  // 20 m each way of the UAV before anything is added (the UAV on a cell
+  // corner: 40 x 40 cells from (-20, -20)), around the lead's centre after.
+  const absl::StatusOr<FieldWindow> fresh = PlanningWindow(*grid, nullptr, p0, uav, large);
+  ASSERT_TRUE(fresh.ok()) << fresh.status();
+  EXPECT_EQ(fresh->grid.nx(), 40);
+  EXPECT_EQ(fresh->grid.ny(), 40);
+  EXPECT_NEAR(fresh->grid.min_W().x(), -20.0, 1e-9);
+  EXPECT_NEAR(fresh->grid.min_W().y(), -20.0, 1e-9);
+  const absl::StatusOr<FieldWindow> leading = PlanningWindow(*grid, &added, p0, near_sw, large);
+  ASSERT_TRUE(leading.ok()) << leading.status();
+  const absl::StatusOr<FieldWindow> around = WindowAround(*grid, towards_sw, large.half_width_m);
+  ASSERT_TRUE(around.ok());
+  EXPECT_EQ(leading->first_row, around->first_row);
+  EXPECT_EQ(leading->first_col, around->first_col);
+  LargeFieldPlanning bad = large;
+  bad.lead_fraction = 1.0;
+  EXPECT_EQ(PlanningWindow(*grid, &added, p0, uav, bad).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  const Eigen::VectorXd short_added = Eigen::VectorXd::Zero(10);
+  EXPECT_EQ(PlanningWindow(*grid, &short_added, p0, uav, large).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 // OA-IPP on a field whose part around the UAV is already well observed
@@ -222,7 +246,7 @@ TEST(LargeFieldTest, OaIppHeadsForTheUnobservedPartOfTheField) {
   PlanningContext context{world.env.get(), nullptr, DownwardCamera(), SensorNoise(), 0.0};
   UavState state;
   state.position_W = start;
-  const LargeFieldPlanning large{};
+  const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/true, {});
   // Where the window goes, by this test's own reckoning: the corner square
   // (centre (50, 50)) is the worthiest, so 15 m towards it.
   const Vec2 expected = Vec2(50.0, 50.0).normalized() * (large.lead_fraction * 20.0);
@@ -259,7 +283,8 @@ TEST(LargeFieldTest, TheBaselinesCoverTheWholeFieldFromAWindow) {
   Field field = MakeField();
   const FieldGrid* grid = &field.grid;
   SparseGpMap* map = &field.map;
-  const LargeFieldPlanning large{};
+  // The service's setting for the baselines: no lead.
+  const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/false, {});
   const double window_reach = large.half_width_m + grid->resolution_m();
   for (const PlannerKind kind : {PlannerKind::kLawnmower, PlannerKind::kRandom}) {
     for (const bool whole_field : {false, true}) {
