@@ -58,8 +58,7 @@ class ConditioningChain {
   // before changing it while it is.
   [[nodiscard]] absl::StatusOr<std::shared_ptr<const Eigen::MatrixXd>> Condition(
       const Eigen::MatrixXd& cov, const CovarianceKey& source,
-      std::span<const PoseObservation> poses,
-      const DenseBackend& backend);
+      std::span<const PoseObservation> poses, const DenseBackend& backend);
 
   [[nodiscard]] Stats stats() const;
   // What the kept result holds in memory (8 n^2 bytes, or 0).
