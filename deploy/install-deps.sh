@@ -40,11 +40,11 @@ packages=(
   libgeographiclib-dev python3-grpcio python3-protobuf chromium python3-websocket
   # the live mission view's small HTTP server
   libcpp-httplib-dev
-  # the Kalman update's rank-m product on the CPU's own vector units (loaded
-  # at run time by the server; core/mapping/dense_backend.h). The pthreads
-  # build, not the serial one: the server calls it from several threads and
-  # the serial build's buffer pool has no lock.
-  libopenblas0-pthread
+  # the Kalman update's rank-m product on the CPU's own vector units
+  # (core/mapping/dense_backend.h). The pthreads build, not the serial one:
+  # the server calls it from several threads and the serial build's buffer
+  # pool has no lock.
+  libopenblas-pthread-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # fuzzing (fuzz/run.sh): clang, with libFuzzer and the sanitizer runtimes

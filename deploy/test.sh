@@ -54,13 +54,14 @@ timings+=("$(printf '%-8s %5d s' deps $((SECONDS - started)))")
 # The store tests start a real PostgreSQL; here it is installed, so a test
 # that cannot start one fails instead of skipping.
 export OAIPP_REQUIRE_POSTGRES=1
-# One thread per BLAS call, as in the server (which restarts itself with
-# OPENBLAS_NUM_THREADS=1), and per OpenMP loop: CHOLMOD's OpenMP loops ask
-# for 4 threads whatever OMP_NUM_THREADS says, and OMP_THREAD_LIMIT is the
-# one cap they obey. Extra threads only oversubscribe the two cores here,
+# One thread per BLAS call and per OpenMP loop, as the programs set them
+# (server/library_settings.h; tests do not run a program's main()): CHOLMOD's
+# OpenMP loops ask for 4 threads whatever OMP_NUM_THREADS says, and
+# OMP_THREAD_LIMIT is the one variable that caps them. Extra threads only oversubscribe the two cores here,
 # and under ThreadSanitizer each unordered write of theirs is a suppressed
 # report, which made a sparse-map case take minutes instead of seconds.
 export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_THREAD_LIMIT="${OMP_THREAD_LIMIT:-1}"
+source "$root/deploy/blas-env.sh"
 
 # build DIR [TARGETS...] -- CMAKE_ARGS...: configure and build (printing only
 # diagnostics); all targets unless some are named.

@@ -1,31 +1,51 @@
-// The numeric libraries' process-wide settings, for a program's main().
+// The numeric libraries' process-wide settings, made once by a program's
+// main() before it starts any thread (the server, the benchmarks).
 //
-// Debian's OpenBLAS 0.3.21 does not know CPUs newer than it and falls back
-// to its oldest kernels on them (3-6x slower for the Kalman update's rank
-// update, and its single-precision strtri crashes from n = 133). It reads
-// OPENBLAS_CORETYPE and OPENBLAS_NUM_THREADS once, in its constructor.
-// CHOLMOD's OpenMP loops (the sparse map's refactorisation) ask for four
-// threads whatever OMP_NUM_THREADS says; only OMP_THREAD_LIMIT, read by
-// libgomp when it loads, caps them. On two cores those four threads waking
-// and waiting made a 90,000-cell refactorisation take three times as long
-// (1.34 s against 0.44 s, `sparse_map_bench`, docs/benchmarks.md). All three
-// libraries are loaded with the program (OpenCV and pagmo2 link LAPACK), so
-// the variables can only take effect in a new process image. This is the one
-// place that executes the program again; it lives with the programs, not in
-// a library.
+// - OpenBLAS: one thread per call (openblas_set_num_threads): the server has
+//   threads of its own, and OpenBLAS's pool waking for small products only
+//   contends with them.
+// - OpenMP: CHOLMOD's OpenMP loops (the sparse map's refactorisation) ask for
+//   four threads whatever OMP_NUM_THREADS says; on two cores those threads
+//   waking and waiting made a 90,000-cell refactorisation three times as
+//   slow (1.34 s against 0.44 s, `sparse_map_bench`, docs/benchmarks.md).
+//   omp_set_max_active_levels(0) runs every parallel region on the thread
+//   that enters it, as OMP_THREAD_LIMIT=1 would.
+// - OpenBLAS's kernels are the one setting no call can change: OpenBLAS
+//   0.3.21 chooses them when it is loaded, with the program, from the CPU or
+//   from OPENBLAS_CORETYPE. It does not know CPUs newer than it and may then
+//   fall back to its oldest kernels (Prescott: 3-6x slower for the Kalman
+//   update, and no single-precision solves). That variable is the launcher's
+//   to set (deploy/run.sh, the container and the Kubernetes manifests leave
+//   the choice to OpenBLAS, which knows the machines they were measured on);
+//   this logs what OpenBLAS chose and warns when it fell back on a CPU with
+//   AVX2.
+//
+// An operator's environment wins: a setting whose variable is set is left
+// as the variable says.
 //
 //   int main(int argc, char** argv) {
-//     oaipp::server::RestartWithLibrarySettings(argv);  // first thing
+//     absl::StatusOr<oaipp::server::NumericSetup> numeric = oaipp::server::SetUpNumericLibraries();
+//     if (!numeric.ok()) return 1;  // an OpenBLAS unsafe for threads
 #pragma once
+
+#include <string>
+
+#include "absl/status/statusor.h"
 
 namespace oaipp::server {
 
-// Sets, where unset: OMP_THREAD_LIMIT=1 and OPENBLAS_NUM_THREADS=1 (the
-// server has threads of its own), and OPENBLAS_CORETYPE when this CPU has
-// AVX2 or AVX-512 (see OpenBlasCoreTypeForThisCpu in
-// core/mapping/dense_backend.h); then executes /proc/self/exe with the same
-// arguments. Returns when nothing needed setting, or when the restart failed
-// (the libraries keep their own choices). An operator's settings always win.
-void RestartWithLibrarySettings(char** argv);
+// What SetUpNumericLibraries found, for the program to log.
+struct NumericSetup {
+  // "OpenBLAS: pthreads build, Haswell kernels, 1 thread(s) per call; ..."
+  std::string summary;
+  // Not empty when OpenBLAS fell back to its oldest kernels on a CPU with
+  // AVX2: what to set.
+  std::string warning;
+};
+
+// Makes the settings above. FailedPrecondition when the process's OpenBLAS
+// is not safe to call from several threads at once
+// (CheckBlasIsSafeForConcurrentCalls): the program should not go on.
+[[nodiscard]] absl::StatusOr<NumericSetup> SetUpNumericLibraries();
 
 }  // namespace oaipp::server

@@ -32,8 +32,6 @@ int ExitCode(const absl::Status& status) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  // OpenBLAS and OpenMP read their settings when they are loaded, with the program.
-  oaipp::server::RestartWithLibrarySettings(argv);
   oaipp::server::SetServerFlagsUsage(
       "OA-IPP planning service (oaipp.v1.MissionService)\n\n"
       "  oaipp-server --listen=127.0.0.1:50051 --data_dir=./data\n\n"
@@ -46,6 +44,15 @@ int main(int argc, char** argv) {
     return 2;
   }
   spdlog::set_level(spdlog::level::from_str(options.log_level));
+  // Before any thread starts: the numeric libraries' threads.
+  const absl::StatusOr<oaipp::server::NumericSetup> numeric =
+      oaipp::server::SetUpNumericLibraries();
+  if (!numeric.ok()) {
+    spdlog::error("{}", std::string(numeric.status().message()));
+    return 1;
+  }
+  spdlog::info("{}", numeric->summary);
+  if (!numeric->warning.empty()) spdlog::warn("{}", numeric->warning);
   // Protobuf writes a line to stderr for every request it cannot parse (a
   // string field that is not UTF-8, say), so any client could flood the
   // log; the caller is told by its status, and the line becomes debug.

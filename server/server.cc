@@ -91,6 +91,9 @@ DenseBackend ChooseDenseBackend(const ServerOptions& options) {
 
 absl::StatusOr<std::unique_ptr<Server>> Server::Start(const ServerOptions& options) {
   if (absl::Status valid = options.Validate(); !valid.ok()) return valid;
+  // Planners, the Kalman update and the sparse map call the BLAS from many
+  // threads at once.
+  if (absl::Status safe = CheckBlasIsSafeForConcurrentCalls(); !safe.ok()) return safe;
   std::unique_ptr<Server> server(new Server(options));
   absl::StatusOr<ServerParts> parts = server->PartsFromOptions();
   absl::Status started = parts.ok() ? server->Assemble(*std::move(parts)) : parts.status();

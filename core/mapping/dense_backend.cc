@@ -1,9 +1,7 @@
 #include "core/mapping/dense_backend.h"
 
-#include <dlfcn.h>
-
 #include <cstddef>
-#include <cstdlib>
+#include <string>
 #include <type_traits>
 #include <utility>
 
@@ -11,72 +9,47 @@
 #include "absl/status/statusor.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "cblas.h"  // OpenBLAS's (libopenblas-pthread-dev), with its openblas_* queries
+
+// LAPACK's Fortran entry points in OpenBLAS; the trailing lengths of the
+// character arguments are what gfortran passes for them.
+extern "C" {
+void dpotrf_(const char* uplo, const int* n, double* a, const int* lda, int* info,
+             std::size_t uplo_length);
+void dpotri_(const char* uplo, const int* n, double* a, const int* lda, int* info,
+             std::size_t uplo_length);
+void dtrtri_(const char* uplo, const char* diag, const int* n, double* a, const int* lda, int* info,
+             std::size_t uplo_length, std::size_t diag_length);
+void spotrf_(const char* uplo, const int* n, float* a, const int* lda, int* info,
+             std::size_t uplo_length);
+void strtri_(const char* uplo, const char* diag, const int* n, float* a, const int* lda, int* info,
+             std::size_t uplo_length, std::size_t diag_length);
+}
 
 namespace oaipp {
-namespace {
 
-// CBLAS's enums, as OpenBLAS's cblas.h numbers them (part of its ABI).
-constexpr int kColMajor = 102;
-constexpr int kLower = 122;
-constexpr int kNoTrans = 111;
-constexpr int kTrans = 112;
-constexpr int kLeft = 141;
-constexpr int kRight = 142;
-constexpr int kNonUnit = 131;
-
-using Dsyrk = void (*)(int order, int uplo, int trans, int n, int k, double alpha, const double* a,
-                       int lda, double beta, double* c, int ldc);
-using Dtrsm = void (*)(int order, int side, int uplo, int trans, int diag, int m, int n,
-                       double alpha, const double* a, int lda, double* b, int ldb);
-// LAPACK's Fortran entry point; the trailing length of `uplo` is what
-// gfortran passes for a character argument.
-using Dpotrf = void (*)(const char* uplo, const int* n, double* a, const int* lda, int* info,
-                        std::size_t uplo_length);
-using Dpotri = Dpotrf;  // the same arguments
-using Dtrtri = void (*)(const char* uplo, const char* diag, const int* n, double* a, const int* lda,
-                        int* info, std::size_t uplo_length, std::size_t diag_length);
-using Strsm = void (*)(int order, int side, int uplo, int trans, int diag, int m, int n,
-                       float alpha, const float* a, int lda, float* b, int ldb);
-using Spotrf = void (*)(const char* uplo, const int* n, float* a, const int* lda, int* info,
-                        std::size_t uplo_length);
-using Strtri = void (*)(const char* uplo, const char* diag, const int* n, float* a, const int* lda,
-                        int* info, std::size_t uplo_length, std::size_t diag_length);
-using SetThreads = void (*)(int);
-using CoreName = char* (*)();
-using GetParallel = int (*)();
-
-}  // namespace
-
+// What the linked OpenBLAS is, read once.
 struct OpenBlasLibrary {
-  Dsyrk dsyrk = nullptr;
-  Dtrsm dtrsm = nullptr;
-  Dpotrf dpotrf = nullptr;
-  Dpotri dpotri = nullptr;
-  Dtrtri dtrtri = nullptr;
-  Strsm strsm = nullptr;
-  Spotrf spotrf = nullptr;
-  Strtri strtri = nullptr;
   std::string kernel;
+  // Whether its single-precision strsm, spotrf and strtri are used (else
+  // the single-precision solves run on Eigen).
+  bool single_kernels = false;
 };
 
 namespace {
 
 // Kernel families (openblas_get_corename) whose strsm, spotrf and strtri
-// were run for every size from 1 to 700 on one thread without a fault.
+// were run for every size from 1 to 700 on one thread without a fault
+// (DenseBackendTest.SinglePrecisionKernelsAgreeWithEigen runs the sizes
+// that once faulted on every machine the tests run on).
 bool SingleKernelsChecked(const std::string& kernel) {
-  for (const char* checked : {"SkylakeX", "Haswell", "Zen", "Sandybridge"}) {
+  for (const char* checked : {"SkylakeX", "Cooperlake", "Haswell", "Zen", "Sandybridge"}) {
     if (absl::EqualsIgnoreCase(kernel, checked)) return true;
   }
   return false;
 }
 
-// Sets OPENBLAS_CORETYPE for this CPU unless it is set (an operator's choice
-// wins); true when it set it.
-bool SetCoreTypeIfUnset() {
-  if (std::getenv("OPENBLAS_CORETYPE") != nullptr) return false;
-  const char* core = OpenBlasCoreTypeForThisCpu();
-  return core != nullptr && setenv("OPENBLAS_CORETYPE", core, 0) == 0;
-}
+constexpr Eigen::Index kMaxInt = 0x7fffffff;  // CBLAS takes int sizes
 
 }  // namespace
 
@@ -90,84 +63,52 @@ const char* OpenBlasCoreTypeForThisCpu() {
   return nullptr;
 }
 
+BlasFacts ReadBlasFacts() {
+  BlasFacts facts;
+  const char* core = openblas_get_corename();
+  facts.kernel = core != nullptr ? core : "unknown";
+  facts.threads = openblas_get_num_threads();
+  switch (openblas_get_parallel()) {
+    case 0:
+      facts.build = "serial";
+      break;
+    case 1:
+      facts.build = "pthreads";
+      break;
+    case 2:
+      facts.build = "openmp";
+      break;
+    default:
+      facts.build = "unknown";
+  }
+  return facts;
+}
+
+absl::Status CheckBlasIsSafeForConcurrentCalls() {
+  const BlasFacts facts = ReadBlasFacts();
+  if (facts.build == "pthreads") return absl::OkStatus();
+  return absl::FailedPreconditionError(absl::StrCat(
+      "the OpenBLAS this program runs with is the ", facts.build,
+      " build, which is not safe to call from several threads at once (its buffer pool does not "
+      "lock); install libopenblas0-pthread and run without LD_LIBRARY_PATH or LD_PRELOAD naming "
+      "another OpenBLAS"));
+}
+
 absl::StatusOr<DenseBackend> DenseBackend::OpenBlas() {
-  // Loaded once; the entry points are kept for the life of the process.
-  static const absl::StatusOr<const OpenBlasLibrary*> loaded =
+  // Read once; the facts do not change while the process runs.
+  static const absl::StatusOr<const OpenBlasLibrary*> linked =
       []() -> absl::StatusOr<const OpenBlasLibrary*> {
-    SetCoreTypeIfUnset();
-    // One thread per call: the server has its own threads.
-    setenv("OPENBLAS_NUM_THREADS", "1", 0);
-    // 0: serial build, 1: pthreads, 2: OpenMP (whose buffer pool does not
-    // lock for threads it did not start). Only 1 is safe here.
-    constexpr int kPthreads = 1;
-    // Where OpenBLAS is the system's BLAS it was loaded with the program, and
-    // the library opened below binds its internal calls (the buffer pool
-    // among them) to that copy's: it must be the pthreads build too.
-    if (auto global = reinterpret_cast<GetParallel>(dlsym(RTLD_DEFAULT, "openblas_get_parallel"));
-        global != nullptr && global() != kPthreads) {
-      return absl::FailedPreconditionError(
-          "the system's BLAS is an OpenBLAS build other than pthreads (see update-alternatives "
-          "--display libopenblas.so.0-x86_64-linux-gnu), which is not safe to call from several "
-          "threads at once; the Kalman update runs on Eigen");
-    }
-    void* library = nullptr;
-    for (const char* path :
-         {"/usr/lib/x86_64-linux-gnu/openblas-pthread/libopenblas.so.0", "libopenblas.so.0"}) {
-      library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
-      if (library != nullptr) break;
-    }
-    if (library == nullptr) {
-      return absl::FailedPreconditionError(
-          "OpenBLAS (libopenblas0-pthread) could not be loaded; the Kalman update runs on Eigen");
-    }
-    if (auto parallel = reinterpret_cast<GetParallel>(dlsym(library, "openblas_get_parallel"));
-        parallel == nullptr || parallel() != kPthreads) {
-      dlclose(library);
-      return absl::FailedPreconditionError(
-          "the OpenBLAS found is not the pthreads build (libopenblas0-pthread), the only one safe "
-          "to call from several threads at once; the Kalman update runs on Eigen");
-    }
-    OpenBlasLibrary blas;
-    blas.dsyrk = reinterpret_cast<Dsyrk>(dlsym(library, "cblas_dsyrk"));
-    blas.dtrsm = reinterpret_cast<Dtrsm>(dlsym(library, "cblas_dtrsm"));
-    blas.dpotrf = reinterpret_cast<Dpotrf>(dlsym(library, "dpotrf_"));
-    blas.dpotri = reinterpret_cast<Dpotri>(dlsym(library, "dpotri_"));
-    blas.dtrtri = reinterpret_cast<Dtrtri>(dlsym(library, "dtrtri_"));
-    blas.strsm = reinterpret_cast<Strsm>(dlsym(library, "cblas_strsm"));
-    blas.spotrf = reinterpret_cast<Spotrf>(dlsym(library, "spotrf_"));
-    blas.strtri = reinterpret_cast<Strtri>(dlsym(library, "strtri_"));
-    // The single-precision three are optional: without them the
-    // single-precision objective's solves run on Eigen.
-    if (blas.dsyrk == nullptr || blas.dtrsm == nullptr || blas.dpotrf == nullptr ||
-        blas.dpotri == nullptr || blas.dtrtri == nullptr) {
-      dlclose(library);
-      return absl::FailedPreconditionError(
-          "the OpenBLAS found lacks cblas_dsyrk, cblas_dtrsm, dpotrf_, dpotri_ or dtrtri_; the "
-          "Kalman update and the objective run on Eigen");
-    }
-    // A copy loaded with the program sized its pool before the variable was
-    // set (when no restart set it): one thread per call in both copies.
-    for (void* scope : {RTLD_DEFAULT, library}) {
-      if (auto set_threads = reinterpret_cast<SetThreads>(dlsym(scope, "openblas_set_num_threads"));
-          set_threads != nullptr) {
-        set_threads(1);
-      }
-    }
-    auto core_name = reinterpret_cast<CoreName>(dlsym(library, "openblas_get_corename"));
-    blas.kernel = core_name != nullptr ? core_name() : "unknown";
-    // The single-precision kernels only where they were checked: with
-    // OpenBLAS 0.3.21's Prescott kernels (what it picks for a CPU it does not
-    // know, without OPENBLAS_CORETYPE) strtri_ crashes from n = 133 on one
-    // thread. Elsewhere the single-precision solves run on Eigen.
-    if (!SingleKernelsChecked(blas.kernel)) {
-      blas.strsm = nullptr;
-      blas.spotrf = nullptr;
-      blas.strtri = nullptr;
-    }
-    return new OpenBlasLibrary(std::move(blas));
+    if (absl::Status safe = CheckBlasIsSafeForConcurrentCalls(); !safe.ok()) return safe;
+    auto* blas = new OpenBlasLibrary;
+    blas->kernel = ReadBlasFacts().kernel;
+    // With OpenBLAS 0.3.21's Prescott kernels (what it picks for a CPU it
+    // does not know, without OPENBLAS_CORETYPE) strtri_ crashes from n = 133
+    // on one thread: the single-precision kernels only where checked.
+    blas->single_kernels = SingleKernelsChecked(blas->kernel);
+    return blas;
   }();
-  if (!loaded.ok()) return loaded.status();
-  return DenseBackend(*loaded);
+  if (!linked.ok()) return linked.status();
+  return DenseBackend(*linked);
 }
 
 std::string DenseBackend::name() const {
@@ -176,46 +117,39 @@ std::string DenseBackend::name() const {
 
 void DenseBackend::SymmetricRankUpdate(double alpha, const Eigen::MatrixXd& b,
                                        Eigen::MatrixXd& p) const {
-  const OpenBlasLibrary* blas = blas_;
   const Eigen::Index n = p.rows();
   const Eigen::Index m = b.cols();
-  // CBLAS takes int sizes: a larger product stays on Eigen.
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
   if (n == 0 || m == 0) return;
-  if (blas == nullptr || n > kMaxInt || m > kMaxInt) {
+  if (blas_ == nullptr || n > kMaxInt || m > kMaxInt) {
     p.selfadjointView<Eigen::Lower>().rankUpdate(b, alpha);
     return;
   }
-  blas->dsyrk(kColMajor, kLower, kNoTrans, static_cast<int>(n), static_cast<int>(m), alpha,
-              b.data(), static_cast<int>(b.outerStride()), 1.0, p.data(),
+  cblas_dsyrk(CblasColMajor, CblasLower, CblasNoTrans, static_cast<int>(n), static_cast<int>(m),
+              alpha, b.data(), static_cast<int>(b.outerStride()), 1.0, p.data(),
               static_cast<int>(p.outerStride()));
 }
 
 void DenseBackend::SolveRightLowerTransposed(const Eigen::MatrixXd& lower,
                                              Eigen::MatrixXd& b) const {
   if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
-  const OpenBlasLibrary* blas = blas_;
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
+  if (blas_ == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.triangularView<Eigen::Lower>().transpose().solveInPlace<Eigen::OnTheRight>(b);
     return;
   }
-  blas->dtrsm(kColMajor, kRight, kLower, kTrans, kNonUnit, static_cast<int>(b.rows()),
-              static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
-              b.data(), static_cast<int>(b.outerStride()));
+  cblas_dtrsm(CblasColMajor, CblasRight, CblasLower, CblasTrans, CblasNonUnit,
+              static_cast<int>(b.rows()), static_cast<int>(b.cols()), 1.0, lower.data(),
+              static_cast<int>(lower.outerStride()), b.data(), static_cast<int>(b.outerStride()));
 }
 
 void DenseBackend::SolveRightLower(const Eigen::MatrixXd& lower, Eigen::MatrixXd& b) const {
   if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
-  const OpenBlasLibrary* blas = blas_;
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (blas == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
+  if (blas_ == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(b);
     return;
   }
-  blas->dtrsm(kColMajor, kRight, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
-              static_cast<int>(b.cols()), 1.0, lower.data(), static_cast<int>(lower.outerStride()),
-              b.data(), static_cast<int>(b.outerStride()));
+  cblas_dtrsm(CblasColMajor, CblasRight, CblasLower, CblasNoTrans, CblasNonUnit,
+              static_cast<int>(b.rows()), static_cast<int>(b.cols()), 1.0, lower.data(),
+              static_cast<int>(lower.outerStride()), b.data(), static_cast<int>(b.outerStride()));
 }
 
 namespace {
@@ -231,15 +165,12 @@ MatrixOf<Scalar> LowerInverseOnEigen(const MatrixOf<Scalar>& lower) {
   return inv;
 }
 
-// OpenBLAS's kernel for Scalar (`d` for double, `s` for float), or nullptr
-// on Eigen (blas nullptr) or where the library lacks it.
-template <typename Scalar, typename D, typename S>
-auto KernelOf(const OpenBlasLibrary* blas, D OpenBlasLibrary::*d, S OpenBlasLibrary::*s) {
-  if constexpr (std::is_same_v<Scalar, double>) {
-    return blas == nullptr ? D{nullptr} : blas->*d;
-  } else {
-    return blas == nullptr ? S{nullptr} : blas->*s;
-  }
+// Whether OpenBLAS runs Scalar's kernels (double's always, float's where
+// checked), for `blas` nullptr (Eigen) or not.
+template <typename Scalar>
+bool OnOpenBlas(const OpenBlasLibrary* blas) {
+  if (blas == nullptr) return false;
+  return std::is_same_v<Scalar, double> || blas->single_kernels;
 }
 
 // The double- and single-precision versions of the three below share one
@@ -248,22 +179,26 @@ template <typename Scalar>
 void SolveLeftLowerIn(const OpenBlasLibrary* blas, const MatrixOf<Scalar>& lower,
                       MatrixOf<Scalar>& b) {
   if (b.size() == 0) return;  // Eigen would index an empty matrix's null data
-  const auto trsm = KernelOf<Scalar>(blas, &OpenBlasLibrary::dtrsm, &OpenBlasLibrary::strsm);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (trsm == nullptr || b.rows() > kMaxInt || b.cols() > kMaxInt) {
+  if (!OnOpenBlas<Scalar>(blas) || b.rows() > kMaxInt || b.cols() > kMaxInt) {
     lower.template triangularView<Eigen::Lower>().solveInPlace(b);
     return;
   }
-  trsm(kColMajor, kLeft, kLower, kNoTrans, kNonUnit, static_cast<int>(b.rows()),
-       static_cast<int>(b.cols()), Scalar{1}, lower.data(), static_cast<int>(lower.outerStride()),
-       b.data(), static_cast<int>(b.outerStride()));
+  const int rows = static_cast<int>(b.rows());
+  const int cols = static_cast<int>(b.cols());
+  const int lda = static_cast<int>(lower.outerStride());
+  const int ldb = static_cast<int>(b.outerStride());
+  if constexpr (std::is_same_v<Scalar, double>) {
+    cblas_dtrsm(CblasColMajor, CblasLeft, CblasLower, CblasNoTrans, CblasNonUnit, rows, cols, 1.0,
+                lower.data(), lda, b.data(), ldb);
+  } else {
+    cblas_strsm(CblasColMajor, CblasLeft, CblasLower, CblasNoTrans, CblasNonUnit, rows, cols, 1.0F,
+                lower.data(), lda, b.data(), ldb);
+  }
 }
 
 template <typename Scalar>
 bool CholeskyLowerInPlaceIn(const OpenBlasLibrary* blas, MatrixOf<Scalar>& s) {
-  const auto potrf = KernelOf<Scalar>(blas, &OpenBlasLibrary::dpotrf, &OpenBlasLibrary::spotrf);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
-  if (potrf == nullptr || s.rows() > kMaxInt || s.rows() == 0) {
+  if (!OnOpenBlas<Scalar>(blas) || s.rows() > kMaxInt || s.rows() == 0) {
     // As Eigen::LLT(s) computes it, bit for bit.
     const Eigen::LLT<MatrixOf<Scalar>> llt(s);
     if (llt.info() != Eigen::Success) return false;
@@ -273,24 +208,30 @@ bool CholeskyLowerInPlaceIn(const OpenBlasLibrary* blas, MatrixOf<Scalar>& s) {
   const int n = static_cast<int>(s.rows());
   const int lda = static_cast<int>(s.outerStride());
   int info = 0;
-  potrf("L", &n, s.data(), &lda, &info, 1);
+  if constexpr (std::is_same_v<Scalar, double>) {
+    dpotrf_("L", &n, s.data(), &lda, &info, 1);
+  } else {
+    spotrf_("L", &n, s.data(), &lda, &info, 1);
+  }
   return info == 0;
 }
 
 template <typename Scalar>
 void InverseLowerInPlaceIn(const OpenBlasLibrary* blas, MatrixOf<Scalar>& lower) {
-  const auto trtri = KernelOf<Scalar>(blas, &OpenBlasLibrary::dtrtri, &OpenBlasLibrary::strtri);
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
   const Eigen::Index m = lower.rows();
   if (m == 0) return;
-  if (trtri == nullptr || m > kMaxInt) {
+  if (!OnOpenBlas<Scalar>(blas) || m > kMaxInt) {
     lower.template triangularView<Eigen::Lower>() = LowerInverseOnEigen<Scalar>(lower);
     return;
   }
   const int n = static_cast<int>(m);
   const int lda = static_cast<int>(lower.outerStride());
   int info = 0;
-  trtri("L", "N", &n, lower.data(), &lda, &info, 1, 1);
+  if constexpr (std::is_same_v<Scalar, double>) {
+    dtrtri_("L", "N", &n, lower.data(), &lda, &info, 1, 1);
+  } else {
+    strtri_("L", "N", &n, lower.data(), &lda, &info, 1, 1);
+  }
 }
 
 }  // namespace
@@ -315,11 +256,9 @@ void DenseBackend::InverseLowerInPlace(Eigen::MatrixXf& lower) const {
 }
 
 void DenseBackend::InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) const {
-  const OpenBlasLibrary* blas = blas_;
-  constexpr Eigen::Index kMaxInt = 0x7fffffff;
   const Eigen::Index m = lower.rows();
   if (m == 0) return;
-  if (blas == nullptr || m > kMaxInt) {
+  if (blas_ == nullptr || m > kMaxInt) {
     // L^-1, then its lower triangle of L^-T L^-1.
     const Eigen::MatrixXd inv = LowerInverseOnEigen<double>(lower);
     Eigen::MatrixXd s = Eigen::MatrixXd::Zero(m, m);
@@ -330,7 +269,7 @@ void DenseBackend::InverseFromCholeskyInPlace(Eigen::MatrixXd& lower) const {
   const int n = static_cast<int>(m);
   const int lda = static_cast<int>(lower.outerStride());
   int info = 0;
-  blas->dpotri("L", &n, lower.data(), &lda, &info, 1);
+  dpotri_("L", &n, lower.data(), &lda, &info, 1);
 }
 
 }  // namespace oaipp

@@ -1,36 +1,33 @@
-// Where the Kalman update's big products run: Eigen, or OpenBLAS loaded at
-// run time. A DenseBackend is a small value that a map (GpMap) and the
-// planner's objective (InformationParams::dense_backend) hold: the core
-// library keeps no process-wide choice, and two maps in one process may use
-// different backends. The default value is Eigen.
+// Where the Kalman update's big products run: Eigen, or OpenBLAS. A
+// DenseBackend is a small value that a map (GpMap) and the planner's
+// objective (InformationParams::dense_backend) hold: the core library keeps
+// no process-wide choice, and two maps in one process may use different
+// backends. The default value is Eigen.
 //
 // Fusing a measurement ends in P -= Bt Bt^T, a symmetric rank-m update of the
 // n x n covariance (n^2 m flops: most of AddMeasurement's time). This build
 // compiles Eigen for generic x86-64 (see CMakeLists.txt), so its kernels use
 // 128-bit vectors; OpenBLAS picks kernels for the CPU it runs on, 3-6x faster
-// for this product (docs/capacity.md). OpenBLAS is not linked:
-// DenseBackend::OpenBlas() opens Debian's libopenblas0-pthread with dlopen
-// (once per process), so a program runs (on Eigen) where it is missing, and
-// the core library's results stay bit for bit those of Eigen unless a
-// program asks for OpenBLAS.
+// for this product (docs/capacity.md). OpenBLAS is linked as any library is
+// (Debian's libopenblas-pthread-dev; the programs' run path names the
+// pthreads build's folder), and the core library's results stay bit for bit
+// those of Eigen unless a program asks for OpenBLAS.
 //
-// Only the pthreads build is used, with one thread per call. The server calls
-// these functions from several threads at once, and Debian's serial build
-// (libopenblas0-serial, built without USE_LOCKING) hands out its scratch
-// buffers without a lock: two concurrent calls can get the same buffer and
-// return wrong numbers, silently (before this was fixed, 32-102 of 5000 small
-// solves and rank updates per thread differed in the concurrency test of
-// dense_backend_test.cc, four threads on a 2-core machine). The pthreads
-// build locks its buffer pool and runs the same kernels; OpenBlas() refuses
-// any other build.
+// Only the pthreads build is safe here. The server calls these functions,
+// and CHOLMOD calls the same library for the sparse map, from several
+// threads at once; Debian's serial build (libopenblas0-serial, built without
+// USE_LOCKING) hands out its scratch buffers without a lock: two concurrent
+// calls can get the same buffer and return wrong numbers, silently (32-102 of
+// 5000 small solves and rank updates per thread differed in the concurrency
+// test of dense_backend_test.cc, four threads on a 2-core machine, before
+// this was refused). CheckBlasIsSafeForConcurrentCalls() says whether the
+// library the process runs with is that build; OpenBlas() refuses others.
 //
-// OpenBLAS 0.3.21 (Debian 12) does not recognise CPUs newer than it and then
-// falls back to its oldest kernels. It reads OPENBLAS_CORETYPE once, when it
-// is loaded, and where it is the system's BLAS it is loaded with the program
-// (OpenCV and pagmo2 link LAPACK), before main() runs. Choosing kernels is
-// therefore a program's business, not this library's: the server's main()
-// sets the variable from OpenBlasCoreTypeForThisCpu() and executes itself
-// again (server/library_settings.h).
+// The library keeps two process-wide settings, which belong to a program,
+// not to this library: the threads per call (one, in a program with threads
+// of its own: openblas_set_num_threads, at start) and the kernels, which
+// OpenBLAS 0.3.21 chooses once, when it is loaded, from the CPU or from
+// OPENBLAS_CORETYPE (server/library_settings.h).
 //
 // Results differ from Eigen's in the last bits (another summation order),
 // and between kernels; for one machine and backend they are deterministic.
@@ -48,23 +45,33 @@
 
 namespace oaipp {
 
+// The OpenBLAS this process runs with, as it reports itself.
+struct BlasFacts {
+  std::string kernel;  // openblas_get_corename(): "SkylakeX", "Haswell", "Prescott", ...
+  std::string build;   // "pthreads", "serial", "openmp" (openblas_get_parallel)
+  int threads = 1;     // threads per call (openblas_get_num_threads)
+};
+[[nodiscard]] BlasFacts ReadBlasFacts();
+
+// OK when the process's OpenBLAS is the pthreads build, the only one safe
+// to call from several threads at once; FailedPrecondition, saying what to
+// install, otherwise. Every path that calls the BLAS from more than one
+// thread (the dense backend, the sparse map, the server at start) asks.
+[[nodiscard]] absl::Status CheckBlasIsSafeForConcurrentCalls();
+
 // OpenBLAS's kernel family for this CPU ("SkylakeX" with AVX-512, "Haswell"
 // with AVX2 + FMA), or nullptr where OpenBLAS's own choice is right.
 [[nodiscard]] const char* OpenBlasCoreTypeForThisCpu();
 
-struct OpenBlasLibrary;  // the entry points found in the loaded library
+struct OpenBlasLibrary;  // what the linked OpenBLAS is (its kernels)
 
 class DenseBackend {
  public:
   // Eigen.
   DenseBackend() = default;
 
-  // OpenBLAS (the pthreads build, one thread per call). The library is
-  // loaded at the first call, which may set OPENBLAS_NUM_THREADS and
-  // OPENBLAS_CORETYPE when unset: make it before other threads read the
-  // environment. Later calls return the same backend (or error).
-  // FailedPrecondition names what is missing, or that the library found is
-  // not the pthreads build.
+  // OpenBLAS, as the program set it up. FailedPrecondition (from
+  // CheckBlasIsSafeForConcurrentCalls) when it is not the pthreads build.
   [[nodiscard]] static absl::StatusOr<DenseBackend> OpenBlas();
 
   [[nodiscard]] bool is_open_blas() const { return blas_ != nullptr; }
@@ -105,8 +112,8 @@ class DenseBackend {
   void InverseLowerInPlace(Eigen::MatrixXd& lower) const;
 
   // The same three in single precision (OpenBLAS's strsm, spotrf and
-  // strtri, or Eigen's), for the planner's objective when it runs in single
-  // precision (core/planning/information.h).
+  // strtri where their kernels were checked, else Eigen's), for the planner's objective when it
+  // runs in single precision (core/planning/information.h).
   void SolveLeftLower(const Eigen::MatrixXf& lower, Eigen::MatrixXf& b) const;
   [[nodiscard]] bool CholeskyLowerInPlace(Eigen::MatrixXf& s) const;
   void InverseLowerInPlace(Eigen::MatrixXf& lower) const;

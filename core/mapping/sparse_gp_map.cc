@@ -1,7 +1,5 @@
 #include "core/mapping/sparse_gp_map.h"
 
-#include <dlfcn.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
@@ -13,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "cholmod.h"
 #include "core/common/status_macros.h"
+#include "core/mapping/dense_backend.h"
 
 // The reference BLAS and LAPACK interfaces (Fortran symbols), as CHOLMOD
 // itself calls them: Debian resolves libblas.so.3 to OpenBLAS when it is
@@ -97,11 +96,7 @@ cholmod_sparse View(const Eigen::SparseMatrix<double, Eigen::ColMajor, int>& q) 
 // more than one, two threads of ours calling it at once contend for them
 // (three times slower, measured at 90,000 cells): the tree then runs in one
 // thread and the products in OpenBLAS's.
-int BlasThreads() {
-  using Get = int (*)();
-  static const Get get = reinterpret_cast<Get>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
-  return get != nullptr ? get() : 1;
-}
+int BlasThreads() { return ReadBlasFacts().threads; }
 
 class Takahashi {
  public:
@@ -324,6 +319,8 @@ absl::StatusOr<SparseGpMap> SparseGpMap::Create(const FieldGrid& grid, const GpP
 
 absl::StatusOr<SparseGpMap> SparseGpMap::FromPrior(const FieldGrid& grid, GmrfPrior prior,
                                                    Factorise factorise) {
+  // Its selected inversion calls the BLAS from two threads at once.
+  OAIPP_RETURN_IF_ERROR(CheckBlasIsSafeForConcurrentCalls());
   const int n = prior.num_states();
   if (static_cast<int>(prior.field_state.size()) != grid.num_cells()) {
     return absl::InvalidArgumentError(absl::StrCat(

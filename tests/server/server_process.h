@@ -3,6 +3,7 @@
 #pragma once
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
@@ -27,13 +28,20 @@ inline constexpr std::chrono::seconds kDefaultStartWait{20};
 // until `port` on 127.0.0.1 accepts connections. Returns the pid, or -1 when
 // it could not be started or died first.
 // `env`: variables to set in the child ("NAME", "VALUE"), or to remove
-// from its environment where VALUE is empty.
+// from its environment where VALUE is empty. `stdout_path`: a file the
+// child's standard output goes to (appended), or "" to keep the parent's.
 inline pid_t SpawnAndWaitForPort(const std::vector<std::string>& args, int port,
                                  std::chrono::milliseconds wait = kDefaultStartWait,
-                                 const std::vector<std::pair<std::string, std::string>>& env = {}) {
+                                 const std::vector<std::pair<std::string, std::string>>& env = {},
+                                 const std::string& stdout_path = "") {
   const pid_t pid = fork();
   if (pid < 0) return -1;
   if (pid == 0) {
+    if (!stdout_path.empty()) {
+      const int fd = open(stdout_path.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      if (fd < 0 || dup2(fd, STDOUT_FILENO) < 0) _exit(126);
+      close(fd);
+    }
     for (const auto& [name, value] : env) {
       if (value.empty()) {
         unsetenv(name.c_str());
@@ -83,7 +91,7 @@ class ChildProcess {
   // already).
   bool Start(std::chrono::milliseconds wait = kDefaultStartWait) {
     if (pid_ > 0) return false;
-    pid_ = SpawnAndWaitForPort(args_, port_, wait, env_);
+    pid_ = SpawnAndWaitForPort(args_, port_, wait, env_, stdout_path_);
     return pid_ > 0;
   }
   // Sets (or, with an empty value, removes) a variable in the environment
@@ -91,6 +99,9 @@ class ChildProcess {
   void SetEnv(std::string name, std::string value) {
     env_.emplace_back(std::move(name), std::move(value));
   }
+  // Sends the standard output (the server's log) of the next Start to
+  // `path`, appended.
+  void SetStdout(std::string path) { stdout_path_ = std::move(path); }
   [[nodiscard]] pid_t pid() const { return pid_; }
 
   // Sends `signal` and waits for the process; returns its wait status (-1
@@ -108,6 +119,7 @@ class ChildProcess {
   std::vector<std::string> args_;
   int port_;
   std::vector<std::pair<std::string, std::string>> env_;
+  std::string stdout_path_;
   pid_t pid_ = -1;
 };
 

@@ -13,6 +13,7 @@
 //   build/tests/bench/planning/sparse_prior_e1 --seeds=25
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "absl/flags/flag.h"
@@ -98,8 +99,15 @@ double Fly(std::uint32_t seed, bool sparse, double budget_s) {
 }  // namespace oaipp
 
 int main(int argc, char** argv) {
-  // As the server does: the numeric libraries' kernels and threads.
-  oaipp::server::RestartWithLibrarySettings(argv);
+  // As the server does: the numeric libraries' threads (server/library_settings.h).
+  if (const absl::StatusOr<oaipp::server::NumericSetup> numeric =
+          oaipp::server::SetUpNumericLibraries();
+      !numeric.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(numeric.status().message()).c_str());
+    return 1;
+  } else if (!numeric->warning.empty()) {
+    std::fprintf(stderr, "%s\n", numeric->warning.c_str());
+  }
   absl::ParseCommandLine(argc, argv);
   const int seeds = absl::GetFlag(FLAGS_seeds);
   const double budget_s = absl::GetFlag(FLAGS_budget_s);

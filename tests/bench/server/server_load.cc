@@ -516,7 +516,15 @@ void SetLoadDefaults() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  oaipp::server::RestartWithLibrarySettings(argv);
+  // As the server does: the numeric libraries' threads (server/library_settings.h).
+  if (const absl::StatusOr<oaipp::server::NumericSetup> numeric =
+          oaipp::server::SetUpNumericLibraries();
+      !numeric.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(numeric.status().message()).c_str());
+    return 1;
+  } else if (!numeric->warning.empty()) {
+    std::fprintf(stderr, "%s\n", numeric->warning.c_str());
+  }
   absl::SetProgramUsageMessage(
       "Many E1 missions at once on one server in process; takes oaipp-server's flags too "
       "(--help lists them).");

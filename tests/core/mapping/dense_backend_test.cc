@@ -20,7 +20,7 @@
 namespace oaipp {
 namespace {
 
-// deploy/install-deps.sh installs libopenblas0-pthread. Each test holds
+// deploy/install-deps.sh installs libopenblas-pthread-dev. Each test holds
 // both backends as values: nothing in the process is switched.
 class DenseBackendTest : public ::testing::Test {
  protected:
@@ -270,6 +270,50 @@ TEST_F(DenseBackendTest, ConcurrentCallsGiveTheSingleThreadedResultsBitForBit) {
     }
   }
   for (int t = 0; t < kThreads; ++t) EXPECT_EQ(mismatches[t], 0) << "thread " << t;
+}
+
+TEST(BlasFactsTest, TheProgramRunsWithThePthreadsBuild) {
+  // The pthreads build is the only one safe for concurrent callers; the
+  // build links it from its own folder so that no system alternative can
+  // swap it (core/mapping/CMakeLists.txt).
+  const BlasFacts facts = ReadBlasFacts();
+  EXPECT_EQ(facts.build, "pthreads");
+  EXPECT_FALSE(facts.kernel.empty());
+  EXPECT_GE(facts.threads, 1);
+  EXPECT_TRUE(CheckBlasIsSafeForConcurrentCalls().ok());
+}
+
+TEST_F(DenseBackendTest, SinglePrecisionSolvesAgreeWithEigenAcrossSizes) {
+  // OpenBLAS 0.3.21's Prescott strtri_ faulted from n = 133: the sizes
+  // around it and up to the largest window the objective factors, on
+  // whichever kernels this machine runs (Eigen's where they are not used).
+  std::mt19937 rng(11);
+  std::normal_distribution<float> normal;
+  for (const int n : {1, 2, 3, 7, 16, 64, 131, 132, 133, 134, 200, 257, 400, 700}) {
+    Eigen::MatrixXf a(n, n);
+    for (float& v : a.reshaped()) v = normal(rng);
+    const Eigen::MatrixXf spd =
+        a * a.transpose() / static_cast<float>(n) + Eigen::MatrixXf::Identity(n, n);
+    Eigen::MatrixXf on_blas = spd;
+    Eigen::MatrixXf on_eigen = spd;
+    ASSERT_TRUE(blas_.CholeskyLowerInPlace(on_blas)) << n;
+    ASSERT_TRUE(eigen_.CholeskyLowerInPlace(on_eigen)) << n;
+    const Eigen::MatrixXf l_blas = on_blas.triangularView<Eigen::Lower>();
+    const Eigen::MatrixXf l_eigen = on_eigen.triangularView<Eigen::Lower>();
+    EXPECT_LT((l_blas - l_eigen).cwiseAbs().maxCoeff(), 1e-4F) << n;
+    // The factor reproduces the matrix (a check outside both libraries).
+    EXPECT_LT((l_blas * l_blas.transpose() - spd).cwiseAbs().maxCoeff(), 1e-4F) << n;
+    Eigen::MatrixXf b(n, 5);
+    for (float& v : b.reshaped()) v = normal(rng);
+    Eigen::MatrixXf x = b;
+    blas_.SolveLeftLower(l_blas, x);
+    EXPECT_LT((l_blas * x - b).cwiseAbs().maxCoeff(), 1e-3F) << n;
+    Eigen::MatrixXf inverse = l_blas;
+    blas_.InverseLowerInPlace(inverse);
+    const Eigen::MatrixXf inv_lower = inverse.triangularView<Eigen::Lower>();
+    EXPECT_LT((inv_lower * l_blas - Eigen::MatrixXf::Identity(n, n)).cwiseAbs().maxCoeff(), 1e-3F)
+        << n;
+  }
 }
 
 }  // namespace
