@@ -1,9 +1,13 @@
 #include "api/status.h"
 
+#include <optional>
 #include <string>
+#include <utility>
 
+#include "absl/container/flat_hash_map.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_replace.h"
+#include "core/common/field_error.h"
 
 namespace oaipp::api {
 
@@ -54,26 +58,36 @@ std::string SafeMessage(absl::string_view message, std::size_t max_bytes) {
   return Escaped(message, max_bytes, Control);
 }
 
-absl::Status WithApiFieldNames(const absl::Status& status) {
-  if (status.ok()) return status;
-  // Longest first where one name starts another.
-  const std::string message = absl::StrReplaceAll(
-      status.message(), {{"state.position_W", "state.position_m"},
-                         {"state.velocity_W_m_s", "state.velocity_m_s"},
-                         {"state.accel_W_m_s2", "state.acceleration_m_s2"},
-                         {"limits.max_speed_m_s", "spec.flight.max_speed_m_s"},
-                         {"limits.max_accel_m_s2", "spec.flight.max_accel_m_s2"},
-                         {"limits.uav_radius_m", "spec.flight.uav_radius_m"},
-                         {"limits.tracking_error_m", "spec.flight.tracking_error_m"},
-                         {"esdf.voxel_size_m", "spec.flight.esdf_voxel_m"},
-                         {"esdf.truncation_m", "spec.flight.esdf_truncation_m"},
-                         {"esdf: ", "spec.flight.esdf_voxel_m: "},
-                         {".box.centre_W", ".box.centre_m"},
-                         {".cylinder.centre_W", ".cylinder.centre_m"}});
-  absl::Status out(status.code(), message);
-  status.ForEachPayload(
-      [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
-  return out;
+std::string ApiFieldName(absl::string_view core_field, std::optional<int> team_member) {
+  static const auto* const kState = new absl::flat_hash_map<absl::string_view, absl::string_view>{
+      {"state.position_W", "state.position_m"},
+      {"state.velocity_W_m_s", "state.velocity_m_s"},
+      {"state.accel_W_m_s2", "state.acceleration_m_s2"},
+      {"esdf.voxel_size_m", "spec.flight.esdf_voxel_m"},
+      {"esdf.truncation_m", "spec.flight.esdf_truncation_m"}};
+  if (const auto it = kState->find(core_field); it != kState->end()) return std::string(it->second);
+  // A UAV's limits: the mission's spec.flight, or a team member's own.
+  for (const absl::string_view limit :
+       {"max_speed_m_s", "max_accel_m_s2", "uav_radius_m", "tracking_error_m"}) {
+    if (core_field == absl::StrCat("limits.", limit)) {
+      return team_member.has_value() ? absl::StrCat("spec.team[", *team_member, "].flight.", limit)
+                                     : absl::StrCat("spec.flight.", limit);
+    }
+  }
+  // An obstacle's centre, wherever the obstacle is (spec.obstacles[2], changes[0]...).
+  for (const auto& [core, api] :
+       {std::pair<absl::string_view, absl::string_view>{".box.centre_W", ".box.centre_m"},
+        {".cylinder.centre_W", ".cylinder.centre_m"}}) {
+    if (absl::EndsWith(core_field, core)) {
+      return absl::StrCat(core_field.substr(0, core_field.size() - core.size()), api);
+    }
+  }
+  return std::string(core_field);
+}
+
+absl::Status WithApiFieldNames(const absl::Status& status, std::optional<int> team_member) {
+  return RenameErrorFields(
+      status, [&](absl::string_view field) { return ApiFieldName(field, team_member); });
 }
 
 }  // namespace oaipp::api

@@ -8,6 +8,7 @@
 #include <grpcpp/support/status.h>
 
 #include <cstddef>
+#include <optional>
 #include <string>
 
 #include "absl/status/status.h"
@@ -32,7 +33,15 @@ namespace oaipp::api {
 // The core names its fields as the code does (state.position_W,
 // limits.max_speed_m_s, esdf.voxel_size_m); a caller knows them by the API's
 // paths (state.position_m, spec.flight.max_speed_m_s,
-// spec.flight.esdf_voxel_m). The same status with the API's names.
-[[nodiscard]] absl::Status WithApiFieldNames(const absl::Status& status);
+// spec.flight.esdf_voxel_m), and a team member's limits by its own
+// (spec.team[1].flight.max_speed_m_s). The API's path for `core_field`; a
+// name the core does not use comes back unchanged.
+[[nodiscard]] std::string ApiFieldName(absl::string_view core_field,
+                                       std::optional<int> team_member = std::nullopt);
+// The same status with the API's names for the fields it carries as data
+// (core/common/field_error.h; `team_member`: the index in spec.team of the
+// UAV the error is about). A status without fields comes back unchanged.
+[[nodiscard]] absl::Status WithApiFieldNames(const absl::Status& status,
+                                             std::optional<int> team_member = std::nullopt);
 
 }  // namespace oaipp::api

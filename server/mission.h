@@ -351,8 +351,8 @@ class Mission {
   // member's own (its limits) for a team.
   absl::StatusOr<Planner*> PlannerOf(const std::string& uav_id)
       ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
-  // `status` (a plan's error for team member `uav_id`) with the core's names
-  // of the UAV's limits replaced by the member's own fields.
+  // `status` (a plan's error for team member `uav_id`) naming the member's
+  // own limits, from the fields it carries as data (api::WithApiFieldNames).
   [[nodiscard]] absl::Status NamedForMember(const absl::Status& status,
                                             const std::string& uav_id) const;
   // Whether `uav_id` was taken out of the team; whether it landed.

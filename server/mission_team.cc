@@ -9,7 +9,7 @@
 
 #include "absl/strings/cord.h"
 #include "absl/strings/str_cat.h"
-#include "absl/strings/str_replace.h"
+#include "api/status.h"
 #include "core/common/status_macros.h"
 #include "server/mission.h"
 
@@ -39,19 +39,11 @@ absl::StatusOr<Planner*> Mission::PlannerOf(const std::string& uav_id) {
 
 absl::Status Mission::NamedForMember(const absl::Status& status, const std::string& uav_id) const {
   for (std::size_t i = 0; i < config_.team.size(); ++i) {
-    if (config_.team[i].uav_id != uav_id) continue;
     // A member's limits are its own (spec.team[i].flight): a plan's error
-    // names that field, not the mission's (api::WithApiFieldNames).
-    const std::string own = absl::StrCat("spec.team[", i, "].flight.");
-    absl::Status out(status.code(),
-                     absl::StrReplaceAll(status.message(),
-                                         {{"limits.max_speed_m_s", own + "max_speed_m_s"},
-                                          {"limits.max_accel_m_s2", own + "max_accel_m_s2"},
-                                          {"limits.uav_radius_m", own + "uav_radius_m"},
-                                          {"limits.tracking_error_m", own + "tracking_error_m"}}));
-    status.ForEachPayload(
-        [&](absl::string_view url, const absl::Cord& payload) { out.SetPayload(url, payload); });
-    return out;
+    // names that field, not the mission's.
+    if (config_.team[i].uav_id == uav_id) {
+      return api::WithApiFieldNames(status, static_cast<int>(i));
+    }
   }
   return status;
 }

@@ -16,6 +16,7 @@
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
+#include "core/common/field_error.h"
 
 namespace oaipp {
 
@@ -50,21 +51,24 @@ template <typename Derived>
 // Returns InvalidArgument naming `field` unless `value` is finite.
 [[nodiscard]] inline absl::Status CheckFinite(absl::string_view field, double value) {
   if (std::isfinite(value)) return absl::OkStatus();
-  return absl::InvalidArgumentError(absl::StrCat(field, ": must be finite, got ", value));
+  return FieldError(absl::StatusCode::kInvalidArgument,
+                    absl::StrCat("$0: must be finite, got ", value), {std::string(field)});
 }
 
 // Returns InvalidArgument naming `field` unless `value` > 0 and finite.
 [[nodiscard]] inline absl::Status CheckPositive(absl::string_view field, double value) {
   if (std::isfinite(value) && value > 0.0) return absl::OkStatus();
-  return absl::InvalidArgumentError(
-      absl::StrCat(field, ": must be positive and finite, got ", value));
+  return FieldError(absl::StatusCode::kInvalidArgument,
+                    absl::StrCat("$0: must be positive and finite, got ", value),
+                    {std::string(field)});
 }
 
 // Returns InvalidArgument naming `field` unless every component is finite.
 [[nodiscard]] inline absl::Status CheckFinite(absl::string_view field, const Vec3& v) {
   if (AllFinite(v)) return absl::OkStatus();
-  return absl::InvalidArgumentError(
-      absl::StrCat(field, ": must be finite, got (", v.x(), ", ", v.y(), ", ", v.z(), ")"));
+  return FieldError(absl::StatusCode::kInvalidArgument,
+                    absl::StrCat("$0: must be finite, got (", v.x(), ", ", v.y(), ", ", v.z(), ")"),
+                    {std::string(field)});
 }
 
 // Answers whether the straight segment between two world points is free of

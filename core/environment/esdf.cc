@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "core/common/field_error.h"
 
 namespace oaipp {
 namespace {
@@ -88,12 +89,14 @@ absl::StatusOr<Esdf> Esdf::Create(const Aabb& volume, const EsdfConfig& config) 
     }
   }
   if (!(config.voxel_size_m > 0.0 && config.voxel_size_m <= 10.0)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("esdf.voxel_size_m: must be in (0, 10], got ", config.voxel_size_m));
+    return FieldError(absl::StatusCode::kInvalidArgument,
+                      absl::StrCat("$0: must be in (0, 10], got ", config.voxel_size_m),
+                      {"esdf.voxel_size_m"});
   }
   if (!(config.truncation_m >= config.voxel_size_m && std::isfinite(config.truncation_m))) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "esdf.truncation_m: must be finite and >= voxel_size_m, got ", config.truncation_m));
+    return FieldError(absl::StatusCode::kInvalidArgument,
+                      absl::StrCat("$0: must be finite and >= $1, got ", config.truncation_m),
+                      {"esdf.truncation_m", "esdf.voxel_size_m"});
   }
   Esdf esdf;
   esdf.voxel_m_ = config.voxel_size_m;
@@ -103,14 +106,18 @@ absl::StatusOr<Esdf> Esdf::Create(const Aabb& volume, const EsdfConfig& config) 
   std::int64_t count = 1;
   for (int a = 0; a < 3; ++a) {
     const double n = AxisVoxels(domain, a, config.voxel_size_m);
-    if (n > 1e6) return absl::ResourceExhaustedError("esdf: grid too large along one axis");
+    if (n > 1e6) {
+      return FieldError(absl::StatusCode::kResourceExhausted,
+                        "$0: the grid is too large along one axis", {"esdf.voxel_size_m"});
+    }
     esdf.dims_[a] = std::max(1, static_cast<int>(n));
     count *= esdf.dims_[a];
   }
   if (count > config.max_voxels) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("esdf: ", count, " voxels exceed the limit of ", config.max_voxels,
-                     "; use larger esdf.voxel_size_m"));
+    return FieldError(absl::StatusCode::kResourceExhausted,
+                      absl::StrCat("$0: ", count, " voxels exceed the limit of ", config.max_voxels,
+                                   "; use a larger voxel"),
+                      {"esdf.voxel_size_m"});
   }
   esdf.values_ = std::make_shared<std::vector<float>>(static_cast<std::size_t>(count),
                                                       static_cast<float>(config.truncation_m));

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "core/common/field_error.h"
 #include "core/common/status_macros.h"
 #include "core/planning/separation.h"
 #include "core/trajectory/measurement_schedule.h"
@@ -19,8 +20,9 @@ absl::Status PlannerLimits::Validate() const {
   OAIPP_RETURN_IF_ERROR(ValidateLimits(dynamics));
   OAIPP_RETURN_IF_ERROR(CheckPositive("limits.uav_radius_m", uav_radius_m));
   if (!(tracking_error_m >= 0.0 && tracking_error_m <= 10.0)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("limits.tracking_error_m: must be in [0, 10], got ", tracking_error_m));
+    return FieldError(absl::StatusCode::kInvalidArgument,
+                      absl::StrCat("$0: must be in [0, 10], got ", tracking_error_m),
+                      {"limits.tracking_error_m"});
   }
   OAIPP_RETURN_IF_ERROR(CheckPositive("limits.collision_sample_rate_hz", collision_sample_rate_hz));
   return CheckPositive("limits.exact_check_spacing_m", exact_check_spacing_m);
@@ -71,33 +73,42 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
   // mission's present state refuses comes after (FailedPrecondition: the
   // flight time spent, an obstacle or a teammate where the UAV is).
   if (mission.next_shot_mission_s < state.mission_time_s - 1e-9) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("mission.next_shot_mission_s: ", mission.next_shot_mission_s,
-                     " lies before state.mission_time_s ", state.mission_time_s));
+    return FieldError(
+        absl::StatusCode::kInvalidArgument,
+        absl::StrCat("$0: ", mission.next_shot_mission_s, " lies before $1 ", state.mission_time_s),
+        {"mission.next_shot_mission_s", "state.mission_time_s"});
   }
   if (!volume.Contains(state.position_W, 1e-6)) {
     const Vec3& p = state.position_W;
-    return absl::InvalidArgumentError(absl::StrCat("state.position_W: (", p.x(), ", ", p.y(), ", ",
-                                                   p.z(), ") lies outside the flight volume"));
+    return FieldError(
+        absl::StatusCode::kInvalidArgument,
+        absl::StrCat("$0: (", p.x(), ", ", p.y(), ", ", p.z(), ") lies outside the flight volume"),
+        {"state.position_W"});
   }
   if (state.velocity_W_m_s.norm() > limits.dynamics.max_speed_m_s * (1 + 1e-6)) {
-    return absl::InvalidArgumentError("state.velocity_W_m_s: faster than limits.max_speed_m_s");
+    return FieldError(absl::StatusCode::kInvalidArgument, "$0: faster than $1",
+                      {"state.velocity_W_m_s", "limits.max_speed_m_s"});
   }
   if (state.accel_W_m_s2.norm() > limits.dynamics.max_accel_m_s2 * (1 + 1e-6)) {
-    return absl::InvalidArgumentError("state.accel_W_m_s2: beyond limits.max_accel_m_s2");
+    return FieldError(absl::StatusCode::kInvalidArgument, "$0: beyond $1",
+                      {"state.accel_W_m_s2", "limits.max_accel_m_s2"});
   }
   if (!(mission.remaining_budget_s > 0.0)) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "mission.remaining_budget_s: no flight time left (", mission.remaining_budget_s, " s)"));
+    return FieldError(absl::StatusCode::kFailedPrecondition,
+                      absl::StrCat("$0: no flight time left (", mission.remaining_budget_s, " s)"),
+                      {"mission.remaining_budget_s"});
   }
   const double clearance = mission.environment->SignedDistance(state.position_W);
   if (clearance < 0.0) {
-    return absl::FailedPreconditionError("state.position_W: lies inside an obstacle");
+    return FieldError(absl::StatusCode::kFailedPrecondition, "$0: lies inside an obstacle",
+                      {"state.position_W"});
   }
   if (clearance < limits.ObstacleClearance()) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "state.position_W: only ", clearance, " m from an obstacle, closer than the ",
-        limits.ObstacleClearance(), " m a path keeps (", ClearanceRuleName(limits), ")"));
+    return FieldError(absl::StatusCode::kFailedPrecondition,
+                      absl::StrCat("$0: only ", clearance, " m from an obstacle, closer than the ",
+                                   limits.ObstacleClearance(), " m a path keeps (",
+                                   ClearanceRuleName(limits), ")"),
+                      {"state.position_W"});
   }
   if (!mission.teammates.empty()) {
     if (!(mission.min_separation_m > 0.0) || !std::isfinite(mission.min_separation_m)) {
@@ -112,10 +123,12 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
           RequiredDistance(mate, state.mission_time_s, mission.min_separation_m) +
           0.5 * limits.exact_check_spacing_m;
       if (!Separated(state.position_W, there, required)) {
-        return absl::FailedPreconditionError(
-            absl::StrCat("state.position_W: ", (state.position_W - there).norm(), " m from UAV '",
-                         mate.uav_id, "', closer than the ", required,
-                         " m the two must keep (min_separation_m ", mission.min_separation_m, ")"));
+        return FieldError(
+            absl::StatusCode::kFailedPrecondition,
+            absl::StrCat("$0: ", (state.position_W - there).norm(), " m from UAV '",
+                         EscapeForFieldError(mate.uav_id), "', closer than the ", required,
+                         " m the two must keep (min_separation_m ", mission.min_separation_m, ")"),
+            {"state.position_W"});
       }
     }
   }

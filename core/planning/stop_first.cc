@@ -8,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "core/common/field_error.h"
 #include "core/common/status_macros.h"
 #include "core/planning/separation.h"
 #include "core/trajectory/measurement_schedule.h"
@@ -123,30 +124,35 @@ absl::Status CheckStraightStop(const Environment& environment, const UavState& s
                                const PlannerLimits& limits) {
   const StraightStop stop = StraightStopOf(state, limits.dynamics);
   const std::string how =
-      absl::StrFormat("stopping from %.2f m/s at limits.max_accel_m_s2 = %g takes %.2f m",
-                      stop.speed_m_s, limits.dynamics.max_accel_m_s2, stop.distance_m);
+      absl::StrFormat("stopping from %.2f m/s at $1 = %g takes %.2f m", stop.speed_m_s,
+                      limits.dynamics.max_accel_m_s2, stop.distance_m);
   const Aabb& volume = environment.flight_volume();
   static constexpr const char* kAxis[] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a) {
     if (stop.stop_W[a] > volume.max_W[a]) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "state.velocity_W_m_s: ", how, " and would leave the flight volume through its ",
-          kAxis[a], " max face at ", volume.max_W[a], " m"));
+      return FieldError(absl::StatusCode::kFailedPrecondition,
+                        absl::StrCat("$0: ", how, " and would leave the flight volume through its ",
+                                     kAxis[a], " max face at ", volume.max_W[a], " m"),
+                        {"state.velocity_W_m_s", "limits.max_accel_m_s2"});
     }
     if (stop.stop_W[a] < volume.min_W[a]) {
-      return absl::FailedPreconditionError(absl::StrCat(
-          "state.velocity_W_m_s: ", how, " and would leave the flight volume through its ",
-          kAxis[a], " min face at ", volume.min_W[a], " m"));
+      return FieldError(absl::StatusCode::kFailedPrecondition,
+                        absl::StrCat("$0: ", how, " and would leave the flight volume through its ",
+                                     kAxis[a], " min face at ", volume.min_W[a], " m"),
+                        {"state.velocity_W_m_s", "limits.max_accel_m_s2"});
     }
   }
   const double clearance = limits.ObstacleClearance();
   for (const auto& [id, obstacle] : environment.obstacles()) {
     const double d = SegmentSignedDistance(obstacle.shape, stop.from_W, stop.stop_W);
     if (d < clearance) {
-      return absl::FailedPreconditionError(absl::StrFormat(
-          "state.velocity_W_m_s: %s and would come within %.2f m of obstacle '%s' (closer than "
-          "%s = %g m)",
-          how, std::max(d, 0.0), id.substr(0, 64), ClearanceRuleName(limits), clearance));
+      return FieldError(
+          absl::StatusCode::kFailedPrecondition,
+          absl::StrFormat("$0: %s and would come within %.2f m of obstacle '%s' "
+                          "(closer than %s = %g m)",
+                          how, std::max(d, 0.0), EscapeForFieldError(id.substr(0, 64)),
+                          ClearanceRuleName(limits), clearance),
+          {"state.velocity_W_m_s", "limits.max_accel_m_s2"});
     }
   }
   return absl::OkStatus();
