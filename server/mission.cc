@@ -281,15 +281,14 @@ absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& ch
                                                      " obstacles; at most ", api::kMaxObstacles));
     }
     const std::int64_t entry_bytes = LogEntryBytes(change);
-    OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
+    OAIPP_RETURN_IF_ERROR(log_.CheckRoom(entry_bytes, answers_.bytes()));
     OAIPP_RETURN_IF_ERROR(Persist(persist));
     absl::MutexLock lock(&mu_);
     env_ = Shared(std::move(next), esdfs_);
     // Ground newly under a building holds no targets. (Ground uncovered by a
     // removal keeps what was fused: the map cannot forget a measurement.)
     OAIPP_RETURN_IF_ERROR(FuseCoveredCells());
-    log_.push_back(change);
-    log_bytes_ += entry_bytes;
+    log_.Append(change, entry_bytes);
     result.obstacle_count = static_cast<int>(env_->obstacles().size());
     result.esdf_voxels_recomputed = env_->esdf().last_recomputed_voxels();
     Publish();
@@ -366,7 +365,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     }
     if (recorded != nullptr) known = *recorded;
     const std::int64_t entry_bytes = LogEntryBytes(input);
-    OAIPP_RETURN_IF_ERROR(CheckLogRoom(entry_bytes));
+    OAIPP_RETURN_IF_ERROR(log_.CheckRoom(entry_bytes, answers_.bytes()));
     // Durable first: a failed write leaves the mission as it was.
     OAIPP_RETURN_IF_ERROR(Persist(persist, large_ != nullptr ? &*known : nullptr));
     absl::MutexLock lock(&mu_);
@@ -377,8 +376,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     // No plan starts more than TeamTimelines::kMaxLag_s behind the newest
     // time, so none asks about a shot more than a camera period before that.
     fused_shots_.Prune(mission_time_s_ - TeamTimelines::kMaxLag_s - LongestShotPeriod(config_));
-    log_.push_back(input);
-    log_bytes_ += entry_bytes;
+    log_.Append(input, entry_bytes);
     Publish(/*obstacles_changed=*/false);
     if (known.has_value()) {
       result = *known;
@@ -560,9 +558,9 @@ MissionSnapshot Mission::Snapshot() const {
     s.trace_measurements_fused = summary_.trace_measurements_fused;
     s.measurements_fused = summary_.measurements_fused;
     s.mission_time_s = summary_.mission_time_s;
-    s.removed_uav_ids = removed_;
-    s.landed_uav_ids = landed_;
   }
+  s.removed_uav_ids = roster_.removed();
+  s.landed_uav_ids = roster_.landed();
   s.memory_bytes = MemoryBytes();
   s.paths_planned = paths_planned_.load();
   return s;

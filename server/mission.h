@@ -13,12 +13,17 @@
 // (Snapshot(), for GetMission and ListMissions) never waits for a mutation
 // or a plan.
 //
-// Mission holds mutation and plan coordination; the parts it holds are in
-// files of their own: the watchers and their events (mission_events.h), the
-// live view's track (flight_track.h), the first answers to request_ids
-// (idempotency_memo.h), when to ask for a snapshot (snapshot_policy.h), what
-// a snapshot holds (mission_state.h) and what missions over one site share
-// (site_caches.h). mission_restore.cc brings a mission back from the store.
+// Mission holds mutation and plan coordination, its world and its map; the
+// parts it holds are in files of their own, each with its own leaf lock or
+// none: the log and its sequence numbers (mission_log.h), who left the team
+// (team_roster.h), the team's timelines (team_timelines.h), the fused shots'
+// times (fused_shots.h), the watchers and their events (mission_events.h),
+// the live view's track (flight_track.h), the first answers to request_ids
+// (idempotency_memo.h), when to ask for a snapshot (snapshot_policy.h), its
+// standing on this server (mission_lease.h), what a snapshot holds
+// (mission_state.h), what its calls take and give (mission_types.h) and what
+// missions over one site share (site_caches.h). mission_restore.cc brings a
+// mission back from the store.
 //
 //   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> m, Mission::Create("m1", config));
 //   OAIPP_ASSIGN_OR_RETURN(MeasurementResult r, m->AddMeasurement(input, "req-17"));
@@ -53,50 +58,19 @@
 #include "server/idempotency_memo.h"
 #include "server/large_field_map.h"
 #include "server/mission_events.h"
+#include "server/mission_lease.h"
+#include "server/mission_log.h"
 #include "server/mission_state.h"
+#include "server/mission_types.h"
 #include "server/site_caches.h"
 #include "server/snapshot_policy.h"
+#include "server/team_roster.h"
 #include "server/team_timelines.h"
 
 namespace oaipp::server {
 
 using api::MeasurementInput;
 using api::MissionConfig;
-
-// The ordered log: the spec is the mission's config; then every applied
-// obstacle change and measurement.
-using LogEntry = std::variant<ObstacleChange, MeasurementInput>;
-
-struct MissionSnapshot {
-  std::string id;
-  MissionConfig config;
-  std::vector<Obstacle> obstacles;
-  double trace = 0.0;
-  std::int64_t measurements_fused = 0;
-  // The measurements `trace` includes (fewer than measurements_fused while
-  // a sparse map's variances are computed).
-  std::int64_t trace_measurements_fused = 0;
-  std::int64_t paths_planned = 0;
-  double mission_time_s = 0.0;
-  std::int64_t memory_bytes = 0;
-  absl::Time create_time;
-  std::vector<std::string> removed_uav_ids;  // taken out of the team, in order
-  std::vector<std::string> landed_uav_ids;   // of those, the ones that landed
-};
-
-// Writes the record of a change to durable storage, given its sequence
-// number in the mission's log, before the change is applied; an error stops
-// the change (nothing is applied) and is returned to the caller. `answer`
-// is the change's answer when it is known before the change is applied and
-// a replay could not compute it again (a measurement of a sparse map, whose
-// trace comes from a background refresh): stored with the record, so that a
-// retry after the mission was read back gets the first answer. Else nullptr.
-using PersistFn =
-    std::function<absl::Status(std::int64_t sequence, const MeasurementResult* answer)>;
-// The same for a plan, written before it is answered, with the planner's
-// state after it (Planner::SaveState).
-using PersistPlanFn = std::function<absl::Status(std::int64_t sequence, const PlannedPath& path,
-                                                 const std::string& planner_state)>;
 
 class Mission {
  public:
@@ -142,27 +116,7 @@ class Mission {
   // whichever comes first, and when call.cancelled (asked between CMA-ES
   // generations) says so. Plans of one mission run one at a time; callers
   // that queue plans (PlanningPool) keep one mission's plans in order.
-  struct PlanCall {
-    absl::Time deadline = absl::InfiniteFuture();
-    absl::Duration budget = absl::InfiniteDuration();
-    std::function<bool()> cancelled = nullptr;
-    PersistPlanFn persist = nullptr;
-    // PlanningContext::search_fraction: below 1 when the server sheds load.
-    double search_fraction = 1.0;
-    // Whether `budget` is the server's plan latency bound rather than the
-    // caller's planning_budget_s (which error a plan without a path gets).
-    bool budget_is_servers = false;
-    // From the call's arrival until a planner took it up
-    // (PlannerStats::queued_s).
-    absl::Duration queued = absl::ZeroDuration();
-    // The UAV to plan for (MissionConfig::CheckUavId): "" without a team.
-    // With a team its path keeps PairDistance from every teammate's
-    // timeline (TeamTimelines), counts their shots still to come as taken,
-    // and joins its own timeline from its start (PlannedPath::team
-    // stamped); FailedPrecondition for a start before the plan it already
-    // holds or more than TeamTimelines::kMaxLag_s behind the mission.
-    std::string uav_id = {};
-  };
+  using PlanCall = MissionPlanCall;
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const UavState& state,
                                                  std::optional<double> next_shot_mission_s,
                                                  const RequestKey& request, const PlanCall& call);
@@ -190,7 +144,7 @@ class Mission {
                                                         const PersistFn& persist = nullptr);
   // The sequence number the next change of the log will take (1 for a new
   // mission).
-  [[nodiscard]] std::int64_t next_sequence() const;
+  [[nodiscard]] std::int64_t next_sequence() const { return log_.next_sequence(); }
 
   // The state after the last record of the log (for a snapshot). Waits for
   // a plan in progress, so that planner state and map agree.
@@ -225,11 +179,11 @@ class Mission {
   // every measurement and obstacle change, and by the remembered answers to
   // request_ids (bounded: the oldest go first); read without the mission's
   // lock.
-  [[nodiscard]] std::int64_t LogBytes() const { return log_bytes_.load() + answers_.bytes(); }
+  [[nodiscard]] std::int64_t LogBytes() const { return log_.bytes() + answers_.bytes(); }
   // Changes that would take LogBytes() past `bytes` are refused with
   // RESOURCE_EXHAUSTED before anything is applied or stored. The registry
   // sets it from the mission's memory budget; no limit until then.
-  void set_log_limit(std::int64_t bytes) { log_limit_.store(bytes); }
+  void set_log_limit(std::int64_t bytes) { log_.set_limit(bytes); }
   // Reads a dense map under the reader lock (settled first, see
   // SettleMap); on a sparse map (config().map_backend) it calls nothing.
   void ReadMap(const std::function<void(const GpMap&)>& reader) const;
@@ -249,7 +203,7 @@ class Mission {
   // mission as it is now, for the trace the mission reports (nothing when
   // that is current).
   void SettleMap() const;
-  [[nodiscard]] std::vector<LogEntry> Log() const;
+  [[nodiscard]] std::vector<LogEntry> Log() const { return log_.Entries(); }
   [[nodiscard]] const std::string& id() const { return id_; }
   [[nodiscard]] const MissionConfig& config() const { return config_; }
   [[nodiscard]] const FieldGrid& grid() const { return grid_; }
@@ -274,31 +228,9 @@ class Mission {
   // mission is now.
   void MarkMoved(const absl::Status& reason);
 
-  // The store's ownership epoch this copy was read at (MissionStore::Claim);
-  // every record it writes states it.
-  [[nodiscard]] std::int64_t epoch() const { return epoch_.load(); }
-  void set_epoch(std::int64_t epoch) { epoch_.store(epoch); }
-  // Shared store: when this server last renewed its lease on the mission
-  // (MissionRegistry's bookkeeping; the infinite past until then).
-  [[nodiscard]] absl::Time lease_renewed() const {
-    return absl::FromUnixMicros(lease_renewed_us_.load());
-  }
-  void set_lease_renewed(absl::Time at) { lease_renewed_us_.store(absl::ToUnixMicros(at)); }
-  // Take-off pacing (ServiceLimits::take_off_patience): when this mission's
-  // take-off was first refused; nullopt if it was not, or a take-off plan
-  // has since been answered OK. In memory only: a restart, a reload or
-  // another server taking the mission over starts the wait afresh. (A
-  // refusal racing an admitted take-off of the same mission may leave it
-  // set; that mission's next take-off then skips the queue rule.)
-  [[nodiscard]] std::optional<absl::Time> grounded_since() const {
-    const std::int64_t ns = grounded_since_ns_.load();
-    return ns == kNotGrounded ? std::nullopt : std::optional(absl::FromUnixNanos(ns));
-  }
-  void NoteTakeOffRefused(absl::Time now) {
-    std::int64_t expected = kNotGrounded;
-    grounded_since_ns_.compare_exchange_strong(expected, absl::ToUnixNanos(now));
-  }
-  void NoteTookOff() { grounded_since_ns_.store(kNotGrounded); }
+  // Its standing on this server: ownership epoch, lease, take-off pacing.
+  [[nodiscard]] MissionLease& lease() { return lease_; }
+  [[nodiscard]] const MissionLease& lease() const { return lease_; }
 
  private:
   // Exactly one of `map` (dense) and `large` (sparse) is set.
@@ -355,9 +287,6 @@ class Mission {
   // own limits, from the fields it carries as data (api::WithApiFieldNames).
   [[nodiscard]] absl::Status NamedForMember(const absl::Status& status,
                                             const std::string& uav_id) const;
-  // Whether `uav_id` was taken out of the team; whether it landed.
-  [[nodiscard]] bool Removed(const std::string& uav_id) const;
-  [[nodiscard]] bool Landed(const std::string& uav_id) const;
   // A team's other UAVs in the air as the plan for `uav_id` at mission time
   // `now_s` must keep clear of them (docs/teams.md "The guarantee"): each
   // one's timeline (or, before its first plan, its start, held) and the
@@ -382,11 +311,8 @@ class Mission {
   EsdfPool* const esdfs_;
   WorldCache* const worlds_;
 
-  // OK when `bytes` more fit the log (log_limit_); else RESOURCE_EXHAUSTED.
-  [[nodiscard]] absl::Status CheckLogRoom(std::int64_t bytes) const;
-
   // Locks, outermost first: planner_mu_, mutation_mu_, mu_, then the leaf
-  // locks (sequence_mu_, summary_mu_, and those of answers_, events_ and
+  // locks (summary_mu_, and those of log_, roster_, answers_, events_ and
   // track_).
   // mutation_mu_ orders mutations and is held for a whole one; mu_ guards
   // the state and is held for writing only while a change is put in place.
@@ -408,9 +334,6 @@ class Mission {
   // (MutableMap): plans share its conditioned covariances.
   std::shared_ptr<const StartMap> start_map_ ABSL_GUARDED_BY(mu_);
   std::set<int> covered_cells_ ABSL_GUARDED_BY(mu_);
-  std::vector<LogEntry> log_ ABSL_GUARDED_BY(mu_);
-  std::atomic<std::int64_t> log_bytes_{0};
-  std::atomic<std::int64_t> log_limit_{std::numeric_limits<std::int64_t>::max()};
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
   // When each UAV's fused measurements were taken (by uav_id; "" without a
@@ -441,10 +364,8 @@ class Mission {
   mutable absl::Mutex summary_mu_;
   mutable Summary summary_ ABSL_GUARDED_BY(summary_mu_);  // SettleMap sets a sparse trace
   std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
-  // Members taken out of the team, in the order removed (RemoveMember),
-  // and those of them that landed.
-  std::vector<std::string> removed_ ABSL_GUARDED_BY(summary_mu_);
-  std::vector<std::string> landed_ ABSL_GUARDED_BY(summary_mu_);
+  // Members taken out of the team (RemoveMember), with its own leaf lock.
+  TeamRoster roster_;
   // A team's planners, each with its member's limits (PlannerOf).
   std::map<std::string, std::unique_ptr<Planner>> member_planners_ ABSL_GUARDED_BY(planner_mu_);
   // A team's committed plans, a timeline per UAV.
@@ -453,19 +374,15 @@ class Mission {
   // must not wait for one.
   std::atomic<std::int64_t> paths_planned_{0};
 
-  // The log's next sequence number: innermost lock, held only while a record
-  // is written, so mutations (under mu_) and plans (under planner_mu_) share
-  // one order.
-  mutable absl::Mutex sequence_mu_;
-  std::int64_t next_sequence_ ABSL_GUARDED_BY(sequence_mu_) = 1;
+  // The log: sequence numbers (its leaf lock is held while a record is
+  // written, so mutations under mu_ and plans under planner_mu_ share one
+  // order) and the applied changes.
+  MissionLog log_;
 
   // When to ask for the next snapshot.
   SnapshotPolicy snapshots_;
   std::atomic<std::int64_t> last_change_unix_us_{0};
-  std::atomic<std::int64_t> epoch_{1};
-  std::atomic<std::int64_t> lease_renewed_us_{std::numeric_limits<std::int64_t>::min()};
-  static constexpr std::int64_t kNotGrounded = std::numeric_limits<std::int64_t>::min();
-  std::atomic<std::int64_t> grounded_since_ns_{kNotGrounded};
+  MissionLease lease_;
 
   MissionEvents events_;
   // The live view reads the track without waiting for a change in

@@ -126,10 +126,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
     absl::MutexLock lock(&mission->mu_);
     mission->Publish();
   }
-  {
-    absl::MutexLock lock(&mission->sequence_mu_);
-    mission->next_sequence_ = state.sequence + 1;
-  }
+  mission->log_.ContinueAfter(state.sequence);
   mission->answers_.Restore(std::move(state.answers));
   mission->paths_planned_ = state.paths_planned;
   {
@@ -137,9 +134,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
     for (const PlannedPath& path : state.committed) {
       mission->timelines_.Commit(path, state.mission_time_s);
     }
-    absl::MutexLock summary_lock(&mission->summary_mu_);
-    mission->removed_ = std::move(state.removed_uav_ids);
-    mission->landed_ = std::move(state.landed_uav_ids);
+    mission->roster_.Restore(std::move(state.removed_uav_ids), std::move(state.landed_uav_ids));
   }
   mission->snapshots_.StoredAt(state.sequence, state.measurements_fused);
   return mission;

@@ -50,21 +50,11 @@ absl::Status Mission::NamedForMember(const absl::Status& status, const std::stri
 
 absl::Status Mission::CheckPlanningUav(const std::string& uav_id) const {
   OAIPP_RETURN_IF_ERROR(config_.CheckUavId(uav_id, "uav_id"));
-  if (Removed(uav_id)) {
+  if (roster_.Removed(uav_id)) {
     return absl::NotFoundError(
         absl::StrCat("uav_id: UAV '", uav_id, "' was removed from the team"));
   }
   return absl::OkStatus();
-}
-
-bool Mission::Removed(const std::string& uav_id) const {
-  absl::MutexLock lock(&summary_mu_);
-  return std::find(removed_.begin(), removed_.end(), uav_id) != removed_.end();
-}
-
-bool Mission::Landed(const std::string& uav_id) const {
-  absl::MutexLock lock(&summary_mu_);
-  return std::find(landed_.begin(), landed_.end(), uav_id) != landed_.end();
 }
 
 absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id, bool landed,
@@ -82,15 +72,15 @@ absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id, bool
   OAIPP_RETURN_IF_ERROR(config_.CheckUavId(uav_id, "uav_id"));
   // A UAV removed in the air may be reported landed later; nothing else
   // about a removed UAV changes.
-  const bool removed = Removed(uav_id);
-  if (removed && (!landed || Landed(uav_id))) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("uav_id: UAV '", uav_id, "' was removed from the team already",
-                     Landed(uav_id) ? " and has landed" : "; only landed: true may follow"));
+  const bool removed = roster_.Removed(uav_id);
+  if (removed && (!landed || roster_.Landed(uav_id))) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "uav_id: UAV '", uav_id, "' was removed from the team already",
+        roster_.Landed(uav_id) ? " and has landed" : "; only landed: true may follow"));
   }
   TeamResult result;
   for (const api::TeamMember& member : config_.team) {
-    if (member.uav_id != uav_id && !Removed(member.uav_id)) {
+    if (member.uav_id != uav_id && !roster_.Removed(member.uav_id)) {
       result.flying_uav_ids.push_back(member.uav_id);
     }
   }
@@ -100,11 +90,7 @@ absl::StatusOr<TeamResult> Mission::RemoveMember(const std::string& uav_id, bool
   }
   // Durable first: a failed write leaves the team as it was.
   OAIPP_RETURN_IF_ERROR(Persist(persist));
-  {
-    absl::MutexLock lock(&summary_mu_);
-    if (!removed) removed_.push_back(uav_id);
-    if (landed) landed_.push_back(uav_id);
-  }
+  roster_.Remove(uav_id, landed);
   // In the air it stays an obstacle on its timeline (TeammatesOf); landed,
   // it is gone.
   if (landed) timelines_.Erase(uav_id);
@@ -120,8 +106,8 @@ std::vector<Teammate> Mission::TeammatesOf(
     std::vector<std::pair<std::string, std::int64_t>>* versions) const {
   std::vector<Teammate> mates;
   for (const api::TeamMember& member : config_.team) {
-    if (member.uav_id == uav_id || Landed(member.uav_id)) continue;
-    const bool removed = Removed(member.uav_id);
+    if (member.uav_id == uav_id || roster_.Landed(member.uav_id)) continue;
+    const bool removed = roster_.Removed(member.uav_id);
     const std::vector<PlannedPath>* line = timelines_.Of(member.uav_id);
     Teammate mate{.uav_id = member.uav_id,
                   .trajectory = line != nullptr ? line->back().trajectory : HeldAt(member.start),

@@ -98,7 +98,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
                                                            .fingerprint = fingerprint_,
                                                            .result = answer.SerializeAsString(),
                                                            .planner_state = planner_state,
-                                                           .epoch = mission_->epoch()}));
+                                                           .epoch = mission_->lease().epoch()}));
       };
     }
     // A UAV at rest at mission time 0 has not flown: it can wait on the
@@ -106,9 +106,9 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     if (service_->limits_.max_take_off_plans > 0 && state_.mission_time_s == 0.0 &&
         state_.velocity_W_m_s.isZero() && state_.accel_W_m_s2.isZero()) {
       std::optional<Admission::TakeOffRefusal> refused =
-          service_->admission_.AdmitTakeOff(mission_->grounded_since());
+          service_->admission_.AdmitTakeOff(mission_->lease().grounded_since());
       if (refused.has_value()) {
-        mission_->NoteTakeOffRefused(service_->limits_.clock->Now());
+        mission_->lease().NoteTakeOffRefused(service_->limits_.clock->Now());
         const std::int64_t ms =
             std::max<std::int64_t>(1, absl::ToInt64Milliseconds(refused->retry_after));
         context_->AddTrailingMetadata(api::kRetryAfterHeader, absl::StrCat(ms));
@@ -181,7 +181,7 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
     if (holds_plan_) service_->admission_.ReleasePlan(tenant_);
     if (take_off_) {
       service_->admission_.TakeOffEnded(planned_);
-      if (status.ok()) mission_->NoteTookOff();  // a failed one waits on
+      if (status.ok()) mission_->lease().NoteTookOff();  // a failed one waits on
     }
     Finish(ToGrpcStatus(status));
   }

@@ -363,7 +363,7 @@ absl::Status MissionRegistry::Reload(const std::string& mission_id) {
     absl::MutexLock lock(&mu_);
     auto it = missions_.find(mission_id);
     if (it == missions_.end() || it->second == nullptr) return absl::OkStatus();  // deleted since
-    if (it->second->epoch() == stored.epoch) old = std::exchange(it->second, *mission);
+    if (it->second->lease().epoch() == stored.epoch) old = std::exchange(it->second, *mission);
   }
   if (old == nullptr) {
     // Another server claimed it: what it wrote is no longer this server's.
@@ -500,7 +500,7 @@ absl::Status MissionRegistry::DeleteKey(const std::string& id, const std::string
     mission = it->second;
     // Durable first: a failed delete leaves the mission in place.
     if (store_ != nullptr) {
-      const absl::Status deleted = store_->DeleteMission(id, request_key, mission->epoch());
+      const absl::Status deleted = store_->DeleteMission(id, request_key, mission->lease().epoch());
       if (deleted.GetPayload(kFenced).has_value()) {
         fenced = deleted;
       } else if (!deleted.ok()) {

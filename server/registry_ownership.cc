@@ -28,7 +28,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Hold(const std::string
     // One indexed read: whether another server has claimed the mission
     // since this copy was read.
     absl::StatusOr<std::int64_t> epoch = store_->Epoch(key);
-    if (epoch.ok() && *epoch == held->epoch()) {
+    if (epoch.ok() && *epoch == held->lease().epoch()) {
       KeepLease(*held);
       return held;
     }
@@ -133,7 +133,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
       return absl::Status(mission.status().code(), absl::StrCat("taking over mission '", name,
                                                                 "': ", mission.status().message()));
     }
-    (*mission)->set_lease_renewed(leased);
+    (*mission)->lease().set_renewed(leased);
     std::shared_ptr<Mission> replaced;
     {
       absl::MutexLock lock(&mu_);
@@ -219,8 +219,8 @@ absl::Status MissionRegistry::AcquireLease(const std::string& key, absl::string_
 
 void MissionRegistry::KeepLease(Mission& mission) {
   const absl::Time now = absl::Now();
-  if (now - mission.lease_renewed() < limits_.mission_lease / 4) return;
-  mission.set_lease_renewed(now);
+  if (now - mission.lease().renewed() < limits_.mission_lease / 4) return;
+  mission.lease().set_renewed(now);
   const std::string& key = mission.id();
   // Renewed only while it is this server's (or free): had it lapsed and
   // been taken, the taker's claim fences this copy's next write.
@@ -274,7 +274,7 @@ std::vector<std::string> MissionRegistry::DropMoved() {
   if (!limits_.shared_store) return dropped;
   for (const std::shared_ptr<Mission>& m : List(0, static_cast<std::size_t>(-1))) {
     absl::StatusOr<std::int64_t> epoch = store_->Epoch(m->id());
-    if (epoch.ok() && *epoch == m->epoch()) continue;
+    if (epoch.ok() && *epoch == m->lease().epoch()) continue;
     if (!epoch.ok() && epoch.status().code() != absl::StatusCode::kNotFound) break;  // store down
     Drop(m->id(), m,
          absl::UnavailableError(absl::StrCat("name: mission 'missions/", PublicId(m->id()),

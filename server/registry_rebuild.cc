@@ -124,7 +124,7 @@ std::shared_ptr<Mission> MissionRegistry::Finish(ReadBack read, const StoredMiss
   // shrunk since.
   mission.set_log_limit(LogLimit(EstimateMissionBytes(mission.config()).total()));
   mission.set_create_time(absl::FromUnixMicros(m.create_time_unix_us));
-  mission.set_epoch(m.epoch);
+  mission.lease().set_epoch(m.epoch);
   mission.set_last_change_time(absl::FromUnixMicros(read.last_write_us));
   WatchForSnapshots(mission);
   return std::move(read.mission);

@@ -67,7 +67,7 @@ std::vector<std::string> MissionRegistry::SweepStore(absl::Time now, absl::Durat
     // (DropMoved). A mission claimed since it was read has another epoch
     // and is left (fenced).
     std::shared_ptr<Mission> here = Find(id);
-    const absl::Status status = here != nullptr && here->epoch() == epoch
+    const absl::Status status = here != nullptr && here->lease().epoch() == epoch
                                     ? DeleteKey(id, "", "")
                                     : store_->DeleteMission(id, "", epoch);
     if (status.ok()) {

@@ -106,7 +106,7 @@ PersistFn Recorder(MissionStore* store, const Mission& mission, RecordKind kind,
                                                      .request_id = request.request_id(),
                                                      .fingerprint = fingerprint,
                                                      .result = std::move(result),
-                                                     .epoch = mission.epoch()}));
+                                                     .epoch = mission.lease().epoch()}));
   };
 }
 

@@ -88,9 +88,9 @@ void MissionRegistry::TakeSnapshot(const std::string& mission_id) {
     mission = it->second;
   }
   const MissionState state = mission->CaptureState();
-  const absl::Status stored = store_->PutSnapshot(
-      mission_id,
-      {.sequence = state.sequence, .state = EncodeMissionState(state), .epoch = mission->epoch()});
+  const absl::Status stored = store_->PutSnapshot(mission_id, {.sequence = state.sequence,
+                                                               .state = EncodeMissionState(state),
+                                                               .epoch = mission->lease().epoch()});
   if (stored.GetPayload(kFenced).has_value()) {
     Drop(mission_id, mission,
          absl::UnavailableError(absl::StrCat("name: mission 'missions/", PublicId(mission_id),

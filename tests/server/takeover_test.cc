@@ -125,11 +125,11 @@ TEST_F(TakeoverTest, AWriteRacingATakeoverIsRefusedAndLeavesNothingBehind) {
   // B takes the mission between A's ownership check and A's write: A's
   // append is fenced by the store.
   ASSERT_EQ(Get(*b_).measurements_fused(), 1);
-  const absl::Status refused =
-      a_->registry().AfterFailedWrite(*held, store_->Append("m", {.sequence = 2,
-                                                                  .kind = RecordKind::kMeasurement,
-                                                                  .payload = "x",
-                                                                  .epoch = (*held)->epoch()}));
+  const absl::Status refused = a_->registry().AfterFailedWrite(
+      *held, store_->Append("m", {.sequence = 2,
+                                  .kind = RecordKind::kMeasurement,
+                                  .payload = "x",
+                                  .epoch = (*held)->lease().epoch()}));
   EXPECT_EQ(refused.code(), absl::StatusCode::kUnavailable) << refused;
   EXPECT_NE(refused.message().find("another server"), absl::string_view::npos) << refused;
   EXPECT_EQ(a_->registry().size(), 0u);  // A let go of its copy
@@ -297,7 +297,7 @@ TEST(EarlyReadTest, ATakeoverReadsWhileItWaitsAndClaimsOnlyWhatCameSince) {
   call.join();
   ASSERT_TRUE(taken.ok()) << taken.status();
   EXPECT_EQ(b.takeovers(), 1);
-  EXPECT_EQ((*taken)->epoch(), kFirstEpoch + 1);
+  EXPECT_EQ((*taken)->lease().epoch(), kFirstEpoch + 1);
 
   // Everything "a" stored, in "b"'s copy: the same map, bit for bit.
   EXPECT_EQ((*taken)->Snapshot().measurements_fused, 4);
