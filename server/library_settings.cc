@@ -1,5 +1,6 @@
 #include "server/library_settings.h"
 
+#include <cstdio>
 #include <cstdlib>
 #include <string>
 
@@ -38,6 +39,16 @@ absl::StatusOr<NumericSetup> SetUpNumericLibraries() {
         better, " for kernels 3-6x faster (docs/capacity.md)");
   }
   return setup;
+}
+
+bool SetUpNumericLibrariesOrSay() {
+  const absl::StatusOr<NumericSetup> numeric = SetUpNumericLibraries();
+  if (!numeric.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(numeric.status().message()).c_str());
+    return false;
+  }
+  if (!numeric->warning.empty()) std::fprintf(stderr, "%s\n", numeric->warning.c_str());
+  return true;
 }
 
 }  // namespace oaipp::server

@@ -47,5 +47,8 @@ struct NumericSetup {
 // is not safe to call from several threads at once
 // (CheckBlasIsSafeForConcurrentCalls): the program should not go on.
 [[nodiscard]] absl::StatusOr<NumericSetup> SetUpNumericLibraries();
+// The same for a tool that reports on stderr (the benchmarks): prints the
+// warning, or the error and returns false (the program should stop).
+[[nodiscard]] bool SetUpNumericLibrariesOrSay();
 
 }  // namespace oaipp::server

@@ -2,22 +2,12 @@
 // up as the server sets them up (server/library_settings.h: one thread
 // per BLAS call and per OpenMP loop), so
 // that what is timed is what the server runs.
-#include <cstdio>
-#include <string>
-
 #include "benchmark/benchmark.h"
 #include "server/library_settings.h"
 
 int main(int argc, char** argv) {
   // As the server does: the numeric libraries' threads (server/library_settings.h).
-  if (const absl::StatusOr<oaipp::server::NumericSetup> numeric =
-          oaipp::server::SetUpNumericLibraries();
-      !numeric.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(numeric.status().message()).c_str());
-    return 1;
-  } else if (!numeric->warning.empty()) {
-    std::fprintf(stderr, "%s\n", numeric->warning.c_str());
-  }
+  if (!oaipp::server::SetUpNumericLibrariesOrSay()) return 1;
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   benchmark::RunSpecifiedBenchmarks();

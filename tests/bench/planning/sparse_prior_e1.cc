@@ -13,7 +13,6 @@
 //   build/tests/bench/planning/sparse_prior_e1 --seeds=25
 #include <cmath>
 #include <cstdio>
-#include <string>
 #include <vector>
 
 #include "absl/flags/flag.h"
@@ -100,14 +99,7 @@ double Fly(std::uint32_t seed, bool sparse, double budget_s) {
 
 int main(int argc, char** argv) {
   // As the server does: the numeric libraries' threads (server/library_settings.h).
-  if (const absl::StatusOr<oaipp::server::NumericSetup> numeric =
-          oaipp::server::SetUpNumericLibraries();
-      !numeric.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(numeric.status().message()).c_str());
-    return 1;
-  } else if (!numeric->warning.empty()) {
-    std::fprintf(stderr, "%s\n", numeric->warning.c_str());
-  }
+  if (!oaipp::server::SetUpNumericLibrariesOrSay()) return 1;
   absl::ParseCommandLine(argc, argv);
   const int seeds = absl::GetFlag(FLAGS_seeds);
   const double budget_s = absl::GetFlag(FLAGS_budget_s);

@@ -178,14 +178,7 @@ int Run() {
 
 int main(int argc, char** argv) {
   // As the server does: the numeric libraries' threads (server/library_settings.h).
-  if (const absl::StatusOr<oaipp::server::NumericSetup> numeric =
-          oaipp::server::SetUpNumericLibraries();
-      !numeric.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(numeric.status().message()).c_str());
-    return 1;
-  } else if (!numeric->warning.empty()) {
-    std::fprintf(stderr, "%s\n", numeric->warning.c_str());
-  }
+  if (!oaipp::server::SetUpNumericLibrariesOrSay()) return 1;
   absl::ParseCommandLine(argc, argv);
   return oaipp::Run();
 }

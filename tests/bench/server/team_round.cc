@@ -228,14 +228,7 @@ int Run() {
 
 int main(int argc, char** argv) {
   // As the server does: the numeric libraries' threads (server/library_settings.h).
-  if (const absl::StatusOr<oaipp::server::NumericSetup> numeric =
-          oaipp::server::SetUpNumericLibraries();
-      !numeric.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(numeric.status().message()).c_str());
-    return 1;
-  } else if (!numeric->warning.empty()) {
-    std::fprintf(stderr, "%s\n", numeric->warning.c_str());
-  }
+  if (!oaipp::server::SetUpNumericLibrariesOrSay()) return 1;
   absl::SetProgramUsageMessage(
       "Rounds of a team's plans through the service in process; takes oaipp-server's flags "
       "too (--helpfull lists them).");
