@@ -67,19 +67,11 @@ Mission::Mission(std::string id, MissionConfig config, FieldGrid grid, Environme
       config_(std::move(config)),
       grid_(std::move(grid)),
       create_time_(absl::FromUnixMicros(absl::ToUnixMicros(absl::Now()))),  // as stored
-      map_bytes_(map == nullptr ? 0
-                                : 8 * static_cast<std::int64_t>(map->num_cells()) *
-                                      (static_cast<std::int64_t>(map->num_cells()) + 1)),
       esdfs_(caches.esdfs),
       worlds_(caches.worlds),
       env_(Shared(std::move(env), caches.esdfs)),
-      map_(std::move(map)),
-      large_(std::move(large)),
-      planner_(std::move(planner)) {
-  if (large_ != nullptr) {
-    added_ = std::make_shared<SparseGpMap::Additions>(SparseGpMap::NoAdditions(grid_.num_cells()));
-  }
-}
+      map_(grid_, std::move(map), std::move(large)),
+      planner_(std::move(planner)) {}
 
 absl::StatusOr<Environment> Mission::BuildWorld(const MissionConfig& config,
                                                 const std::string& world_key,
@@ -143,10 +135,10 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
       absl::MutexLock lock(&mission->mu_);
       OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
       mission->mission_time_s_ = mission->config_.start.mission_time_s;
-      first = mission->SparseTarget();
+      first = mission->map_.SparseTarget(mission->measurements_fused_);
     }
     // The first variance map, so that the mission reports its trace.
-    OAIPP_RETURN_IF_ERROR(mission->large_->Read(first).status());
+    OAIPP_RETURN_IF_ERROR(mission->map_.large()->Read(first).status());
     absl::MutexLock lock(&mission->mu_);
     mission->Publish();
     return mission;
@@ -168,7 +160,6 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   };
   std::shared_ptr<GpMap> map;
   std::shared_ptr<const StartMap> start_map;
-  std::vector<int> covered;
   if (caches.start_maps != nullptr) {
     // The same prior and the same fusion, in the same cell order, as
     // FuseCoveredCells below would do: the shared map is equal bit for bit
@@ -182,7 +173,6 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
           return StartMap{std::make_shared<GpMap>(std::move(fused)), std::move(cells)};
         }));
     map = shared->map;
-    covered = shared->covered_cells;
     start_map = std::move(shared);
   } else {
     OAIPP_ASSIGN_OR_RETURN(GpMap fresh, prior());
@@ -192,28 +182,14 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
                                                std::move(env), std::move(map), nullptr,
                                                std::move(planner), caches));
   absl::MutexLock lock(&mission->mu_);
-  mission->start_map_ = std::move(start_map);
-  mission->covered_cells_.insert(covered.begin(), covered.end());
+  if (start_map != nullptr) mission->map_.AdoptStartMap(std::move(start_map));
   OAIPP_RETURN_IF_ERROR(mission->FuseCoveredCells());
   mission->mission_time_s_ = mission->config_.start.mission_time_s;
   mission->Publish();
   return mission;
 }
 
-absl::Status Mission::FuseCoveredCells() {
-  std::vector<int> fresh;
-  for (int c : CellsUnder(grid_, *env_)) {
-    if (!covered_cells_.contains(c)) fresh.push_back(c);
-  }
-  if (fresh.empty()) return absl::OkStatus();
-  if (large_ != nullptr) {
-    OAIPP_RETURN_IF_ERROR(FuseIntoMap(SparseGpMap::NearCertainZeros(fresh), /*defer=*/false));
-  } else {
-    OAIPP_RETURN_IF_ERROR(MutableMap().FuseNearCertainZeros(fresh));
-  }
-  covered_cells_.insert(fresh.begin(), fresh.end());
-  return absl::OkStatus();
-}
+absl::Status Mission::FuseCoveredCells() { return map_.FuseCovered(CellsUnder(grid_, *env_)); }
 
 void Mission::Publish(bool obstacles_changed) {
   Summary next;
@@ -227,13 +203,13 @@ void Mission::Publish(bool obstacles_changed) {
   }
   next.env = env_;
   if (const std::shared_ptr<const LargeFieldMap::Reading> reading =
-          large_ != nullptr ? large_->latest() : nullptr;
+          map_.sparse() ? map_.large()->latest() : nullptr;
       reading != nullptr) {
     // The newest variance map; SettleMap brings it up to date.
     next.trace = reading->trace;
     next.trace_measurements_fused = reading->measurements_fused;
     next.trace_version = reading->version;
-  } else if (large_ != nullptr) {
+  } else if (map_.sparse()) {
     // None yet (a mission read back from its snapshot): the snapshot's
     // trace stands.
     absl::MutexLock lock(&summary_mu_);
@@ -241,14 +217,14 @@ void Mission::Publish(bool obstacles_changed) {
     next.trace_measurements_fused = summary_.trace_measurements_fused;
     next.trace_version = summary_.trace_version;
   } else {
-    next.trace = map_->Trace();
+    next.trace = map_.dense()->Trace();
     next.trace_measurements_fused = measurements_fused_;
   }
   next.measurements_fused = measurements_fused_;
   next.mission_time_s = mission_time_s_;
   absl::MutexLock lock(&summary_mu_);
   // A background refresh may have published a newer variance map.
-  if (large_ != nullptr && summary_.trace_version > next.trace_version) {
+  if (map_.sparse() && summary_.trace_version > next.trace_version) {
     next.trace = summary_.trace;
     next.trace_measurements_fused = summary_.trace_measurements_fused;
     next.trace_version = summary_.trace_version;
@@ -355,7 +331,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     {
       absl::ReaderMutexLock lock(&mu_);
       OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
-      if (large_ != nullptr) {
+      if (map_.sparse()) {
         absl::MutexLock summary_lock(&summary_mu_);
         known = MeasurementResult{.cells_fused = static_cast<int>(observations.size()),
                                   .trace = summary_.trace,
@@ -367,9 +343,9 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     const std::int64_t entry_bytes = LogEntryBytes(input);
     OAIPP_RETURN_IF_ERROR(log_.CheckRoom(entry_bytes, answers_.bytes()));
     // Durable first: a failed write leaves the mission as it was.
-    OAIPP_RETURN_IF_ERROR(Persist(persist, large_ != nullptr ? &*known : nullptr));
+    OAIPP_RETURN_IF_ERROR(Persist(persist, map_.sparse() ? &*known : nullptr));
     absl::MutexLock lock(&mu_);
-    OAIPP_RETURN_IF_ERROR(FuseIntoMap(observations, /*defer=*/true));
+    OAIPP_RETURN_IF_ERROR(map_.Fuse(observations, /*defer=*/true));
     ++measurements_fused_;
     mission_time_s_ = std::max(mission_time_s_, input.mission_time_s);
     fused_shots_.Add(input.uav_id, input.mission_time_s);
@@ -434,9 +410,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
     OAIPP_RETURN_IF_ERROR(
         timelines_.CheckStart(call.uav_id, state.mission_time_s, plan_map.mission_time_s));
   }
-  std::shared_ptr<const GpMap> map = std::move(plan_map.map);
-  std::shared_ptr<ConditionedCache> conditioned = std::move(plan_map.conditioned);
-  const FieldGrid* field = plan_map.field;
+  std::shared_ptr<const GpMap> map = std::move(plan_map.shared.map);
+  std::shared_ptr<ConditionedCache> conditioned = std::move(plan_map.shared.conditioned);
+  const FieldGrid* field = plan_map.shared.field;
   // The planning budget counts from here: a caller that queued the plan
   // calls this once a planner is free, and neither waiting nor settling the
   // last measurement's downdate is planning.
@@ -456,7 +432,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .search_fraction = call.search_fraction,
                                 .conditioned = conditioned.get(),
                                 .chain = config_.team.size() >= 2
-                                             ? ChainedPrefix{&team_chain_, plan_map.key}
+                                             ? ChainedPrefix{&team_chain_, plan_map.shared.key}
                                              : ChainedPrefix{},
                                 .teammates = teammates,
                                 .min_separation_m = config_.min_separation_m,
@@ -565,14 +541,5 @@ MissionSnapshot Mission::Snapshot() const {
   s.paths_planned = paths_planned_.load();
   return s;
 }
-
-void Mission::HandWatchersTo(Mission& successor) { events_.HandTo(successor.events_); }
-
-void Mission::MarkDeleted() {
-  events_.Emit(MissionEventData::Deleted{});
-  events_.CloseAll(absl::OkStatus());
-}
-
-void Mission::MarkMoved(const absl::Status& reason) { events_.CloseAll(reason); }
 
 }  // namespace oaipp::server

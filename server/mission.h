@@ -60,6 +60,7 @@
 #include "server/mission_events.h"
 #include "server/mission_lease.h"
 #include "server/mission_log.h"
+#include "server/mission_map.h"
 #include "server/mission_state.h"
 #include "server/mission_types.h"
 #include "server/site_caches.h"
@@ -210,23 +211,10 @@ class Mission {
 
   // The live view's track (a copy).
   [[nodiscard]] MissionTrack Track() const { return track_.Copy(); }
-  // The number of the last event (0 before the first).
-  [[nodiscard]] std::int64_t last_event_sequence() const { return events_.last_sequence(); }
-
-  // Watchers get every event after they subscribe.
-  [[nodiscard]] std::shared_ptr<EventQueue> Subscribe() { return events_.Subscribe(); }
-  void Unsubscribe(const std::shared_ptr<EventQueue>& queue) { events_.Unsubscribe(queue); }
-  [[nodiscard]] int watchers() const { return events_.watchers(); }
-  // Moves this mission's watchers to `successor` (the same mission read
-  // back from the store).
-  void HandWatchersTo(Mission& successor);
-  // Tells watchers the mission is gone and closes their queues.
-  void MarkDeleted();
-  // This copy of the mission is no longer this server's to serve (another
-  // server of a cluster took it over): closes the watchers' queues with
-  // `reason`, so that their streams end and they watch again where the
-  // mission is now.
-  void MarkMoved(const absl::Status& reason);
+  // Its watchers and their events (a copy read back from the store takes
+  // them over: events().HandTo(successor.events())).
+  [[nodiscard]] MissionEvents& events() { return events_; }
+  [[nodiscard]] const MissionEvents& events() const { return events_; }
 
   // Its standing on this server: ownership epoch, lease, take-off pacing.
   [[nodiscard]] MissionLease& lease() { return lease_; }
@@ -237,22 +225,10 @@ class Mission {
   Mission(std::string id, MissionConfig config, FieldGrid grid, Environment env,
           std::shared_ptr<GpMap> map, std::unique_ptr<LargeFieldMap> large,
           std::unique_ptr<Planner> planner, const SiteCaches& caches);
-  // A sparse map's state now, for LargeFieldMap.
-  LargeFieldMap::Target SparseTarget() const ABSL_SHARED_LOCKS_REQUIRED(mu_);
-  // Fuses into the map, dense or sparse (the dense one's downdate deferred
-  // when `defer`).
-  absl::Status FuseIntoMap(std::span<const CellObservation> observations, bool defer)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // For a plan: the dense map, or a sparse map's window around
   // `centre_W`, as of now (the latter built without holding mu_).
   struct PlanMap {
-    std::shared_ptr<const GpMap> map;
-    std::shared_ptr<ConditionedCache> conditioned;
-    const FieldGrid* field = nullptr;  // the whole field, when map is a window
-    // What map's covariance is, for the team's conditioning chain: the
-    // version it was read at (dense_version_, or the sparse map's
-    // map_version_) and the block of the field's cells it covers.
-    CovarianceKey key;
+    MissionMap::ForPlan shared;
     // fused_shots_ as the map holds it (taken under the same lock).
     FusedShots fused_shots;
     // The newest mission time the mission has seen (mission_time_s_).
@@ -266,8 +242,6 @@ class Mission {
                                                 const SiteCaches& caches);
   // Fuses, once, the cells under obstacles that were not fused before.
   absl::Status FuseCoveredCells() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
-  // The map, to change: copied first when a plan still reads it.
-  GpMap& MutableMap() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Publishes the summary Snapshot() reads (after every change); the
   // obstacle list is rebuilt only when obstacles changed.
   void Publish(bool obstacles_changed = true) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
@@ -305,7 +279,6 @@ class Mission {
   const MissionConfig config_;
   const FieldGrid grid_;
   absl::Time create_time_;  // set by the constructor, or by recovery before the mission is shared
-  const std::int64_t map_bytes_;  // a dense map's mean and covariance
   // Where equal ESDFs are shared (nullptr: not shared), and the worlds a
   // new mission clones (their hold on a grid is not a mission's share).
   EsdfPool* const esdfs_;
@@ -321,19 +294,9 @@ class Mission {
   // Shared with plans in progress; replaced, never changed in place, while
   // a plan holds them.
   std::shared_ptr<const Environment> env_ ABSL_GUARDED_BY(mu_);
-  std::shared_ptr<GpMap> map_ ABSL_GUARDED_BY(mu_);  // dense (else nullptr)
-  // Sparse: the map, read off mu_, and what was fused into it (copied
-  // before a change while a reader holds it) with the count of fusions.
-  const std::unique_ptr<LargeFieldMap> large_;
-  std::shared_ptr<SparseGpMap::Additions> added_ ABSL_GUARDED_BY(mu_);
-  std::int64_t map_version_ ABSL_GUARDED_BY(mu_) = 0;
-  // A dense map's changes (MutableMap), naming its covariance for the
-  // team's conditioning chain.
-  std::int64_t dense_version_ ABSL_GUARDED_BY(mu_) = 0;
-  // The shared map this mission started from, until its map changes
-  // (MutableMap): plans share its conditioned covariances.
-  std::shared_ptr<const StartMap> start_map_ ABSL_GUARDED_BY(mu_);
-  std::set<int> covered_cells_ ABSL_GUARDED_BY(mu_);
+  // The map, dense or sparse, under mu_ (mission_map.h says which parts
+  // run off it).
+  MissionMap map_;
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
   // When each UAV's fused measurements were taken (by uav_id; "" without a

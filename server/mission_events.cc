@@ -122,4 +122,9 @@ std::int64_t MissionEvents::last_sequence() const {
   return sequence_;
 }
 
+void MissionEvents::MarkDeleted() {
+  Emit(MissionEventData::Deleted{});
+  CloseAll(absl::OkStatus());
+}
+
 }  // namespace oaipp::server

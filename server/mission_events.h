@@ -100,8 +100,12 @@ class MissionEvents {
   // Numbers `event` (the next sequence), stamps it with the time and hands
   // it to every watcher whose stream has not ended.
   void Emit(decltype(MissionEventData::event) event);
-  // Closes every watcher's queue with `reason` and forgets the watchers.
+  // Closes every watcher's queue with `reason` and forgets the watchers:
+  // their streams end, and they watch again where the mission is now (a
+  // mission another server of a cluster took over).
   void CloseAll(const absl::Status& reason);
+  // Tells watchers the mission is gone and closes their queues.
+  void MarkDeleted();
   // Moves the watchers to `successor`, whose numbering goes on from at
   // least this hub's last event.
   void HandTo(MissionEvents& successor);

@@ -1,5 +1,7 @@
-// How a mission holds its map, dense or sparse: copies for readers, fusion,
-// the map a plan works on, whole-map reads and what they cost in memory.
+// How a mission holds its map, dense or sparse (MissionMap: fusion, the map
+// a plan reads, memory), and the Mission calls that read it whole.
+#include "server/mission_map.h"
+
 #include <algorithm>
 #include <utility>
 
@@ -8,47 +10,43 @@
 
 namespace oaipp::server {
 
-std::int64_t Mission::MemoryBytes() const {
-  std::shared_ptr<const Environment> env;
-  {
-    absl::MutexLock lock(&summary_mu_);
-    env = summary_.env;
+MissionMap::MissionMap(const FieldGrid& grid, std::shared_ptr<GpMap> dense,
+                       std::unique_ptr<LargeFieldMap> sparse)
+    : grid_(grid),
+      dense_bytes_(dense == nullptr ? 0
+                                    : 8 * static_cast<std::int64_t>(dense->num_cells()) *
+                                          (static_cast<std::int64_t>(dense->num_cells()) + 1)),
+      dense_(std::move(dense)),
+      large_(std::move(sparse)) {
+  if (large_ != nullptr) {
+    added_ = std::make_shared<SparseGpMap::Additions>(SparseGpMap::NoAdditions(grid_.num_cells()));
   }
-  // A sparse map: its factor and workspace, and the additions (16 bytes a
-  // cell) with a reader's copy.
-  const std::int64_t map_bytes = large_ == nullptr
-                                     ? map_bytes_ + team_chain_.bytes()
-                                     : large_->bytes() + 32 * std::int64_t{grid_.num_cells()};
-  if (env == nullptr) return map_bytes;
-  const Esdf& esdf = env->esdf();
-  std::int64_t users = esdf.SharedBy();
-  if (worlds_ != nullptr && worlds_->HoldsGrid(esdf.values().data())) --users;
-  return map_bytes +
-         static_cast<std::int64_t>(esdf.MemoryBytes()) / std::max<std::int64_t>(1, users);
 }
 
-GpMap& Mission::MutableMap() {
-  // Only holders of mu_ copy map_, and this one holds it for writing: a
-  // count of 1 cannot grow under us. A plan that lets go meanwhile costs
-  // one needless copy, no harm.
+std::int64_t MissionMap::bytes() const {
+  // A sparse map: its factor and workspace, and the additions (16 bytes a
+  // cell) with a reader's copy.
+  return large_ == nullptr ? dense_bytes_ : large_->bytes() + 32 * std::int64_t{grid_.num_cells()};
+}
+
+GpMap& MissionMap::MutableDense() {
+  // Only holders of the mission's lock copy dense_, and this one holds it
+  // for writing: a count of 1 cannot grow under us. A plan that lets go
+  // meanwhile costs one needless copy, no harm.
   // The shared start map and its conditionings are no longer this
   // mission's (a plan in progress keeps what it holds).
   start_map_.reset();
   ++dense_version_;
-  if (map_.use_count() > 1) map_ = std::make_shared<GpMap>(map_->Clone());
-  return *map_;
+  if (dense_.use_count() > 1) dense_ = std::make_shared<GpMap>(dense_->Clone());
+  return *dense_;
 }
 
-LargeFieldMap::Target Mission::SparseTarget() const {
-  return {.added = added_, .version = map_version_, .measurements_fused = measurements_fused_};
-}
-
-absl::Status Mission::FuseIntoMap(std::span<const CellObservation> observations, bool defer) {
+absl::Status MissionMap::Fuse(std::span<const CellObservation> observations, bool defer) {
   if (large_ == nullptr) {
-    GpMap& map = MutableMap();
+    GpMap& map = MutableDense();
     return defer ? map.UpdateDeferred(observations) : map.Update(observations);
   }
-  // Into a copy when a reader still holds the additions (as MutableMap).
+  // Into a copy when a reader still holds the additions (as MutableDense).
   SparseGpMap::Additions next;
   SparseGpMap::Additions* added = added_.get();
   if (added_.use_count() > 1) {
@@ -57,49 +55,67 @@ absl::Status Mission::FuseIntoMap(std::span<const CellObservation> observations,
   }
   OAIPP_RETURN_IF_ERROR(SparseGpMap::Accumulate(observations, *added));
   if (added == &next) added_ = std::make_shared<SparseGpMap::Additions>(std::move(next));
-  ++map_version_;
+  ++version_;
   return absl::OkStatus();
 }
 
-absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
-                                                     std::shared_ptr<const Environment>* env) {
-  PlanMap plan;
-  if (large_ == nullptr) {
-    // Settled and taken under one lock, so no measurement leaves it pending
-    // in between.
-    absl::MutexLock lock(&mu_);
-    map_->Settle();
-    *env = env_;
-    plan.map = map_;
-    plan.key = {.map_version = dense_version_, .rows = grid_.ny(), .cols = grid_.nx()};
-    plan.fused_shots = fused_shots_;
-    plan.mission_time_s = mission_time_s_;
-    // MutableMap lets go of start_map_ at the map's first change.
-    if (start_map_ != nullptr && start_map_->map == map_)
-      plan.conditioned = start_map_->conditioned;
-    return plan;
+absl::Status MissionMap::FuseCovered(const std::vector<int>& under) {
+  std::vector<int> fresh;
+  for (int c : under) {
+    if (!covered_.contains(c)) fresh.push_back(c);
   }
-  LargeFieldMap::Target target;
-  {
-    absl::ReaderMutexLock lock(&mu_);
-    *env = env_;
-    target = SparseTarget();
-    plan.fused_shots = fused_shots_;
-    plan.mission_time_s = mission_time_s_;
+  if (fresh.empty()) return absl::OkStatus();
+  if (large_ != nullptr) {
+    OAIPP_RETURN_IF_ERROR(Fuse(SparseGpMap::NearCertainZeros(fresh), /*defer=*/false));
+  } else {
+    OAIPP_RETURN_IF_ERROR(MutableDense().FuseNearCertainZeros(fresh));
   }
-  // The planner's window (docs/method.md §3.10): core's, with the settings
-  // core's tests check (LargeFieldPlanning::ForField). OA-IPP's leads
-  // towards the field's most uncertain square when its neighbourhood is
-  // spent.
-  const bool oaipp = config_.planner.kind == PlannerKind::kOaIpp ||
-                     config_.planner.kind == PlannerKind::kOaIppNonAdaptive;
+  covered_.insert(fresh.begin(), fresh.end());
+  return absl::OkStatus();
+}
+
+void MissionMap::AdoptStartMap(std::shared_ptr<const StartMap> start) {
+  covered_.insert(start->covered_cells.begin(), start->covered_cells.end());
+  start_map_ = std::move(start);
+}
+
+void MissionMap::Restore(const std::vector<int>& covered, SparseGpMap::Additions* additions) {
+  covered_.insert(covered.begin(), covered.end());
+  if (large_ != nullptr && additions != nullptr) {
+    added_ = std::make_shared<SparseGpMap::Additions>(std::move(*additions));
+    // Any version past the prior's: versions only order one copy's maps.
+    version_ = 1;
+  }
+}
+
+LargeFieldMap::Target MissionMap::SparseTarget(std::int64_t measurements_fused) const {
+  return {.added = added_, .version = version_, .measurements_fused = measurements_fused};
+}
+
+MissionMap::ForPlan MissionMap::ShareDense() {
+  dense_->Settle();
+  ForPlan plan;
+  plan.map = dense_;
+  plan.key = {.map_version = dense_version_, .rows = grid_.ny(), .cols = grid_.nx()};
+  // MutableDense lets go of start_map_ at the map's first change.
+  if (start_map_ != nullptr && start_map_->map == dense_)
+    plan.conditioned = start_map_->conditioned;
+  return plan;
+}
+
+absl::StatusOr<MissionMap::ForPlan> MissionMap::Window(const LargeFieldMap::Target& target,
+                                                       const Vec2& centre_W,
+                                                       const api::MissionConfig& config) const {
+  const bool oaipp = config.planner.kind == PlannerKind::kOaIpp ||
+                     config.planner.kind == PlannerKind::kOaIppNonAdaptive;
   const LargeFieldPlanning options =
-      LargeFieldPlanning::ForField(grid_, oaipp, config_.planner.common.information.dense_backend);
+      LargeFieldPlanning::ForField(grid_, oaipp, config.planner.common.information.dense_backend);
   OAIPP_ASSIGN_OR_RETURN(
       const FieldWindow window,
       PlanningWindow(grid_, target.added == nullptr ? nullptr : &target.added->precision,
                      large_->prior_variance(), centre_W, options));
   OAIPP_ASSIGN_OR_RETURN(GpMap local, large_->Window(target, window, options));
+  ForPlan plan;
   plan.key = {.map_version = target.version,
               .first_row = window.first_row,
               .first_col = window.first_col,
@@ -110,25 +126,65 @@ absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
   return plan;
 }
 
+std::int64_t Mission::MemoryBytes() const {
+  std::shared_ptr<const Environment> env;
+  {
+    absl::MutexLock lock(&summary_mu_);
+    env = summary_.env;
+  }
+  const std::int64_t map_bytes = map_.bytes() + (map_.sparse() ? 0 : team_chain_.bytes());
+  if (env == nullptr) return map_bytes;
+  const Esdf& esdf = env->esdf();
+  std::int64_t users = esdf.SharedBy();
+  if (worlds_ != nullptr && worlds_->HoldsGrid(esdf.values().data())) --users;
+  return map_bytes +
+         static_cast<std::int64_t>(esdf.MemoryBytes()) / std::max<std::int64_t>(1, users);
+}
+
+absl::StatusOr<Mission::PlanMap> Mission::MapForPlan(const Vec2& centre_W,
+                                                     std::shared_ptr<const Environment>* env) {
+  PlanMap plan;
+  if (!map_.sparse()) {
+    // Settled and taken under one lock, so no measurement leaves it pending
+    // in between.
+    absl::MutexLock lock(&mu_);
+    *env = env_;
+    plan.shared = map_.ShareDense();
+    plan.fused_shots = fused_shots_;
+    plan.mission_time_s = mission_time_s_;
+    return plan;
+  }
+  LargeFieldMap::Target target;
+  {
+    absl::ReaderMutexLock lock(&mu_);
+    *env = env_;
+    target = map_.SparseTarget(measurements_fused_);
+    plan.fused_shots = fused_shots_;
+    plan.mission_time_s = mission_time_s_;
+  }
+  OAIPP_ASSIGN_OR_RETURN(plan.shared, map_.Window(target, centre_W, config_));
+  return plan;
+}
+
 void Mission::ReadMap(const std::function<void(const GpMap&)>& reader) const {
-  if (large_ != nullptr) return;
+  if (map_.sparse()) return;
   SettleMap();
   {
     absl::ReaderMutexLock lock(&mu_);
-    if (map_->settled()) {
-      reader(*map_);
+    if (map_.dense()->settled()) {
+      reader(*map_.dense());
       return;
     }
   }
   // A measurement came in between: settle and read under one lock, so that
   // a steady stream of them cannot keep the reader waiting.
   absl::MutexLock lock(&mu_);
-  map_->Settle();
-  reader(*map_);
+  map_.dense()->Settle();
+  reader(*map_.dense());
 }
 
 absl::Status Mission::ReadMapView(const std::function<void(const api::MapView&)>& reader) const {
-  if (large_ == nullptr) {
+  if (!map_.sparse()) {
     ReadMap([&](const GpMap& map) {
       const Eigen::VectorXd variances = map.Variances();
       reader(api::MapView{
@@ -139,10 +195,10 @@ absl::Status Mission::ReadMapView(const std::function<void(const api::MapView&)>
   LargeFieldMap::Target target;
   {
     absl::ReaderMutexLock lock(&mu_);
-    target = SparseTarget();
+    target = map_.SparseTarget(measurements_fused_);
   }
   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<const LargeFieldMap::Reading> reading,
-                         large_->Read(target));
+                         map_.large()->Read(target));
   reader(api::MapView{.grid = &grid_,
                       .mean = &reading->mean,
                       .variances = &reading->variances,
@@ -151,20 +207,21 @@ absl::Status Mission::ReadMapView(const std::function<void(const api::MapView&)>
 }
 
 void Mission::SettleMap() const {
-  if (large_ == nullptr) {
+  if (!map_.sparse()) {
     absl::MutexLock lock(&mu_);
     // Settling changes how the map is stored, not what it holds: no reader
     // holds a map with a downdate pending (they settle it first), so this
     // is the only copy.
-    map_->Settle();
+    map_.dense()->Settle();
     return;
   }
   LargeFieldMap::Target target;
   {
     absl::ReaderMutexLock lock(&mu_);
-    target = SparseTarget();
+    target = map_.SparseTarget(measurements_fused_);
   }
-  absl::StatusOr<std::shared_ptr<const LargeFieldMap::Reading>> reading = large_->Read(target);
+  absl::StatusOr<std::shared_ptr<const LargeFieldMap::Reading>> reading =
+      map_.large()->Read(target);
   // A failure leaves the last trace in place; GetMap reports the error.
   if (!reading.ok()) return;
   absl::MutexLock lock(&summary_mu_);

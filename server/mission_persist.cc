@@ -29,16 +29,16 @@ MissionState Mission::CaptureState() const {
   MissionState state;
   state.sequence = next_sequence() - 1;
   for (const auto& [id, o] : env_->obstacles()) state.obstacles.push_back(o);
-  state.covered_cells.assign(covered_cells_.begin(), covered_cells_.end());
-  if (large_ != nullptr) {
-    state.added_precision = added_->precision;
-    state.added_information = added_->information;
+  state.covered_cells = map_.CoveredCells();
+  if (map_.sparse()) {
+    state.added_precision = map_.additions().precision;
+    state.added_information = map_.additions().information;
     absl::MutexLock summary_lock(&summary_mu_);
     state.trace = summary_.trace;
     state.trace_measurements_fused = summary_.trace_measurements_fused;
   } else {
-    state.mean = map_->Mean();
-    state.covariance = map_->Covariance();
+    state.mean = map_.dense()->Mean();
+    state.covariance = map_.dense()->Covariance();
   }
   state.measurements_fused = measurements_fused_;
   state.mission_time_s = mission_time_s_;

@@ -99,18 +99,13 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   LargeFieldMap::Target restored;
   {
     absl::MutexLock lock(&mission->mu_);
-    mission->covered_cells_.insert(state.covered_cells.begin(), state.covered_cells.end());
     mission->measurements_fused_ = state.measurements_fused;
     mission->mission_time_s_ = state.mission_time_s;
     mission->fused_shots_.Restore(std::move(state.fused_shot_s), state.last_shot_s);
-    if (sparse) {
-      mission->added_ = std::make_shared<SparseGpMap::Additions>(
-          SparseGpMap::Additions{.precision = std::move(state.added_precision),
-                                 .information = std::move(state.added_information)});
-      // Any version past the prior's: versions only order one copy's maps.
-      mission->map_version_ = 1;
-      restored = mission->SparseTarget();
-    }
+    SparseGpMap::Additions additions{.precision = std::move(state.added_precision),
+                                     .information = std::move(state.added_information)};
+    mission->map_.Restore(state.covered_cells, sparse ? &additions : nullptr);
+    if (sparse) restored = mission->map_.SparseTarget(mission->measurements_fused_);
   }
   if (sparse && state.trace.has_value()) {
     // The snapshot's trace until the next variance map (SettleMap): a
@@ -120,7 +115,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
     mission->summary_.trace_measurements_fused = state.trace_measurements_fused;
   } else if (sparse) {
     // Else the variance map of the state, for the trace the mission reports.
-    OAIPP_RETURN_IF_ERROR(mission->large_->Read(restored).status());
+    OAIPP_RETURN_IF_ERROR(mission->map_.large()->Read(restored).status());
   }
   {
     absl::MutexLock lock(&mission->mu_);

@@ -372,7 +372,7 @@ absl::Status MissionRegistry::Reload(const std::string& mission_id) {
                                              "' moved to another server; watch it again")));
     return absl::OkStatus();
   }
-  old->HandWatchersTo(**mission);
+  old->events().HandTo((*mission)->events());
   return absl::OkStatus();
 }
 
@@ -517,7 +517,7 @@ absl::Status MissionRegistry::DeleteKey(const std::string& id, const std::string
   // Another server holds the mission now: this copy goes, and the retry
   // deletes it there.
   if (!fenced.ok()) return AfterFailedWrite(mission, fenced);
-  mission->MarkDeleted();
+  mission->events().MarkDeleted();
   return absl::OkStatus();
 }
 

@@ -144,7 +144,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::TakeOver(const std::st
       if (from_standby && continued) ++takeovers_from_standby_;
     }
     if (replaced != nullptr) {
-      replaced->MarkMoved(absl::UnavailableError(
+      replaced->events().CloseAll(absl::UnavailableError(
           absl::StrCat("name: mission '", name, "' was read back; watch it again")));
     }
     // ms: the whole takeover; waiting for the lease, reading the mission
@@ -246,7 +246,7 @@ void MissionRegistry::Drop(const std::string& key, const std::shared_ptr<Mission
   spdlog::info(
       "mission event=dropped name=missions/{} reason=\"another server took it over or deleted it\"",
       std::string(PublicId(key)));
-  mission->MarkMoved(reason);
+  mission->events().CloseAll(reason);
 }
 
 absl::Status MissionRegistry::AfterFailedWrite(const std::shared_ptr<Mission>& mission,

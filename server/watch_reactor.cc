@@ -36,7 +36,7 @@ class MissionServiceImpl::WatchReactor final : public grpc::ServerWriteReactor<v
     }
     link_ = std::make_shared<Link>();
     link_->reactor = this;
-    queue_ = mission_->Subscribe();
+    queue_ = mission_->events().Subscribe();
     queue_->SetListener([link = std::weak_ptr<Link>(link_)] {
       if (std::shared_ptr<Link> l = link.lock()) l->Wake();
     });
@@ -67,7 +67,7 @@ class MissionServiceImpl::WatchReactor final : public grpc::ServerWriteReactor<v
       }
       queue_->SetListener(nullptr);
       queue_->Close();
-      mission_->Unsubscribe(queue_);
+      mission_->events().Unsubscribe(queue_);
     }
     if (holds_stream_) service_->admission_.ReleaseStream(client_);
     delete this;

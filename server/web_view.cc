@@ -203,7 +203,7 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
   const Mission& mission = **found;
   // The event number first: a change after it shows up as a newer event,
   // so the page never misses one.
-  const std::int64_t sequence = mission.last_event_sequence();
+  const std::int64_t sequence = mission.events().last_sequence();
   const MissionSnapshot s = mission.Snapshot();
   const MissionTrack track = mission.Track();
   // A large field is shown in blocks of k x k cells, at most
@@ -437,7 +437,7 @@ void WebView::Routes() {
           Error(res, 503, absl::StrCat("too many open event streams (", kMaxStreams, ")"));
           return;
         }
-        std::shared_ptr<EventQueue> queue = (*mission)->Subscribe();
+        std::shared_ptr<EventQueue> queue = (*mission)->events().Subscribe();
         auto greeted = std::make_shared<bool>(false);
         auto idle = std::make_shared<int>(0);
         res.set_header("Cache-Control", "no-store");
@@ -472,7 +472,7 @@ void WebView::Routes() {
               return true;
             },
             [this, queue, mission = *mission](bool) {
-              mission->Unsubscribe(queue);
+              mission->events().Unsubscribe(queue);
               streams_.fetch_sub(1);
             });
       });

@@ -1014,7 +1014,8 @@ TEST(ServiceTest, WatchMissionStreamsEventsUntilDeleted) {
   auto reader = s.stub().WatchMission(&watch_context, watch);
   // Once the stream has subscribed, two events.
   std::thread actor([&] {
-    EXPECT_TRUE(Eventually([&] { return (*s.registry().Get("missions/w"))->watchers() == 1; }));
+    EXPECT_TRUE(
+        Eventually([&] { return (*s.registry().Get("missions/w"))->events().watchers() == 1; }));
     grpc::ClientContext c1;
     v1::AddMeasurementResponse r;
     EXPECT_TRUE(
