@@ -15,6 +15,7 @@
 //   mapping_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true
 #include <chrono>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "benchmark/benchmark.h"
@@ -104,7 +105,7 @@ void BM_KalmanUpdateOpenBlas(benchmark::State& state) {
   using Clock = std::chrono::steady_clock;
   const absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
   if (!blas.ok()) {
-    state.SkipWithError("OpenBLAS (libopenblas0-pthread) is not installed");
+    state.SkipWithError(std::string(blas.status().message()).c_str());
     return;
   }
   const std::string kernel = blas->name();

@@ -222,7 +222,7 @@ BENCHMARK(BM_ConfirmationAgainstPaper)->Unit(benchmark::kMillisecond)->Iteration
 void BM_SinglePrecisionAgainstDouble(benchmark::State& state) {
   const absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
   if (!blas.ok()) {
-    state.SkipWithError("OpenBLAS (libopenblas0-pthread) is not installed");
+    state.SkipWithError(std::string(blas.status().message()).c_str());
     return;
   }
   const std::string backend = blas->name();
