@@ -52,7 +52,7 @@ struct ServerOptions {
   int max_take_off_plans = 0;                  // >= 0; 0: no pacing
   double take_off_patience_s = 5.0;            // [0, 1e6)
   std::string dense_backend = "openblas";      // openblas or eigen
-  std::string objective_precision = "double";  // double or single
+  std::string objective_precision = "single";  // single or double
 
   // --- missions and memory
   int max_missions = 64;                      // >= 1

@@ -47,8 +47,7 @@ ABSL_FLAG(double, take_off_patience_s, oaipp::server::kFlagDefaults.take_off_pat
 ABSL_FLAG(std::string, dense_backend, oaipp::server::kFlagDefaults.dense_backend,
           "where the Kalman update's rank-m product runs: openblas (Debian's libopenblas0-pthread, "
           "loaded at start; Eigen when it is missing or another build) or eigen");
-ABSL_FLAG(
-    std::string, objective_precision, oaipp::server::kFlagDefaults.objective_precision,
-    "the adaptive objective's solves: double, or single (OpenBLAS's kernels about twice as "
-    "fast; 0.76-0.88 of double's CPU for 100 missions; a plan may differ from double's where two "
-    "candidates tie, docs/capacity.md)");
+ABSL_FLAG(std::string, objective_precision, oaipp::server::kFlagDefaults.objective_precision,
+          "the adaptive objective's solves: single (OpenBLAS's kernels about twice as fast; "
+          "0.76-0.88 of double's CPU for 100 missions; a plan may differ from double's where two "
+          "candidates tie, docs/capacity.md) or double");

@@ -8,7 +8,10 @@
 //   `speedup` counter is the ratio of evaluation rates.
 // - BM_ReplanE1: full OA-IPP replans on the E1 world (1600 cells, N = 3,
 //   12 x 45 = 540 CMA-ES evaluations after the greedy start), one thread,
-//   from eight start states; median and worst replan time.
+//   from eight start states, as oaipp-server plans by default (OpenBLAS,
+//   the objective's solves in single precision); median and worst replan
+//   time (BM_ReplanE1/server_defaults:1). server_defaults:0: on Eigen in double precision
+//   (the planner's own defaults, which the tests pin).
 // - BM_ReplanScaling: the same replan for N = 3, 5, 8 waypoints and square
 //   fields of 20 to 60 m at 0.75 m cells.
 // - BM_MovingAgainstRest: E1 replans through MakePlanner (so with the stop
@@ -157,6 +160,19 @@ void Replan(benchmark::State& state, const World& w, int waypoints) {
 // shots), so E1 replans from eight start states spread over the field and
 // reports the median and the worst of all plans.
 void BM_ReplanE1(benchmark::State& state) {
+  const bool server_defaults = state.range(0) == 1;
+  PlannerCommon common;
+  if (server_defaults) {
+    // ServerOptions: --dense_backend=openblas, --objective_precision=single.
+    const absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas();
+    if (!blas.ok()) {
+      state.SkipWithError(std::string(blas.status().message()).c_str());
+      return;
+    }
+    common.information.dense_backend = *blas;
+    common.information.single_precision = true;
+    state.SetLabel(blas->name() + ", single precision");
+  }
   const World& w = E1();
   const std::vector<Vec3> starts = {{10, 0, 7},    {-10, 8, 10}, {5, 10, 12},  {-12, -12, 8},
                                     {12, -10, 15}, {0, 6, 5},    {-6, -5, 18}, {8, 8, 20}};
@@ -164,7 +180,7 @@ void BM_ReplanE1(benchmark::State& state) {
   std::int64_t evaluations = 0;
   for (auto _ : state) {
     for (const Vec3& p : starts) {
-      OaIppPlanner planner(PlannerCommon{}, OaIppConfig{});
+      OaIppPlanner planner(common, OaIppConfig{});
       UavState start;
       start.position_W = p;
       const auto t0 = std::chrono::steady_clock::now();
@@ -180,7 +196,12 @@ void BM_ReplanE1(benchmark::State& state) {
   state.counters["max_replan_ms"] = 1e3 * seconds.back();
   state.counters["evaluations_per_plan"] = static_cast<double>(evaluations) / seconds.size();
 }
-BENCHMARK(BM_ReplanE1)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_ReplanE1)
+    ->ArgName("server_defaults")
+    ->Arg(1)
+    ->Arg(0)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(2);
 
 // The confirmation objective's cost (docs/method.md §6.4): the same E1
 // replans as BM_ReplanE1 with the paper's objective and with the

@@ -493,16 +493,10 @@ nlohmann::json ToJson(LoadResult& r, const std::string& pace) {
 // Flags of oaipp-server whose default differs here: no metrics endpoint
 // (the load runs beside whatever else uses its port), sqlite files under
 // /tmp and fewer log lines. The command line still overrides each.
-// The load runs with the settings that meet the capacity targets
-// (docs/benchmarks.md). Single-precision objective sums are not
-// oaipp-server's default because they change plans (E1's pinned plans and
-// steps.csv are recorded in double); --objective_precision=double measures
-// the server as it starts by default.
+// Everything else is oaipp-server's own default.
 void SetLoadDefaults() {
-  const std::pair<const char*, const char*> defaults[] = {{"metrics_listen", ""},
-                                                          {"data_dir", "/tmp/oaipp-server-load"},
-                                                          {"log_level", "warn"},
-                                                          {"objective_precision", "single"}};
+  const std::pair<const char*, const char*> defaults[] = {
+      {"metrics_listen", ""}, {"data_dir", "/tmp/oaipp-server-load"}, {"log_level", "warn"}};
   for (const auto& [name, value] : defaults) {
     absl::CommandLineFlag* flag = absl::FindCommandLineFlag(name);
     std::string error;
