@@ -2,13 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <variant>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "api/limits.h"
 #include "core/common/status_macros.h"
 #include "core/mapping/camera.h"
+#include "core/planning/planners.h"
 #include "core/trajectory/polynomial_trajectory.h"
+#include "server/team_timelines.h"
 
 namespace oaipp::server {
 
@@ -71,7 +74,7 @@ Mission::Mission(std::string id, MissionConfig config, FieldGrid grid, Environme
       worlds_(caches.worlds),
       env_(Shared(std::move(env), caches.esdfs)),
       map_(grid_, std::move(map), std::move(large)),
-      planner_(std::move(planner)) {}
+      planning_(config_, std::move(planner)) {}
 
 absl::StatusOr<Environment> Mission::BuildWorld(const MissionConfig& config,
                                                 const std::string& world_key,
@@ -192,14 +195,13 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
 absl::Status Mission::FuseCoveredCells() { return map_.FuseCovered(CellsUnder(grid_, *env_)); }
 
 void Mission::Publish(bool obstacles_changed) {
-  Summary next;
+  PublishedSummary::Summary next;
   if (obstacles_changed) {
     auto obstacles = std::make_shared<std::vector<Obstacle>>();
     for (const auto& [id, o] : env_->obstacles()) obstacles->push_back(o);
     next.obstacles = std::move(obstacles);
   } else {
-    absl::MutexLock lock(&summary_mu_);
-    next.obstacles = summary_.obstacles;  // shared, not copied
+    next.obstacles = summary_.Get().obstacles;  // shared, not copied
   }
   next.env = env_;
   if (const std::shared_ptr<const LargeFieldMap::Reading> reading =
@@ -212,24 +214,18 @@ void Mission::Publish(bool obstacles_changed) {
   } else if (map_.sparse()) {
     // None yet (a mission read back from its snapshot): the snapshot's
     // trace stands.
-    absl::MutexLock lock(&summary_mu_);
-    next.trace = summary_.trace;
-    next.trace_measurements_fused = summary_.trace_measurements_fused;
-    next.trace_version = summary_.trace_version;
+    const PublishedSummary::Summary last = summary_.Get();
+    next.trace = last.trace;
+    next.trace_measurements_fused = last.trace_measurements_fused;
+    next.trace_version = last.trace_version;
   } else {
     next.trace = map_.dense()->Trace();
     next.trace_measurements_fused = measurements_fused_;
   }
   next.measurements_fused = measurements_fused_;
   next.mission_time_s = mission_time_s_;
-  absl::MutexLock lock(&summary_mu_);
   // A background refresh may have published a newer variance map.
-  if (map_.sparse() && summary_.trace_version > next.trace_version) {
-    next.trace = summary_.trace;
-    next.trace_measurements_fused = summary_.trace_measurements_fused;
-    next.trace_version = summary_.trace_version;
-  }
-  summary_ = std::move(next);
+  summary_.Replace(std::move(next), map_.sparse());
 }
 
 absl::StatusOr<ObstacleResult> Mission::UpdateObstacles(const ObstacleChange& change,
@@ -332,11 +328,11 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
       absl::ReaderMutexLock lock(&mu_);
       OAIPP_ASSIGN_OR_RETURN(observations, PrepareMeasurement(input));
       if (map_.sparse()) {
-        absl::MutexLock summary_lock(&summary_mu_);
+        const PublishedSummary::Summary summary = summary_.Get();
         known = MeasurementResult{.cells_fused = static_cast<int>(observations.size()),
-                                  .trace = summary_.trace,
+                                  .trace = summary.trace,
                                   .measurements_fused = measurements_fused_ + 1,
-                                  .trace_measurements_fused = summary_.trace_measurements_fused};
+                                  .trace_measurements_fused = summary.trace_measurements_fused};
       }
     }
     if (recorded != nullptr) known = *recorded;
@@ -357,11 +353,11 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
     if (known.has_value()) {
       result = *known;
     } else {
-      absl::MutexLock summary_lock(&summary_mu_);
+      const PublishedSummary::Summary summary = summary_.Get();
       result = MeasurementResult{.cells_fused = static_cast<int>(observations.size()),
-                                 .trace = summary_.trace,
+                                 .trace = summary.trace,
                                  .measurements_fused = measurements_fused_,
-                                 .trace_measurements_fused = summary_.trace_measurements_fused};
+                                 .trace_measurements_fused = summary.trace_measurements_fused};
     }
     answers_.Remember(request, result);
   }
@@ -382,7 +378,7 @@ absl::StatusOr<MeasurementResult> Mission::AddMeasurement(const MeasurementInput
 absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                           std::optional<double> next_shot_mission_s,
                                           const RequestKey& request, const PlanCall& call) {
-  absl::MutexLock planner_lock(&planner_mu_);
+  MissionPlanning::Held planning(planning_);
   if (auto done = answers_.Recall<PlannedPath>(request)) return *std::move(done);
   OAIPP_RETURN_IF_ERROR(CheckPlanningUav(call.uav_id));
   const double elapsed = state.mission_time_s - config_.start.mission_time_s;
@@ -392,7 +388,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   // The UAV's own camera, noise and limits (a team member's may differ).
   const api::UavKit kit = config_.KitOf(call.uav_id);
-  OAIPP_ASSIGN_OR_RETURN(Planner * planner, PlannerOf(call.uav_id));
+  OAIPP_ASSIGN_OR_RETURN(Planner * planner, planning.PlannerOf(call.uav_id));
   double next_shot;
   if (next_shot_mission_s.has_value()) {
     next_shot = *next_shot_mission_s;
@@ -407,8 +403,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   std::shared_ptr<const Environment> env;
   OAIPP_ASSIGN_OR_RETURN(PlanMap plan_map, MapForPlan(state.position_W.head<2>(), &env));
   if (!config_.team.empty()) {
-    OAIPP_RETURN_IF_ERROR(
-        timelines_.CheckStart(call.uav_id, state.mission_time_s, plan_map.mission_time_s));
+    OAIPP_RETURN_IF_ERROR(planning.timelines().CheckStart(call.uav_id, state.mission_time_s,
+                                                          plan_map.mission_time_s));
   }
   std::shared_ptr<const GpMap> map = std::move(plan_map.shared.map);
   std::shared_ptr<ConditionedCache> conditioned = std::move(plan_map.shared.conditioned);
@@ -420,8 +416,9 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                   ? call.deadline
                                   : std::min(call.deadline, absl::Now() + call.budget);
   std::vector<std::pair<std::string, std::int64_t>> versions;
-  const std::vector<Teammate> teammates = TeammatesOf(
-      call.uav_id, state.mission_time_s, plan_map.mission_time_s, plan_map.fused_shots, &versions);
+  const std::vector<Teammate> teammates =
+      planning.TeammatesOf(call.uav_id, state.mission_time_s, plan_map.mission_time_s,
+                           plan_map.fused_shots, roster_, &versions);
   const PlanningContext context{.environment = env.get(),
                                 .map = map.get(),
                                 .camera = kit.camera,
@@ -432,13 +429,14 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .search_fraction = call.search_fraction,
                                 .conditioned = conditioned.get(),
                                 .chain = config_.team.size() >= 2
-                                             ? ChainedPrefix{&team_chain_, plan_map.shared.key}
+                                             ? ChainedPrefix{&planning.chain(), plan_map.shared.key}
                                              : ChainedPrefix{},
                                 .teammates = teammates,
                                 .min_separation_m = config_.min_separation_m,
                                 .field = field};
   absl::StatusOr<PlannedPath> path = planner->Plan(context, state, deadline);
-  if (!path.ok() && !call.uav_id.empty()) path = NamedForMember(path.status(), call.uav_id);
+  if (!path.ok() && !call.uav_id.empty())
+    path = planning_.NamedForMember(path.status(), call.uav_id);
   env.reset();
   map.reset();
   conditioned.reset();
@@ -464,8 +462,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   path->stats.search_budget_s =
       call.budget == absl::InfiniteDuration() ? 0.0 : absl::ToDoubleSeconds(call.budget);
   if (!config_.team.empty()) {
-    // Plans are made one at a time (planner_mu_), so the count is this
-    // one's version.
+    // Plans are made one at a time (planning holds their lock), so the
+    // count is this one's version.
     path->team = {.uav_id = call.uav_id,
                   .plan_version = paths_planned_.load() + 1,
                   .start_mission_s = state.mission_time_s,
@@ -485,7 +483,7 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   }
   ++paths_planned_;
   if (!config_.team.empty()) {
-    timelines_.Commit(*path, std::max(plan_map.mission_time_s, state.mission_time_s));
+    planning.timelines().Commit(*path, std::max(plan_map.mission_time_s, state.mission_time_s));
   }
   // The remembered answer counts against the mission's memory until newer
   // ids push it out (IdempotencyMemo::bytes).
@@ -518,8 +516,7 @@ void Mission::set_last_change_time(absl::Time time) {
 }
 
 bool Mission::finished() const {
-  absl::MutexLock lock(&summary_mu_);
-  return summary_.mission_time_s - config_.start.mission_time_s >= config_.budget_s;
+  return summary_.Get().mission_time_s - config_.start.mission_time_s >= config_.budget_s;
 }
 
 MissionSnapshot Mission::Snapshot() const {
@@ -528,12 +525,12 @@ MissionSnapshot Mission::Snapshot() const {
   s.config = config_;
   s.create_time = create_time_;
   {
-    absl::MutexLock lock(&summary_mu_);
-    s.obstacles = *summary_.obstacles;
-    s.trace = summary_.trace;
-    s.trace_measurements_fused = summary_.trace_measurements_fused;
-    s.measurements_fused = summary_.measurements_fused;
-    s.mission_time_s = summary_.mission_time_s;
+    const PublishedSummary::Summary summary = summary_.Get();
+    s.obstacles = *summary.obstacles;
+    s.trace = summary.trace;
+    s.trace_measurements_fused = summary.trace_measurements_fused;
+    s.measurements_fused = summary.measurements_fused;
+    s.mission_time_s = summary.mission_time_s;
   }
   s.removed_uav_ids = roster_.removed();
   s.landed_uav_ids = roster_.landed();

@@ -13,17 +13,19 @@
 // (Snapshot(), for GetMission and ListMissions) never waits for a mutation
 // or a plan.
 //
-// Mission holds mutation and plan coordination, its world and its map; the
-// parts it holds are in files of their own, each with its own leaf lock or
-// none: the log and its sequence numbers (mission_log.h), who left the team
-// (team_roster.h), the team's timelines (team_timelines.h), the fused shots'
-// times (fused_shots.h), the watchers and their events (mission_events.h),
-// the live view's track (flight_track.h), the first answers to request_ids
+// Mission coordinates mutations and plans and holds its world and map. Its
+// parts are in files of their own, each with its own lock or none: its
+// plans' planners, timelines and chain (mission_planning.h, the outermost
+// lock), its summary (mission_summary.h), log and sequence numbers
+// (mission_log.h), who left the team (team_roster.h), the fused shots'
+// times (fused_shots.h), watchers and events (mission_events.h), the live
+// view's track (flight_track.h), the first answers to request_ids
 // (idempotency_memo.h), when to ask for a snapshot (snapshot_policy.h), its
 // standing on this server (mission_lease.h), what a snapshot holds
-// (mission_state.h), what its calls take and give (mission_types.h) and what
-// missions over one site share (site_caches.h). mission_restore.cc brings a
-// mission back from the store.
+// (mission_state.h), what its calls take and give (mission_types.h) and
+// what missions over one site share (site_caches.h). Its map is in
+// mission_map.cc, removing a team member in mission_team.cc, recording in
+// mission_persist.cc, coming back from the store in mission_restore.cc.
 //
 //   OAIPP_ASSIGN_OR_RETURN(std::shared_ptr<Mission> m, Mission::Create("m1", config));
 //   OAIPP_ASSIGN_OR_RETURN(MeasurementResult r, m->AddMeasurement(input, "req-17"));
@@ -32,14 +34,9 @@
 
 #include <atomic>
 #include <functional>
-#include <limits>
-#include <map>
 #include <memory>
 #include <optional>
-#include <set>
-#include <span>
 #include <string>
-#include <variant>
 #include <vector>
 
 #include "Eigen/Core"
@@ -51,8 +48,6 @@
 #include "core/environment/environment.h"
 #include "core/environment/world_cache.h"
 #include "core/mapping/gp_map.h"
-#include "core/planning/conditioning_chain.h"
-#include "core/planning/planners.h"
 #include "server/flight_track.h"
 #include "server/fused_shots.h"
 #include "server/idempotency_memo.h"
@@ -61,12 +56,13 @@
 #include "server/mission_lease.h"
 #include "server/mission_log.h"
 #include "server/mission_map.h"
+#include "server/mission_planning.h"
 #include "server/mission_state.h"
+#include "server/mission_summary.h"
 #include "server/mission_types.h"
 #include "server/site_caches.h"
 #include "server/snapshot_policy.h"
 #include "server/team_roster.h"
-#include "server/team_timelines.h"
 
 namespace oaipp::server {
 
@@ -143,8 +139,7 @@ class Mission {
   [[nodiscard]] absl::StatusOr<TeamResult> RemoveMember(const std::string& uav_id, bool landed,
                                                         const RequestKey& request,
                                                         const PersistFn& persist = nullptr);
-  // The sequence number the next change of the log will take (1 for a new
-  // mission).
+  // The sequence number the next change of the log takes (1 when new).
   [[nodiscard]] std::int64_t next_sequence() const { return log_.next_sequence(); }
 
   // The state after the last record of the log (for a snapshot). Waits for
@@ -165,21 +160,18 @@ class Mission {
   void set_last_change_time(absl::Time time);
   // Recovery: the time the mission was first created (before it is shared).
   void set_create_time(absl::Time time) { create_time_ = time; }
-  // True once the flight budget is spent (a measurement or plan at or past
-  // start + budget_s).
+  // Flight budget spent: a measurement or plan at or past start + budget_s.
   [[nodiscard]] bool finished() const;
 
-  // The summary as of the last finished change: waits for no mutation and
-  // no plan.
+  // The summary as of the last finished change (waits for no change or plan).
   [[nodiscard]] MissionSnapshot Snapshot() const;
   // Memory held by the map and this mission's share of its ESDF (an ESDF
   // shared by k missions over the same obstacles counts 1/k in each). Waits
   // for no mutation and no plan (the server reports it after every call).
   [[nodiscard]] std::int64_t MemoryBytes() const;
-  // Bytes held by the log of applied changes (Log()), which grows with
-  // every measurement and obstacle change, and by the remembered answers to
-  // request_ids (bounded: the oldest go first); read without the mission's
-  // lock.
+  // Bytes held by the log of applied changes (Log(); it grows with every
+  // measurement and obstacle change) and by the remembered answers to
+  // request_ids (bounded: the oldest go first); read without a lock.
   [[nodiscard]] std::int64_t LogBytes() const { return log_.bytes() + answers_.bytes(); }
   // Changes that would take LogBytes() past `bytes` are refused with
   // RESOURCE_EXHAUSTED before anything is applied or stored. The registry
@@ -188,21 +180,17 @@ class Mission {
   // Reads a dense map under the reader lock (settled first, see
   // SettleMap); on a sparse map (config().map_backend) it calls nothing.
   void ReadMap(const std::function<void(const GpMap&)>& reader) const;
-  // Reads the whole map as it is now, dense or sparse: for a sparse map
-  // its mean and variances, computed when they are not current (seconds on
-  // a large field; the mission's changes do not wait for it). Errors:
-  // Internal when the sparse map's factorisation fails.
+  // Reads the whole map as it is now, dense or sparse: a sparse map's mean
+  // and variances are computed when not current (seconds on a large field;
+  // its changes do not wait for it). Internal: the factorisation failed.
   [[nodiscard]] absl::Status ReadMapView(
       const std::function<void(const api::MapView&)>& reader) const;
-  // AddMeasurement answers once the measurement is durable and fused into
-  // the map's mean and trace; the covariance's rank-m downdate, most of a
-  // small shot's work, is left pending (GpMap::UpdateDeferred). Everything
-  // that reads the covariance (a plan, ReadMap, a snapshot, the next update)
-  // settles it first, so no reader sees the difference; this applies it
-  // early, off the caller's path (the server calls it right after
-  // answering). On a sparse map it computes the variance map of the
-  // mission as it is now, for the trace the mission reports (nothing when
-  // that is current).
+  // Applies early, off the caller's path (the server calls it right after
+  // answering), the covariance's rank-m downdate that AddMeasurement leaves
+  // pending (GpMap::UpdateDeferred; most of a small shot's work): what reads
+  // the covariance (a plan, ReadMap, a snapshot, the next update) settles
+  // it first, so no reader sees the difference. On a sparse map it computes
+  // the variance map as of now, for the trace reported (nothing when current).
   void SettleMap() const;
   [[nodiscard]] std::vector<LogEntry> Log() const { return log_.Entries(); }
   [[nodiscard]] const std::string& id() const { return id_; }
@@ -229,10 +217,8 @@ class Mission {
   // `centre_W`, as of now (the latter built without holding mu_).
   struct PlanMap {
     MissionMap::ForPlan shared;
-    // fused_shots_ as the map holds it (taken under the same lock).
-    FusedShots fused_shots;
-    // The newest mission time the mission has seen (mission_time_s_).
-    double mission_time_s = 0.0;
+    FusedShots fused_shots;       // fused_shots_ as the map holds it (same lock)
+    double mission_time_s = 0.0;  // the newest the mission has seen (mission_time_s_)
   };
   absl::StatusOr<PlanMap> MapForPlan(const Vec2& centre_W, std::shared_ptr<const Environment>* env);
   // config.MakeEnvironment(), or a clone of the world cache's copy under
@@ -253,27 +239,6 @@ class Mission {
   absl::Status Persist(const PersistFn& persist, const MeasurementResult* answer = nullptr);
   absl::Status PersistPlan(const PersistPlanFn& persist, const PlannedPath& path,
                            const std::string& planner_state);
-  // The planner that plans for `uav_id`: the mission's for one UAV, a
-  // member's own (its limits) for a team.
-  absl::StatusOr<Planner*> PlannerOf(const std::string& uav_id)
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
-  // `status` (a plan's error for team member `uav_id`) naming the member's
-  // own limits, from the fields it carries as data (api::WithApiFieldNames).
-  [[nodiscard]] absl::Status NamedForMember(const absl::Status& status,
-                                            const std::string& uav_id) const;
-  // A team's other UAVs in the air as the plan for `uav_id` at mission time
-  // `now_s` must keep clear of them (docs/teams.md "The guarantee"): each
-  // one's timeline (or, before its first plan, its start, held) and the
-  // distance the pair keeps (PairDistance); one removed in the air, or
-  // silent for more than silent_after_s before `newest_s`, may drift at
-  // its max speed from when it should be hovering. With them, the shots
-  // still to come of those flying: at or after now_s, on the plan in force
-  // when taken, and not yet in the plan's map (`fused`, FusedShots's rule).
-  // Also their plan versions (0: none yet), in uav_id order.
-  std::vector<Teammate> TeammatesOf(
-      const std::string& uav_id, double now_s, double newest_s, const FusedShots& fused,
-      std::vector<std::pair<std::string, std::int64_t>>* versions) const
-      ABSL_EXCLUSIVE_LOCKS_REQUIRED(planner_mu_);
 
   const std::string id_;
   const MissionConfig config_;
@@ -284,18 +249,15 @@ class Mission {
   EsdfPool* const esdfs_;
   WorldCache* const worlds_;
 
-  // Locks, outermost first: planner_mu_, mutation_mu_, mu_, then the leaf
-  // locks (summary_mu_, and those of log_, roster_, answers_, events_ and
-  // track_).
-  // mutation_mu_ orders mutations and is held for a whole one; mu_ guards
-  // the state and is held for writing only while a change is put in place.
+  // Locks, outermost first: planning_'s (held for a whole plan),
+  // mutation_mu_ (orders mutations, held for a whole one), mu_ (guards the
+  // state; held for writing only while a change is put in place), then the
+  // leaf locks: those of summary_, log_, roster_, answers_, events_, track_.
   mutable absl::Mutex mutation_mu_;
   mutable absl::Mutex mu_;
-  // Shared with plans in progress; replaced, never changed in place, while
-  // a plan holds them.
+  // Shared with plans in progress: replaced, never changed in place.
   std::shared_ptr<const Environment> env_ ABSL_GUARDED_BY(mu_);
-  // The map, dense or sparse, under mu_ (mission_map.h says which parts
-  // run off it).
+  // Dense or sparse, under mu_ (mission_map.h says which parts run off it).
   MissionMap map_;
   std::int64_t measurements_fused_ ABSL_GUARDED_BY(mu_) = 0;
   double mission_time_s_ ABSL_GUARDED_BY(mu_) = 0.0;
@@ -307,39 +269,21 @@ class Mission {
   // operation held, so that check and apply are one step.
   IdempotencyMemo answers_;
 
-  // The planner keeps state (lawnmower pattern): one plan at a time.
-  mutable absl::Mutex planner_mu_;
-  // A team's plans condition the map (or a large field's window) on each
-  // other's pending shots from the last plan's conditioning when it was
-  // made from the same covariance (PlanMap::key; docs/method.md §7.8).
-  ConditioningChain team_chain_;
-  // What Snapshot() reports, published at the end of every change.
-  struct Summary {
-    std::shared_ptr<const std::vector<Obstacle>> obstacles;
-    // The world as of this summary, for its ESDF's share of the memory.
-    std::shared_ptr<const Environment> env;
-    double trace = 0.0;
-    std::int64_t trace_measurements_fused = 0;
-    std::int64_t trace_version = 0;  // a sparse map's version of `trace`
-    std::int64_t measurements_fused = 0;
-    double mission_time_s = 0.0;
-  };
-  mutable absl::Mutex summary_mu_;
-  mutable Summary summary_ ABSL_GUARDED_BY(summary_mu_);  // SettleMap sets a sparse trace
-  std::unique_ptr<Planner> planner_ ABSL_GUARDED_BY(planner_mu_);
+  // Planners, timelines and the chain, under their own lock (one plan at a
+  // time); mutable: CaptureState holds it.
+  mutable MissionPlanning planning_;
+  // What Snapshot() reports, published at the end of every change; mutable:
+  // SettleMap sets a sparse trace.
+  mutable PublishedSummary summary_;
   // Members taken out of the team (RemoveMember), with its own leaf lock.
   TeamRoster roster_;
-  // A team's planners, each with its member's limits (PlannerOf).
-  std::map<std::string, std::unique_ptr<Planner>> member_planners_ ABSL_GUARDED_BY(planner_mu_);
-  // A team's committed plans, a timeline per UAV.
-  TeamTimelines timelines_ ABSL_GUARDED_BY(planner_mu_);
-  // Not under planner_mu_: that is held for a whole plan, and Snapshot
-  // must not wait for one.
+  // Not under planning_'s lock: that is held for a whole plan, and
+  // Snapshot must not wait for one.
   std::atomic<std::int64_t> paths_planned_{0};
 
   // The log: sequence numbers (its leaf lock is held while a record is
-  // written, so mutations under mu_ and plans under planner_mu_ share one
-  // order) and the applied changes.
+  // written, so mutations under mu_ and plans under planning_'s lock share
+  // one order) and the applied changes.
   MissionLog log_;
 
   // When to ask for the next snapshot.
@@ -348,8 +292,7 @@ class Mission {
   MissionLease lease_;
 
   MissionEvents events_;
-  // The live view reads the track without waiting for a change in
-  // progress.
+  // The live view reads it without waiting for a change in progress.
   FlightTrack track_;
 };
 

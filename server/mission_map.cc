@@ -127,12 +127,8 @@ absl::StatusOr<MissionMap::ForPlan> MissionMap::Window(const LargeFieldMap::Targ
 }
 
 std::int64_t Mission::MemoryBytes() const {
-  std::shared_ptr<const Environment> env;
-  {
-    absl::MutexLock lock(&summary_mu_);
-    env = summary_.env;
-  }
-  const std::int64_t map_bytes = map_.bytes() + (map_.sparse() ? 0 : team_chain_.bytes());
+  const std::shared_ptr<const Environment> env = summary_.Get().env;
+  const std::int64_t map_bytes = map_.bytes() + (map_.sparse() ? 0 : planning_.chain_bytes());
   if (env == nullptr) return map_bytes;
   const Esdf& esdf = env->esdf();
   std::int64_t users = esdf.SharedBy();
@@ -224,12 +220,7 @@ void Mission::SettleMap() const {
       map_.large()->Read(target);
   // A failure leaves the last trace in place; GetMap reports the error.
   if (!reading.ok()) return;
-  absl::MutexLock lock(&summary_mu_);
-  if ((*reading)->version > summary_.trace_version) {
-    summary_.trace = (*reading)->trace;
-    summary_.trace_measurements_fused = (*reading)->measurements_fused;
-    summary_.trace_version = (*reading)->version;
-  }
+  summary_.SetNewerTrace((*reading)->trace, (*reading)->measurements_fused, (*reading)->version);
 }
 
 }  // namespace oaipp::server

@@ -19,10 +19,9 @@ absl::Status Mission::Persist(const PersistFn& persist, const MeasurementResult*
 }
 
 MissionState Mission::CaptureState() const {
-  // The locks every change takes (a plan holds planner_mu_, a mutation
-  // mutation_mu_),
-  // so that nothing changes while the state is copied.
-  absl::MutexLock planner_lock(&planner_mu_);
+  // The locks every change takes (a plan holds planning_'s, a mutation
+  // mutation_mu_), so that nothing changes while the state is copied.
+  MissionPlanning::Held planning(planning_);
   absl::MutexLock order(&mutation_mu_);
   SettleMap();  // nothing can leave it pending again while order is held
   absl::ReaderMutexLock lock(&mu_);
@@ -33,9 +32,9 @@ MissionState Mission::CaptureState() const {
   if (map_.sparse()) {
     state.added_precision = map_.additions().precision;
     state.added_information = map_.additions().information;
-    absl::MutexLock summary_lock(&summary_mu_);
-    state.trace = summary_.trace;
-    state.trace_measurements_fused = summary_.trace_measurements_fused;
+    const PublishedSummary::Summary summary = summary_.Get();
+    state.trace = summary.trace;
+    state.trace_measurements_fused = summary.trace_measurements_fused;
   } else {
     state.mean = map_.dense()->Mean();
     state.covariance = map_.dense()->Covariance();
@@ -49,11 +48,11 @@ MissionState Mission::CaptureState() const {
     state.last_shot_s[uav_id] = fused_shots_.Latest(uav_id);
   }
   state.paths_planned = paths_planned_.load();
-  state.planner_state = planner_->SaveState();
+  state.planner_state = planning.planner().SaveState();
   answers_.ForEach([&](const std::string& request_id, const RememberedAnswer& answer) {
     state.answers.emplace_back(request_id, answer);
   });
-  state.committed = timelines_.All();
+  state.committed = planning.timelines().All();
   state.removed_uav_ids = roster_.removed();
   state.landed_uav_ids = roster_.landed();
   return state;
@@ -73,10 +72,7 @@ void Mission::SnapshotDone(bool stored, std::int64_t sequence, std::int64_t meas
 void Mission::MaybeWantSnapshot() {
   snapshots_.MaybeWant([this] {
     SnapshotPolicy::Progress progress;
-    {
-      absl::MutexLock lock(&summary_mu_);
-      progress.measurements_fused = summary_.measurements_fused;
-    }
+    progress.measurements_fused = summary_.Get().measurements_fused;
     progress.last_sequence = next_sequence() - 1;
     return progress;
   });

@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <utility>
+#include <variant>
 
 #include "absl/strings/str_cat.h"
 #include "core/common/status_macros.h"
+#include "core/planning/planners.h"
 #include "server/site_caches.h"
 
 namespace oaipp::server {
@@ -110,9 +112,7 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   if (sparse && state.trace.has_value()) {
     // The snapshot's trace until the next variance map (SettleMap): a
     // takeover need not wait seconds for one.
-    absl::MutexLock lock(&mission->summary_mu_);
-    mission->summary_.trace = *state.trace;
-    mission->summary_.trace_measurements_fused = state.trace_measurements_fused;
+    mission->summary_.RestoreTrace(*state.trace, state.trace_measurements_fused);
   } else if (sparse) {
     // Else the variance map of the state, for the trace the mission reports.
     OAIPP_RETURN_IF_ERROR(mission->map_.large()->Read(restored).status());
@@ -125,9 +125,9 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Restore(std::string id, Missio
   mission->answers_.Restore(std::move(state.answers));
   mission->paths_planned_ = state.paths_planned;
   {
-    absl::MutexLock lock(&mission->planner_mu_);
+    MissionPlanning::Held planning(mission->planning_);
     for (const PlannedPath& path : state.committed) {
-      mission->timelines_.Commit(path, state.mission_time_s);
+      planning.timelines().Commit(path, state.mission_time_s);
     }
     mission->roster_.Restore(std::move(state.removed_uav_ids), std::move(state.landed_uav_ids));
   }
@@ -152,8 +152,8 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Replay(std::string id, Mission
 
 absl::Status Mission::RestorePlan(const RequestKey& request, PlannedPath path,
                                   const std::string& planner_state) {
-  absl::MutexLock planner_lock(&planner_mu_);
-  OAIPP_RETURN_IF_ERROR(planner_->RestoreState(planner_state));
+  MissionPlanning::Held planning(planning_);
+  OAIPP_RETURN_IF_ERROR(planning.planner().RestoreState(planner_state));
   if (!path.team.uav_id.empty() && config_.FindMember(path.team.uav_id) == nullptr) {
     return absl::InvalidArgumentError(
         absl::StrCat("a plan of UAV '", path.team.uav_id, "', which is not in the team"));
@@ -166,7 +166,7 @@ absl::Status Mission::RestorePlan(const RequestKey& request, PlannedPath path,
       absl::ReaderMutexLock lock(&mu_);
       newest_s = mission_time_s_;
     }
-    timelines_.Commit(path, std::max(newest_s, path.team.start_mission_s));
+    planning.timelines().Commit(path, std::max(newest_s, path.team.start_mission_s));
   }
   answers_.Remember(request, std::move(path));
   return absl::OkStatus();
