@@ -18,32 +18,10 @@
 #include "core/common/status_macros.h"
 
 namespace oaipp::server {
-namespace {
-
-bool ValidId(absl::string_view id) {
-  if (id.empty() || id.size() > 63) return false;
-  for (char c : id) {
-    if (!((c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '-')) return false;
-  }
-  return true;
-}
-
-}  // namespace
+namespace {}  // namespace
 
 MissionRegistry::MissionRegistry(RegistryLimits limits, MissionStore* store)
-    : limits_(limits),
-      priors_(limits.prior_cache > 0 ? std::make_unique<PriorCache>(limits.prior_cache) : nullptr),
-      start_maps_(limits.prior_cache > 0 ? std::make_unique<StartMapCache>(limits.prior_cache)
-                                         : nullptr),
-      gmrf_priors_(limits.prior_cache > 0
-                       ? std::make_unique<GmrfPriorCache>(std::min(limits.prior_cache, 2))
-                       : nullptr),
-      caches_{.priors = priors_.get(),
-              .esdfs = &esdfs_,
-              .worlds = &worlds_,
-              .start_maps = start_maps_.get(),
-              .gmrf_priors = gmrf_priors_.get()},
-      store_(store) {
+    : limits_(limits), caches_(limits.prior_cache), store_(store) {
   if (store_ != nullptr && limits_.snapshot_every > 0) {
     snapshots_.Start([this](const std::string& mission_id) { TakeSnapshot(mission_id); });
   }
@@ -51,35 +29,12 @@ MissionRegistry::MissionRegistry(RegistryLimits limits, MissionStore* store)
 
 MissionRegistry::~MissionRegistry() { snapshots_.Stop(); }
 
-std::string MissionRegistry::Key(absl::string_view tenant, absl::string_view id) {
-  return tenant.empty() ? std::string(id) : absl::StrCat(tenant, "/", id);
-}
-
-absl::string_view MissionRegistry::PublicId(absl::string_view key) {
-  const std::size_t slash = key.find('/');
-  return slash == absl::string_view::npos ? key : key.substr(slash + 1);
-}
-
-absl::string_view MissionRegistry::TenantOfKey(absl::string_view key) {
-  const std::size_t slash = key.find('/');
-  return slash == absl::string_view::npos ? absl::string_view() : key.substr(0, slash);
-}
-
-absl::StatusOr<std::string> MissionRegistry::ParseName(absl::string_view name,
-                                                       absl::string_view field) {
-  if (!absl::StartsWith(name, kPrefix) || !ValidId(name.substr(kPrefix.size()))) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        field, ": expected \"missions/{id}\" with id [a-z0-9-]{1,63}, got ", api::EchoInput(name)));
-  }
-  return std::string(name.substr(kPrefix.size()));
-}
-
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mission_id,
                                                                  MissionConfig config,
                                                                  const std::string& request_id,
                                                                  const std::string& fingerprint,
                                                                  const std::string& tenant) {
-  if (!mission_id.empty() && !ValidId(mission_id)) {
+  if (!mission_id.empty() && !ValidMissionId(mission_id)) {
     return absl::InvalidArgumentError(
         absl::StrCat("mission_id: must match [a-z0-9-]{1,63}, got ", api::EchoInput(mission_id)));
   }
@@ -102,7 +57,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   }
   OAIPP_ASSIGN_OR_RETURN(const std::int64_t estimate, AdmitMemory(config));
   // request_ids, like mission ids, are the tenant's own.
-  const std::string request_key = request_id.empty() ? "" : Key(tenant, request_id);
+  const std::string request_key = request_id.empty() ? "" : MissionKey(tenant, request_id);
   const auto reused = [&](absl::string_view created_id) {
     return absl::InvalidArgumentError(absl::StrCat(
         "request_id: ", api::EchoInput(request_id), " was first used to create mission '",
@@ -133,7 +88,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
         return reused(created_id);
       }
       absl::StatusOr<std::shared_ptr<Mission>> held =
-          Hold(created_id, Find(created_id), absl::StrCat(kPrefix, PublicId(created_id)));
+          Hold(created_id, Find(created_id), MissionName(created_id));
       if (held.status().code() == absl::StatusCode::kNotFound) {
         return absl::FailedPreconditionError(
             absl::StrCat("request_id: ", api::EchoInput(request_id), " created mission '",
@@ -165,9 +120,9 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
           OAIPP_ASSIGN_OR_RETURN(number, store_->NextMissionNumber());
         }
         mission_id = absl::StrFormat("m-%06d", number);
-      } while (missions_.contains(Key(tenant, mission_id)));
+      } while (missions_.contains(MissionKey(tenant, mission_id)));
     }
-    key = Key(tenant, mission_id);
+    key = MissionKey(tenant, mission_id);
     if (missions_.contains(key)) {
       return absl::AlreadyExistsError(
           absl::StrCat("mission_id: '", mission_id, "' already exists"));
@@ -211,7 +166,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
       store_ != nullptr ? api::ConfigToMissionSpec(config).SerializeAsString() : std::string();
   ApplyServerSettings(config);
   absl::StatusOr<std::shared_ptr<Mission>> mission =
-      Mission::Create(key, std::move(config), caches_);
+      Mission::Create(key, std::move(config), caches_.view());
   if (mission.ok()) {
     (*mission)->set_log_limit(LogLimit(estimate));
     WatchForSnapshots(**mission);
@@ -352,11 +307,11 @@ absl::Status MissionRegistry::Reload(const std::string& mission_id) {
 
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view name,
                                                               const std::string& tenant) const {
-  OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
+  OAIPP_ASSIGN_OR_RETURN(std::string id, ParseMissionName(name));
   // Another tenant's mission is not found, in the same words as a missing
   // one: whether it exists is not the caller's to know (keys carry the
   // tenant, in memory and in the store).
-  const std::string key = Key(tenant, id);
+  const std::string key = MissionKey(tenant, id);
   std::shared_ptr<Mission> held = Find(key);
   if (limits_.shared_store) {
     return const_cast<MissionRegistry*>(this)->Hold(key, std::move(held), name);
@@ -367,8 +322,8 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Get(absl::string_view 
 
 absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::GetHeld(absl::string_view name,
                                                                   const std::string& tenant) const {
-  OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
-  std::shared_ptr<Mission> held = Find(Key(tenant, id));
+  OAIPP_ASSIGN_OR_RETURN(std::string id, ParseMissionName(name));
+  std::shared_ptr<Mission> held = Find(MissionKey(tenant, id));
   if (held == nullptr) return absl::NotFoundError(absl::StrCat("name: no mission '", name, "'"));
   return held;
 }
@@ -399,7 +354,7 @@ absl::StatusOr<std::vector<MissionRegistry::Listed>> MissionRegistry::ListStored
     int limit) const {
   if (store_ == nullptr) return absl::FailedPreconditionError("no store to list");
   OAIPP_ASSIGN_OR_RETURN(std::vector<MissionListing> stored,
-                         store_->List(tenant.empty() ? std::string() : Key(tenant, ""),
+                         store_->List(tenant.empty() ? std::string() : MissionKey(tenant, ""),
                                       after_time_us, after_key, limit));
   std::vector<Listed> out;
   out.reserve(stored.size());
@@ -429,20 +384,20 @@ absl::StatusOr<std::string> MissionRegistry::PageTokenKey() const {
 
 absl::Status MissionRegistry::Delete(absl::string_view name, const std::string& request_id,
                                      const std::string& tenant) {
-  OAIPP_ASSIGN_OR_RETURN(std::string id, ParseName(name));
-  const std::string key = Key(tenant, id);
+  OAIPP_ASSIGN_OR_RETURN(std::string id, ParseMissionName(name));
+  const std::string key = MissionKey(tenant, id);
   if (limits_.shared_store) {
     // Deleted where it is held; a mission already gone is left to
     // DeleteKey, which tells a retry from a miss.
     absl::StatusOr<std::shared_ptr<Mission>> held = Hold(key, Find(key), name);
     if (!held.ok() && held.status().code() != absl::StatusCode::kNotFound) return held.status();
   }
-  return DeleteKey(key, request_id.empty() ? "" : Key(tenant, request_id), request_id);
+  return DeleteKey(key, request_id.empty() ? "" : MissionKey(tenant, request_id), request_id);
 }
 
 absl::Status MissionRegistry::DeleteKey(const std::string& id, const std::string& request_key,
                                         const std::string& request_id) {
-  const std::string name = absl::StrCat(kPrefix, PublicId(id));
+  const std::string name = MissionName(id);
   std::shared_ptr<Mission> mission;
   absl::Status fenced;
   absl::MutexLock write_lock(&snapshot_write_mu_);

@@ -24,10 +24,11 @@
 #include "absl/synchronization/mutex.h"
 #include "absl/synchronization/notification.h"
 #include "absl/time/time.h"
-#include "core/mapping/prior_cache.h"
 #include "server/mission.h"
+#include "server/mission_names.h"
 #include "server/registry_limits.h"
 #include "server/request_memo.h"
+#include "server/site_caches.h"
 #include "server/snapshot_writer.h"
 #include "server/store/mission_store.h"
 
@@ -36,9 +37,8 @@ namespace oaipp::server {
 class MissionRegistry {
  public:
   // store: where missions are kept durably (must outlive the registry);
-  // nullptr keeps them in memory only.
-  // With a store and snapshot_every > 0, a thread of the registry writes
-  // snapshots in the background.
+  // nullptr keeps them in memory only. With a store and snapshot_every > 0,
+  // a thread of the registry writes snapshots in the background.
   explicit MissionRegistry(RegistryLimits limits, MissionStore* store = nullptr);
   // Finishes the snapshot being written; drops those not begun.
   ~MissionRegistry();
@@ -54,17 +54,12 @@ class MissionRegistry {
 
   // Creates a mission. mission_id: [a-z0-9-]{1,63}, or empty for a new one.
   // InvalidArgument for a bad id, AlreadyExists for a taken one,
-  // ResourceExhausted past max_missions or max_cells_per_mission. A retry
-  // with the same non-empty request_id returns the mission first created.
-  // With a store, the mission's spec is written durably before it is
-  // answered (Unavailable, or ResourceExhausted for a full disk, when that
-  // fails; the id is then free again); fingerprint identifies the request
-  // behind request_id.
-  //
-  // tenant: whose mission it is ("" for the anonymous tenant of a server
-  // without tokens). Ids and request_ids are the tenant's own: other
-  // tenants neither see nor collide with them. ResourceExhausted past
-  // max_missions_per_tenant or the memory limits.
+  // ResourceExhausted past any limit. A retry with the same non-empty
+  // request_id (fingerprint: the request behind it) returns the mission
+  // first created. With a store, the spec is durable before the answer
+  // (Unavailable, or ResourceExhausted for a full disk; the id is free
+  // again). tenant: whose mission it is ("" for the anonymous tenant); ids
+  // and request_ids are the tenant's own, invisible to other tenants.
   [[nodiscard]] absl::StatusOr<std::shared_ptr<Mission>> Create(std::string mission_id,
                                                                 MissionConfig config,
                                                                 const std::string& request_id,
@@ -135,32 +130,25 @@ class MissionRegistry {
   // Missions taken over from another server (shared store) since start.
   [[nodiscard]] std::int64_t takeovers() const;
 
-  // Shared store with a ring_id: brings the warm standbys up to date. Reads
-  // who holds what (MissionStore::View); follows each mission that a live
-  // server other than this one holds and that the proxies' ring without
-  // that holder sends here (by id, at most max_standbys, while the memory
-  // held and standing by stays under max_memory_bytes): read once, then
-  // only the records written since (MissionStore::LoadAfter), replayed;
-  // forgets the others. Called every fraction of a second by the server; a
-  // takeover of a mission on standby claims only the records after it.
+  // Shared store with a ring_id: brings the warm standbys up to date: the
+  // missions another live server holds that the proxies' ring without it
+  // sends here (at most max_standbys, within max_memory_bytes), read once,
+  // then followed record by record (MissionStore::LoadAfter). Called often
+  // by the server; a takeover from a standby claims only the newer records.
   void KeepStandbys();
   // Missions on standby now, and takeovers that started from one.
   [[nodiscard]] int standbys() const;
   [[nodiscard]] std::int64_t takeovers_from_standby() const;
 
-  // Retention: deletes missions whose budget is spent and that have not
-  // changed for `keep_finished`, and any mission unchanged for `keep_idle`
-  // (absl::InfiniteDuration(): kept), with their records; forgets
-  // deletions' request_ids older than the longer of the two. Returns the
-  // ids deleted.
+  // Retention: deletes (with their records) missions finished and unchanged
+  // for `keep_finished`, and any unchanged for `keep_idle` (infinite: kept);
+  // forgets older deletions' request_ids. Returns the ids deleted.
   std::vector<std::string> Sweep(absl::Time now, absl::Duration keep_finished,
                                  absl::Duration keep_idle);
-  // Retention of a shared store, held by one server at a time: when this
-  // server (`holder`) holds or wins the store's retention lease (for
-  // `lease`), deletes every mission nothing was written to for
-  // `keep_idle`, whoever holds it, at most 100 a call; a server that holds
-  // one answers NOT_FOUND for it from then on. Returns the ids deleted;
-  // nothing without a shared store or when another server holds the lease.
+  // Retention of a shared store, by the server (`holder`) holding its
+  // retention lease (for `lease`): deletes up to 100 missions a call that
+  // nothing was written to for `keep_idle`, whoever holds them (they answer
+  // NOT_FOUND from then on). Returns the ids deleted.
   std::vector<std::string> SweepStore(absl::Time now, absl::Duration keep_idle,
                                       const std::string& holder, absl::Duration lease);
 
@@ -171,33 +159,8 @@ class MissionRegistry {
   // The durable store, or nullptr.
   [[nodiscard]] MissionStore* store() const { return store_; }
   [[nodiscard]] std::int64_t MemoryBytes() const;
-  // Prior covariances computed so far (missions of one grid shape and GP
-  // parameters share one).
-  // (0 without a cache).
-  [[nodiscard]] std::int64_t PriorComputations() const {
-    return priors_ != nullptr ? priors_->computations() : 0;
-  }
-  // Starting maps computed so far (missions over one site, with the same
-  // GP parameters, share one). 0 without a cache.
-  [[nodiscard]] std::int64_t StartMapComputations() const {
-    return start_maps_ != nullptr ? start_maps_->computations() : 0;
-  }
-  // Sparse priors computed so far (large-field missions of one grid shape
-  // and GP parameters share one). 0 without a cache.
-  [[nodiscard]] std::int64_t GmrfPriorComputations() const {
-    return gmrf_priors_ != nullptr ? gmrf_priors_->computations() : 0;
-  }
-
-  // A mission's key in the registry and the store: its id, prefixed by
-  // "tenant/" for a named tenant (so the anonymous tenant's keys are the
-  // bare ids).
-  [[nodiscard]] static std::string Key(absl::string_view tenant, absl::string_view id);
-  // The id part of a key (what the tenant calls the mission).
-  [[nodiscard]] static absl::string_view PublicId(absl::string_view key);
-  [[nodiscard]] static absl::string_view TenantOfKey(absl::string_view key);
-  // "missions/{id}" -> id, or InvalidArgument naming `field`.
-  [[nodiscard]] static absl::StatusOr<std::string> ParseName(absl::string_view name,
-                                                             absl::string_view field = "name");
+  // What missions over one site share, and how often each was computed.
+  [[nodiscard]] const SiteCacheSet& site_caches() const { return caches_; }
 
  private:
   // A mission rebuilt from what the store holds: its snapshot (if any),
@@ -293,28 +256,10 @@ class MissionRegistry {
   // the rest of max_mission_memory_bytes (no limit without one).
   std::int64_t LogLimit(std::int64_t estimate) const;
 
-  // A mission's name is kPrefix followed by its id.
-  static constexpr absl::string_view kPrefix = "missions/";
-
   const RegistryLimits limits_;
-  // Prior covariances shared by missions over the same kind of field: a
-  // fleet computes each once (0.3 s for 1600 cells) and copies it.
-  const std::unique_ptr<PriorCache> priors_;
-  // ESDFs shared by missions over equal worlds (a fleet over one site holds
-  // one 16 MB grid, not one per mission).
-  EsdfPool esdfs_;
-  // Worlds by what they are built from: a mission over a known world clones
-  // it (sharing its ESDF) instead of building the grid again.
-  WorldCache worlds_;
-  // Starting maps by site: a mission over a known site copies the map with
-  // the ground under its buildings fused instead of fusing it again (a
-  // rank-m update over every covered cell).
-  const std::unique_ptr<StartMapCache> start_maps_;
-  // Large fields' sparse priors by grid shape and GP parameters (at most
-  // two: 16 MB each at 90,000 cells, 45 MB at 250,000).
-  const std::unique_ptr<GmrfPriorCache> gmrf_priors_;
-  // The five above, as Mission::Create takes them.
-  SiteCaches caches_;
+  // What missions over one site share (priors, ESDFs, worlds, starting
+  // maps, sparse priors), owned here.
+  SiteCacheSet caches_;
   MissionStore* const store_;
   mutable absl::Mutex mu_;
   // nullptr while a mission is being built (its id is reserved).

@@ -252,7 +252,7 @@ void MissionRegistry::Drop(const std::string& key, const std::shared_ptr<Mission
 absl::Status MissionRegistry::AfterFailedWrite(const std::shared_ptr<Mission>& mission,
                                                absl::Status status) {
   if (status.ok()) return status;
-  const std::string name = absl::StrCat(kPrefix, PublicId(mission->id()));
+  const std::string name = MissionName(mission->id());
   if (status.GetPayload(kFenced).has_value()) {
     absl::Status moved = absl::UnavailableError(absl::StrCat(
         "name: mission '", name, "' is now served by another server; nothing was applied; retry"));

@@ -84,7 +84,7 @@ absl::StatusOr<MissionRegistry::ReadBack> MissionRegistry::ReadBackBase(const St
                                               ", stored as covering ", m.snapshot->sequence));
     }
     absl::StatusOr<std::shared_ptr<Mission>> mission =
-        Mission::Restore(m.id, *std::move(config), *std::move(state), caches_);
+        Mission::Restore(m.id, *std::move(config), *std::move(state), caches_.view());
     if (!mission.ok()) {
       return absl::DataLossError(absl::StrCat("snapshot: ", mission.status().message()));
     }
@@ -92,7 +92,7 @@ absl::StatusOr<MissionRegistry::ReadBack> MissionRegistry::ReadBackBase(const St
     out.last_write_us = std::max(out.last_write_us, m.snapshot->write_time_unix_us);
   } else {
     absl::StatusOr<std::shared_ptr<Mission>> mission =
-        Mission::Create(m.id, *std::move(config), caches_);
+        Mission::Create(m.id, *std::move(config), caches_.view());
     if (!mission.ok()) {
       return absl::Status(mission.status().code(),
                           absl::StrCat("creating: ", mission.status().message()));

@@ -106,7 +106,7 @@ absl::StatusOr<PagePosition> ParsePageToken(const std::string& key, const std::s
 
 void FillMission(const Mission& mission, v1::Mission* out) {
   const MissionSnapshot s = mission.Snapshot();
-  out->set_name(absl::StrCat("missions/", MissionRegistry::PublicId(s.id)));
+  out->set_name(absl::StrCat("missions/", PublicId(s.id)));
   *out->mutable_spec() = ConfigToMissionSpec(s.config);
   for (const Obstacle& o : s.obstacles) *out->add_obstacles() = ObstacleToProto(o);
   out->set_trace(s.trace);
@@ -201,7 +201,7 @@ grpc::Status MissionServiceImpl::ListMissions(grpc::ServerContext* context,
           continue;
         }
         const MissionListing& stored = listed[i].stored;
-        out->set_name(absl::StrCat("missions/", MissionRegistry::PublicId(stored.id)));
+        out->set_name(absl::StrCat("missions/", PublicId(stored.id)));
         if (!out->mutable_spec()->ParseFromString(stored.spec)) {
           return absl::DataLossError(absl::StrCat(out->name(), ": its stored spec does not parse"));
         }
@@ -351,11 +351,10 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
                                .y_min_m = response->y_min_m()};
     OAIPP_ASSIGN_OR_RETURN(
         std::string png,
-        render::RenderMapPng(
-            grid, layers, overlay,
-            {.mission = absl::StrCat("missions/", MissionRegistry::PublicId(snapshot.id)),
-             .mission_time_s = snapshot.mission_time_s,
-             .trace = response->trace()}));
+        render::RenderMapPng(grid, layers, overlay,
+                             {.mission = absl::StrCat("missions/", PublicId(snapshot.id)),
+                              .mission_time_s = snapshot.mission_time_s,
+                              .trace = response->trace()}));
     response->set_png(std::move(png));
     return absl::OkStatus();
   });

@@ -1,10 +1,31 @@
 #include "server/site_caches.h"
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "api/spec.h"
 
 namespace oaipp::server {
+
+SiteCacheSet::SiteCacheSet(int capacity)
+    : priors_(capacity > 0 ? std::make_unique<PriorCache>(capacity) : nullptr),
+      start_maps_(capacity > 0 ? std::make_unique<StartMapCache>(capacity) : nullptr),
+      gmrf_priors_(capacity > 0 ? std::make_unique<GmrfPriorCache>(std::min(capacity, 2))
+                                : nullptr),
+      view_{.priors = priors_.get(),
+            .esdfs = &esdfs_,
+            .worlds = &worlds_,
+            .start_maps = start_maps_.get(),
+            .gmrf_priors = gmrf_priors_.get()} {}
+
+std::int64_t SiteCacheSet::PriorComputations() const {
+  return priors_ != nullptr ? priors_->computations() : 0;
+}
+
+std::int64_t SiteCacheSet::GmrfPriorComputations() const {
+  return gmrf_priors_ != nullptr ? gmrf_priors_->computations() : 0;
+}
 
 std::string WorldKey(const api::MissionConfig& config) {
   const v1::MissionSpec spec = api::ConfigToMissionSpec(config);

@@ -59,6 +59,30 @@ struct SiteCaches {
   GmrfPriorCache* gmrf_priors = nullptr;
 };
 
+// The caches of one server, made and owned together: `capacity` entries
+// each of priors and starting maps (8 n^2 bytes each), up to two sparse
+// priors of large fields; capacity 0 leaves those three out (every mission
+// computes its own). ESDFs and worlds are always shared.
+class SiteCacheSet {
+ public:
+  explicit SiteCacheSet(int capacity);
+  SiteCacheSet(const SiteCacheSet&) = delete;
+  SiteCacheSet& operator=(const SiteCacheSet&) = delete;
+  // What Mission::Create takes.
+  [[nodiscard]] const SiteCaches& view() const { return view_; }
+  // Priors, dense and sparse, computed rather than found (0 without them).
+  [[nodiscard]] std::int64_t PriorComputations() const;
+  [[nodiscard]] std::int64_t GmrfPriorComputations() const;
+
+ private:
+  const std::unique_ptr<PriorCache> priors_;
+  EsdfPool esdfs_;
+  WorldCache worlds_;
+  const std::unique_ptr<StartMapCache> start_maps_;
+  const std::unique_ptr<GmrfPriorCache> gmrf_priors_;
+  const SiteCaches view_;
+};
+
 // Everything a mission's world is built from (MakeEnvironment): the field,
 // the flight settings (altitudes, ESDF voxel and truncation), the ESDF's
 // voxel limit and the obstacles, as bytes.

@@ -185,7 +185,7 @@ std::string WebView::MissionsJson(const std::string& tenant) const {
   json missions = json::array();
   for (const auto& [number, mission] : registry_->ListAfter(0, 1000, tenant)) {
     const MissionSnapshot s = mission->Snapshot();
-    missions.push_back({{"id", std::string(MissionRegistry::PublicId(s.id))},
+    missions.push_back({{"id", std::string(PublicId(s.id))},
                         {"measurements_fused", s.measurements_fused},
                         {"paths_planned", s.paths_planned},
                         {"trace", Short(s.trace)},

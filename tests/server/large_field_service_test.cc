@@ -139,10 +139,10 @@ TEST(LargeFieldServiceTest, SparseMissionsOfOneFieldShapeShareThePrior) {
   InProcessService shared;
   const v1::GetMapResponse a = map_of(shared, "a");
   const v1::GetMapResponse b = map_of(shared, "b");
-  EXPECT_EQ(shared.registry().GmrfPriorComputations(), 1);
+  EXPECT_EQ(shared.registry().site_caches().GmrfPriorComputations(), 1);
   InProcessService alone({.max_missions = 64, .max_cells_per_mission = 1600, .prior_cache = 0});
   const v1::GetMapResponse c = map_of(alone, "c");
-  EXPECT_EQ(alone.registry().GmrfPriorComputations(), 0);
+  EXPECT_EQ(alone.registry().site_caches().GmrfPriorComputations(), 0);
   ASSERT_EQ(a.mean_size(), c.mean_size());
   ASSERT_GT(a.mean_size(), 0);
   for (const v1::GetMapResponse* other : {&b, &c}) {

@@ -173,7 +173,7 @@ TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
   InProcessService s;
   const v1::Mission a = CreateSmall(s.stub(), "a");
   const v1::Mission b = CreateSmall(s.stub(), "b");
-  EXPECT_EQ(s.registry().PriorComputations(), 1);
+  EXPECT_EQ(s.registry().site_caches().PriorComputations(), 1);
   auto config = api::MissionSpecToConfig(SmallSpec());
   ASSERT_TRUE(config.ok()) << config.status();
   auto alone = Mission::Create("alone", *config);
@@ -187,12 +187,12 @@ TEST(ServiceTest, MissionsOfOneFieldShapeShareThePrior) {
   request.mutable_spec()->mutable_field()->set_resolution_m(0.5);
   v1::Mission fine;
   ASSERT_TRUE(s.stub().CreateMission(&context, request, &fine).ok());
-  EXPECT_EQ(s.registry().PriorComputations(), 2);
+  EXPECT_EQ(s.registry().site_caches().PriorComputations(), 2);
   EXPECT_NE(fine.trace(), a.trace());
   // Without a cache every mission computes its own, to the same map.
   InProcessService uncached({.max_missions = 4, .max_cells_per_mission = 1600, .prior_cache = 0});
   EXPECT_EQ(CreateSmall(uncached.stub(), "c").trace(), a.trace());
-  EXPECT_EQ(uncached.registry().PriorComputations(), 0);
+  EXPECT_EQ(uncached.registry().site_caches().PriorComputations(), 0);
 }
 
 // Two missions "a" and "b" over one site sharing its starting map, and
