@@ -287,6 +287,8 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
       OrDefault(p.has_second_look_weight(), p.second_look_weight(), info.second_look_weight);
   common.information.second_look_sharpness = OrDefault(
       p.has_second_look_sharpness(), p.second_look_sharpness(), info.second_look_sharpness);
+  common.information.detection_discount =
+      OrDefault(p.has_detection_discount(), p.detection_discount(), info.detection_discount);
   c.planner.oaipp.num_waypoints =
       OrDefault(p.has_num_waypoints(), p.num_waypoints(), oaipp.num_waypoints);
   c.planner.oaipp.population = OrDefault(p.has_population(), p.population(), oaipp.population);
@@ -329,6 +331,10 @@ absl::Status FillPlanner(const v1::PlannerSpec& p, MissionConfig& c) {
   if (const double margin = common.information.ambiguity_margin; !(margin > 0.0 && margin <= 0.5)) {
     return absl::InvalidArgumentError(
         absl::StrCat("spec.planner.ambiguity_margin: must lie in (0, 0.5], got ", margin));
+  }
+  if (const double g = common.information.detection_discount; !(g > 0.0 && g <= 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.planner.detection_discount: must lie in (0, 1], got ", g));
   }
   OAIPP_RETURN_IF_ERROR(
       CheckPositive("spec.planner.lawnmower_altitude_m", c.planner.lawnmower.altitude_m));
@@ -523,6 +529,8 @@ v1::PlannerKind PlannerKindToProto(PlannerKind kind) {
       return v1::PLANNER_KIND_LAWNMOWER;
     case PlannerKind::kRandom:
       return v1::PLANNER_KIND_RANDOM;
+    case PlannerKind::kOaIppDetection:
+      return v1::PLANNER_KIND_OAIPP_DETECTION;
   }
   return v1::PLANNER_KIND_UNSPECIFIED;  // unreachable for a valid enumerator
 }
@@ -538,6 +546,8 @@ absl::StatusOr<PlannerKind> PlannerKindFromProto(v1::PlannerKind kind) {
       return PlannerKind::kLawnmower;
     case v1::PLANNER_KIND_RANDOM:
       return PlannerKind::kRandom;
+    case v1::PLANNER_KIND_OAIPP_DETECTION:
+      return PlannerKind::kOaIppDetection;
     default:
       break;
   }

@@ -93,6 +93,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
   p.set_second_look_weight(common.information.second_look_weight);
   p.set_second_look_sharpness(common.information.second_look_sharpness);
   p.set_confirmation_preposterior(common.information.confirmation_preposterior);
+  p.set_detection_discount(common.information.detection_discount);
   p.set_lawnmower_altitude_m(c.planner.lawnmower.altitude_m);
   p.set_lawnmower_start_corner(c.planner.lawnmower.start_corner);
 

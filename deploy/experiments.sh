@@ -57,6 +57,9 @@
 # and random on the 300 x 300 m field of client/scenarios/e6.json
 # (E6_TRIALS each, default 10); E6-confirm flies them with the detector's
 # noise, OA-IPP with the confirmation options (E6_TRIALS, default 5, 30 min);
+# PRIOR (not in the default list) flies prior-demo.json's search from a
+# lost-person map with the adaptive and detection objectives and the two
+# baselines, with the detector's noise (out/eval/PRIOR).
 # E6-km2 flies one OA-IPP mission over the
 # 1 km^2 field of e6-km2.json at 2 m (250,000 cells) to out/e6-km2.
 # E7 flies teams of 1, 2, 4 and 8 UAVs in E5's world, coordinated and the
@@ -97,6 +100,7 @@ for e in $experiments; do
   case "$e" in
     E2) "${client[@]}" eval E2 --trials="$trials" --plan_budget_s=3 ;;  # the trace objective is slow
     E3) "${client[@]}" eval E3 --trials="$e3_trials" ;;
+    PRIOR) "${client[@]}" eval PRIOR --trials="$trials" --detector_noise ;;
     E5-settings)
       for f in client/scenarios/e5-settings/*.json; do
         case "$(basename "$f")" in team4-*) continue ;; esac  # E7's team scenarios

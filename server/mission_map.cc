@@ -107,7 +107,8 @@ absl::StatusOr<MissionMap::ForPlan> MissionMap::Window(const LargeFieldMap::Targ
                                                        const Vec2& centre_W,
                                                        const api::MissionConfig& config) const {
   const bool oaipp = config.planner.kind == PlannerKind::kOaIpp ||
-                     config.planner.kind == PlannerKind::kOaIppNonAdaptive;
+                     config.planner.kind == PlannerKind::kOaIppNonAdaptive ||
+                     config.planner.kind == PlannerKind::kOaIppDetection;
   const LargeFieldPlanning options =
       LargeFieldPlanning::ForField(grid_, oaipp, config.planner.common.information.dense_backend);
   OAIPP_ASSIGN_OR_RETURN(

@@ -84,7 +84,7 @@ Commands:
                       items, MAVSDK MissionRaw fields) and setpoints.csv
                       (NED offboard setpoints at --setpoint_rate_hz); for a
                       team, each UAV's in --out/<uav_id>
-  eval E1|...|E7      many trials as concurrent missions (with a progress bar
+  eval E1|...|E7|PRIOR  many trials as concurrent missions (with a progress bar
                       and an ETA); trial k uses seed k:
                       E1 = OA-IPP, lawnmower and random on the E1 world;
                       E2 = adaptive against non-adaptive OA-IPP on E1;
@@ -99,7 +99,10 @@ Commands:
                            shared map without teammates' pending shots
                            (teamN-noshots) and each UAV alone on its own
                            map (teamN-alone): time to find everyone, team
-                           efficiency, plan latency, separation.
+                           efficiency, plan latency, separation;
+                      PRIOR = OA-IPP (adaptive and detection objectives),
+                           lawnmower and random from a prior map
+                           (prior-demo.json by default).
                       --confirmation_weight=W (> 0) adds oaipp_confirm
                       to E1, E4, E5 and E6: OA-IPP with the confirmation
                       objective at weight W, same seeds;

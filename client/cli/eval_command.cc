@@ -142,9 +142,20 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
     OAIPP_ASSIGN_OR_RETURN(e.variants, oaipp::client::TeamVariants(sizes));
   } else if (name == "E4" || name == "E5") {
     e.variants = PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kLawnmower});
+  } else if (name == "PRIOR") {
+    // A search from a lost-person map: the adaptive objective on the map
+    // as given, the detection objective (docs/method.md §6.6) and the
+    // baselines.
+    if (!scenario.has_prior_map_file() && !scenario.mission().gp().has_prior_map()) {
+      return absl::InvalidArgumentError(
+          "--scenario: eval PRIOR needs a scenario with a prior map (prior_map_file or "
+          "mission.gp.prior_map)");
+    }
+    e.variants = PlannerVariants(scenario, {PlannerKind::kOaIpp, PlannerKind::kOaIppDetection,
+                                            PlannerKind::kLawnmower, PlannerKind::kRandom});
   } else {
-    return absl::InvalidArgumentError(
-        absl::StrCat("eval: unknown experiment '", name, "' (E1, E2, E3, E4, E5, E6 or E7)"));
+    return absl::InvalidArgumentError(absl::StrCat("eval: unknown experiment '", name,
+                                                   "' (E1, E2, E3, E4, E5, E6, E7 or PRIOR)"));
   }
   oaipp::client::ConfirmationOptions confirm;
   OAIPP_ASSIGN_OR_RETURN(confirm.weight, NonNegativeFlag("--confirmation_weight",
@@ -206,6 +217,7 @@ std::string DefaultScenario(const std::string& experiment) {
   if (experiment == "E4") return "client/scenarios/e4.json";
   if (experiment == "E5" || experiment == "E7") return "client/scenarios/e5.json";
   if (experiment == "E6") return "client/scenarios/e6.json";
+  if (experiment == "PRIOR") return "client/scenarios/prior-demo.json";
   return "client/scenarios/e1.json";
 }
 

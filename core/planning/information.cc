@@ -1,5 +1,6 @@
 #include "core/planning/information.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <optional>
@@ -223,6 +224,10 @@ absl::Status InformationParams::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("ambiguity_margin: must lie in (0, 0.5], got ", ambiguity_margin));
   }
+  if (!(detection_discount > 0.0 && detection_discount <= 1.0)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("detection_discount: must lie in (0, 1], got ", detection_discount));
+  }
   if (confirmation_phase_s > 0.0 && kind != ObjectiveKind::kAdaptive) {
     return absl::InvalidArgumentError(
         "confirmation_phase_s: applies to the adaptive objective only, must be 0 for the "
@@ -307,6 +312,8 @@ absl::Status InformationEvaluator::Condition(std::vector<PoseObservation> prefix
   }
   prefix_.clear();
   conditioned_.reset();
+  // The detection objective reads the mean alone: nothing to condition.
+  if (params_.kind == ObjectiveKind::kDetection) return absl::OkStatus();
   base_squared_.resize(0, 0);
   work_without_square_ = 0.0;
   MergedCells fused;
@@ -346,6 +353,7 @@ std::size_t InformationEvaluator::PrefixLength(std::span<const PoseObservation> 
 }
 
 double InformationEvaluator::Evaluate(std::span<const PoseObservation> poses) const {
+  if (params_.kind == ObjectiveKind::kDetection) return Detection(poses);
   const std::size_t skip = PrefixLength(poses);
   if (skip == 0 && !prefix_.empty()) ++prefix_misses_;
   const Eigen::MatrixXd& base = skip > 0 ? *conditioned_ : cov_;
@@ -492,6 +500,30 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
       total += av * reward;
     }
     if (i + 1 < poses.size()) fused.Add(pose);
+  }
+  return total;
+}
+
+double InformationEvaluator::Detection(std::span<const PoseObservation> poses) const {
+  // The probability that the person, if in x, is still unseen: the product
+  // of (1 - p_j) over the poses so far that see x (1 for a cell not seen).
+  std::unordered_map<int, double> unseen;
+  double total = 0.0;
+  double weight = 1.0;  // gamma^i
+  for (const PoseObservation& pose : poses) {
+    // At or above h_sat a pose sees nothing, as in the adaptive objective.
+    const double p =
+        pose.altitude_m >= params_.h_sat_m ? 0.0 : std::clamp(pose.detection_probability, 0.0, 1.0);
+    double mass = 0.0;
+    for (int c : pose.cells) {
+      auto [it, inserted] = unseen.try_emplace(c, 1.0);
+      mass += std::clamp(mean_[c], 0.0, 1.0) * it->second;
+      it->second *= 1.0 - p;
+    }
+    if (pose.scored) {
+      total += weight * p * mass;
+      weight *= params_.detection_discount;
+    }
   }
   return total;
 }

@@ -53,7 +53,17 @@
 
 namespace oaipp {
 
-enum class ObjectiveKind { kAdaptive, kNonAdaptive };
+// kDetection: the probability of finding a person (docs/method.md §6.6):
+// for each scored pose i, in order,
+//   D_i = gamma^i * p_i * sum over its cells x of m(x) * prod over earlier
+//         poses j that see x of (1 - p_j),
+// with m(x) = mu(x) clamped to [0, 1] (the probability, as the map holds it
+// now, that x holds the person: a probability prior map's value before any
+// shot), p_i the detector's probability of seeing a person in view from
+// pose i (PoseObservation::detection_probability) and gamma the discount
+// per shot (InformationParams::detection_discount): a search values finding
+// someone sooner. It reads the mean only: no covariance, no solve.
+enum class ObjectiveKind { kAdaptive, kNonAdaptive, kDetection };
 
 struct InformationParams {
   ObjectiveKind kind = ObjectiveKind::kAdaptive;
@@ -99,6 +109,9 @@ struct InformationParams {
   // itself falls only about 1.5x. 0 (the default): the variance itself.
   // Valid: >= 0, finite.
   double second_look_sharpness = 0.0;
+  // The detection objective's discount per scored shot, gamma in (0, 1]: 1
+  // (the default) values a find late in the path as one now.
+  double detection_discount = 1.0;
   // True when these are the phase's parameters (set by ForRemainingBudget).
   bool confirming = false;
   // Off by default: the adaptive objective's solves (the Cholesky factor
@@ -192,6 +205,9 @@ struct PoseObservation {
   std::vector<int> cells;
   double variance = 1.0;
   double altitude_m = 10.0;
+  // Probability that the detector sees a person in one of the cells from
+  // here (the detection objective's p_i), in [0, 1].
+  double detection_probability = 1.0;
   // When false the pose is fused (it conditions later poses) but earns
   // nothing itself: used for a shot the candidate cannot influence (taken
   // where the UAV already is). Unscored poses come before scored ones.
@@ -306,6 +322,9 @@ class InformationEvaluator {
                                   const Eigen::MatrixXd& base) const;
   [[nodiscard]] double NonAdaptive(std::span<const PoseObservation> poses,
                                    const Eigen::MatrixXd& base, bool base_is_cached) const;
+  // The detection objective of `poses`, from the mean alone (all of them:
+  // a conditioned prefix changes the covariance only).
+  [[nodiscard]] double Detection(std::span<const PoseObservation> poses) const;
 
   // (B^2) of the base the non-adaptive objective starts from (P_c when a
   // prefix is conditioned, else P), computed on first need.

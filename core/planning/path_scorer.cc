@@ -170,6 +170,10 @@ PoseObservation PathScorer::ObserveWith(const DownwardCamera& camera, const Sens
   PoseObservation obs;
   obs.altitude_m = p_W.z();
   obs.variance = noise.Variance(std::max(p_W.z(), 1e-3));
+  // Without a detector model, a person in view is seen (the detection
+  // objective's h_sat still bounds the altitude).
+  obs.detection_probability =
+      noise.detector.has_value() ? noise.detector->DetectionProbability(p_W.z()) : 1.0;
   obs.cells = camera.VisibleFootprintCells(grid(), p_W, mission_.environment);
   obs.scored = scored;
   return obs;

@@ -16,22 +16,35 @@ std::string PlannerKindName(PlannerKind kind) {
       return "lawnmower";
     case PlannerKind::kRandom:
       return "random";
+    case PlannerKind::kOaIppDetection:
+      return "oaipp_detection";
   }
   return "unknown";
 }
 
 absl::StatusOr<PlannerKind> ParsePlannerKind(absl::string_view name) {
-  for (PlannerKind k : {PlannerKind::kOaIpp, PlannerKind::kOaIppNonAdaptive,
-                        PlannerKind::kLawnmower, PlannerKind::kRandom}) {
+  for (PlannerKind k :
+       {PlannerKind::kOaIpp, PlannerKind::kOaIppNonAdaptive, PlannerKind::kLawnmower,
+        PlannerKind::kRandom, PlannerKind::kOaIppDetection}) {
     if (name == PlannerKindName(k)) return k;
   }
-  return absl::InvalidArgumentError(absl::StrCat(
-      "planner: unknown kind '", name, "' (expected oaipp, oaipp_nonadaptive, lawnmower, random)"));
+  return absl::InvalidArgumentError(
+      absl::StrCat("planner: unknown kind '", name,
+                   "' (expected oaipp, oaipp_nonadaptive, lawnmower, random, oaipp_detection)"));
 }
 
 ObjectiveKind ObjectiveFor(PlannerKind kind) {
-  return kind == PlannerKind::kOaIppNonAdaptive ? ObjectiveKind::kNonAdaptive
-                                                : ObjectiveKind::kAdaptive;
+  switch (kind) {
+    case PlannerKind::kOaIppNonAdaptive:
+      return ObjectiveKind::kNonAdaptive;
+    case PlannerKind::kOaIppDetection:
+      return ObjectiveKind::kDetection;
+    case PlannerKind::kOaIpp:
+    case PlannerKind::kLawnmower:
+    case PlannerKind::kRandom:
+      break;
+  }
+  return ObjectiveKind::kAdaptive;
 }
 
 absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config) {
@@ -42,6 +55,7 @@ absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config
   switch (config.kind) {
     case PlannerKind::kOaIpp:
     case PlannerKind::kOaIppNonAdaptive:
+    case PlannerKind::kOaIppDetection:
       OAIPP_RETURN_IF_ERROR(config.oaipp.Validate());
       planner = std::make_unique<OaIppPlanner>(common, config.oaipp);
       break;

@@ -13,14 +13,18 @@
 
 namespace oaipp {
 
-enum class PlannerKind { kOaIpp, kOaIppNonAdaptive, kLawnmower, kRandom };
+// kOaIppDetection: OA-IPP with the detection objective (a search from a
+// probability prior, docs/method.md §6.6).
+enum class PlannerKind { kOaIpp, kOaIppNonAdaptive, kLawnmower, kRandom, kOaIppDetection };
 
 [[nodiscard]] std::string PlannerKindName(PlannerKind kind);
-// "oaipp", "oaipp_nonadaptive", "lawnmower", "random"; InvalidArgument otherwise.
+// "oaipp", "oaipp_nonadaptive", "lawnmower", "random", "oaipp_detection";
+// InvalidArgument otherwise.
 [[nodiscard]] absl::StatusOr<PlannerKind> ParsePlannerKind(absl::string_view name);
 
 // The objective a planner of `kind` optimises or reports: the trace
-// reduction for kOaIppNonAdaptive, the adaptive UCB objective otherwise.
+// reduction for kOaIppNonAdaptive, the detection objective for
+// kOaIppDetection, the adaptive UCB objective otherwise.
 [[nodiscard]] ObjectiveKind ObjectiveFor(PlannerKind kind);
 
 struct PlannerConfig {

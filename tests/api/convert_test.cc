@@ -101,6 +101,7 @@ void ExpectCommonEqual(const PlannerCommon& a, const PlannerCommon& b, const std
   EXPECT_EQ(a.information.second_look_sharpness, b.information.second_look_sharpness) << what;
   EXPECT_EQ(a.information.confirmation_preposterior, b.information.confirmation_preposterior)
       << what;
+  EXPECT_EQ(a.information.detection_discount, b.information.detection_discount) << what;
   EXPECT_EQ(a.weights.k1, b.weights.k1) << what;
   EXPECT_EQ(a.weights.k2, b.weights.k2) << what;
   EXPECT_EQ(a.weights.min_flight_time_s, b.weights.min_flight_time_s) << what;
@@ -910,6 +911,12 @@ std::vector<BadCase> BadCases() {
       {"negative second-look weight",
        [] { return SpecWith([](auto& s) { s.mutable_planner()->set_second_look_weight(-1); }); },
        kInvalid, "spec.planner.second_look_weight: "},
+      {"detection discount of 0",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_detection_discount(0); }); },
+       kInvalid, "spec.planner.detection_discount: "},
+      {"detection discount above 1",
+       [] { return SpecWith([](auto& s) { s.mutable_planner()->set_detection_discount(1.5); }); },
+       kInvalid, "spec.planner.detection_discount: "},
       {"infinite second-look sharpness",
        [] {
          return SpecWith([](auto& s) {

@@ -60,6 +60,7 @@ inline v1::MissionSpec CustomSpec() {
   p.set_ambiguity_margin(0.2);
   p.set_second_look_weight(40);
   p.set_second_look_sharpness(0.3);
+  p.set_detection_discount(0.97);
   p.set_h_opt_m(12);
   p.set_sigma1_m(5);
   p.set_h_sat_m(28);
