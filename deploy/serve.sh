@@ -7,7 +7,7 @@ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 echo "$label: building oaipp-server and oaipp-client"
 cmake --build "$build" -j "$(nproc)" --target oaipp-server oaipp-client >/dev/null
 
-source "$root/deploy/blas-env.sh"
+source "$root/deploy/process-env.sh"
 # Missions are kept in $OAIPP_DATA_DIR (default ./data, the embedded SQLite
 # store): a run that is cut short can be looked at after a restart.
 "$build/server/oaipp-server" --listen="$address" --metrics_listen= --log_level=warn \

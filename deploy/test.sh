@@ -61,7 +61,7 @@ export OAIPP_REQUIRE_POSTGRES=1
 # and under ThreadSanitizer each unordered write of theirs is a suppressed
 # report, which made a sparse-map case take minutes instead of seconds.
 export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_THREAD_LIMIT="${OMP_THREAD_LIMIT:-1}"
-source "$root/deploy/blas-env.sh"
+source "$root/deploy/process-env.sh"
 
 # build DIR [TARGETS...] -- CMAKE_ARGS...: configure and build (printing only
 # diagnostics); all targets unless some are named.

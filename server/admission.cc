@@ -58,7 +58,10 @@ bool Admission::Overloaded() const {
   return streams_ >= limits_.max_streams;
 }
 
-double Admission::SearchFraction() const {
+double Admission::SearchFraction(absl::Duration queued) const {
+  if (limits_.shed_after_wait > absl::ZeroDuration() && queued >= limits_.shed_after_wait) {
+    return limits_.min_search_fraction;
+  }
   if (!(limits_.shed_above > 0.0)) return 1.0;
   const double waiting = planners_->waiting();
   const double allowed = limits_.shed_above * planners_->threads();

@@ -32,8 +32,9 @@ class Admission {
   // True while new plans or streams would be refused: every planner busy
   // and the queue full, or the stream limit reached (health reports it).
   [[nodiscard]] bool Overloaded() const;
-  // The share of its search a plan starting now runs (ServiceLimits::shed_above).
-  [[nodiscard]] double SearchFraction() const;
+  // The share of its search a plan starting now, after waiting `queued`
+  // for a planner, runs (ServiceLimits::shed_above, shed_after_wait).
+  [[nodiscard]] double SearchFraction(absl::Duration queued) const;
   // With a plan latency bound: how long a plan starting now may search so
   // that it and the plans queued behind it all end by the newest one's
   // bound (ServiceLimits::plan_latency).

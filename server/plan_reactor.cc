@@ -138,8 +138,8 @@ class MissionServiceImpl::PlanReactor final : public grpc::ServerUnaryReactor {
   void Plan() {
     const absl::Status status = service_->Run("PlanPath", [&]() -> absl::Status {
       if (call_.cancelled()) return absl::CancelledError("PlanPath: cancelled by the client");
-      call_.search_fraction = service_->admission_.SearchFraction();
       call_.queued = service_->limits_.clock->Now() - arrived_;
+      call_.search_fraction = service_->admission_.SearchFraction(call_.queued);
       if (const absl::Duration bound = service_->limits_.plan_latency;
           bound > absl::ZeroDuration()) {
         // The plan and those queued behind it share the time left until

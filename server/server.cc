@@ -158,6 +158,7 @@ absl::StatusOr<ServerParts> Server::PartsFromOptions() {
                                  .max_planning = absl::Seconds(o.max_planning_s),
                                  .shed_above = o.shed_above,
                                  .min_search_fraction = o.min_search_fraction,
+                                 .shed_after_wait = absl::Seconds(o.shed_after_wait_s),
                                  .plan_latency = absl::Seconds(o.plan_latency_s),
                                  .max_take_off_plans = o.max_take_off_plans,
                                  .take_off_patience = absl::Seconds(o.take_off_patience_s),

@@ -67,6 +67,7 @@ absl::Status ServerOptions::Validate() const {
   }
   p.AtLeast("max_plans_per_tenant", max_plans_per_tenant, 0);
   p.InRange("shed_above", shed_above, 0, 1e6);
+  p.InRange("shed_after_wait_s", shed_after_wait_s, 0, 1e6);
   if (!(min_search_fraction > 0 && min_search_fraction <= 1)) {
     p.Add("min_search_fraction", absl::StrCat("must be in (0, 1], got ", min_search_fraction));
   }

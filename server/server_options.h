@@ -48,6 +48,7 @@ struct ServerOptions {
   int max_plans_per_tenant = 0;                // >= 0; 0: no quota
   double shed_above = 2.0;                     // [0, 1e6); 0: never shed
   double min_search_fraction = 0.1;            // (0, 1]
+  double shed_after_wait_s = 1.0;              // [0, 1e6); 0: the queue rule alone
   double plan_latency_s = 0.0;                 // [0, 1e6); 0: no bound
   int max_take_off_plans = 0;                  // >= 0; 0: no pacing
   double take_off_patience_s = 5.0;            // [0, 1e6)

@@ -31,6 +31,12 @@ struct ServiceLimits {
   // 0: never shed (every plan runs its whole search).
   double shed_above = 0.0;
   double min_search_fraction = 0.1;
+  // Overload: a plan that waited at least this long for a planner runs
+  // min_search_fraction of its search whatever the queue behind it, so
+  // that the last plans of a burst (a fleet taking off together) answer as
+  // fast as its first ones instead of searching in full once the queue has
+  // drained. Zero: the queue rule alone.
+  absl::Duration shed_after_wait = absl::ZeroDuration();
   // Overload: a plan's search ends at most this long after its call
   // arrived, the wait for a planner included, so a burst of plans cannot
   // keep callers waiting for seconds. Plans queued together share the time

@@ -32,6 +32,7 @@ ABSL_DECLARE_FLAG(double, shed_above);
 ABSL_DECLARE_FLAG(std::string, dense_backend);
 ABSL_DECLARE_FLAG(std::string, objective_precision);
 ABSL_DECLARE_FLAG(double, min_search_fraction);
+ABSL_DECLARE_FLAG(double, shed_after_wait_s);
 ABSL_DECLARE_FLAG(double, plan_latency_s);
 ABSL_DECLARE_FLAG(int, max_take_off_plans);
 ABSL_DECLARE_FLAG(double, take_off_patience_s);
@@ -84,6 +85,7 @@ ServerOptions ServerOptionsFromFlags() {
   options.dense_backend = absl::GetFlag(FLAGS_dense_backend);
   options.objective_precision = absl::GetFlag(FLAGS_objective_precision);
   options.min_search_fraction = absl::GetFlag(FLAGS_min_search_fraction);
+  options.shed_after_wait_s = absl::GetFlag(FLAGS_shed_after_wait_s);
   options.plan_latency_s = absl::GetFlag(FLAGS_plan_latency_s);
   options.max_take_off_plans = absl::GetFlag(FLAGS_max_take_off_plans);
   options.take_off_patience_s = absl::GetFlag(FLAGS_take_off_patience_s);

@@ -26,6 +26,10 @@ ABSL_FLAG(double, shed_above, oaipp::server::kFlagDefaults.shed_above,
           "--min_search_fraction (stats.search_fraction says so); 0: never shed");
 ABSL_FLAG(double, min_search_fraction, oaipp::server::kFlagDefaults.min_search_fraction,
           "the least share of its search a shed plan runs");
+ABSL_FLAG(double, shed_after_wait_s, oaipp::server::kFlagDefaults.shed_after_wait_s,
+          "overload: a plan that waited this many seconds for a planner runs "
+          "--min_search_fraction of its search, so the last plans of a burst answer as fast as "
+          "its first; 0: only --shed_above's queue rule");
 ABSL_FLAG(double, plan_latency_s, oaipp::server::kFlagDefaults.plan_latency_s,
           "overload: a plan's search ends this many seconds after its call arrived, the wait "
           "for a planner included; plans queued together share the time until the newest "

@@ -321,6 +321,7 @@ void RunLoad(oaipp::server::ServerOptions options, bool alone, LoadResult& out) 
   options.max_missions = std::max(options.max_missions, missions + 1);
   if (alone) {
     options.shed_above = 0.0;
+    options.shed_after_wait_s = 0.0;
     options.plan_latency_s = 0.0;
     options.max_take_off_plans = 0;
   }
@@ -619,6 +620,7 @@ int main(int argc, char** argv) {
     j["budget_s"] = budget;
     j["planning_threads"] = options.planning_threads;
     j["shed_above"] = options.shed_above;
+    j["shed_after_wait_s"] = options.shed_after_wait_s;
     j["plan_latency_s"] = options.plan_latency_s;
     j["launch_spread_s"] = absl::GetFlag(FLAGS_launch_spread_s);
     j["take_off_plans"] = options.max_take_off_plans;
