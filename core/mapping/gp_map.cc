@@ -1,7 +1,9 @@
 #include "core/mapping/gp_map.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <memory>
 #include <numeric>
 #include <utility>
 
@@ -92,9 +94,10 @@ absl::Status CheckSquare(const MatrixXd& covariance) {
 // P -= Bt Bt^T with Bt = P_:J L^-T, costs n^2 m / 2 + n m^2 / 2: for m = 1120
 // of 1600 cells 2.4 G multiply-adds against 1.5 G here. R - R S^-1 R also
 // avoids the cancellation of P_JJ - P_JJ S^-1 P_JJ when R is small against
-// P_JJ. Writes the whole of p (both triangles), column by column.
+// P_JJ. Writes the whole of `out` (both triangles), column by column, after
+// every read of p: `out` may be p, or a new n x n matrix.
 absl::Status UpdateMostCells(const DenseBackend& backend, std::span<const CellObservation> obs,
-                             VectorXd& mean, MatrixXd& p) {
+                             VectorXd& mean, const MatrixXd& p, MatrixXd& out) {
   const Index n = p.rows();
   const Index m = static_cast<Index>(obs.size());
   std::vector<bool> observed(static_cast<std::size_t>(n), false);
@@ -154,7 +157,7 @@ absl::Status UpdateMostCells(const DenseBackend& backend, std::span<const CellOb
   }
   // Each column of p from its two sources, by the rows of J and of C.
   auto scatter = [&](Index j, const auto& from_j, const auto& from_c) {
-    double* column = p.col(j).data();
+    double* column = out.col(j).data();
     for (Index a = 0; a < m; ++a) column[obs[a].cell] = from_j[a];
     for (Index a = 0; a < c; ++a) column[rest[a]] = from_c[a];
   };
@@ -381,9 +384,38 @@ absl::Status GpMap::UpdateDeferred(std::span<const CellObservation> observations
 
 void GpMap::Settle() {
   if (settled()) return;
-  backend_.SymmetricRankUpdate(-1.0, pending_, covariance_);
-  MirrorLowerToUpper(covariance_);
+  MatrixXd& p = OwnLowerTriangle();
+  backend_.SymmetricRankUpdate(-1.0, pending_, p);
+  MirrorLowerToUpper(p);
   pending_.resize(0, 0);
+}
+
+void GpMap::Unshare() {
+  if (covariance_.use_count() > 1) covariance_ = std::make_shared<MatrixXd>(*covariance_);
+}
+
+MatrixXd& GpMap::OwnLowerTriangle() {
+  // use_count() == 1: no other map holds the matrix, and none can come to
+  // hold it but through this one. The others let go of it by a release
+  // decrement; the acquire fence orders their reads before the writes that
+  // follow (ThreadSanitizer does not model fences: GCC refuses them there).
+  if (covariance_.use_count() == 1) {
+#if !defined(__SANITIZE_THREAD__)
+    std::atomic_thread_fence(std::memory_order_acquire);
+#endif
+    return *covariance_;
+  }
+  const MatrixXd& shared = *covariance_;
+  const Index n = shared.rows();
+  auto own = std::make_shared<MatrixXd>(n, n);
+  // Column by column, the lower triangle: half the bytes of a whole copy
+  // (std::copy_n is the C library's memmove, wider than Eigen's generic
+  // x86-64 vectors here).
+  for (Index j = 0; j < n; ++j) {
+    std::copy_n(shared.col(j).data() + j, n - j, own->col(j).data() + j);
+  }
+  covariance_ = std::move(own);
+  return *covariance_;
 }
 
 absl::Status GpMap::Fuse(std::span<const CellObservation> observations, bool defer_downdate) {
@@ -392,10 +424,18 @@ absl::Status GpMap::Fuse(std::span<const CellObservation> observations, bool def
   if (merged.empty()) return absl::OkStatus();
   Settle();
   if (backend_.is_open_blas() && 2 * merged.size() >= static_cast<std::size_t>(num_cells())) {
-    return UpdateMostCells(backend_, merged, mean_, covariance_);
+    if (covariance_.use_count() == 1) {
+      MatrixXd& p = OwnLowerTriangle();
+      return UpdateMostCells(backend_, merged, mean_, p, p);
+    }
+    // Shared: the update writes every entry of a new matrix, with no copy.
+    auto own = std::make_shared<MatrixXd>(num_cells(), num_cells());
+    OAIPP_RETURN_IF_ERROR(UpdateMostCells(backend_, merged, mean_, *covariance_, *own));
+    covariance_ = std::move(own);
+    return absl::OkStatus();
   }
   UpdateFactors f;
-  if (!Factor(backend_, covariance_, merged, f)) return NotPositiveDefinite();
+  if (!Factor(backend_, *covariance_, merged, f)) return NotPositiveDefinite();
   // Nothing fails from here on: the map changes only now.
   // mu += W (z_J - mu_J) = Bt L^-1 (z_J - mu_J).
   VectorXd innovation(merged.size());
@@ -405,12 +445,13 @@ absl::Status GpMap::Fuse(std::span<const CellObservation> observations, bool def
   f.lower.triangularView<Eigen::Lower>().solveInPlace(innovation);
   mean_.noalias() += f.bt * innovation;
   if (defer_downdate) {
-    trace_after_pending_ = covariance_.trace() - f.bt.squaredNorm();
+    trace_after_pending_ = covariance_->trace() - f.bt.squaredNorm();
     pending_ = std::move(f.bt);
     return absl::OkStatus();
   }
-  backend_.SymmetricRankUpdate(-1.0, f.bt, covariance_);
-  MirrorLowerToUpper(covariance_);
+  MatrixXd& p = OwnLowerTriangle();
+  backend_.SymmetricRankUpdate(-1.0, f.bt, p);
+  MirrorLowerToUpper(p);
   return absl::OkStatus();
 }
 

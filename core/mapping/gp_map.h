@@ -11,7 +11,11 @@
 // (UpdateCovariance, TraceAfterUpdate, VariancesAfterUpdate) without values.
 //
 // P is 8 n^2 bytes (20 MB for the paper's 1600 cells): GpMap is movable but
-// copies only through Clone().
+// copies only through Clone(), which shares P with the original until one of
+// them changes it (copy on write). Many missions that start from one prior
+// then hold one P until each fuses its first measurement, and a deferred
+// update (UpdateDeferred) leaves P shared until it is settled: the 20 MB copy
+// is paid where the downdate runs, not where the measurement arrives.
 //
 //   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, FieldGrid::FromBounds({-15, -15}, {15, 15}, 0.75));
 //   OAIPP_ASSIGN_OR_RETURN(GpMap map, GpMap::Create(grid, GpParams::PaperPreset(0.75)));
@@ -24,6 +28,7 @@
 #pragma once
 
 #include <cassert>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
@@ -122,6 +127,9 @@ class GpMap {
   // The covariance is 8 n^2 bytes: copies are explicit.
   GpMap(const GpMap&) = delete;
   GpMap& operator=(const GpMap&) = delete;
+  // A copy that shares the covariance until either map changes it. Two maps
+  // that share it may be used from different threads (each map itself is not
+  // thread-safe): the shared matrix is only read, and a change copies it.
   [[nodiscard]] GpMap Clone() const {
     GpMap copy(grid_, mean_, covariance_);
     copy.pending_ = pending_;
@@ -129,6 +137,12 @@ class GpMap {
     copy.backend_ = backend_;
     return copy;
   }
+  // Makes the covariance this map's own now (copying it when shared), for a
+  // caller that chooses where the copy's time is spent (the benchmarks).
+  void Unshare();
+  // Whether another map still shares this one's covariance (a hint: another
+  // thread may let go of it at any time).
+  [[nodiscard]] bool shares_covariance() const { return covariance_.use_count() > 1; }
 
   // Where the updates' dense products run (core/mapping/dense_backend.h):
   // Eigen unless set. Results differ between backends in the last bits.
@@ -170,34 +184,46 @@ class GpMap {
   // Precondition of the three: settled().
   [[nodiscard]] const Eigen::MatrixXd& Covariance() const {
     assert(settled());
-    return covariance_;
+    return *covariance_;
   }
   // Posterior variance of one cell. Precondition: grid().IsValidCell(cell).
   [[nodiscard]] double Variance(int cell) const {
     assert(settled());
-    return covariance_(cell, cell);
+    return (*covariance_)(cell, cell);
   }
   [[nodiscard]] Eigen::VectorXd Variances() const {
     assert(settled());
-    return covariance_.diagonal();
+    return covariance_->diagonal();
   }
   // Tr(P), the map's total uncertainty (the non-adaptive objective). With a
   // downdate pending: Tr(P) - |Bt|_F^2, equal to the settled trace up to
   // rounding.
   [[nodiscard]] double Trace() const {
-    return settled() ? covariance_.trace() : trace_after_pending_;
+    return settled() ? covariance_->trace() : trace_after_pending_;
   }
 
  private:
   GpMap(const FieldGrid& grid, Eigen::VectorXd mean, Eigen::MatrixXd covariance)
+      : grid_(grid),
+        mean_(std::move(mean)),
+        covariance_(std::make_shared<Eigen::MatrixXd>(std::move(covariance))) {}
+  GpMap(const FieldGrid& grid, Eigen::VectorXd mean, std::shared_ptr<Eigen::MatrixXd> covariance)
       : grid_(grid), mean_(std::move(mean)), covariance_(std::move(covariance)) {}
+
+  // The covariance to write its lower triangle, this map's own: a shared one
+  // is first copied (its lower triangle only, what the rank downdates read;
+  // the caller writes the upper one, MirrorLowerToUpper).
+  Eigen::MatrixXd& OwnLowerTriangle();
 
   // Update, or UpdateDeferred with `defer_downdate`.
   absl::Status Fuse(std::span<const CellObservation> observations, bool defer_downdate);
 
   FieldGrid grid_;
   Eigen::VectorXd mean_;
-  Eigen::MatrixXd covariance_;
+  // Never null but in a moved-from map; written only while this map is its
+  // only holder (use_count() == 1), so a map that shares it never sees it
+  // change.
+  std::shared_ptr<Eigen::MatrixXd> covariance_;
   // Bt (n x m) of an update whose downdate is pending; empty when settled.
   Eigen::MatrixXd pending_;
   double trace_after_pending_ = 0.0;

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "Eigen/Cholesky"
@@ -452,6 +454,63 @@ TEST(GpMapTest, DeferredUpdatesSettleToTheSameMapBitForBit) {
   EXPECT_EQ(pending.Trace(), trace);
 }
 
+// A clone shares the covariance until one of the two changes it: every way
+// of changing it (an update, a deferred update settled, a shot that sees
+// most of the field on OpenBLAS, near-certain zeros) leaves the other map
+// bit for bit as it was, and gives bit for bit what a map of its own gives.
+TEST(GpMapTest, ClonesShareTheCovarianceUntilOneChangesIt) {
+  const FieldGrid grid = testing::CentredGrid(12, 10, 0.75);
+  auto base = GpMap::Create(grid, GpParams::PaperPreset(0.75));
+  ASSERT_TRUE(base.ok());
+  const MatrixXd prior = base->Covariance();
+  std::mt19937 rng(11);
+  const std::vector<CellObservation> few = RandomObservations(rng, grid.num_cells(), 20);
+  const std::vector<CellObservation> most = RandomObservations(rng, grid.num_cells(), 200);
+  std::vector<DenseBackend> backends = {DenseBackend()};
+  if (absl::StatusOr<DenseBackend> blas = DenseBackend::OpenBlas(); blas.ok()) {
+    backends.push_back(*blas);
+  }
+  for (const DenseBackend& backend : backends) {
+    SCOPED_TRACE(backend.name());
+    using Change = std::function<absl::Status(GpMap&)>;
+    const std::vector<std::pair<std::string, Change>> changes = {
+        {"update", [&](GpMap& m) { return m.Update(few); }},
+        {"deferred, settled",
+         [&](GpMap& m) {
+           absl::Status s = m.UpdateDeferred(few);
+           m.Settle();
+           return s;
+         }},
+        {"most cells", [&](GpMap& m) { return m.Update(most); }},
+        {"zeros",
+         [&](GpMap& m) {
+           return m.FuseNearCertainZeros(std::vector<int>{3, 4, 50});
+         }},
+    };
+    for (const auto& [name, change] : changes) {
+      SCOPED_TRACE(name);
+      GpMap original = base->Clone();
+      original.set_dense_backend(backend);
+      GpMap clone = original.Clone();
+      EXPECT_TRUE(clone.shares_covariance());
+      GpMap own = original.Clone();
+      own.Unshare();
+      EXPECT_FALSE(own.shares_covariance());
+      ASSERT_TRUE(change(clone).ok());
+      ASSERT_TRUE(change(own).ok());
+      EXPECT_FALSE(clone.shares_covariance());
+      EXPECT_EQ(original.Covariance(), prior);
+      EXPECT_EQ(clone.Covariance(), own.Covariance());
+      EXPECT_EQ(clone.Mean(), own.Mean());
+      EXPECT_LT(clone.Trace(), original.Trace());
+      // Changed again, the clone's own matrix is changed in place.
+      ASSERT_TRUE(clone.Update(few).ok());
+      ASSERT_TRUE(own.Update(few).ok());
+      EXPECT_EQ(clone.Covariance(), own.Covariance());
+      EXPECT_EQ(original.Covariance(), prior);
+    }
+  }
+}
 TEST(MergeObservationsTest, PrecisionsAddAndValuesArePrecisionWeighted) {
   const std::vector<CellObservation> obs = {{.cell = 3, .value = 1.0, .variance = 0.5},
                                             {.cell = 1, .value = 0.2, .variance = 0.3},
