@@ -88,13 +88,12 @@ build() {
   echo "test: built $(basename "$dir") in $((SECONDS - started)) s"
 }
 
-# run_ctest DIR CTEST_ARGS...: the tests of one build, TESTS_AT_ONCE of them
-# at a time (default: one per build job).
+# run_ctest DIR CTEST_ARGS...: the tests of one build.
 run_ctest() {
   local dir="$1"
   shift
   echo "test: ctest in $(basename "$dir") $*"
-  (cd "$dir" && ctest --output-on-failure -j "${TESTS_AT_ONCE:-$jobs}" --timeout 900 "$@")
+  (cd "$dir" && ctest --output-on-failure -j "$jobs" --timeout 900 "$@")
 }
 
 stage_format() {
@@ -111,14 +110,7 @@ stage_format() {
 
 stage_release() {
   build "$build" -- -DCMAKE_BUILD_TYPE=Release
-  # One test more than there are cores: in Release the tests spend much of
-  # their time waiting (for a server binary, PostgreSQL, a proxy, a
-  # browser), and with one per core the cores sat idle about a third of the
-  # time (unit and service tiers on 2 cores: 172 s with 2 at once, 121 s
-  # with 3). Under the sanitizers the tests are busy computing, and 3 at
-  # once was slower than 2 (ASan: 460 s against 404 s), so those stages
-  # keep one per core.
-  TESTS_AT_ONCE=$((jobs + 1)) run_ctest "$build"
+  run_ctest "$build"
 }
 
 stage_asan() {
