@@ -7,8 +7,9 @@ set -euo pipefail
 packages=(
   # toolchain
   build-essential cmake pkg-config git
-  # a faster linker for the test builds (deploy/test.sh)
-  lld
+  # a faster linker and a build tool that keeps both cores busy, for the
+  # test builds, and the formatter their first stage checks (deploy/test.sh)
+  lld ninja-build clang-format
   # core: linear algebra, exact collision geometry, camera model, CMA-ES
   libeigen3-dev libfcl-dev libccd-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-calib3d-dev libopencv-imgcodecs-dev

@@ -77,7 +77,14 @@ build() {
   # Unity builds (a batch of a target's sources in one translation unit)
   # parse the shared headers (gRPC, protobuf, Eigen, GoogleTest) once per
   # batch rather than once per file: about a third less build time from clean.
-  cmake -S "$root" -B "$dir" -DOAIPP_WERROR=ON -DOAIPP_LINKER=lld -DCMAKE_UNITY_BUILD=ON "$@" >/dev/null
+  # Ninja for a new build folder: it starts a target's compiles while the
+  # libraries it links are still compiling, where Make waits for them (the
+  # ASan build from clean: 686 s against 744-757 s). A folder made earlier
+  # keeps its generator, which CMake cannot change in place.
+  local generator=()
+  [ -f "$dir/CMakeCache.txt" ] || generator=(-G Ninja)
+  cmake "${generator[@]}" -S "$root" -B "$dir" -DOAIPP_WERROR=ON -DOAIPP_LINKER=lld \
+    -DCMAKE_UNITY_BUILD=ON "$@" >/dev/null
   echo "test: building $(basename "$dir") with $jobs jobs"
   local started=$SECONDS
   if ! cmake --build "$dir" -j "$jobs" "${targets[@]}" >"$dir/build.log" 2>&1; then
@@ -97,6 +104,10 @@ run_ctest() {
 }
 
 stage_format() {
+  if ! command -v clang-format >/dev/null; then
+    echo "test: clang-format is not installed (deploy/install-deps.sh installs it)" >&2
+    return 1
+  fi
   local drift
   drift=$(cd "$root" && git ls-files '*.cc' '*.h' | xargs clang-format --dry-run 2>&1 |
     grep -oE '^[^ :]+\.(cc|h):' | sort -u || true)
