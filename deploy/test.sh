@@ -5,8 +5,8 @@
 #            `clang-format -i FILE` fixes one)
 #   release  Release build (./build), warnings as errors, unity batches
 #            (so a name two files of one target define alike fails here);
-#            every ctest tier:
-#            unit, service and slow
+#            the slow tier and the cases labelled *-release, or every tier
+#            when the asan stage is not in the run
 #   asan     Debug -O1 -g1 (line tables) with AddressSanitizer and UndefinedBehaviorSanitizer,
 #            asserts live (./build-asan); the unit and service tiers
 #            (the slow tier is not even built), each executable in 4
@@ -121,7 +121,14 @@ stage_format() {
 
 stage_release() {
   build "$build" -- -DCMAKE_BUILD_TYPE=Release
-  run_ctest "$build"
+  if [[ " ${stages[*]} " == *" asan "* ]]; then
+    # The asan stage runs the unit and service tiers with asserts live and
+    # both sanitizers; here, the slow tier and the cases that check more
+    # without them (labelled *-release, tests/CMakeLists.txt).
+    run_ctest "$build" -L "slow|release"
+  else
+    run_ctest "$build"
+  fi
 }
 
 stage_asan() {
