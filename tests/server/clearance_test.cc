@@ -19,6 +19,7 @@
 #include "gtest/gtest.h"
 #include "tests/server/service_fixture.h"
 #include "tests/server/team_fixture.h"
+#include "tests/support/sanitizers.h"
 
 namespace oaipp::server {
 namespace {
@@ -113,7 +114,11 @@ TEST(ClearanceTest, PathsKeepTheBodyAndTrackingErrorOrThePapersHalfRadius) {
   int body_plans = 0, paper_plans = 0;
   double closest_body = std::numeric_limits<double>::infinity();
   double closest_paper = std::numeric_limits<double>::infinity();
-  for (int trial = 0; trial < 16; ++trial) {
+  // Under the sanitizers two worlds check the same code paths; the counts
+  // and the contrast between the rules are asserted on all 16 in the
+  // release stage (RELEASE in tests/server/CMakeLists.txt).
+  const int trials = ::oaipp::testing::UnlessSanitized(16);
+  for (int trial = 0; trial < trials; ++trial) {
     const Point start{-12.0 + 24.0 * (rng() % 1000) / 1000.0,
                       -12.0 + 24.0 * (rng() % 1000) / 1000.0, 10};
     std::mt19937 world_rng(static_cast<std::uint32_t>(trial + 1));
@@ -158,6 +163,7 @@ TEST(ClearanceTest, PathsKeepTheBodyAndTrackingErrorOrThePapersHalfRadius) {
       ASSERT_TRUE(service.stub().DeleteMission(&d, del, &deleted).ok());
     }
   }
+  if (::oaipp::testing::kSanitized) return;
   EXPECT_GE(body_plans, 30);
   EXPECT_GE(paper_plans, 30);
   // The paper's rule lets paths closer than the body's: the two differ.

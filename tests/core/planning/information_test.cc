@@ -10,9 +10,12 @@
 #include "core/mapping/dense_backend.h"
 #include "core/mapping/gp_map.h"
 #include "gtest/gtest.h"
+#include "tests/support/sanitizers.h"
 
 namespace oaipp {
 namespace {
+
+using ::oaipp::testing::UnlessSanitized;
 
 // A posterior (not just the prior): the paper prior on `side` x `side`
 // cells after a few seeded random updates, with a random mean.
@@ -48,21 +51,23 @@ std::vector<PoseObservation> RandomPoses(const FieldGrid& grid, std::mt19937& rn
 class InformationAgreementTest : public ::testing::TestWithParam<ObjectiveKind> {};
 
 // The fast evaluator against the sequential full-update oracle on hundreds
-// of seeded random paths: agreement to 1e-9 relative.
+// of seeded random paths (a tenth of them under the sanitizers):
+// agreement to 1e-9 relative.
 TEST_P(InformationAgreementTest, FastEqualsReferenceOnRandomPaths) {
   const GpMap map = RandomPosterior(16, 5);
   const InformationParams params{.kind = GetParam(), .kappa = 1.3};
   const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
   std::mt19937 rng(17);
   int nonzero = 0;
-  for (int path = 0; path < 300; ++path) {
+  const int paths = UnlessSanitized(300);
+  for (int path = 0; path < paths; ++path) {
     const std::vector<PoseObservation> poses = RandomPoses(map.grid(), rng);
     const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
     const double value = fast.Evaluate(poses);
     EXPECT_NEAR(value, reference, 1e-9 * std::abs(reference) + 1e-12) << "path " << path;
     nonzero += reference > 1e-6;
   }
-  EXPECT_GT(nonzero, 200);
+  EXPECT_GT(3 * nonzero, 2 * paths);
 }
 
 // The same on the full 1600-cell paper map with real camera footprints.
@@ -196,7 +201,8 @@ TEST_P(InformationAgreementTest, ConditionedPrefixEqualsReference) {
   InformationEvaluator fast(map.Mean(), map.Covariance(), params);
   ASSERT_TRUE(fast.Condition(prefix).ok());
   int with_prefix = 0;
-  for (int path = 0; path < 200; ++path) {
+  const int paths = UnlessSanitized(200);
+  for (int path = 0; path < paths; ++path) {
     std::vector<PoseObservation> poses = RandomPoses(map.grid(), rng);
     if (path % 4 != 0) {
       for (PoseObservation& pose : poses) pose.scored = true;
@@ -207,7 +213,7 @@ TEST_P(InformationAgreementTest, ConditionedPrefixEqualsReference) {
     EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference) + 1e-12)
         << "path " << path;
   }
-  EXPECT_EQ(with_prefix, 150);
+  EXPECT_EQ(with_prefix, paths - (paths + 3) / 4);
 }
 
 // Evaluators over one covariance that share a ConditionedCache condition
@@ -505,23 +511,25 @@ TEST(InformationTest, ConfirmationValuesAmbiguousCellsAndAccurateShots) {
   EXPECT_NEAR(confirm.CellValue(0.4, v, 0.39), 0.4 + std::sqrt(v) + 3.0 * ambiguous, 1e-15);
 }
 
-// Scores 150 random paths with `params` on the fast evaluator and the
-// full-update oracle (they must agree), and returns how many earn more than
-// under `baseline`.
+// Scores 150 random paths (a tenth under the sanitizers) with `params` on
+// the fast evaluator and the full-update oracle (they must agree), and
+// returns how many earn more than under `baseline`, or -1 under the
+// sanitizers: a count of a tenth of the paths says nothing, and the
+// release stage counts all of them.
 int CheckFastAgainstReference(const GpMap& map, const InformationParams& params,
                               const InformationParams& baseline, unsigned seed) {
   const InformationEvaluator fast(map.Mean(), map.Covariance(), params);
   const InformationEvaluator base(map.Mean(), map.Covariance(), baseline);
   std::mt19937 rng(seed);
   int larger = 0;
-  for (int path = 0; path < 150; ++path) {
+  for (int path = 0; path < UnlessSanitized(150); ++path) {
     const std::vector<PoseObservation> poses = RandomPoses(map.grid(), rng);
     const double reference = ReferenceInformation(map.Mean(), map.Covariance(), params, poses);
     EXPECT_NEAR(fast.Evaluate(poses), reference, 1e-9 * std::abs(reference) + 1e-12)
         << "path " << path;
     larger += reference > base.Evaluate(poses) + 1e-9;
   }
-  return larger;
+  return ::oaipp::testing::kSanitized ? -1 : larger;
 }
 
 // With the confirmation term the fast evaluator still equals the oracle.
@@ -530,7 +538,10 @@ TEST(InformationTest, ConfirmationFastEqualsReference) {
   const InformationParams params{
       .kappa = 1.0, .confirmation_weight = 4.0, .decision_threshold = 0.45};
   // The term is >= 0 and adds where a scored pose sees cells.
-  EXPECT_GT(CheckFastAgainstReference(map, params, InformationParams{.kappa = 1.0}, 41), 100);
+  const int larger = CheckFastAgainstReference(map, params, InformationParams{.kappa = 1.0}, 41);
+  if (larger >= 0) {
+    EXPECT_GT(larger, 100);
+  }
 }
 
 // The preposterior form on the fast evaluator equals the oracle, which
@@ -542,7 +553,10 @@ TEST(InformationTest, ConfirmationPreposteriorFastEqualsReference) {
       .kappa = 1.0, .confirmation_weight = 4.0, .decision_threshold = 0.45};
   InformationParams params = plain;
   params.confirmation_preposterior = true;
-  EXPECT_GT(CheckFastAgainstReference(map, params, plain, 47), 20);
+  const int larger = CheckFastAgainstReference(map, params, plain, 47);
+  if (larger >= 0) {
+    EXPECT_GT(larger, 20);
+  }
 }
 
 // The preposterior form reads each cell's variance before the plan, not
@@ -564,7 +578,7 @@ TEST(InformationTest, ConfirmationPreposteriorAfterAConditionedPrefixEqualsRefer
   ASSERT_TRUE(fast.Condition(prefix).ok());
   ASSERT_TRUE(fast_single.Condition(prefix).ok());
   double worst_single = 0.0;
-  for (int path = 0; path < 100; ++path) {
+  for (int path = 0; path < UnlessSanitized(100); ++path) {
     std::vector<PoseObservation> poses = prefix;
     for (PoseObservation pose : RandomPoses(map.grid(), rng)) {
       pose.scored = true;
@@ -663,7 +677,10 @@ TEST(InformationTest, ConfirmationPhaseFastEqualsReference) {
           .ForRemainingBudget(10.0);
   ASSERT_TRUE(params.confirming);
   // The bonus is >= 0 and adds where a pose sees undecided cells.
-  EXPECT_GT(CheckFastAgainstReference(map, params, InformationParams{.kappa = 0.0}, 43), 100);
+  const int larger = CheckFastAgainstReference(map, params, InformationParams{.kappa = 0.0}, 43);
+  if (larger >= 0) {
+    EXPECT_GT(larger, 100);
+  }
 }
 
 // With a sharp second look the fast evaluator still equals the oracle, and
@@ -677,7 +694,10 @@ TEST(InformationTest, SharpSecondLookFastEqualsReference) {
   sharp.second_look_weight = 500.0;
   sharp.second_look_sharpness = 0.05;
   ASSERT_TRUE(sharp.Validate().ok());
-  EXPECT_GT(CheckFastAgainstReference(map, sharp, phase, 44), 100);
+  const int larger = CheckFastAgainstReference(map, sharp, phase, 44);
+  if (larger >= 0) {
+    EXPECT_GT(larger, 100);
+  }
 }
 
 }  // namespace
