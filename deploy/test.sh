@@ -78,9 +78,9 @@ build() {
   # parse the shared headers (gRPC, protobuf, Eigen, GoogleTest) once per
   # batch rather than once per file: about a third less build time from clean.
   # Ninja for a new build folder: it starts a target's compiles while the
-  # libraries it links are still compiling, where Make waits for them (the
-  # ASan build from clean: 686 s against 744-757 s). A folder made earlier
-  # keeps its generator, which CMake cannot change in place.
+  # libraries it links are still compiling, where Make waits for them. A
+  # folder made earlier keeps its generator, which CMake cannot change in
+  # place.
   local generator=()
   [ -f "$dir/CMakeCache.txt" ] || generator=(-G Ninja)
   cmake "${generator[@]}" -S "$root" -B "$dir" -DOAIPP_WERROR=ON -DOAIPP_LINKER=lld \
