@@ -54,7 +54,8 @@ packages=(
   python3-matplotlib python3-numpy
   # the SAREnv benchmark (client/sarenv/): GEOS for the area a search covers
   # (buffered paths, as the benchmark measures it), PROJ and its database
-  # for the datasets' UTM frames
+  # for the datasets' UTM frames; GEOS also checks and rasterises search
+  # areas (api/search_area.h)
   libgeos-dev libproj-dev proj-data
 )
 
