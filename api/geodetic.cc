@@ -1,10 +1,12 @@
 #include "api/geodetic.h"
 
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 #include "GeographicLib/LocalCartesian.hpp"
 #include "absl/strings/str_cat.h"
+#include "api/search_area.h"
 #include "core/common/status_macros.h"
 
 namespace oaipp::api {
@@ -82,6 +84,84 @@ absl::Status ResolveObstacle(const std::optional<GeoFrame>& frame, v1::Obstacle*
 bool ObstacleHasGeo(const v1::Obstacle& o) {
   return (o.has_box() && o.box().has_centre_geo()) ||
          (o.has_cylinder() && o.cylinder().has_centre_geo());
+}
+
+// A ring's lat_lon_deg into xy_m on the plane East-North of the origin.
+absl::Status ResolveRing(const std::optional<GeoFrame>& frame, v1::Ring* ring,
+                         const std::string& field) {
+  if (ring->lat_lon_deg().empty()) return absl::OkStatus();
+  const std::string geo_field = field + ".lat_lon_deg";
+  if (!ring->xy_m().empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(geo_field, ": give xy_m or lat_lon_deg, not both"));
+  }
+  if (!frame.has_value()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(geo_field, ": the mission has no geo_origin, so give xy_m"));
+  }
+  if (ring->lat_lon_deg_size() % 2 != 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(geo_field, ": ", ring->lat_lon_deg_size(),
+                     " values; latitude and longitude come in pairs"));
+  }
+  v1::Ring local;
+  local.mutable_xy_m()->Reserve(ring->lat_lon_deg_size());
+  for (int i = 0; i + 1 < ring->lat_lon_deg_size(); i += 2) {
+    const double lat = ring->lat_lon_deg(i);
+    const double lon = ring->lat_lon_deg(i + 1);
+    if (!(std::abs(lat) <= 90.0) || !(std::abs(lon) <= 180.0)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(geo_field, "[", i, "]: vertex ", i / 2,
+                       ": latitude must be in [-90, 90] and longitude in [-180, 180]"));
+    }
+    const Vec3 p_W = frame->ToLocal({lat, lon, frame->origin().altitude_m});
+    if (!(p_W.head<2>().norm() <= kMaxDistance_m)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(geo_field, "[", i, "]: vertex ", i / 2, " lies ",
+                       std::round(p_W.head<2>().norm() / 1000.0), " km from geo_origin (at most ",
+                       kMaxDistance_m / 1000.0, " km)"));
+    }
+    local.add_xy_m(p_W.x());
+    local.add_xy_m(p_W.y());
+  }
+  ring->Swap(&local);
+  return absl::OkStatus();
+}
+
+// Every geodetic ring of spec->search_areas, after one bound on their size.
+absl::Status ResolveSearchAreas(const std::optional<GeoFrame>& frame, v1::MissionSpec* spec,
+                                absl::string_view field) {
+  std::int64_t values = 0;
+  for (const v1::AreaPolygon& polygon : spec->search_areas()) {
+    values += polygon.outer().lat_lon_deg_size() + polygon.outer().xy_m_size();
+    for (const v1::Ring& hole : polygon.holes()) {
+      values += hole.lat_lon_deg_size() + hole.xy_m_size();
+    }
+  }
+  if (values > 2 * static_cast<std::int64_t>(kMaxAreaVertices)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        field, ".search_areas: ", values / 2, " vertices in all, more than ", kMaxAreaVertices));
+  }
+  for (int i = 0; i < spec->search_areas_size(); ++i) {
+    v1::AreaPolygon* polygon = spec->mutable_search_areas(i);
+    const std::string name = absl::StrCat(field, ".search_areas[", i, "]");
+    if (polygon->has_outer()) {
+      OAIPP_RETURN_IF_ERROR(ResolveRing(frame, polygon->mutable_outer(), name + ".outer"));
+    }
+    for (int h = 0; h < polygon->holes_size(); ++h) {
+      OAIPP_RETURN_IF_ERROR(
+          ResolveRing(frame, polygon->mutable_holes(h), absl::StrCat(name, ".holes[", h, "]")));
+    }
+  }
+  return absl::OkStatus();
+}
+
+bool RingHasGeo(const v1::AreaPolygon& polygon) {
+  if (!polygon.outer().lat_lon_deg().empty()) return true;
+  for (const v1::Ring& hole : polygon.holes()) {
+    if (!hole.lat_lon_deg().empty()) return true;
+  }
+  return false;
 }
 
 absl::StatusOr<std::optional<GeoFrame>> FrameOf(const std::optional<GeoPoint>& origin) {
@@ -166,7 +246,7 @@ absl::Status ResolveGeoFields(v1::MissionSpec* spec, absl::string_view field) {
                 absl::StrCat(field, ".team[", i, "].start.position_geo"), "position_m"));
     s->clear_position_geo();
   }
-  return absl::OkStatus();
+  return ResolveSearchAreas(frame, spec, field);
 }
 
 absl::Status ResolveGeoFields(const std::optional<GeoPoint>& origin,
@@ -226,6 +306,9 @@ bool HasGeoFields(const v1::MissionSpec& spec) {
   }
   for (const v1::TeamMember& m : spec.team()) {
     if (m.has_start() && m.start().has_position_geo()) return true;
+  }
+  for (const v1::AreaPolygon& polygon : spec.search_areas()) {
+    if (RingHasGeo(polygon)) return true;
   }
   return spec.has_start() && spec.start().has_position_geo();
 }

@@ -68,7 +68,10 @@ class GeoFrame {
 // when both forms are given, when a geodetic point is invalid, when a
 // converted point lies more than 1000 km from the origin, or when a
 // geodetic point is given but the mission has no geo_origin. The spec's own
-// geo_origin is validated here too ("spec.geo_origin.latitude_deg").
+// geo_origin is validated here too ("spec.geo_origin.latitude_deg"). A
+// search area's rings given as lat_lon_deg become xy_m on the plane
+// East-North of the origin ("spec.search_areas[0].holes[1].lat_lon_deg[6]"
+// names a refused vertex's latitude).
 [[nodiscard]] absl::Status ResolveGeoFields(v1::MissionSpec* spec, absl::string_view field);
 [[nodiscard]] absl::Status ResolveGeoFields(const std::optional<GeoPoint>& origin,
                                             v1::UpdateObstaclesRequest* request);

@@ -9,14 +9,17 @@
 //   Aabb volume = config.FlightVolume();
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
 #include "Eigen/Core"
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "api/search_area.h"
 #include "core/environment/environment.h"
 #include "core/mapping/camera.h"
 #include "core/mapping/detection_projection.h"
@@ -90,6 +93,15 @@ struct MissionConfig {
   // copy of a config stays cheap.
   std::shared_ptr<const Eigen::VectorXd> prior_map;
   PriorMapUnits prior_map_units = PriorMapUnits::kLabelMean;
+  // The search area (MissionSpec.search_areas, api/search_area.h); null:
+  // the whole field. Shared and never changed, as prior_map.
+  std::shared_ptr<const SearchArea> search_area;
+  // Its mask as core's planners take it (PlanningContext::search_area):
+  // empty without an area.
+  [[nodiscard]] std::span<const std::uint8_t> SearchMask() const {
+    return search_area != nullptr ? std::span<const std::uint8_t>(search_area->mask)
+                                  : std::span<const std::uint8_t>{};
+  }
   DownwardCamera camera;
   SensorNoise noise;
   // Flight altitudes over the field.

@@ -51,6 +51,24 @@ struct AreaPolygon {
   std::vector<std::vector<Vec2>> holes_m = {};
 };
 
+// A mission's search area: its polygons in W, and one byte per cell of the
+// field in the grid's order (row * nx + col), 1 where the cell's centre
+// lies in the area (SearchAreaMask).
+struct SearchArea {
+  std::vector<AreaPolygon> polygons;
+  std::vector<std::uint8_t> mask;
+
+  // Every ring, outer rings and holes alike, e.g. for a picture's outline.
+  [[nodiscard]] std::vector<std::vector<Vec2>> Rings() const {
+    std::vector<std::vector<Vec2>> rings;
+    for (const AreaPolygon& polygon : polygons) {
+      rings.push_back(polygon.outer_m);
+      rings.insert(rings.end(), polygon.holes_m.begin(), polygon.holes_m.end());
+    }
+    return rings;
+  }
+};
+
 // OK when `areas` is a search area this module accepts; an empty list is
 // one (it searches nothing). Otherwise InvalidArgument whose message starts
 // with the path of the offending part under `field` ("search_areas[1].outer",

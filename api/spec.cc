@@ -11,6 +11,7 @@
 #include "api/geodetic.h"
 #include "api/geometry.h"
 #include "api/internal/checks.h"
+#include "api/internal/search_area_spec.h"
 #include "api/status.h"
 #include "core/common/status_macros.h"
 
@@ -575,6 +576,7 @@ absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
   OAIPP_RETURN_IF_ERROR(FillFlight(spec.flight(), c));
   OAIPP_RETURN_IF_ERROR(FillPlanner(spec.planner(), c));
   OAIPP_RETURN_IF_ERROR(FillObstacles(spec.obstacles(), c));
+  OAIPP_RETURN_IF_ERROR(internal::FillSearchAreas(spec.search_areas(), c));
   if (spec.team().empty()) {
     if (spec.has_count_teammate_shots()) {
       return absl::InvalidArgumentError(

@@ -18,6 +18,23 @@ absl::Status CheckPoint(absl::string_view field, std::size_t i, const Vec2& p) {
       absl::StrCat(field, "[", i, "]: must be finite, got (", p.x(), ", ", p.y(), ")"));
 }
 
+// Closed polygons named `name`: at least 3 finite vertices each.
+absl::Status CheckPolygons(absl::string_view name, const std::vector<std::vector<Vec2>>& polygons) {
+  for (std::size_t i = 0; i < polygons.size(); ++i) {
+    const std::vector<Vec2>& polygon = polygons[i];
+    if (polygon.size() < 3) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, "[", i, "]: has ", polygon.size(), " vertices, needs at least 3"));
+    }
+    for (std::size_t j = 0; j < polygon.size(); ++j) {
+      if (absl::Status s = CheckPoint(absl::StrCat(name, "[", i, "]"), j, polygon[j]); !s.ok()) {
+        return s;
+      }
+    }
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace
 
 absl::Status ValidateGrid(const MapGrid& grid) {
@@ -39,20 +56,13 @@ absl::Status ValidateGrid(const MapGrid& grid) {
 }
 
 absl::Status ValidateOverlay(const Overlay& overlay) {
-  for (std::size_t i = 0; i < overlay.obstacle_footprints.size(); ++i) {
-    const std::vector<Vec2>& polygon = overlay.obstacle_footprints[i];
-    if (polygon.size() < 3) {
-      return absl::InvalidArgumentError(absl::StrCat("overlay.obstacle_footprints[", i, "]: has ",
-                                                     polygon.size(),
-                                                     " vertices, needs at least 3"));
-    }
-    for (std::size_t j = 0; j < polygon.size(); ++j) {
-      if (absl::Status s =
-              CheckPoint(absl::StrCat("overlay.obstacle_footprints[", i, "]"), j, polygon[j]);
-          !s.ok()) {
-        return s;
-      }
-    }
+  if (absl::Status s = CheckPolygons("overlay.obstacle_footprints", overlay.obstacle_footprints);
+      !s.ok()) {
+    return s;
+  }
+  if (absl::Status s = CheckPolygons("overlay.search_area_rings", overlay.search_area_rings);
+      !s.ok()) {
+    return s;
   }
   for (std::size_t i = 0; i < overlay.targets.size(); ++i) {
     if (absl::Status s = CheckPoint("overlay.targets(min)", i, overlay.targets[i].first); !s.ok())

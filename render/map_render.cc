@@ -48,7 +48,15 @@ constexpr double kSubpixel = 1 << kSubpixelBits;
 // ---------------------------------------------------------------------------
 // Layout.
 
-enum class LegendKind { kObstacle, kTarget, kPath, kPlannedPath, kDetection, kTeamPath };
+enum class LegendKind {
+  kSearchArea,
+  kObstacle,
+  kTarget,
+  kPath,
+  kPlannedPath,
+  kDetection,
+  kTeamPath
+};
 
 struct LegendItem {
   LegendKind kind;
@@ -113,6 +121,9 @@ std::string TitleText(const MapTitle& title) {
 
 std::vector<LegendItem> LegendItems(const Overlay& overlay) {
   std::vector<LegendItem> items;
+  if (!overlay.search_area_rings.empty()) {
+    items.push_back({LegendKind::kSearchArea, "search area"});
+  }
   if (!overlay.obstacle_footprints.empty()) items.push_back({LegendKind::kObstacle, "obstacle"});
   if (!overlay.targets.empty()) items.push_back({LegendKind::kTarget, "target"});
   if (!overlay.path.empty()) {
@@ -314,6 +325,11 @@ void DrawOverlay(cv::Mat& canvas, const PixelRect& plot, const MapGrid& grid, in
     shaded.copyTo(area, mask);
     cv::polylines(area, polygons, true, kObstacleEdge, g.line_px, cv::LINE_AA, kSubpixelBits);
   }
+  if (!overlay.search_area_rings.empty()) {
+    std::vector<std::vector<cv::Point>> rings;
+    for (const auto& ring : overlay.search_area_rings) rings.push_back(points(ring));
+    cv::polylines(area, rings, true, kWhite, g.line_px, cv::LINE_AA, kSubpixelBits);
+  }
   for (const auto& [lo, hi] : overlay.targets) {
     cv::rectangle(area, PlotPoint(grid, k, plot.height, lo), PlotPoint(grid, k, plot.height, hi),
                   kTargetColour, g.line_px, cv::LINE_8, kSubpixelBits);
@@ -417,6 +433,10 @@ void DrawLegend(cv::Mat& canvas, const Geometry& g) {
     const auto fixed = [](cv::Point q) { return q * static_cast<int>(kSubpixel); };
     const int dot_px = static_cast<int>(std::lround(4 * g.unit));
     switch (item.kind) {
+      case LegendKind::kSearchArea:  // outlined: the legend's ground is white
+        cv::rectangle(canvas, swatch, kBlack, g.line_px + 2);
+        cv::rectangle(canvas, swatch, kWhite, g.line_px);
+        break;
       case LegendKind::kObstacle:
         cv::rectangle(canvas, swatch, kObstacleFill, cv::FILLED);
         cv::rectangle(canvas, swatch, kObstacleEdge, g.line_px);

@@ -68,6 +68,9 @@ struct Overlay {
   // Closed polygons (vertices in order, >= 3 each; the closing edge is
   // implied), e.g. box corners or a cylinder as a polygon. Grey.
   std::vector<std::vector<Vec2>> obstacle_footprints;
+  // A search area's rings, outer rings and holes alike (closed, >= 3
+  // vertices each). White outlines.
+  std::vector<std::vector<Vec2>> search_area_rings;
   // Ground rectangles (min corner, max corner). Green outlines.
   std::vector<std::pair<Vec2, Vec2>> targets;
   // A polyline, e.g. the flown path. Red, with a white dot at its start.

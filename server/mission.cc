@@ -433,7 +433,8 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                              : ChainedPrefix{},
                                 .teammates = teammates,
                                 .min_separation_m = config_.min_separation_m,
-                                .field = field};
+                                .field = field,
+                                .search_area = config_.SearchMask()};
   absl::StatusOr<PlannedPath> path = planner->Plan(context, state, deadline);
   if (!path.ok() && !call.uav_id.empty())
     path = planning_.NamedForMember(path.status(), call.uav_id);

@@ -3,6 +3,8 @@
 #include "server/mission_map.h"
 
 #include <algorithm>
+#include <cstdint>
+#include <span>
 #include <utility>
 
 #include "core/common/status_macros.h"
@@ -114,7 +116,7 @@ absl::StatusOr<MissionMap::ForPlan> MissionMap::Window(const LargeFieldMap::Targ
   OAIPP_ASSIGN_OR_RETURN(
       const FieldWindow window,
       PlanningWindow(grid_, target.added == nullptr ? nullptr : &target.added->precision,
-                     large_->prior_variance(), centre_W, options));
+                     large_->prior_variance(), centre_W, options, config.SearchMask()));
   OAIPP_ASSIGN_OR_RETURN(GpMap local, large_->Window(target, window, options));
   ForPlan plan;
   plan.key = {.map_version = target.version,

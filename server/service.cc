@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
+#include <span>
 
 #include "absl/strings/cord.h"
 #include "absl/strings/escaping.h"
@@ -328,8 +330,19 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
       const Eigen::VectorXd prior = config.PriorMean(mission->grid().num_cells());
       response->mutable_prior_mean()->Assign(prior.data(), prior.data() + prior.size());
     }
+    const std::span<const std::uint8_t> area = mission->config().SearchMask();  // never changes
     OAIPP_RETURN_IF_ERROR(mission->ReadMapView([&](const api::MapView& map) {
       MapToProto(map, request->include_cells(), response);
+      response->set_search_area_trace(map.trace);
+      if (!area.empty()) {
+        double trace = 0.0;
+        for (Eigen::Index i = 0; i < map.variances->size(); ++i) {
+          if (area[static_cast<std::size_t>(i)] != 0) trace += (*map.variances)[i];
+        }
+        response->set_search_area_trace(trace);
+        if (request->include_cells())
+          response->set_search_area(reinterpret_cast<const char*>(area.data()), area.size());
+      }
       if (!request->include_png()) return;
       // Copied under the lock, drawn outside it.
       layers.mean.assign(map.mean->begin(), map.mean->end());
@@ -343,6 +356,9 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
     render::Overlay overlay;
     for (const Obstacle& o : snapshot.obstacles) {
       overlay.obstacle_footprints.push_back(GroundFootprint(o.shape));
+    }
+    if (snapshot.config.search_area != nullptr) {
+      overlay.search_area_rings = snapshot.config.search_area->Rings();
     }
     const render::MapGrid grid{.nx = response->nx(),
                                .ny = response->ny(),

@@ -33,6 +33,9 @@ absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
   for (const auto& [id, o] : simulation.environment().obstacles()) {
     overlay.obstacle_footprints.push_back(GroundFootprint(o.shape));
   }
+  if (simulation.config().search_area != nullptr) {
+    overlay.search_area_rings = simulation.config().search_area->Rings();
+  }
   overlay.targets = simulation.TargetRectangles();
   const auto ground = [](const std::vector<Vec3>& points_W) {
     std::vector<Vec2> xy;

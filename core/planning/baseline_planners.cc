@@ -1,10 +1,14 @@
 #include "core/planning/baseline_planners.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
 #include <queue>
 #include <random>
+#include <span>
+#include <utility>
+#include <vector>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -101,9 +105,39 @@ absl::Status LawnmowerConfig::Validate() const {
   return absl::OkStatus();
 }
 
+namespace {
+
+// The stretches [x0, x1] of the lane band [y_lo, y_hi] over which some cell
+// of `area` lies, as runs of the grid's columns, in increasing x.
+std::vector<std::pair<double, double>> AreaStretches(const FieldGrid& grid,
+                                                     std::span<const std::uint8_t> area,
+                                                     double y_lo, double y_hi) {
+  const double res = grid.resolution_m();
+  const int row_lo =
+      std::clamp(static_cast<int>(std::floor((y_lo - grid.min_W().y()) / res)), 0, grid.ny() - 1);
+  const int row_hi = std::clamp(static_cast<int>(std::ceil((y_hi - grid.min_W().y()) / res)) - 1,
+                                row_lo, grid.ny() - 1);
+  std::vector<std::pair<double, double>> stretches;
+  int run_start = -1;
+  for (int col = 0; col <= grid.nx(); ++col) {
+    bool inside = false;
+    for (int row = row_lo; col < grid.nx() && row <= row_hi && !inside; ++row) {
+      inside = area[static_cast<std::size_t>(grid.Index(row, col))] != 0;
+    }
+    if (inside && run_start < 0) run_start = col;
+    if (!inside && run_start >= 0) {
+      stretches.emplace_back(grid.min_W().x() + run_start * res, grid.min_W().x() + col * res);
+      run_start = -1;
+    }
+  }
+  return stretches;
+}
+
+}  // namespace
+
 std::vector<Vec3> LawnmowerPlanner::Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
                                             const DownwardCamera& camera, double altitude_m,
-                                            int corner) {
+                                            int corner, std::span<const std::uint8_t> area) {
   const Vec2 footprint = camera.FootprintSize(altitude_m);
   const Vec2 lo = grid.min_W(), hi = grid.max_W();
   // Lanes along x, spaced by the footprint's y extent (the longer side for
@@ -117,13 +151,33 @@ std::vector<Vec3> LawnmowerPlanner::Pattern(const FieldGrid& grid, const Aabb& w
   std::vector<Vec3> points;
   const bool from_top = (corner & 1) != 0;
   const bool from_high_x = (corner & 2) != 0;
+  int lanes_flown = 0;  // with an area: lanes that hold some of it
   for (int k = 0; k < lanes; ++k) {
     const int lane = from_top ? lanes - 1 - k : k;
     const double y =
         std::clamp(lo.y() + (lane + 0.5) * spacing, waypoint_box.min_W.y(), waypoint_box.max_W.y());
     const bool forward = (k % 2 == 0) != from_high_x;
-    points.emplace_back(forward ? x_start : x_end, y, z);
-    points.emplace_back(forward ? x_end : x_start, y, z);
+    if (area.empty()) {
+      points.emplace_back(forward ? x_start : x_end, y, z);
+      points.emplace_back(forward ? x_end : x_start, y, z);
+      continue;
+    }
+    // Alternate lanes by the lanes flown, so that a lane left out does not
+    // turn the next one around.
+    const bool ahead = (lanes_flown % 2 == 0) != from_high_x;
+    std::vector<Vec3> lane_points;
+    for (const auto& [x0, x1] : AreaStretches(grid, area, y - 0.5 * spacing, y + 0.5 * spacing)) {
+      double a = std::max(x0 + 0.5 * footprint.x(), waypoint_box.min_W.x());
+      double b = std::min(x1 - 0.5 * footprint.x(), waypoint_box.max_W.x());
+      if (a > b)
+        a = b = std::clamp(0.5 * (x0 + x1), waypoint_box.min_W.x(), waypoint_box.max_W.x());
+      lane_points.emplace_back(a, y, z);
+      lane_points.emplace_back(b, y, z);
+    }
+    if (lane_points.empty()) continue;
+    ++lanes_flown;
+    if (!ahead) std::reverse(lane_points.begin(), lane_points.end());
+    points.insert(points.end(), lane_points.begin(), lane_points.end());
   }
   return points;
 }
@@ -138,8 +192,11 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
     const int corner = config_.start_corner >= 0
                            ? config_.start_corner
                            : static_cast<int>(MixSeed(common_.seed, 0.0) & 3U);
-    pattern_ =
-        Pattern(scorer.field(), scorer.waypoint_box(), mission.camera, config_.altitude_m, corner);
+    pattern_ = Pattern(scorer.field(), scorer.waypoint_box(), mission.camera, config_.altitude_m,
+                       corner, mission.search_area);
+    if (pattern_.empty()) {
+      return absl::FailedPreconditionError("lawnmower: the search area holds no cell of the field");
+    }
   }
   // Back and forth: after the last point the pattern is flown in reverse.
   const int period = 2 * static_cast<int>(pattern_.size()) - 2;
@@ -282,11 +339,33 @@ absl::StatusOr<PlannedPath> RandomPlanner::Plan(const PlanningContext& mission,
   const Vec2 hi = scorer.field().max_W().cwiseMin(box.max_W.head<2>());
   std::uniform_real_distribution<double> ux(lo.x(), hi.x()), uy(lo.y(), hi.y()),
       uz(box.min_W.z(), box.max_W.z());
+  // With a search area: a cell drawn among the area's cells, then a point
+  // in it (uniform over the area as the grid draws it), kept to [lo, hi].
+  std::vector<int> inside;
+  const FieldGrid& field = scorer.field();
+  for (std::size_t c = 0; c < mission.search_area.size(); ++c) {
+    if (mission.search_area[c] != 0) inside.push_back(static_cast<int>(c));
+  }
+  if (!mission.search_area.empty() && inside.empty()) {
+    return absl::FailedPreconditionError("random: the search area holds no cell of the field");
+  }
+  std::uniform_int_distribution<std::size_t> pick(0, inside.empty() ? 0 : inside.size() - 1);
+  std::uniform_real_distribution<double> offset(-0.5, 0.5);
+  auto draw = [&]() -> Vec3 {
+    // Without an area, the draw as it always was (the pinned plans).
+    if (inside.empty()) return Vec3(ux(rng), uy(rng), uz(rng));
+    const Vec2 centre = field.CellCentreXY(inside[pick(rng)]);
+    const double dx = offset(rng);
+    const double dy = offset(rng);
+    const Vec2 xy = (centre + field.resolution_m() * Vec2(dx, dy)).cwiseMax(lo).cwiseMin(hi);
+    const double z = uz(rng);
+    return Vec3(xy.x(), xy.y(), z);
+  };
   const double clearance = common_.limits.ObstacleClearance();
   PlannerStats stats;
   for (int attempt = 0; attempt < config_.max_attempts; ++attempt) {
     if (absl::Now() >= deadline) return absl::DeadlineExceededError("random: deadline passed");
-    const Vec3 p(ux(rng), uy(rng), uz(rng));
+    const Vec3 p = draw();
     if (scorer.environment().SignedDistance(p) <= clearance) continue;
     ScoredPath scored = scorer.Score({p});
     ++stats.evaluations;

@@ -15,6 +15,8 @@
 //   RandomPlanner random(PlannerCommon{.seed = 3}, RandomConfig{});
 #pragma once
 
+#include <cstdint>
+#include <span>
 #include <vector>
 
 #include "core/planning/path_scorer.h"
@@ -46,10 +48,18 @@ class LawnmowerPlanner final : public Planner {
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
                                                  const UavState& state,
                                                  absl::Time deadline) override;
-  // The pattern's turning points for a field (exposed for tests).
+  // The pattern's turning points for a field (exposed for tests). With a
+  // search area (PlanningContext::search_area, over `grid`), each lane runs
+  // only over the stretches where its band of the field (the lane's y
+  // +- half the spacing) holds cells of the area, from half a footprint
+  // inside each stretch's ends (its middle, for a stretch shorter than a
+  // footprint); lanes with none are left out, and the UAV crosses the gaps
+  // between stretches on the straight lane. Empty when the area holds no
+  // cell.
   [[nodiscard]] static std::vector<Vec3> Pattern(const FieldGrid& grid, const Aabb& waypoint_box,
                                                  const DownwardCamera& camera, double altitude_m,
-                                                 int corner = 0);
+                                                 int corner = 0,
+                                                 std::span<const std::uint8_t> area = {});
   // Index of the next pattern point to fly to (counts up for ever; the
   // pattern is flown back and forth).
   [[nodiscard]] int next_index() const { return next_index_; }

@@ -269,12 +269,23 @@ Eigen::VectorXd InformationEvaluator::PosteriorVariances(
   return var;
 }
 
+const std::vector<int>& InformationEvaluator::EarningCells(const PoseObservation& pose,
+                                                           std::vector<int>& scratch) const {
+  if (area_.empty()) return pose.cells;
+  scratch.clear();
+  for (int c : pose.cells) {
+    if (InArea(c)) scratch.push_back(c);
+  }
+  return scratch;
+}
+
 double InformationEvaluator::PoseValue(const PoseObservation& pose,
                                        const Eigen::VectorXd& variances) const {
   const double reward = pose.scored ? params_.AltitudeReward(pose.altitude_m) : 0.0;
   if (reward <= 0.0) return 0.0;
   double av = 0.0;
   for (int c : pose.cells) {
+    if (!InArea(c)) continue;
     av += params_.CellValue(mean_[c], variances[c], pose.variance, PriorVariance(c));
   }
   return av * reward;
@@ -296,13 +307,17 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
   std::vector<int> seen_slots;             // the seen cells' slots in `fused`
   std::vector<int> order;                  // slots of `fused`, seen cells last
   std::vector<char> is_seen;
+  std::vector<int> inside;
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const PoseObservation& pose = poses[i];
     const double reward = pose.scored ? params_.AltitudeReward(pose.altitude_m) : 0.0;
-    if (reward > 0.0 && !pose.cells.empty()) {
-      const auto m = static_cast<Eigen::Index>(pose.cells.size());
+    // The cells that earn; each one's predicted variance depends on the
+    // fused cells only, so the others are skipped here and fused below.
+    const std::vector<int>& cells = reward > 0.0 ? EarningCells(pose, inside) : pose.cells;
+    if (reward > 0.0 && !cells.empty()) {
+      const auto m = static_cast<Eigen::Index>(cells.size());
       Eigen::VectorXd var(m);
-      for (Eigen::Index j = 0; j < m; ++j) var[j] = base(pose.cells[j], pose.cells[j]);
+      for (Eigen::Index j = 0; j < m; ++j) var[j] = base(cells[j], cells[j]);
       if (!fused.empty()) {
         // With K the fused cells, S = B_KK + R = L L^T and a cell j of the
         // pose: var_j = B_jj - |L^-1 B_Kj|^2. For j in K, B_Kj = (S - R) e_j
@@ -320,7 +335,7 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
         const auto k = static_cast<Eigen::Index>(fused.cells().size());
         is_seen.assign(static_cast<std::size_t>(k), 0);
         for (Eigen::Index j = 0; j < m; ++j) {
-          const int slot = fused.Slot(pose.cells[j]);
+          const int slot = fused.Slot(cells[j]);
           if (slot >= 0 && !is_seen[static_cast<std::size_t>(slot)] &&
               fused.Noise(slot) <= kSeenNoiseRatio<Scalar> * var[j]) {
             seen.push_back(j);
@@ -347,7 +362,7 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
           const auto u = static_cast<Eigen::Index>(unseen.size());
           Matrix cross(k, u);  // B_K,J for the unseen cells
           for (Eigen::Index b = 0; b < u; ++b) {
-            const int cell = pose.cells[unseen[b]];
+            const int cell = cells[unseen[b]];
             for (Eigen::Index a = 0; a < k; ++a) {
               cross(a, b) = static_cast<Scalar>(base(fused.cells()[order[a]], cell));
             }
@@ -371,7 +386,7 @@ double InformationEvaluator::AdaptiveIn(std::span<const PoseObservation> poses,
       }
       double av = 0.0;
       for (Eigen::Index j = 0; j < m; ++j) {
-        const int cell = pose.cells[j];
+        const int cell = cells[j];
         av += params_.CellValue(mean_[cell], var[j], pose.variance, PriorVariance(cell));
       }
       total += av * reward;
@@ -393,6 +408,7 @@ double InformationEvaluator::Detection(std::span<const PoseObservation> poses) c
         pose.altitude_m >= params_.h_sat_m ? 0.0 : std::clamp(pose.detection_probability, 0.0, 1.0);
     double mass = 0.0;
     for (int c : pose.cells) {
+      if (!InArea(c)) continue;  // no mass to find there
       auto [it, inserted] = unseen.try_emplace(c, 1.0);
       mass += std::clamp(mean_[c], 0.0, 1.0) * it->second;
       it->second *= 1.0 - p;
@@ -419,7 +435,8 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
     const auto m = static_cast<Eigen::Index>(k.size());
     const Eigen::LLT<Eigen::MatrixXd> factor = fused.Factor(base);
     if (base_is_cached && m < base.cols() / 2 && UseBaseSquared(m, base.cols())) {
-      // sum((B_KK + R)^-1 o (B^2)_KK): about m^3 once B^2 is known.
+      // sum((B_KK + R)^-1 o (B A B)_KK), A the area's diagonal 0/1 (the
+      // identity without one): about m^3 once B A B is known.
       const Eigen::MatrixXd& g = BaseSquared();
       const Eigen::MatrixXd s_inv = factor.solve(Eigen::MatrixXd::Identity(m, m));
       double sum = 0.0;
@@ -428,8 +445,15 @@ double InformationEvaluator::NonAdaptive(std::span<const PoseObservation> poses,
       }
       return sum;
     }
-    // |L^-1 B_K,:|_F^2: m^2 n, cheaper when K is most of the field.
-    return WhitenedRows(params_.dense_backend, fused, base, factor.matrixLLT()).squaredNorm();
+    // |L^-1 B_K,:|_F^2 over the area's columns: m^2 n, cheaper when K is
+    // most of the field.
+    const auto rows = WhitenedRows(params_.dense_backend, fused, base, factor.matrixLLT());
+    if (area_.empty()) return rows.squaredNorm();
+    double sum = 0.0;
+    for (Eigen::Index c = 0; c < rows.cols(); ++c) {
+      if (InArea(static_cast<int>(c))) sum += rows.col(c).squaredNorm();
+    }
+    return sum;
   };
   return reduction(all) - reduction(baseline);
 }
@@ -445,28 +469,51 @@ bool InformationEvaluator::UseBaseSquared(Eigen::Index m, Eigen::Index n) const 
 
 const Eigen::MatrixXd& InformationEvaluator::BaseSquared() const {
   if (base_squared_.size() == 0) {
-    // B symmetric: B^2 = B B^T, a symmetric rank-n update (half a product).
+    // B symmetric: B^2 = B B^T, a symmetric rank-n update (half a product);
+    // with an area, B A B = B_:A B_:A^T, the update by its columns only.
     const Eigen::MatrixXd& base = prefix_.empty() ? cov_ : *conditioned_;
     base_squared_ = Eigen::MatrixXd::Zero(base.rows(), base.cols());
-    base_squared_.selfadjointView<Eigen::Lower>().rankUpdate(base);
+    if (area_.empty()) {
+      base_squared_.selfadjointView<Eigen::Lower>().rankUpdate(base);
+    } else {
+      std::vector<Eigen::Index> inside;
+      for (Eigen::Index c = 0; c < base.cols(); ++c) {
+        if (InArea(static_cast<int>(c))) inside.push_back(c);
+      }
+      // No column (an area off this map): B A B = 0, and Eigen's product
+      // must not see an empty operand.
+      if (!inside.empty()) {
+        const Eigen::MatrixXd columns = base(Eigen::all, inside);
+        base_squared_.selfadjointView<Eigen::Lower>().rankUpdate(columns);
+      }
+    }
     base_squared_.triangularView<Eigen::StrictlyUpper>() = base_squared_.transpose();
   }
   return base_squared_;
 }
 
 double ReferenceInformation(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
-                            const InformationParams& params,
-                            std::span<const PoseObservation> poses) {
+                            const InformationParams& params, std::span<const PoseObservation> poses,
+                            std::span<const std::uint8_t> area) {
+  auto inside = [&](int c) { return area.empty() || area[static_cast<std::size_t>(c)] != 0; };
+  // The trace over the area's cells.
+  auto trace = [&](const Eigen::MatrixXd& m) {
+    double sum = 0.0;
+    for (Eigen::Index c = 0; c < m.rows(); ++c) {
+      if (inside(static_cast<int>(c))) sum += m(c, c);
+    }
+    return sum;
+  };
   Eigen::MatrixXd p = covariance;  // the copy the fast path avoids
   double total = 0.0;
-  double trace_start = p.trace();
+  double trace_start = trace(p);
   for (const PoseObservation& pose : poses) {
     const auto m = static_cast<Eigen::Index>(pose.cells.size());
     if (params.kind == ObjectiveKind::kAdaptive && pose.scored) {
       const double reward = params.AltitudeReward(pose.altitude_m);
       double av = 0.0;
       for (int c : pose.cells) {
-        av += params.CellValue(mean[c], p(c, c), pose.variance, covariance(c, c));
+        if (inside(c)) av += params.CellValue(mean[c], p(c, c), pose.variance, covariance(c, c));
       }
       total += av * reward;
     }
@@ -479,9 +526,9 @@ double ReferenceInformation(const Eigen::VectorXd& mean, const Eigen::MatrixXd& 
     s.diagonal().array() += pose.variance;
     const Eigen::MatrixXd gain = Eigen::LLT<Eigen::MatrixXd>(s).solve(pj.transpose());  // S^-1 P_J:
     p -= pj * gain;
-    if (!pose.scored) trace_start = p.trace();
+    if (!pose.scored) trace_start = trace(p);
   }
-  if (params.kind == ObjectiveKind::kNonAdaptive) return trace_start - p.trace();
+  if (params.kind == ObjectiveKind::kNonAdaptive) return trace_start - trace(p);
   return total;
 }
 

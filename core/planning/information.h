@@ -270,9 +270,16 @@ class InformationEvaluator {
   // Holds references: mean (n) and covariance (n x n, symmetric) must
   // outlive the evaluator and stay unchanged while it is used. Not safe for
   // concurrent use (it caches P^2).
+  // `area` (empty, or one byte per cell, as `area` must outlive the
+  // evaluator too): the cells worth searching, nonzero inside a mission's
+  // search area. A cell outside earns nothing: the adaptive and detection
+  // objectives sum over the inside cells a pose sees, the non-adaptive one
+  // takes the trace over the inside cells; every pose is still fused whole,
+  // so a shot outside lowers the variance of inside cells it is correlated
+  // with. Empty: every cell counts. Precondition: empty or n bytes.
   InformationEvaluator(const Eigen::VectorXd& mean, const Eigen::MatrixXd& covariance,
-                       const InformationParams& params)
-      : mean_(mean), cov_(covariance), params_(params) {}
+                       const InformationParams& params, std::span<const std::uint8_t> area = {})
+      : mean_(mean), cov_(covariance), params_(params), area_(area) {}
 
   // Fuses `prefix` (unscored poses, e.g. the shot due where the UAV is now,
   // which every candidate of a replan shares) into a private copy of the
@@ -342,10 +349,18 @@ class InformationEvaluator {
   [[nodiscard]] double PriorVariance(int c) const {
     return params_.confirmation_preposterior ? cov_(c, c) : -1.0;
   }
+  [[nodiscard]] bool InArea(int c) const {
+    return area_.empty() || area_[static_cast<std::size_t>(c)] != 0;
+  }
+  // The cells of `pose` that earn: all of them, or those in the area
+  // (copied into `scratch`, which the result then refers to).
+  [[nodiscard]] const std::vector<int>& EarningCells(const PoseObservation& pose,
+                                                     std::vector<int>& scratch) const;
 
   const Eigen::VectorXd& mean_;
   const Eigen::MatrixXd& cov_;
   InformationParams params_;
+  std::span<const std::uint8_t> area_;
   std::vector<PoseObservation> prefix_;
   std::shared_ptr<const Eigen::MatrixXd> conditioned_;  // P_c, null without a prefix
   mutable Eigen::MatrixXd base_squared_;
@@ -356,9 +371,12 @@ class InformationEvaluator {
 // The oracle: sequential full Kalman covariance updates on a copy of the
 // covariance, reading the variances before each pose (adaptive) or the trace
 // before and after (non-adaptive). O(n^2) memory and O(n^2 m) time per pose.
+// `area` as InformationEvaluator's: the adaptive sum skips cells outside
+// it, the trace counts only cells inside it.
 [[nodiscard]] double ReferenceInformation(const Eigen::VectorXd& mean,
                                           const Eigen::MatrixXd& covariance,
                                           const InformationParams& params,
-                                          std::span<const PoseObservation> poses);
+                                          std::span<const PoseObservation> poses,
+                                          std::span<const std::uint8_t> area = {});
 
 }  // namespace oaipp

@@ -4,6 +4,7 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <span>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -12,8 +13,10 @@
 namespace oaipp {
 
 Vec2 WindowCentre(const FieldGrid& field, const Eigen::VectorXd& added_precision,
-                  double prior_variance, const Vec2& uav_W, const LargeFieldPlanning& options) {
+                  double prior_variance, const Vec2& uav_W, const LargeFieldPlanning& options,
+                  std::span<const std::uint8_t> area) {
   assert(added_precision.size() == field.num_cells());
+  assert(area.empty() || area.size() == static_cast<std::size_t>(field.num_cells()));
   assert(prior_variance > 0.0);
   assert(options.lead_fraction >= 0.0 && options.lead_fraction < 1.0);
   if (options.lead_fraction == 0.0) return uav_W;
@@ -25,8 +28,10 @@ Vec2 WindowCentre(const FieldGrid& field, const Eigen::VectorXd& added_precision
   std::vector<double> uncertainty(static_cast<std::size_t>(bx) * by, 0.0);
   for (int r = 0; r < field.ny(); ++r) {
     for (int c = 0; c < field.nx(); ++c) {
+      const int cell = field.Index(r, c);
+      if (!area.empty() && area[static_cast<std::size_t>(cell)] == 0) continue;
       uncertainty[static_cast<std::size_t>(r / side) * bx + c / side] +=
-          prior_variance / (1.0 + prior_variance * added_precision[field.Index(r, c)]);
+          prior_variance / (1.0 + prior_variance * added_precision[cell]);
     }
   }
   // A square's centre: the middle of the cells it holds (those at the far
@@ -61,7 +66,8 @@ LargeFieldPlanning LargeFieldPlanning::ForField(const FieldGrid& field, bool lea
 absl::StatusOr<FieldWindow> PlanningWindow(const FieldGrid& field,
                                            const Eigen::VectorXd* added_precision,
                                            double prior_variance, const Vec2& uav_W,
-                                           const LargeFieldPlanning& options) {
+                                           const LargeFieldPlanning& options,
+                                           std::span<const std::uint8_t> area) {
   if (!(options.lead_fraction >= 0.0 && options.lead_fraction < 1.0)) {
     return absl::InvalidArgumentError("options.lead_fraction: must lie in [0, 1)");
   }
@@ -69,9 +75,17 @@ absl::StatusOr<FieldWindow> PlanningWindow(const FieldGrid& field,
     return absl::InvalidArgumentError(absl::StrCat("added_precision: ", added_precision->size(),
                                                    " values for ", field.num_cells(), " cells"));
   }
-  const Vec2 centre_W = added_precision == nullptr
-                            ? uav_W
-                            : WindowCentre(field, *added_precision, prior_variance, uav_W, options);
+  if (!area.empty() && area.size() != static_cast<std::size_t>(field.num_cells())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("search_area: ", area.size(), " cells for ", field.num_cells()));
+  }
+  Vec2 centre_W = uav_W;
+  if (added_precision != nullptr) {
+    centre_W = WindowCentre(field, *added_precision, prior_variance, uav_W, options, area);
+  } else if (!area.empty()) {
+    centre_W = WindowCentre(field, Eigen::VectorXd::Zero(field.num_cells()), prior_variance, uav_W,
+                            options, area);
+  }
   return WindowAround(field, centre_W, options.half_width_m);
 }
 
@@ -79,12 +93,15 @@ absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& ma
                                          PlanningContext context, const UavState& state,
                                          absl::Time deadline, const LargeFieldPlanning& options) {
   const bool added = (map.AddedPrecision().array() != 0.0).any();
-  OAIPP_ASSIGN_OR_RETURN(
-      FieldWindow window,
-      PlanningWindow(map.grid(), added ? &map.AddedPrecision() : nullptr,
-                     map.prior().fit.fitted_p0_variance, state.position_W.head<2>(), options));
+  OAIPP_ASSIGN_OR_RETURN(FieldWindow window,
+                         PlanningWindow(map.grid(), added ? &map.AddedPrecision() : nullptr,
+                                        map.prior().fit.fitted_p0_variance,
+                                        state.position_W.head<2>(), options, context.search_area));
   OAIPP_ASSIGN_OR_RETURN(GpMap local, WindowMap(map, window, options.window, options.backend));
   context.map = &local;
+  // A search area lies over the field's cells: the planners then read the
+  // field too (PlanningContext::search_area).
+  if (!context.search_area.empty() && context.field == nullptr) context.field = &map.grid();
   // A conditioned-covariance cache belongs to one map: not this window's.
   context.conditioned = nullptr;
   return planner.Plan(context, state, deadline);

@@ -14,6 +14,9 @@
 //                          PlanInWindow(*planner, sparse_map, context, state, deadline, large));
 #pragma once
 
+#include <cstdint>
+#include <span>
+
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
 #include "core/mapping/dense_backend.h"
@@ -58,27 +61,34 @@ struct LargeFieldPlanning {
 // a tie) lies more than half_width_m from uav_W, the centre moves
 // lead_fraction x half_width_m from uav_W towards it; otherwise it is uav_W.
 // It reads only the measurements' additions, never a variance map, so it
-// costs O(cells) and the same additions give the same centre.
+// costs O(cells) and the same additions give the same centre. With a search
+// area (`area`: one byte per field cell, nonzero inside; empty: all of
+// it) only the cells inside count, so a UAV outside the area is led into it.
 // Preconditions (asserted): added_precision has one entry per field cell,
-// p0 > 0, options valid.
+// area none or one, p0 > 0, options valid.
 [[nodiscard]] Vec2 WindowCentre(const FieldGrid& field, const Eigen::VectorXd& added_precision,
                                 double prior_variance, const Vec2& uav_W,
-                                const LargeFieldPlanning& options);
+                                const LargeFieldPlanning& options,
+                                std::span<const std::uint8_t> area = {});
 
 // The window a plan from uav_W reads: half_width_m each way around
-// WindowCentre. With no measurement added yet (`added_precision` null) it
-// is centred on the UAV: every square is then as uncertain as the prior,
-// and leading anywhere would be arbitrary. InvalidArgument for a
-// lead_fraction outside [0, 1) or additions that do not fit the field;
-// errors as WindowAround.
+// WindowCentre. With no measurement added yet (`added_precision` null) and
+// no search area it is centred on the UAV: every square is then as
+// uncertain as the prior, and leading anywhere would be arbitrary; with an
+// area it leads towards the area's cells. InvalidArgument for a
+// lead_fraction outside [0, 1), or additions or an area that do not fit the
+// field; errors as WindowAround.
 [[nodiscard]] absl::StatusOr<FieldWindow> PlanningWindow(const FieldGrid& field,
                                                          const Eigen::VectorXd* added_precision,
                                                          double prior_variance, const Vec2& uav_W,
-                                                         const LargeFieldPlanning& options);
+                                                         const LargeFieldPlanning& options,
+                                                         std::span<const std::uint8_t> area = {});
 
 // The window of `map` (PlanningWindow, the prior's fitted variance as p0,
-// its additions unless it has none) from state.position_W, and a plan on it by
-// `planner`, with context's map replaced by the window. Errors as
+// its additions unless it has none, context's search area) from
+// state.position_W, and a plan on it by `planner`, with context's map
+// replaced by the window (and, with a search area, its field set to the
+// map's grid when unset). Errors as
 // WindowAround, WindowMap and planner.Plan.
 [[nodiscard]] absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,
                                                        PlanningContext context,

@@ -1,6 +1,8 @@
 #include "core/planning/path_scorer.h"
 
 #include <cmath>
+#include <optional>
+#include <span>
 
 #include "absl/strings/str_cat.h"
 #include "core/common/field_error.h"
@@ -28,6 +30,22 @@ absl::Status PlannerLimits::Validate() const {
   return CheckPositive("limits.exact_check_spacing_m", exact_check_spacing_m);
 }
 
+namespace {
+
+// `area` (over `field`) on the cells of `window`, a block of the field's
+// cells: each window cell takes its centre's field cell.
+std::vector<std::uint8_t> AreaOnWindow(std::span<const std::uint8_t> area, const FieldGrid& field,
+                                       const FieldGrid& window) {
+  std::vector<std::uint8_t> out(static_cast<std::size_t>(window.num_cells()), 0);
+  for (int c = 0; c < window.num_cells(); ++c) {
+    const std::optional<int> cell = field.CellOf(window.CellCentreXY(c));
+    if (cell.has_value()) out[static_cast<std::size_t>(c)] = area[static_cast<std::size_t>(*cell)];
+  }
+  return out;
+}
+
+}  // namespace
+
 PathScorer::PathScorer(const PlanningContext& mission, const UavState& state,
                        const PlannerLimits& limits, const InformationParams& information,
                        const ScoreWeights& weights)
@@ -35,7 +53,13 @@ PathScorer::PathScorer(const PlanningContext& mission, const UavState& state,
       state_(state),
       limits_(limits),
       weights_(weights),
-      evaluator_(mission.map->Mean(), mission.map->Covariance(), information),
+      window_area_(!mission.search_area.empty() && mission.field != nullptr &&
+                           mission.field != &mission.map->grid()
+                       ? AreaOnWindow(mission.search_area, *mission.field, mission.map->grid())
+                       : std::vector<std::uint8_t>{}),
+      evaluator_(
+          mission.map->Mean(), mission.map->Covariance(), information,
+          window_area_.empty() ? mission.search_area : std::span<const std::uint8_t>(window_area_)),
       waypoint_box_(mission.environment->flight_volume().Inflated(-0.5 * limits.uav_radius_m)) {}
 
 absl::Status PlannerCommon::Validate() const {
@@ -60,6 +84,13 @@ absl::StatusOr<PathScorer> PathScorer::Create(const PlanningContext& mission, co
 
   const Aabb& volume = mission.environment->flight_volume();
   const FieldGrid& grid = mission.map->grid();
+  const FieldGrid& field = mission.field != nullptr ? *mission.field : grid;
+  if (!mission.search_area.empty() &&
+      mission.search_area.size() != static_cast<std::size_t>(field.num_cells())) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("mission.search_area: ", mission.search_area.size(), " cells for a field of ",
+                     field.num_cells()));
+  }
   if ((grid.max_W().array() <= volume.min_W.head<2>().array()).any() ||
       (grid.min_W().array() >= volume.max_W.head<2>().array()).any()) {
     return absl::InvalidArgumentError("mission.map: the field lies outside the flight volume");

@@ -151,6 +151,9 @@ class PathScorer {
   UavState state_;
   PlannerLimits limits_;
   ScoreWeights weights_;
+  // The search area on the map's own cells when the map is a window of the
+  // field (the evaluator reads it); empty otherwise.
+  std::vector<std::uint8_t> window_area_;
   InformationEvaluator evaluator_;
   Aabb waypoint_box_;
   std::vector<PoseObservation> start_observations_;

@@ -110,6 +110,12 @@ struct PlanningContext {
   // docs/method.md §3.10): the lawnmower's pattern and the random planner's
   // destinations cover it. nullptr: map's own grid.
   const FieldGrid* field = nullptr;
+  // The mission's search area over the field (`field`, else map's grid):
+  // one byte per cell, nonzero where the ground is to be searched; empty:
+  // all of it. A cell outside earns nothing (InformationEvaluator's
+  // `area`); the random planner draws its destinations inside. Must
+  // outlive the plan, as the map must.
+  std::span<const std::uint8_t> search_area = {};
 };
 
 // The UAV when planning starts: its kinematic state on the mission clock.

@@ -123,6 +123,15 @@ void ExpectConfigsEqual(const MissionConfig& a, const MissionConfig& b) {
     EXPECT_EQ(*a.prior_map, *b.prior_map);
   }
   EXPECT_EQ(a.prior_map_units, b.prior_map_units);
+  ASSERT_EQ(a.search_area == nullptr, b.search_area == nullptr);
+  if (a.search_area != nullptr) {
+    ASSERT_EQ(a.search_area->polygons.size(), b.search_area->polygons.size());
+    for (std::size_t i = 0; i < a.search_area->polygons.size(); ++i) {
+      EXPECT_EQ(a.search_area->polygons[i].outer_m, b.search_area->polygons[i].outer_m);
+      EXPECT_EQ(a.search_area->polygons[i].holes_m, b.search_area->polygons[i].holes_m);
+    }
+    EXPECT_EQ(a.search_area->mask, b.search_area->mask);
+  }
   EXPECT_EQ(a.camera.fov_x_deg, b.camera.fov_x_deg);
   EXPECT_EQ(a.camera.fov_y_deg, b.camera.fov_y_deg);
   EXPECT_EQ(a.camera.rate_hz, b.camera.rate_hz);

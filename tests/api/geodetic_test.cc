@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "absl/strings/match.h"
 #include "gtest/gtest.h"
@@ -102,6 +104,69 @@ TEST(ResolveGeoFieldsTest, RewritesGeodeticPointsIntoLocalMetres) {
   // About 3 m east, 5.6 m north, 4 m up.
   EXPECT_NEAR(expected.x(), 3.0, 0.1);
   EXPECT_NEAR(expected.y(), 5.56, 0.1);
+}
+
+TEST(ResolveGeoFieldsTest, GeodeticRingsBecomeMetresOnTheOriginsPlane) {
+  const GeoPoint origin{47.397742, 8.545594, 488.0};
+  v1::MissionSpec spec;
+  *spec.mutable_geo_origin() = GeoPointToProto(origin);
+  // A triangle of about 75 m x 110 m north-east of the origin, and a hole.
+  const std::vector<std::pair<double, double>> outer = {
+      {47.3977, 8.5455}, {47.3977, 8.5465}, {47.3987, 8.5460}};
+  const std::vector<std::pair<double, double>> hole = {
+      {47.3979, 8.5459}, {47.3979, 8.5461}, {47.3981, 8.5460}};
+  v1::AreaPolygon& area = *spec.add_search_areas();
+  for (const auto& [lat, lon] : outer) {
+    area.mutable_outer()->add_lat_lon_deg(lat);
+    area.mutable_outer()->add_lat_lon_deg(lon);
+  }
+  v1::Ring& h = *area.add_holes();
+  for (const auto& [lat, lon] : hole) {
+    h.add_lat_lon_deg(lat);
+    h.add_lat_lon_deg(lon);
+  }
+  ASSERT_TRUE(HasGeoFields(spec));
+  ASSERT_TRUE(ResolveGeoFields(&spec, "spec").ok());
+  EXPECT_FALSE(HasGeoFields(spec));
+  auto expect_ring = [&](const v1::Ring& ring,
+                         const std::vector<std::pair<double, double>>& points) {
+    EXPECT_EQ(ring.lat_lon_deg_size(), 0);
+    ASSERT_EQ(ring.xy_m_size(), 2 * static_cast<int>(points.size()));
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Vec3 e = Enu(origin, {points[i].first, points[i].second, origin.altitude_m});
+      EXPECT_NEAR(ring.xy_m(2 * i), e.x(), 1e-6) << i;
+      EXPECT_NEAR(ring.xy_m(2 * i + 1), e.y(), 1e-6) << i;
+    }
+  };
+  expect_ring(spec.search_areas(0).outer(), outer);
+  expect_ring(spec.search_areas(0).holes(0), hole);
+  // The second vertex is about 75 m east of the first (1e-3 degree of
+  // longitude at 47.4 degrees north).
+  EXPECT_NEAR(spec.search_areas(0).outer().xy_m(2) - spec.search_areas(0).outer().xy_m(0), 75.4,
+              0.2);
+
+  // Refusals name the ring and the value.
+  v1::MissionSpec bad;
+  *bad.mutable_geo_origin() = GeoPointToProto(origin);
+  v1::Ring& r = *bad.add_search_areas()->mutable_outer();
+  for (const double v : {47.3977, 8.5455, 47.3977, 8.5465, 97.0, 8.5460}) r.add_lat_lon_deg(v);
+  absl::Status s = ResolveGeoFields(&bad, "spec");
+  EXPECT_TRUE(absl::StartsWith(s.message(), "spec.search_areas[0].outer.lat_lon_deg[4]: vertex 2"))
+      << s;
+  r.set_lat_lon_deg(4, 47.3987);
+  r.add_xy_m(1.0);
+  s = ResolveGeoFields(&bad, "spec");
+  EXPECT_TRUE(absl::StartsWith(s.message(),
+                               "spec.search_areas[0].outer.lat_lon_deg: give xy_m or lat_lon_deg"))
+      << s;
+  r.clear_xy_m();
+  r.add_lat_lon_deg(47.0);
+  s = ResolveGeoFields(&bad, "spec");
+  EXPECT_TRUE(absl::StrContains(s.message(), "7 values; latitude and longitude come in pairs"))
+      << s;
+  bad.clear_geo_origin();
+  s = ResolveGeoFields(&bad, "spec");
+  EXPECT_TRUE(absl::StrContains(s.message(), "the mission has no geo_origin, so give xy_m")) << s;
 }
 
 TEST(ResolveGeoFieldsTest, ErrorsNameTheField) {

@@ -64,6 +64,11 @@ bool IsGreen(const cv::Vec3b& bgr) { return bgr[1] >= 180 && bgr[2] <= 40 && bgr
 bool IsWhite(const cv::Vec3b& bgr) { return bgr[0] >= 230 && bgr[1] >= 230 && bgr[2] >= 230; }
 bool IsDark(const cv::Vec3b& bgr) { return bgr[0] < 100 && bgr[1] < 100 && bgr[2] < 100; }
 
+// The rectangle [x0, x1] x [y0, y1] as a closed ring.
+std::vector<Vec2> Square(double x0, double y0, double x1, double y1) {
+  return {Vec2(x0, y0), Vec2(x1, y0), Vec2(x1, y1), Vec2(x0, y1)};
+}
+
 int DarkPixels(const cv::Mat& image, const cv::Rect& area) {
   int n = 0;
   for (int y = area.y; y < area.y + area.height; ++y) {
@@ -338,6 +343,24 @@ TEST(MapRenderTest, ObstacleFootprintIsShaded) {
   EXPECT_EQ(At(image, outside.x, outside.y), Viridis(0));
 }
 
+TEST(MapRenderTest, SearchAreaRingsAreWhiteOutlinesThatShadeNothing) {
+  Overlay overlay;
+  overlay.search_area_rings = {Square(-9, 1, 1, 5)};
+  const MapLayout layout = LayoutOrDie(kGrid, overlay);
+  const cv::Mat image = RenderOrDie(kGrid, Flat(0.0, 0.0), overlay);
+  for (const Panel panel : {Panel::kMean, Panel::kStdDev}) {
+    // On each edge's middle; inside and outside the ring, the map.
+    for (const Vec2& edge : {Vec2(-4, 1), Vec2(1, 3), Vec2(-4, 5), Vec2(-9, 3)}) {
+      const cv::Point on = PixelOf(WorldToPixel(kGrid, layout, panel, edge));
+      EXPECT_TRUE(AnyNear(image, on, 1, IsWhite)) << edge.transpose();
+    }
+    const cv::Point inside = PixelOf(WorldToPixel(kGrid, layout, panel, Vec2(-4, 3)));
+    const cv::Point outside = PixelOf(WorldToPixel(kGrid, layout, panel, Vec2(-4, -3)));
+    EXPECT_EQ(At(image, inside.x, inside.y), Viridis(0));
+    EXPECT_EQ(At(image, outside.x, outside.y), Viridis(0));
+  }
+}
+
 TEST(MapRenderTest, SameInputsGiveTheSameBytes) {
   MapLayers layers = Flat(0.0, 1.0);
   for (int i = 0; i < kN * kN; ++i) {
@@ -385,6 +408,9 @@ TEST(MapRenderTest, BadInputsAreNamed) {
   Overlay two_vertices;
   two_vertices.obstacle_footprints = {{Vec2(0, 0), Vec2(1, 1)}};
   EXPECT_THAT(error(kGrid, ok, two_vertices), HasSubstr("overlay.obstacle_footprints[0]"));
+  Overlay open_ring;
+  open_ring.search_area_rings = {Square(-9, 1, 1, 5), {Vec2(0, 0), Vec2(1, 1)}};
+  EXPECT_THAT(error(kGrid, ok, open_ring), HasSubstr("overlay.search_area_rings[1]"));
   Overlay nan_path;
   nan_path.path = {Vec2(0, 0), Vec2(std::nan(""), 1)};
   EXPECT_THAT(error(kGrid, ok, nan_path), HasSubstr("overlay.path[1]"));

@@ -5,6 +5,7 @@
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "api/limits.h"
+#include "api/search_area.h"
 #include "gtest/gtest.h"
 #include "tests/server/service_fixture.h"
 
@@ -389,6 +390,20 @@ void AddLimitCases(std::vector<BadCase>& cases) {
                        }
                      });
                    }});
+  cases.push_back(
+      {"search area ring of two vertices", kInvalid, "spec.search_areas[0].outer", [](auto& s) {
+         return Create(s, "area", [](auto& spec) {
+           v1::Ring* ring = spec.add_search_areas()->mutable_outer();
+           for (const double v : {0.0, 0.0, 5.0, 5.0}) ring->add_xy_m(v);
+         });
+       }});
+  cases.push_back(
+      {"search area beyond the vertex bound", kInvalid, "spec.search_areas", [](auto& s) {
+         return Create(s, "area", [](auto& spec) {
+           v1::Ring* ring = spec.add_search_areas()->mutable_outer();
+           for (int i = 0; i < 2 * api::kMaxAreaVertices + 2; ++i) ring->add_xy_m(1.0);
+         });
+       }});
   // Far-off obstacles once overflowed the ESDF's voxel indices (found by
   // fuzz/fuzz_requests).
   cases.push_back(

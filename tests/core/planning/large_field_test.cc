@@ -7,7 +7,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <random>
+#include <span>
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -217,6 +219,36 @@ TEST(LargeFieldTest, TheWindowLeadsTowardsTheOnlyUnobservedSquare) {
   const Eigen::VectorXd short_added = Eigen::VectorXd::Zero(10);
   EXPECT_EQ(PlanningWindow(*grid, &short_added, p0, uav, large).status().code(),
             absl::StatusCode::kInvalidArgument);
+}
+
+// With a search area only its cells count: before anything is observed,
+// a UAV in the middle of a field whose area is the north-east corner's
+// square (cells 100-119 each way, centre (50, 50)) is led towards it, by
+// WindowCentre and by the window the service plans in.
+TEST(LargeFieldTest, TheWindowLeadsIntoTheSearchArea) {
+  auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
+  ASSERT_TRUE(grid.ok());
+  const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/true, {});
+  std::vector<std::uint8_t> area(static_cast<std::size_t>(grid->num_cells()), 0);
+  for (int r = 100; r < 120; ++r) {
+    for (int c = 100; c < 120; ++c) area[static_cast<std::size_t>(grid->Index(r, c))] = 1;
+  }
+  const Vec2 uav(0.0, 0.0);
+  const Vec2 expected = uav + Vec2(50.0, 50.0).normalized() * (large.lead_fraction * 20.0);
+  const Eigen::VectorXd none = Eigen::VectorXd::Zero(grid->num_cells());
+  EXPECT_EQ(WindowCentre(*grid, none, 1.5, uav, large), uav);
+  const Vec2 centre = WindowCentre(*grid, none, 1.5, uav, large, area);
+  EXPECT_NEAR(centre.x(), expected.x(), 1e-9);
+  EXPECT_NEAR(centre.y(), expected.y(), 1e-9);
+  const absl::StatusOr<FieldWindow> window = PlanningWindow(*grid, nullptr, 1.5, uav, large, area);
+  ASSERT_TRUE(window.ok()) << window.status();
+  const absl::StatusOr<FieldWindow> around = WindowAround(*grid, expected, large.half_width_m);
+  ASSERT_TRUE(around.ok());
+  EXPECT_EQ(window->first_row, around->first_row);
+  EXPECT_EQ(window->first_col, around->first_col);
+  EXPECT_EQ(
+      PlanningWindow(*grid, nullptr, 1.5, uav, large, std::span(area).first(10)).status().code(),
+      absl::StatusCode::kInvalidArgument);
 }
 
 // OA-IPP on a field whose part around the UAV is already well observed
