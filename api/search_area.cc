@@ -14,41 +14,16 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/string_view.h"
+#include "api/geos_context.h"
 #include "api/limits.h"
 #include "core/common/field_error.h"
 
 namespace oaipp::api {
 namespace {
 
-// A GEOS context of one call (GEOS's reentrant API: nothing shared between
-// threads), freed with it on every path; it keeps GEOS's last error text.
-class Geos {
+// A GEOS context (api/geos_context.h) with the builders of search areas.
+class Geos : public GeosContext {
  public:
-  Geos() : ctx_(GEOS_init_r()) {
-    GEOSContext_setErrorMessageHandler_r(ctx_, &Geos::OnError, this);
-    GEOSContext_setNoticeMessageHandler_r(ctx_, &Geos::OnNotice, nullptr);
-  }
-  ~Geos() { GEOS_finish_r(ctx_); }
-  Geos(const Geos&) = delete;
-  Geos& operator=(const Geos&) = delete;
-
-  struct Deleter {
-    GEOSContextHandle_t ctx;
-    void operator()(GEOSGeometry* g) const { GEOSGeom_destroy_r(ctx, g); }
-  };
-  using Ptr = std::unique_ptr<GEOSGeometry, Deleter>;
-  struct PreparedDeleter {
-    GEOSContextHandle_t ctx;
-    void operator()(const GEOSPreparedGeometry* g) const { GEOSPreparedGeom_destroy_r(ctx, g); }
-  };
-  using PreparedPtr = std::unique_ptr<const GEOSPreparedGeometry, PreparedDeleter>;
-
-  [[nodiscard]] GEOSContextHandle_t ctx() const { return ctx_; }
-  [[nodiscard]] Ptr Own(GEOSGeometry* g) const { return Ptr(g, Deleter{ctx_}); }
-  [[nodiscard]] absl::Status Failure(absl::string_view what) const {
-    return absl::InternalError(absl::StrCat("GEOS: ", what, ": ", last_error_));
-  }
-
   // A closed ring through `ring` (its first vertex repeated at the end).
   [[nodiscard]] absl::StatusOr<Ptr> LinearRing(std::span<const Vec2> ring) const {
     std::vector<double> xy;
@@ -60,9 +35,9 @@ class Geos {
     xy.push_back(ring.front().x());
     xy.push_back(ring.front().y());
     GEOSCoordSequence* seq = GEOSCoordSeq_copyFromBuffer_r(
-        ctx_, xy.data(), static_cast<unsigned>(ring.size() + 1), /*hasZ=*/0, /*hasM=*/0);
+        ctx(), xy.data(), static_cast<unsigned>(ring.size() + 1), /*hasZ=*/0, /*hasM=*/0);
     if (seq == nullptr) return Failure("coordinate sequence");
-    GEOSGeometry* g = GEOSGeom_createLinearRing_r(ctx_, seq);  // takes seq, even on failure
+    GEOSGeometry* g = GEOSGeom_createLinearRing_r(ctx(), seq);  // takes seq, even on failure
     if (g == nullptr) return Failure("linear ring");
     return Own(g);
   }
@@ -73,9 +48,9 @@ class Geos {
     raw.reserve(holes.size());
     for (Ptr& h : holes) raw.push_back(h.release());
     GEOSGeometry* g =
-        GEOSGeom_createPolygon_r(ctx_, shell.get(), raw.data(), static_cast<unsigned>(raw.size()));
+        GEOSGeom_createPolygon_r(ctx(), shell.get(), raw.data(), static_cast<unsigned>(raw.size()));
     if (g == nullptr) {
-      for (GEOSGeometry* h : raw) GEOSGeom_destroy_r(ctx_, h);
+      for (GEOSGeometry* h : raw) GEOSGeom_destroy_r(ctx(), h);
       return Failure("polygon");
     }
     shell.release();  // owned by g now
@@ -83,19 +58,10 @@ class Geos {
   }
 
   [[nodiscard]] absl::StatusOr<Ptr> Clone(const GEOSGeometry* g) const {
-    GEOSGeometry* copy = GEOSGeom_clone_r(ctx_, g);
+    GEOSGeometry* copy = GEOSGeom_clone_r(ctx(), g);
     if (copy == nullptr) return Failure("clone");
     return Own(copy);
   }
-
- private:
-  static void OnError(const char* message, void* self) {
-    static_cast<Geos*>(self)->last_error_ = message;
-  }
-  static void OnNotice(const char*, void*) {}
-
-  GEOSContextHandle_t ctx_;
-  std::string last_error_;
 };
 
 // What GEOSisValidDetail_r found: its reason (GEOS's fixed text, never

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "absl/strings/str_cat.h"
+#include "api/geos_context.h"
 
 namespace oaipp::sarenv {
 namespace {
@@ -97,56 +98,23 @@ void ForEachVisibleCell(const SearchArea& area, double radius_m, PointXY p, Visi
   }
 }
 
-// GEOS through its reentrant C API; the handle keeps the last error text.
-class Geos {
+// A GEOS context (api/geos_context.h) that builds the paths' lines.
+class Geos : public api::GeosContext {
  public:
-  Geos() : ctx_(GEOS_init_r()) {
-    GEOSContext_setErrorMessageHandler_r(ctx_, &Geos::OnError, this);
-    GEOSContext_setNoticeMessageHandler_r(ctx_, &Geos::OnNotice, nullptr);
-  }
-  ~Geos() { GEOS_finish_r(ctx_); }
-  Geos(const Geos&) = delete;
-  Geos& operator=(const Geos&) = delete;
-
-  struct Deleter {
-    GEOSContextHandle_t ctx;
-    void operator()(GEOSGeometry* g) const { GEOSGeom_destroy_r(ctx, g); }
-  };
-  using Ptr = std::unique_ptr<GEOSGeometry, Deleter>;
-  struct PreparedDeleter {
-    GEOSContextHandle_t ctx;
-    void operator()(const GEOSPreparedGeometry* g) const { GEOSPreparedGeom_destroy_r(ctx, g); }
-  };
-
-  GEOSContextHandle_t ctx() const { return ctx_; }
-  Ptr Own(GEOSGeometry* g) const { return Ptr(g, Deleter{ctx_}); }
-  absl::Status Failure(absl::string_view what) const {
-    return absl::InternalError(absl::StrCat("GEOS: ", what, ": ", last_error_));
-  }
-
   absl::StatusOr<Ptr> LineString(const Polyline& line) const {
-    GEOSCoordSequence* seq = GEOSCoordSeq_create_r(ctx_, static_cast<unsigned>(line.size()), 2);
+    GEOSCoordSequence* seq = GEOSCoordSeq_create_r(ctx(), static_cast<unsigned>(line.size()), 2);
     if (seq == nullptr) return Failure("coordinate sequence");
     for (size_t i = 0; i < line.size(); ++i) {
-      if (GEOSCoordSeq_setXY_r(ctx_, seq, static_cast<unsigned>(i), line[i].x_m, line[i].y_m) ==
+      if (GEOSCoordSeq_setXY_r(ctx(), seq, static_cast<unsigned>(i), line[i].x_m, line[i].y_m) ==
           0) {
-        GEOSCoordSeq_destroy_r(ctx_, seq);
+        GEOSCoordSeq_destroy_r(ctx(), seq);
         return Failure("coordinate");
       }
     }
-    GEOSGeometry* g = GEOSGeom_createLineString_r(ctx_, seq);  // takes seq
+    GEOSGeometry* g = GEOSGeom_createLineString_r(ctx(), seq);  // takes seq
     if (g == nullptr) return Failure("line string");
     return Own(g);
   }
-
- private:
-  static void OnError(const char* message, void* self) {
-    static_cast<Geos*>(self)->last_error_ = message;
-  }
-  static void OnNotice(const char*, void*) {}
-
-  GEOSContextHandle_t ctx_;
-  std::string last_error_;
 };
 
 // A uniform double in [0, 1) from the top 53 bits of one draw.
