@@ -149,6 +149,39 @@ class TeamStoreTest : public ::testing::Test {
     EXPECT_TRUE(store.ok()) << store.status();
     return *std::move(store);
   }
+  // A spec CreateMission must refuse, and the start of its message.
+  struct Refusal {
+    std::string what;
+    v1::MissionSpec spec;
+    std::string field;
+  };
+  // Each refused as INVALID_ARGUMENT naming its field, on a fresh store;
+  // then nothing stored: no mission listed, none recovered on a restart.
+  void ExpectRefusedAndNothingStored(const std::vector<Refusal>& refusals) {
+    const RegistryLimits limits = FreshStore(0);
+    std::unique_ptr<MissionStore> store = Open();
+    {
+      InProcessService s(limits, 2, 64, store.get());
+      for (const Refusal& r : refusals) {
+        SCOPED_TRACE(r.what);
+        grpc::ClientContext context;
+        v1::CreateMissionRequest request;
+        request.set_mission_id("bad");
+        *request.mutable_spec() = r.spec;
+        v1::Mission mission;
+        const grpc::Status status = s.stub().CreateMission(&context, request, &mission);
+        EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+        EXPECT_EQ(status.error_message().rfind(r.field, 0), 0u) << status.error_message();
+      }
+      grpc::ClientContext context;
+      v1::ListMissionsResponse listed;
+      ASSERT_TRUE(s.stub().ListMissions(&context, v1::ListMissionsRequest(), &listed).ok());
+      EXPECT_EQ(listed.missions_size(), 0);
+    }
+    InProcessService after(limits, 2, 64, store.get());
+    ASSERT_TRUE(after.recovered().ok());
+    EXPECT_EQ(*after.recovered(), 0);
+  }
   std::filesystem::path dir_;
 };
 
