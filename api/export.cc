@@ -177,6 +177,9 @@ bool Over(const Shape& shape, const Vec3& p_W) {
     return std::abs(c * d.x() + s * d.y()) <= 0.5 * b->size_m.x() &&
            std::abs(-s * d.x() + c * d.y()) <= 0.5 * b->size_m.y();
   }
+  if (const auto* prism = std::get_if<Prism>(&shape)) {
+    return PolygonSignedDistance(prism->footprint(), p_W.head<2>()) <= 0.0;
+  }
   const auto& cyl = std::get<Cylinder>(shape);
   return (p_W.head<2>() - cyl.centre_W.head<2>()).norm() <= cyl.radius_m;
 }
@@ -401,6 +404,10 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
            Rectangle(b->centre_W.head<2>(), 0.5 * b->size_m.head<2>(), b->yaw_rad)) {
         polygon.push_back(LatLon(frame, c));
       }
+      polygons.push_back({{"inclusion", false}, {"version", 1}, {"polygon", std::move(polygon)}});
+    } else if (const auto* prism = std::get_if<Prism>(&obstacles[o].shape)) {
+      nlohmann::json polygon = nlohmann::json::array();
+      for (const Vec2& c : prism->footprint()) polygon.push_back(LatLon(frame, c));
       polygons.push_back({{"inclusion", false}, {"version", 1}, {"polygon", std::move(polygon)}});
     } else {
       const auto& cyl = std::get<Cylinder>(obstacles[o].shape);

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "api/search_area.h"
 #include "core/common/status_macros.h"
+#include "core/environment/prism.h"
 
 namespace oaipp::api {
 namespace {
@@ -62,30 +63,6 @@ absl::Status Resolve(const std::optional<GeoFrame>& frame, Parent* parent,
   return absl::OkStatus();
 }
 
-absl::Status ResolveObstacle(const std::optional<GeoFrame>& frame, v1::Obstacle* o,
-                             const std::string& field) {
-  if (o->has_box()) {
-    v1::Box* b = o->mutable_box();
-    OAIPP_RETURN_IF_ERROR(Resolve(frame, b, &v1::Box::has_centre_m, &v1::Box::has_centre_geo,
-                                  &v1::Box::centre_geo, &v1::Box::mutable_centre_m,
-                                  field + ".box.centre_geo", "centre_m"));
-    b->clear_centre_geo();
-  } else if (o->has_cylinder()) {
-    v1::Cylinder* c = o->mutable_cylinder();
-    OAIPP_RETURN_IF_ERROR(Resolve(frame, c, &v1::Cylinder::has_centre_m,
-                                  &v1::Cylinder::has_centre_geo, &v1::Cylinder::centre_geo,
-                                  &v1::Cylinder::mutable_centre_m, field + ".cylinder.centre_geo",
-                                  "centre_m"));
-    c->clear_centre_geo();
-  }
-  return absl::OkStatus();
-}
-
-bool ObstacleHasGeo(const v1::Obstacle& o) {
-  return (o.has_box() && o.box().has_centre_geo()) ||
-         (o.has_cylinder() && o.cylinder().has_centre_geo());
-}
-
 // A ring's lat_lon_deg into xy_m on the plane East-North of the origin.
 absl::Status ResolveRing(const std::optional<GeoFrame>& frame, v1::Ring* ring,
                          const std::string& field) {
@@ -126,6 +103,39 @@ absl::Status ResolveRing(const std::optional<GeoFrame>& frame, v1::Ring* ring,
   }
   ring->Swap(&local);
   return absl::OkStatus();
+}
+
+absl::Status ResolveObstacle(const std::optional<GeoFrame>& frame, v1::Obstacle* o,
+                             const std::string& field) {
+  if (o->has_box()) {
+    v1::Box* b = o->mutable_box();
+    OAIPP_RETURN_IF_ERROR(Resolve(frame, b, &v1::Box::has_centre_m, &v1::Box::has_centre_geo,
+                                  &v1::Box::centre_geo, &v1::Box::mutable_centre_m,
+                                  field + ".box.centre_geo", "centre_m"));
+    b->clear_centre_geo();
+  } else if (o->has_cylinder()) {
+    v1::Cylinder* c = o->mutable_cylinder();
+    OAIPP_RETURN_IF_ERROR(Resolve(frame, c, &v1::Cylinder::has_centre_m,
+                                  &v1::Cylinder::has_centre_geo, &v1::Cylinder::centre_geo,
+                                  &v1::Cylinder::mutable_centre_m, field + ".cylinder.centre_geo",
+                                  "centre_m"));
+    c->clear_centre_geo();
+  } else if (o->has_prism()) {
+    v1::Ring* footprint = o->mutable_prism()->mutable_footprint();
+    if (footprint->lat_lon_deg_size() > 2 * (kMaxPrismVertices + 1)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ".prism.footprint.lat_lon_deg: ", footprint->lat_lon_deg_size(),
+                       " values, more than ", kMaxPrismVertices, " vertices"));
+    }
+    OAIPP_RETURN_IF_ERROR(ResolveRing(frame, footprint, field + ".prism.footprint"));
+  }
+  return absl::OkStatus();
+}
+
+bool ObstacleHasGeo(const v1::Obstacle& o) {
+  return (o.has_box() && o.box().has_centre_geo()) ||
+         (o.has_cylinder() && o.cylinder().has_centre_geo()) ||
+         (o.has_prism() && !o.prism().footprint().lat_lon_deg().empty());
 }
 
 // Every geodetic ring of spec->search_areas, after one bound on their size.

@@ -1,10 +1,12 @@
 #include "api/geometry.h"
 #include "api/limits.h"
 
+#include <cmath>
 #include <set>
 #include <string>
 #include <utility>
 #include <variant>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "api/internal/checks.h"
@@ -69,9 +71,42 @@ absl::StatusOr<Obstacle> ObstacleFromProto(const v1::Obstacle& obstacle, absl::s
                            .height_m = cyl.height_m()};
       break;
     }
+    case v1::Obstacle::kPrism: {
+      const v1::Prism& p = obstacle.prism();
+      const std::string name = absl::StrCat(field, ".prism");
+      // Bounded before anything is copied.
+      if (p.footprint().xy_m_size() > 2 * (kMaxPrismVertices + 1) ||
+          p.footprint().xy_m_size() % 2 != 0) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(name, ".footprint.xy_m: ", p.footprint().xy_m_size(),
+                         " values; x and y pairs of 3..", kMaxPrismVertices, " vertices"));
+      }
+      std::vector<Vec2> footprint;
+      footprint.reserve(static_cast<std::size_t>(p.footprint().xy_m_size() / 2));
+      for (int i = 0; i + 1 < p.footprint().xy_m_size(); i += 2) {
+        const Vec2 v(p.footprint().xy_m(i), p.footprint().xy_m(i + 1));
+        if (!(v.cwiseAbs().maxCoeff() <= kMaxCoordinateM)) {
+          return absl::InvalidArgumentError(absl::StrCat(name, ".footprint.xy_m[", i, "]: vertex ",
+                                                         i / 2, " must be finite and within ",
+                                                         kMaxCoordinateM, " m on each axis"));
+        }
+        footprint.push_back(v);
+      }
+      for (const auto& [what, z] :
+           {std::pair{"base_m", p.base_m()}, std::pair{"top_m", p.top_m()}}) {
+        if (!(std::abs(z) <= kMaxCoordinateM)) {
+          return absl::InvalidArgumentError(
+              absl::StrCat(name, ".", what, ": must be finite and within ", kMaxCoordinateM, " m"));
+        }
+      }
+      OAIPP_ASSIGN_OR_RETURN(Prism prism,
+                             Prism::Create(std::move(footprint), p.base_m(), p.top_m(), name));
+      out.shape = std::move(prism);
+      break;
+    }
     case v1::Obstacle::SHAPE_NOT_SET:
       return absl::InvalidArgumentError(
-          absl::StrCat(field, ".shape: must be set (a box or a cylinder)"));
+          absl::StrCat(field, ".shape: must be set (a box, a cylinder or a prism)"));
   }
   // The core's own check, as a backstop.
   OAIPP_RETURN_IF_ERROR(ValidateShape(out.shape, absl::StrCat(field, ".shape")));
@@ -91,6 +126,14 @@ v1::Obstacle ObstacleToProto(const Obstacle& obstacle) {
     *cyl.mutable_centre_m() = ToProto(c->centre_W);
     cyl.set_radius_m(c->radius_m);
     cyl.set_height_m(c->height_m);
+  } else if (const Prism* p = std::get_if<Prism>(&obstacle.shape)) {
+    v1::Prism& prism = *out.mutable_prism();
+    for (const Vec2& v : p->footprint()) {
+      prism.mutable_footprint()->add_xy_m(v.x());
+      prism.mutable_footprint()->add_xy_m(v.y());
+    }
+    prism.set_base_m(p->base_m());
+    prism.set_top_m(p->top_m());
   }
   return out;
 }

@@ -93,6 +93,13 @@ std::string ObstacleDifference(const Obstacle& a, const Obstacle& b) {
     }
     return "";
   }
+  if (const Prism* x = std::get_if<Prism>(&a.shape)) {
+    const Prism& y = std::get<Prism>(b.shape);
+    if (x->footprint() != y.footprint()) return "prism.footprint";
+    if (x->base_m() != y.base_m()) return "prism.base_m";
+    if (x->top_m() != y.top_m()) return "prism.top_m";
+    return "";
+  }
   const Cylinder& x = std::get<Cylinder>(a.shape);
   const Cylinder& y = std::get<Cylinder>(b.shape);
   if (x.centre_W != y.centre_W) return "cylinder.centre_W";

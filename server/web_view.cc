@@ -261,16 +261,7 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
     for (const Vec2& c : GroundFootprint(o.shape)) {
       polygon.push_back({Short(c.x()), Short(c.y())});
     }
-    const double top = std::visit(
-        [](const auto& shape) {
-          using T = std::decay_t<decltype(shape)>;
-          if constexpr (std::is_same_v<T, Box>) {
-            return shape.centre_W.z() + 0.5 * shape.size_m.z();
-          } else {
-            return shape.centre_W.z() + 0.5 * shape.height_m;
-          }
-        },
-        o.shape);
+    const double top = BoundingBox(o.shape).max_W.z();
     obstacles.push_back({{"id", o.id}, {"polygon", std::move(polygon)}, {"top_m", Short(top)}});
   }
   // Every UAV's own lines, in the spec's team order (its colour on the page).

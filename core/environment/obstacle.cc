@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "core/environment/golden_section.h"
 
 namespace oaipp {
 namespace {
@@ -50,6 +51,8 @@ absl::Status ValidateShape(const Shape& shape, absl::string_view field) {
     }
     return CheckFinite(absl::StrCat(field, ".box.yaw_rad"), box->yaw_rad);
   }
+  // A prism is checked when it is made (Prism::Create).
+  if (std::holds_alternative<Prism>(shape)) return absl::OkStatus();
   const Cylinder& cyl = std::get<Cylinder>(shape);
   if (auto s = CheckFinite(absl::StrCat(field, ".cylinder.centre_W"), cyl.centre_W); !s.ok()) {
     return s;
@@ -70,6 +73,7 @@ double SignedDistance(const Shape& shape, const Vec3& p_W) {
     const Vec3 q = ToBoxFrame(*box, p_W).cwiseAbs() - 0.5 * box->size_m;
     return BoxDistanceFromExcess(q);
   }
+  if (const Prism* prism = std::get_if<Prism>(&shape)) return prism->SignedDistance(p_W);
   const Cylinder& cyl = std::get<Cylinder>(shape);
   const double r = (p_W.head<2>() - cyl.centre_W.head<2>()).norm();
   const Vec2 q(r - cyl.radius_m, std::abs(p_W.z() - cyl.centre_W.z()) - 0.5 * cyl.height_m);
@@ -84,6 +88,7 @@ Aabb BoundingBox(const Shape& shape) {
     const Vec3 half(c * h.x() + s * h.y(), s * h.x() + c * h.y(), h.z());
     return {box->centre_W - half, box->centre_W + half};
   }
+  if (const Prism* prism = std::get_if<Prism>(&shape)) return prism->BoundingBox();
   const Cylinder& cyl = std::get<Cylinder>(shape);
   const Vec3 half(cyl.radius_m, cyl.radius_m, 0.5 * cyl.height_m);
   return {cyl.centre_W - half, cyl.centre_W + half};
@@ -98,6 +103,9 @@ bool SegmentHits(const Shape& shape, const Vec3& a_W, const Vec3& b_W, double mi
     const Vec3 h = 0.5 * box->size_m;
     for (int i = 0; i < 3 && t0 <= t1; ++i) ClipSlab(a[i], d[i], -h[i], h[i], t0, t1);
     return t1 - t0 > min_overlap;
+  }
+  if (const Prism* prism = std::get_if<Prism>(&shape)) {
+    return prism->SegmentHits(a_W, b_W, min_overlap);
   }
   const Cylinder& cyl = std::get<Cylinder>(shape);
   const Vec3 a = a_W - cyl.centre_W;
@@ -118,34 +126,13 @@ bool SegmentHits(const Shape& shape, const Vec3& a_W, const Vec3& b_W, double mi
 }
 
 double SegmentSignedDistance(const Shape& shape, const Vec3& a_W, const Vec3& b_W) {
+  if (const Prism* prism = std::get_if<Prism>(&shape)) {
+    return prism->SegmentSignedDistance(a_W, b_W);
+  }
   const Vec3 d = b_W - a_W;
-  auto f = [&](double t) { return SignedDistance(shape, a_W + t * d); };
   // Golden-section search: enough iterations to shrink the bracket below
   // 1e-9 m of arc length on segments up to a few kilometres.
-  constexpr double kInvPhi = 0.6180339887498949;
-  const double length = d.norm();
-  double lo = 0.0;
-  double hi = 1.0;
-  double x1 = hi - kInvPhi * (hi - lo);
-  double x2 = lo + kInvPhi * (hi - lo);
-  double f1 = f(x1);
-  double f2 = f(x2);
-  while ((hi - lo) * length > 1e-10 && hi - lo > 1e-15) {
-    if (f1 <= f2) {
-      hi = x2;
-      x2 = x1;
-      f2 = f1;
-      x1 = hi - kInvPhi * (hi - lo);
-      f1 = f(x1);
-    } else {
-      lo = x1;
-      x1 = x2;
-      f1 = f2;
-      x2 = lo + kInvPhi * (hi - lo);
-      f2 = f(x2);
-    }
-  }
-  return std::min({f(0.0), f(1.0), f1, f2});
+  return MinimumOfConvex([&](double t) { return SignedDistance(shape, a_W + t * d); }, d.norm());
 }
 
 std::vector<Vec2> GroundFootprint(const Shape& shape) {
@@ -157,6 +144,8 @@ std::vector<Vec2> GroundFootprint(const Shape& shape) {
                           Vec2(half.x(), half.y()), Vec2(-half.x(), half.y())}) {
       corners.push_back(b->centre_W.head<2>() + Vec2(c * q.x() - s * q.y(), s * q.x() + c * q.y()));
     }
+  } else if (const Prism* prism = std::get_if<Prism>(&shape)) {
+    corners = prism->footprint();
   } else if (const Cylinder* cyl = std::get_if<Cylinder>(&shape)) {
     constexpr int kSides = 32;
     for (int i = 0; i < kSides; ++i) {

@@ -1,9 +1,10 @@
 // Obstacles: named convex solids standing in the world (docs/method.md §2).
 //
-// Two shapes are supported: boxes (centre, full size, yaw about z) and
-// vertical cylinders (centre, radius, height). Each gives its exact signed
-// distance (negative inside), its world bounding box and an exact test of
-// whether a straight segment passes through it.
+// Three shapes are supported: boxes (centre, full size, yaw about z),
+// vertical cylinders (centre, radius, height) and prisms (a simple polygon
+// footprint between a base and a top altitude, core/environment/prism.h).
+// Each gives its exact signed distance (negative inside), its world bounding
+// box and an exact test of whether a straight segment passes through it.
 //
 //   Obstacle building{"tower", Box{{0, -1, 13}, {10, 4, 26}, 0.0}};
 //   OAIPP_RETURN_IF_ERROR(ValidateObstacle(building));
@@ -16,6 +17,7 @@
 
 #include "absl/status/status.h"
 #include "core/common/geometry.h"
+#include "core/environment/prism.h"
 
 namespace oaipp {
 
@@ -34,7 +36,7 @@ struct Cylinder {
   double height_m = 1.0;
 };
 
-using Shape = std::variant<Box, Cylinder>;
+using Shape = std::variant<Box, Cylinder, Prism>;
 
 struct Obstacle {
   std::string id;
@@ -55,7 +57,8 @@ struct Obstacle {
 [[nodiscard]] Aabb BoundingBox(const Shape& shape);
 
 // The shape's outline on the ground (world x, y, counter-clockwise): a box's
-// four yawed corners, a cylinder's circle as a regular 32-gon through it.
+// four yawed corners, a cylinder's circle as a regular 32-gon through it, a
+// prism's footprint.
 // For pictures; geometry queries use the exact shape.
 [[nodiscard]] std::vector<Vec2> GroundFootprint(const Shape& shape);
 
@@ -67,7 +70,9 @@ struct Obstacle {
 
 // Smallest signed distance from any point of the segment a_W -> b_W to the
 // shape. Exact up to 1e-9 m: the signed distance of a convex set is convex
-// along a line, so golden-section search finds its minimum.
+// along a line, so golden-section search finds its minimum (a prism, which
+// need not be convex, is searched triangle by triangle: exact while the
+// segment stays outside, Prism::SegmentSignedDistance).
 [[nodiscard]] double SegmentSignedDistance(const Shape& shape, const Vec3& a_W, const Vec3& b_W);
 
 }  // namespace oaipp

@@ -36,6 +36,19 @@ std::vector<Vec3> InflatedCorners(const Shape& shape, double grow, double z) {
     }
     return corners;
   }
+  if (const Prism* prism = std::get_if<Prism>(&shape)) {
+    // The corners of its footprint's bounding box grown as a box's: the
+    // box holds the footprint, so legs along its grown edges pass it.
+    const Aabb bounds = prism->BoundingBox();
+    const double g = grow;
+    for (const Vec2& c : {Vec2(bounds.min_W.x() - g, bounds.min_W.y() - g),
+                          Vec2(bounds.max_W.x() + g, bounds.min_W.y() - g),
+                          Vec2(bounds.min_W.x() - g, bounds.max_W.y() + g),
+                          Vec2(bounds.max_W.x() + g, bounds.max_W.y() + g)}) {
+      corners.emplace_back(c.x(), c.y(), z);
+    }
+    return corners;
+  }
   const Cylinder& cyl = std::get<Cylinder>(shape);
   // An octagon around the grown circle: its edges stay outside the circle.
   const double r = (cyl.radius_m + grow) / std::cos(kPi / 8.0);

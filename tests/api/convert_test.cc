@@ -67,6 +67,11 @@ void ExpectObstaclesEqual(const Obstacle& a, const Obstacle& b) {
     ExpectVecEq(x->centre_W, y.centre_W, a.id + " centre");
     ExpectVecEq(x->size_m, y.size_m, a.id + " size");
     EXPECT_DOUBLE_EQ(x->yaw_rad, y.yaw_rad) << a.id;
+  } else if (const Prism* p = std::get_if<Prism>(&a.shape)) {
+    const Prism& q = std::get<Prism>(b.shape);
+    EXPECT_EQ(p->footprint(), q.footprint()) << a.id;
+    EXPECT_EQ(p->base_m(), q.base_m()) << a.id;
+    EXPECT_EQ(p->top_m(), q.top_m()) << a.id;
   } else {
     const Cylinder& x2 = std::get<Cylinder>(a.shape);
     const Cylinder& y = std::get<Cylinder>(b.shape);
@@ -480,6 +485,51 @@ TEST(ObstacleTest, CylinderRoundTrips) {
   absl::StatusOr<Obstacle> back = ObstacleFromProto(proto, "o");
   ASSERT_TRUE(back.ok()) << back.status();
   ExpectObstaclesEqual(core, *back);
+}
+
+TEST(ObstacleTest, PrismRoundTripsCounterClockwise) {
+  v1::Obstacle in;
+  in.set_id("hall");
+  // The L of a building, given clockwise with its closing vertex.
+  for (const double v : {0, 20, 8, 20, 8, 8, 20, 8, 20, 0, 0, 0, 0, 20}) {
+    in.mutable_prism()->mutable_footprint()->add_xy_m(v);
+  }
+  in.mutable_prism()->set_base_m(1.5);
+  in.mutable_prism()->set_top_m(13.5);
+  absl::StatusOr<Obstacle> o = ObstacleFromProto(in, "o");
+  ASSERT_TRUE(o.ok()) << o.status();
+  const Prism& prism = std::get<Prism>(o->shape);
+  ASSERT_EQ(prism.footprint().size(), 6u);
+  EXPECT_EQ(prism.footprint().front(), Vec2(0, 0));  // reversed: counter-clockwise
+  EXPECT_EQ(prism.footprint()[1], Vec2(20, 0));
+  EXPECT_EQ(prism.base_m(), 1.5);
+  EXPECT_EQ(prism.top_m(), 13.5);
+  const v1::Obstacle out = ObstacleToProto(*o);
+  ASSERT_TRUE(out.has_prism());
+  EXPECT_EQ(out.prism().footprint().xy_m_size(), 12);
+  absl::StatusOr<Obstacle> again = ObstacleFromProto(out, "o");
+  ASSERT_TRUE(again.ok()) << again.status();
+  ExpectObstaclesEqual(*o, *again);
+
+  // Refusals name the field.
+  v1::Obstacle odd = in;
+  odd.mutable_prism()->mutable_footprint()->add_xy_m(3);
+  EXPECT_THAT(std::string(ObstacleFromProto(odd, "spec.obstacles[2]").status().message()),
+              ::testing::StartsWith("spec.obstacles[2].prism.footprint.xy_m: 15 values"));
+  v1::Obstacle bow = in;
+  bow.mutable_prism()->mutable_footprint()->clear_xy_m();
+  for (const double v : {0, 0, 4, 4, 4, 0, 0, 4})
+    bow.mutable_prism()->mutable_footprint()->add_xy_m(v);
+  EXPECT_THAT(std::string(ObstacleFromProto(bow, "spec.obstacles[2]").status().message()),
+              ::testing::StartsWith("spec.obstacles[2].prism.footprint: edges 0 and 2 cross"));
+  v1::Obstacle far = in;
+  far.mutable_prism()->mutable_footprint()->set_xy_m(3, 1e20);
+  EXPECT_THAT(std::string(ObstacleFromProto(far, "spec.obstacles[2]").status().message()),
+              ::testing::StartsWith("spec.obstacles[2].prism.footprint.xy_m[2]: vertex 1"));
+  v1::Obstacle upside = in;
+  upside.mutable_prism()->set_top_m(1.0);
+  EXPECT_THAT(std::string(ObstacleFromProto(upside, "spec.obstacles[2]").status().message()),
+              ::testing::StartsWith("spec.obstacles[2].prism.top_m: must be finite and above"));
 }
 
 TEST(ObstacleTest, ChangeConvertsAddRemoveReplace) {

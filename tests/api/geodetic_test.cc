@@ -169,6 +169,37 @@ TEST(ResolveGeoFieldsTest, GeodeticRingsBecomeMetresOnTheOriginsPlane) {
   EXPECT_TRUE(absl::StrContains(s.message(), "the mission has no geo_origin, so give xy_m")) << s;
 }
 
+TEST(ResolveGeoFieldsTest, APrismsGeodeticFootprintBecomesMetres) {
+  const GeoPoint origin{47.397742, 8.545594, 488.0};
+  v1::MissionSpec spec;
+  *spec.mutable_geo_origin() = GeoPointToProto(origin);
+  v1::Obstacle& o = *spec.add_obstacles();
+  o.set_id("hall");
+  o.mutable_prism()->set_base_m(0);
+  o.mutable_prism()->set_top_m(12);
+  const double corners[][2] = {{47.3978, 8.5457}, {47.3978, 8.5459}, {47.3980, 8.5458}};
+  for (const auto& c : corners) {
+    o.mutable_prism()->mutable_footprint()->add_lat_lon_deg(c[0]);
+    o.mutable_prism()->mutable_footprint()->add_lat_lon_deg(c[1]);
+  }
+  ASSERT_TRUE(HasGeoFields(spec));
+  ASSERT_TRUE(ResolveGeoFields(&spec, "spec").ok());
+  const v1::Ring& ring = spec.obstacles(0).prism().footprint();
+  EXPECT_EQ(ring.lat_lon_deg_size(), 0);
+  ASSERT_EQ(ring.xy_m_size(), 6);
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 e = Enu(origin, {corners[i][0], corners[i][1], origin.altitude_m});
+    EXPECT_NEAR(ring.xy_m(2 * i), e.x(), 1e-6);
+    EXPECT_NEAR(ring.xy_m(2 * i + 1), e.y(), 1e-6);
+  }
+  spec.clear_geo_origin();
+  o.mutable_prism()->mutable_footprint()->clear_xy_m();
+  o.mutable_prism()->mutable_footprint()->add_lat_lon_deg(47.4);
+  EXPECT_TRUE(
+      absl::StartsWith(ResolveGeoFields(&spec, "spec").message(),
+                       "spec.obstacles[0].prism.footprint.lat_lon_deg: the mission has no"));
+}
+
 TEST(ResolveGeoFieldsTest, ErrorsNameTheField) {
   v1::AddMeasurementRequest request;
   request.mutable_camera_position_geo()->set_latitude_deg(47.4);

@@ -34,7 +34,7 @@ using testing::PositionAt;
 
 constexpr double kPi = 3.14159265358979323846;
 
-// The test's own signed distance to an obstacle of the spec.
+// The test's own signed distance to a box or cylinder of a spec.
 double Distance(const v1::Obstacle& o, const Point& p) {
   if (o.has_box()) {
     const v1::Box& b = o.box();
@@ -168,6 +168,93 @@ TEST(ClearanceTest, PathsKeepTheBodyAndTrackingErrorOrThePapersHalfRadius) {
   EXPECT_GE(paper_plans, 30);
   // The paper's rule lets paths closer than the body's: the two differ.
   EXPECT_LT(closest_paper, closest_body);
+}
+
+// An L-shaped building as a prism, and the two boxes whose union it is:
+// outside, the distance to a union is the nearer of its parts', so the test
+// measures the prism with its box formula above.
+struct LBuilding {
+  v1::Obstacle prism;
+  v1::Obstacle parts[2];
+};
+
+LBuilding RandomL(std::mt19937& rng, int i) {
+  std::uniform_real_distribution<double> xy(-13.0, 7.0), arm(3.0, 7.0), width(1.5, 3.0),
+      height(8.0, 26.0);
+  const double x0 = xy(rng), y0 = xy(rng), w = arm(rng), h = arm(rng), t = width(rng);
+  const double top = height(rng);
+  LBuilding l;
+  l.prism.set_id(absl::StrCat("l", i));
+  v1::Prism* p = l.prism.mutable_prism();
+  for (const double v :
+       {x0, y0, x0 + w, y0, x0 + w, y0 + t, x0 + t, y0 + t, x0 + t, y0 + h, x0, y0 + h}) {
+    p->mutable_footprint()->add_xy_m(v);
+  }
+  p->set_base_m(0.0);
+  p->set_top_m(top);
+  const double boxes[2][4] = {{x0, y0, w, t}, {x0, y0, t, h}};  // min corner, size
+  for (int k = 0; k < 2; ++k) {
+    v1::Box* b = l.parts[k].mutable_box();
+    b->mutable_centre_m()->set_x(boxes[k][0] + 0.5 * boxes[k][2]);
+    b->mutable_centre_m()->set_y(boxes[k][1] + 0.5 * boxes[k][3]);
+    b->mutable_centre_m()->set_z(0.5 * top);
+    b->mutable_size_m()->set_x(boxes[k][2]);
+    b->mutable_size_m()->set_y(boxes[k][3]);
+    b->mutable_size_m()->set_z(top);
+  }
+  return l;
+}
+
+// Buildings from map data are concave prisms: every path keeps the body and
+// tracking error (1.5 m) from random L-shaped ones, measured every 0.01 s
+// against the boxes they are made of.
+TEST(ClearanceTest, PathsKeepClearOfLShapedPrismBuildings) {
+  InProcessService service(RegistryLimits{.max_missions = 8, .max_cells_per_mission = 1600});
+  std::mt19937 rng(75);
+  int plans = 0;
+  const int trials = ::oaipp::testing::UnlessSanitized(8);
+  for (int trial = 0; trial < trials; ++trial) {
+    const Point start{-12.0 + 24.0 * (rng() % 1000) / 1000.0,
+                      -12.0 + 24.0 * (rng() % 1000) / 1000.0, 10};
+    v1::MissionSpec spec = testing::TeamSpec({});
+    spec.clear_obstacles();
+    spec.set_preset("");  // the service's defaults: the body's rule
+    spec.clear_min_separation_m();
+    v1::MissionSpec parts;  // the boxes the test measures with
+    for (int i = 0; spec.obstacles_size() < 4 && i < 100; ++i) {
+      const LBuilding l = RandomL(rng, i);
+      if (std::min(Distance(l.parts[0], start), Distance(l.parts[1], start)) < 3.0) continue;
+      *spec.add_obstacles() = l.prism;
+      *parts.add_obstacles() = l.parts[0];
+      *parts.add_obstacles() = l.parts[1];
+    }
+    *spec.mutable_start() = At(start, 0);
+    spec.mutable_planner()->set_seed(static_cast<std::uint32_t>(trial + 1));
+    if (trial % 2 == 1) spec.mutable_planner()->set_kind(v1::PLANNER_KIND_RANDOM);
+    const std::string id = absl::StrCat("l", trial);
+    grpc::ClientContext c;
+    v1::CreateMissionRequest create;
+    create.set_mission_id(id);
+    *create.mutable_spec() = spec;
+    v1::Mission created;
+    const grpc::Status made = service.stub().CreateMission(&c, create, &created);
+    ASSERT_TRUE(made.ok()) << id << ": " << made.error_message();
+    v1::PlanPathResponse path;
+    Point from = start;
+    for (int leg = 0; leg < 3; ++leg) {
+      const grpc::Status s =
+          PlanFor(service.stub(), id, "", At(from, 10.0 * leg), absl::StrCat("p", leg), &path);
+      if (!s.ok()) {
+        EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << s.error_message();
+        break;
+      }
+      ++plans;
+      EXPECT_GE(ClosestToObstacles(parts, path), 1.0 + 0.5 - 1e-9) << id << " leg " << leg;
+      from =
+          PositionAt(Flight{.path = path}, path.start_mission_s() + path.trajectory().duration_s());
+    }
+  }
+  EXPECT_GE(plans, 2 * trials);
 }
 
 TEST(ClearanceTest, AStartCloserThanTheRuleIsRefusedNamingTheField) {

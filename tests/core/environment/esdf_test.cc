@@ -98,6 +98,34 @@ INSTANTIATE_TEST_SUITE_P(RandomWorlds, EsdfAccuracyTest,
                          ::testing::Values(std::make_tuple(1u, 5), std::make_tuple(2u, 10),
                                            std::make_tuple(3u, 15)));
 
+// A concave prism (an L-shaped building): its voxels too lie within half a
+// voxel diagonal of its exact signed distance, in the notch as elsewhere.
+TEST(EsdfTest, AConcavePrismsVoxelsFollowItsExactDistance) {
+  auto env = Environment::Create(testing::E1Volume(), {.voxel_size_m = 0.25});
+  ASSERT_TRUE(env.ok()) << env.status();
+  absl::StatusOr<Prism> hall =
+      Prism::Create({{-10, -10}, {6, -10}, {6, -4}, {-4, -4}, {-4, 8}, {-10, 8}}, 0.0, 14.0);
+  ASSERT_TRUE(hall.ok()) << hall.status();
+  ASSERT_TRUE(env->Apply({.add = {{"hall", *hall}}}).ok());
+  const Esdf& esdf = env->esdf();
+  const double half_diag = 0.5 * std::sqrt(3.0) * esdf.voxel_size_m();
+  std::mt19937 rng(8);
+  std::uniform_int_distribution<int> ix(0, esdf.dims()[0] - 1), iy(0, esdf.dims()[1] - 1),
+      iz(0, esdf.dims()[2] - 1);
+  double worst = 0.0;
+  int in_notch = 0;
+  for (int n = 0; n < 20000; ++n) {
+    const int i = ix(rng), j = iy(rng), k = iz(rng);
+    const Vec3 centre = esdf.VoxelCentre(i, j, k);
+    if (!env->flight_volume().Contains(centre)) continue;
+    const double exact = Clamped(hall->SignedDistance(centre), 2.0);
+    worst = std::max(worst, std::abs(esdf.Value(i, j, k) - exact));
+    in_notch += centre.x() > -4 && centre.x() < 0 && centre.y() > -4 && centre.y() < 0;
+  }
+  EXPECT_LE(worst, half_diag + 1e-5);
+  EXPECT_GT(in_notch, 100);
+}
+
 TEST(EsdfTest, IncrementalUpdatesEqualAFullRebuild) {
   auto env = Environment::Create(testing::E1Volume(), {.voxel_size_m = 0.25});
   ASSERT_TRUE(env.ok());
