@@ -12,6 +12,7 @@
 #include "gtest/gtest.h"
 #include "sim/scenario.h"
 #include "tests/server/service_fixture.h"
+#include "tests/support/sanitizers.h"
 
 namespace oaipp::client {
 namespace {
@@ -85,8 +86,9 @@ TEST(PriorMapFileTest, AMapThatDoesNotFitIsRefusedNamingTheField) {
   std::filesystem::remove(bad);
 }
 
-// A short flight of the demo (30 s, 10 CMA-ES generations a plan): the
-// service takes the map and the mission flies without a collision.
+// A short flight of the demo (30 s, 10 CMA-ES generations a plan, one under
+// the sanitizers): the service takes the map and the mission flies without a
+// collision.
 TEST(PriorMapFileTest, TheDemoFliesOnItsPrior) {
   server::testing::InProcessService service(
       server::ServerParts{.planning_threads = 2, .planning_queue = 8});
@@ -94,7 +96,8 @@ TEST(PriorMapFileTest, TheDemoFliesOnItsPrior) {
   v1::Scenario scenario = Demo();
   ASSERT_TRUE(ReadPriorMapFile(scenario, kDemo).ok());
   scenario.mutable_mission()->set_budget_s(30);
-  scenario.mutable_mission()->mutable_planner()->set_generations(10);
+  scenario.mutable_mission()->mutable_planner()->set_generations(
+      ::oaipp::testing::UnlessSanitized(10));
   absl::StatusOr<sim::Simulation> simulation = sim::Simulation::Create(scenario);
   ASSERT_TRUE(simulation.ok()) << simulation.status();
   absl::StatusOr<RunResult> run = RunScenario(client, scenario, *simulation);

@@ -224,6 +224,7 @@ TEST(PriorMapTest, TheFirstPlanGoesTowardsThePriorsMass) {
     v1::MissionSpec spec;
     spec.set_preset("paper");
     spec.mutable_planner()->set_seed(5);
+    spec.mutable_planner()->set_generations(10);  // the greedy start and a short search
     v1::PriorMap& map = *spec.mutable_gp()->mutable_prior_map();
     for (double v : BumpPrior(corners[k].x(), corners[k].y(), 40)) map.add_values(v);
     spec.mutable_start()->mutable_position_m()->set_z(10);

@@ -233,10 +233,11 @@ TEST(AreaPlannerTest, OaIppLooksInsideTheArea) {
   PlanningContext with_area = scene.View();
   with_area.search_area = area;
   int more = 0;
-  const int seeds = UnlessSanitized(4);
+  const int seeds = UnlessSanitized(8);
   for (int seed = 1; seed <= seeds; ++seed) {
     PlannerConfig config;
     config.common.seed = static_cast<std::uint32_t>(seed);
+    config.oaipp.generations = 8;  // the greedy start and a short refinement
     auto a = MakePlanner(config);
     auto b = MakePlanner(config);
     ASSERT_TRUE(a.ok() && b.ok());
