@@ -11,10 +11,12 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <geos_c.h>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/string_view.h"
 
@@ -44,6 +46,27 @@ class GeosContext {
   [[nodiscard]] GEOSContextHandle_t ctx() const { return ctx_; }
   // Owns `g` (null stays null).
   [[nodiscard]] Ptr Own(GEOSGeometry* g) const { return Ptr(g, Deleter{ctx_}); }
+  // The union of `parts` (taken, freed on every path); they may overlap.
+  [[nodiscard]] absl::StatusOr<Ptr> UnionOf(std::vector<Ptr> parts) const {
+    std::vector<GEOSGeometry*> raw;
+    raw.reserve(parts.size());
+    for (Ptr& p : parts) raw.push_back(p.release());
+    // A collection, not a multipolygon, which may not overlap.
+    GEOSGeometry* collection = GEOSGeom_createCollection_r(
+        ctx_, GEOS_GEOMETRYCOLLECTION, raw.data(), static_cast<unsigned>(raw.size()));
+    if (collection == nullptr) {
+      for (GEOSGeometry* g : raw) GEOSGeom_destroy_r(ctx_, g);
+      return Failure("collection");
+    }
+    const Ptr all = Own(collection);  // owns the parts now
+    Ptr united = Own(GEOSUnaryUnion_r(ctx_, all.get()));
+    if (united == nullptr) return Failure("union");
+    return united;
+  }
+  // `g` prepared for repeated predicates (null on failure); `g` must outlive it.
+  [[nodiscard]] PreparedPtr Prepare(const GEOSGeometry* g) const {
+    return PreparedPtr(GEOSPrepare_r(ctx_, g), PreparedDeleter{ctx_});
+  }
   // Internal, naming `what` and GEOS's last error.
   [[nodiscard]] absl::Status Failure(absl::string_view what) const {
     return absl::InternalError(absl::StrCat("GEOS: ", what, ": ", last_error_));

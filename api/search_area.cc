@@ -268,24 +268,11 @@ absl::StatusOr<std::vector<Geos::Ptr>> BuildPolygons(const Geos& geos,
 }
 
 // The union of `areas`, validated as "search_areas" (an empty geometry for
-// none). A collection, not a multipolygon: the polygons may overlap.
+// none).
 absl::StatusOr<Geos::Ptr> Union(const Geos& geos, std::span<const AreaPolygon> areas) {
   absl::StatusOr<std::vector<Geos::Ptr>> polygons = BuildPolygons(geos, areas, "search_areas");
   if (!polygons.ok()) return polygons.status();
-  GEOSContextHandle_t ctx = geos.ctx();
-  std::vector<GEOSGeometry*> parts;
-  parts.reserve(polygons->size());
-  for (Geos::Ptr& p : *polygons) parts.push_back(p.release());
-  GEOSGeometry* collection = GEOSGeom_createCollection_r(ctx, GEOS_GEOMETRYCOLLECTION, parts.data(),
-                                                         static_cast<unsigned>(parts.size()));
-  if (collection == nullptr) {
-    for (GEOSGeometry* g : parts) GEOSGeom_destroy_r(ctx, g);
-    return geos.Failure("collection");
-  }
-  const Geos::Ptr all = geos.Own(collection);  // owns the parts now
-  GEOSGeometry* united = GEOSUnaryUnion_r(ctx, all.get());
-  if (united == nullptr) return geos.Failure("union");
-  return geos.Own(united);
+  return geos.UnionOf(*std::move(polygons));
 }
 
 }  // namespace
@@ -312,7 +299,7 @@ absl::StatusOr<std::vector<std::uint8_t>> SearchAreaMask(std::span<const AreaPol
     return geos.Failure("extent");
   }
   // Intersects, not Contains: a centre on the boundary is inside.
-  const Geos::PreparedPtr prepared(GEOSPrepare_r(ctx, united->get()), Geos::PreparedDeleter{ctx});
+  const Geos::PreparedPtr prepared = geos.Prepare(united->get());
   if (prepared == nullptr) return geos.Failure("prepare");
   for (int index = 0; index < grid.num_cells(); ++index) {
     const Vec2 c_W = grid.CellCentreXY(index);

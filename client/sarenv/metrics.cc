@@ -225,23 +225,13 @@ absl::StatusOr<Coverage> BufferedCoverage(const std::vector<Polyline>& paths, do
     buffers.push_back(geos.Own(buffer));
   }
   if (buffers.empty()) return coverage;
-  std::vector<GEOSGeometry*> parts;
-  for (Geos::Ptr& b : buffers) parts.push_back(b.release());
-  GEOSGeometry* collection = GEOSGeom_createCollection_r(ctx, GEOS_GEOMETRYCOLLECTION, parts.data(),
-                                                         static_cast<unsigned>(parts.size()));
-  if (collection == nullptr) {
-    for (GEOSGeometry* g : parts) GEOSGeom_destroy_r(ctx, g);
-    return geos.Failure("collection");
-  }
-  const Geos::Ptr all = geos.Own(collection);  // owns the parts now
-  GEOSGeometry* united = GEOSUnaryUnion_r(ctx, all.get());
-  if (united == nullptr) return geos.Failure("union");
-  const Geos::Ptr union_owner = geos.Own(united);
+  absl::StatusOr<Geos::Ptr> union_owner = geos.UnionOf(std::move(buffers));
+  if (!union_owner.ok()) return union_owner.status();
+  const GEOSGeometry* united = union_owner->get();
   if (GEOSArea_r(ctx, united, &coverage.area_m2) == 0) return geos.Failure("area");
   if (victims.empty()) return coverage;
 
-  const std::unique_ptr<const GEOSPreparedGeometry, Geos::PreparedDeleter> prepared(
-      GEOSPrepare_r(ctx, united), Geos::PreparedDeleter{ctx});
+  const Geos::PreparedPtr prepared = geos.Prepare(united);
   if (prepared == nullptr) return geos.Failure("prepare");
   for (const PointXY& v : victims) {
     const Geos::Ptr point = geos.Own(GEOSGeom_createPointFromXY_r(ctx, v.x_m, v.y_m));

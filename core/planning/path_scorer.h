@@ -69,6 +69,12 @@ class PathScorer {
   [[nodiscard]] static absl::StatusOr<PathScorer> Create(const PlanningContext& mission,
                                                          const UavState& state,
                                                          const PlannerCommon& common);
+  // Move-only: the evaluator reads window_area_ through a span, which a
+  // move keeps pointing at the moved buffer and a copy would not.
+  PathScorer(PathScorer&&) = default;
+  PathScorer& operator=(PathScorer&&) = default;
+  PathScorer(const PathScorer&) = delete;
+  PathScorer& operator=(const PathScorer&) = delete;
 
   // The trajectory from the UAV state through `waypoints_W` (after the
   // start) and its score.

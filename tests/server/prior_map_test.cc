@@ -23,6 +23,7 @@ namespace {
 
 using ::oaipp::testing::DenseFieldCovariance;
 using testing::AddLabelShots;
+using testing::CreateWithSpec;
 using testing::FuseAsTheSmallMissionWould;
 using testing::InProcessService;
 using testing::LabelShot;
@@ -53,16 +54,6 @@ v1::MissionSpec PriorSpec(v1::MapBackend backend, const std::vector<double>& pri
   v1::PriorMap& map = *spec.mutable_gp()->mutable_prior_map();
   map.mutable_values()->Assign(prior.begin(), prior.end());
   return spec;
-}
-
-grpc::Status CreatePrior(v1::MissionService::Stub& stub, const std::string& id,
-                         const v1::MissionSpec& spec) {
-  grpc::ClientContext context;
-  v1::CreateMissionRequest request;
-  request.set_mission_id(id);
-  *request.mutable_spec() = spec;
-  v1::Mission mission;
-  return stub.CreateMission(&context, request, &mission);
 }
 
 // Labelled shots over the small field: (x, y, altitude, label).
@@ -112,7 +103,7 @@ TEST(PriorMapTest, EachBackendsMapIsAKalmanFilterStartedFromThePriorMap) {
     SCOPED_TRACE(sparse ? "sparse" : "dense");
     InProcessService s;
     const v1::MissionSpec spec = PriorSpec(backend, prior);
-    ASSERT_TRUE(CreatePrior(s.stub(), "p", spec).ok());
+    ASSERT_TRUE(CreateWithSpec(s.stub(), "p", spec).ok());
     // Before any shot the map's mean is the prior map, but under the
     // building (near-certain zeros) and where the building's cells pull.
     const v1::GetMapResponse start = PriorMapOf(s.stub(), "missions/p");
@@ -152,7 +143,7 @@ TEST_F(PriorMapRestartTest, APriorMapSurvivesARestartBitForBit) {
       v1::GetMapResponse before;
       {
         InProcessService first(limits, 2, 64, store.get());
-        ASSERT_TRUE(CreatePrior(first.stub(), "p", PriorSpec(backend, prior)).ok());
+        ASSERT_TRUE(CreateWithSpec(first.stub(), "p", PriorSpec(backend, prior)).ok());
         AddLabelShots(first.stub(), "missions/p", kPriorShots);
         if (snapshot_every > 0) first.registry().FlushSnapshots();
         before = PriorMapOf(first.stub(), "missions/p");
@@ -229,7 +220,7 @@ TEST(PriorMapTest, TheFirstPlanGoesTowardsThePriorsMass) {
     for (double v : BumpPrior(corners[k].x(), corners[k].y(), 40)) map.add_values(v);
     spec.mutable_start()->mutable_position_m()->set_z(10);
     const std::string id = absl::StrCat("corner", k);
-    ASSERT_TRUE(CreatePrior(s.stub(), id, spec).ok());
+    ASSERT_TRUE(CreateWithSpec(s.stub(), id, spec).ok());
     v1::PlanPathRequest request;
     request.set_name("missions/" + id);
     request.mutable_state()->mutable_position_m()->set_z(10);

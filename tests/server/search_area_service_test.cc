@@ -18,6 +18,7 @@ namespace oaipp::server {
 namespace {
 
 using testing::AddLabelShots;
+using testing::CreateWithSpec;
 using testing::InProcessService;
 using testing::LabelShot;
 using testing::SmallSpec;
@@ -57,16 +58,6 @@ std::string ExpectedMask() {
     }
   }
   return mask;
-}
-
-grpc::Status Create(v1::MissionService::Stub& stub, const std::string& id,
-                    const v1::MissionSpec& spec) {
-  grpc::ClientContext context;
-  v1::CreateMissionRequest request;
-  request.set_mission_id(id);
-  *request.mutable_spec() = spec;
-  v1::Mission mission;
-  return stub.CreateMission(&context, request, &mission);
 }
 
 v1::GetMapResponse MapOf(v1::MissionService::Stub& stub, const std::string& name) {
@@ -112,7 +103,7 @@ TEST_F(SearchAreaServiceTest, TheAreaAndItsCellsSurviveARestart) {
     v1::MissionSpec spec_before;
     {
       InProcessService first(limits, 2, 64, store.get());
-      ASSERT_TRUE(Create(first.stub(), "a", AreaSpec()).ok());
+      ASSERT_TRUE(CreateWithSpec(first.stub(), "a", AreaSpec()).ok());
       AddLabelShots(first.stub(), "missions/a", kShots);
       if (snapshot_every > 0) first.registry().FlushSnapshots();
       const v1::GetMapResponse map = MapOf(first.stub(), "missions/a");
@@ -136,7 +127,7 @@ TEST_F(SearchAreaServiceTest, TheAreaAndItsCellsSurviveARestart) {
   }
   // Without an area: no mask, and the area's trace is the trace.
   InProcessService plain;
-  ASSERT_TRUE(Create(plain.stub(), "whole", SmallSpec()).ok());
+  ASSERT_TRUE(CreateWithSpec(plain.stub(), "whole", SmallSpec()).ok());
   const v1::GetMapResponse whole = MapOf(plain.stub(), "missions/whole");
   EXPECT_TRUE(whole.search_area().empty());
   EXPECT_EQ(whole.search_area_trace(), whole.trace());
@@ -192,7 +183,7 @@ TEST(SearchAreaLawnmowerTest, ThePatternLeavesTheQuarterOutsideTheAreaAlone) {
   v1::MissionSpec spec = AreaSpec();
   spec.clear_obstacles();
   spec.mutable_planner()->set_kind(v1::PLANNER_KIND_LAWNMOWER);
-  ASSERT_TRUE(Create(s.stub(), "mow", spec).ok());
+  ASSERT_TRUE(CreateWithSpec(s.stub(), "mow", spec).ok());
   v1::UavState state = spec.start();
   bool north = false, south_east = false;
   for (int replan = 0; replan < 6; ++replan) {

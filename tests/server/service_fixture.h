@@ -92,13 +92,20 @@ inline v1::MissionSpec SmallSpec() {
   return spec;
 }
 
-inline v1::Mission CreateSmall(v1::MissionService::Stub& stub, const std::string& id) {
+// CreateMission of `id` with `spec`; the mission into `out` when given.
+inline grpc::Status CreateWithSpec(v1::MissionService::Stub& stub, const std::string& id,
+                                   const v1::MissionSpec& spec, v1::Mission* out = nullptr) {
   grpc::ClientContext context;
   v1::CreateMissionRequest request;
   request.set_mission_id(id);
-  *request.mutable_spec() = SmallSpec();
+  *request.mutable_spec() = spec;
   v1::Mission mission;
-  const grpc::Status status = stub.CreateMission(&context, request, &mission);
+  return stub.CreateMission(&context, request, out != nullptr ? out : &mission);
+}
+
+inline v1::Mission CreateSmall(v1::MissionService::Stub& stub, const std::string& id) {
+  v1::Mission mission;
+  const grpc::Status status = CreateWithSpec(stub, id, SmallSpec(), &mission);
   EXPECT_TRUE(status.ok()) << status.error_message();
   return mission;
 }
