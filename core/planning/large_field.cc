@@ -89,6 +89,42 @@ absl::StatusOr<FieldWindow> PlanningWindow(const FieldGrid& field,
   return WindowAround(field, centre_W, options.half_width_m);
 }
 
+std::vector<std::uint8_t> TransitArea(const FieldGrid& field, const FieldWindow& window,
+                                      std::span<const std::uint8_t> area, const Vec2& uav_W,
+                                      double reach_m) {
+  assert(area.empty() || area.size() == static_cast<std::size_t>(field.num_cells()));
+  assert(reach_m > 0.0);
+  if (area.empty()) return {};
+  for (const int cell : window.field_cells) {
+    if (area[static_cast<std::size_t>(cell)] != 0) return {};
+  }
+  // The area cell nearest the UAV (the first in index order on a tie).
+  double nearest = std::numeric_limits<double>::infinity();
+  Vec2 goal_W = uav_W;
+  for (int cell = 0; cell < field.num_cells(); ++cell) {
+    if (area[static_cast<std::size_t>(cell)] == 0) continue;
+    const Vec2 centre_W = field.CellCentreXY(cell);
+    const double d = (centre_W - uav_W).squaredNorm();
+    if (d < nearest) {
+      nearest = d;
+      goal_W = centre_W;
+    }
+  }
+  if (!std::isfinite(nearest)) return {};
+  // Its nearest point in the window's rectangle of cell centres.
+  const double half = 0.5 * field.resolution_m();
+  const Vec2 lo = window.grid.min_W() + Vec2::Constant(half);
+  const Vec2 hi = window.grid.max_W() - Vec2::Constant(half);
+  const Vec2 target_W = goal_W.cwiseMax(lo).cwiseMin(hi);
+  std::vector<std::uint8_t> transit(static_cast<std::size_t>(field.num_cells()), 0);
+  for (const int cell : window.field_cells) {
+    if ((field.CellCentreXY(cell) - target_W).norm() <= reach_m) {
+      transit[static_cast<std::size_t>(cell)] = 1;
+    }
+  }
+  return transit;
+}
+
 absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,
                                          PlanningContext context, const UavState& state,
                                          absl::Time deadline, const LargeFieldPlanning& options) {
@@ -102,6 +138,14 @@ absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& ma
   // A search area lies over the field's cells: the planners then read the
   // field too (PlanningContext::search_area).
   if (!context.search_area.empty() && context.field == nullptr) context.field = &map.grid();
+  // An area the window does not reach: look towards it instead (for the
+  // planners that lead; the baselines choose over the whole field).
+  const std::vector<std::uint8_t> transit =
+      options.lead_fraction > 0.0
+          ? TransitArea(map.grid(), window, context.search_area, state.position_W.head<2>(),
+                        0.25 * options.half_width_m)
+          : std::vector<std::uint8_t>{};
+  if (!transit.empty()) context.search_area = transit;
   // A conditioned-covariance cache belongs to one map: not this window's.
   context.conditioned = nullptr;
   return planner.Plan(context, state, deadline);

@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/time/time.h"
@@ -84,11 +85,27 @@ struct LargeFieldPlanning {
                                                          const LargeFieldPlanning& options,
                                                          std::span<const std::uint8_t> area = {});
 
+// A far search area's stand-in (docs/method.md §6.7, "Areas beyond the
+// window"): when `window` holds none of the cells of `area` (a field mask,
+// nonzero inside), the window's cells whose centres lie within reach_m of
+// the window's point nearest to the area cell nearest uav_W, as a field
+// mask; the objectives value only looking there, so the plan carries the
+// UAV towards the area, and the next window holds more of it. Empty when
+// there is no area, the window holds some of it, or the area has no cell.
+// Preconditions (asserted): area empty or one byte per field cell,
+// window one of field's, reach_m > 0.
+[[nodiscard]] std::vector<std::uint8_t> TransitArea(const FieldGrid& field,
+                                                    const FieldWindow& window,
+                                                    std::span<const std::uint8_t> area,
+                                                    const Vec2& uav_W, double reach_m);
+
 // The window of `map` (PlanningWindow, the prior's fitted variance as p0,
 // its additions unless it has none, context's search area) from
 // state.position_W, and a plan on it by `planner`, with context's map
 // replaced by the window (and, with a search area, its field set to the
-// map's grid when unset). Errors as
+// map's grid when unset, and, with a lead, the area replaced by
+// TransitArea's, reach a quarter of the half width, when the window holds
+// none of it). Errors as
 // WindowAround, WindowMap and planner.Plan.
 [[nodiscard]] absl::StatusOr<PlannedPath> PlanInWindow(Planner& planner, const SparseGpMap& map,
                                                        PlanningContext context,

@@ -251,6 +251,43 @@ TEST(LargeFieldTest, TheWindowLeadsIntoTheSearchArea) {
       absl::StatusCode::kInvalidArgument);
 }
 
+// The area [40, 60]^2 m lies beyond the window of a plan from the centre
+// (led to (10.6, 10.6), cells -10 ... 31 m each way): its stand-in is the
+// window's cells within 5 m (a quarter of the half width) of the window's
+// corner cell centre (30.5, 30.5), nearest the area cell (40.5, 40.5):
+// the lattice points of a quarter disc of radius 5, 26 cells. A window
+// holding one area cell, no area, or an area of no cell: none.
+TEST(TransitAreaTest, AFarAreaIsStoodInForByTheWindowsCellsNearestIt) {
+  auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
+  ASSERT_TRUE(grid.ok());
+  const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/true, {});
+  std::vector<std::uint8_t> area(static_cast<std::size_t>(grid->num_cells()), 0);
+  for (int r = 100; r < 120; ++r) {
+    for (int c = 100; c < 120; ++c) area[static_cast<std::size_t>(grid->Index(r, c))] = 1;
+  }
+  const Vec2 uav(0.0, 0.0);
+  const absl::StatusOr<FieldWindow> window = PlanningWindow(*grid, nullptr, 1.5, uav, large, area);
+  ASSERT_TRUE(window.ok()) << window.status();
+  const std::vector<std::uint8_t> transit = TransitArea(*grid, *window, area, uav, 5.0);
+  ASSERT_EQ(transit.size(), area.size());
+  int count = 0;
+  for (int cell = 0; cell < grid->num_cells(); ++cell) {
+    if (transit[static_cast<std::size_t>(cell)] == 0) continue;
+    ++count;
+    const Vec2 c = grid->CellCentreXY(cell);
+    EXPECT_LE((c - Vec2(30.5, 30.5)).norm(), 5.0) << c.transpose();
+    EXPECT_LE(c.maxCoeff(), 30.5) << c.transpose();
+  }
+  EXPECT_EQ(count, 26);
+  // The window reaches one area cell: the area itself serves.
+  std::vector<std::uint8_t> near = area;
+  near[static_cast<std::size_t>(window->field_cells.front())] = 1;
+  EXPECT_TRUE(TransitArea(*grid, *window, near, uav, 5.0).empty());
+  EXPECT_TRUE(TransitArea(*grid, *window, {}, uav, 5.0).empty());
+  const std::vector<std::uint8_t> nothing(area.size(), 0);
+  EXPECT_TRUE(TransitArea(*grid, *window, nothing, uav, 5.0).empty());
+}
+
 // OA-IPP on a field whose part around the UAV is already well observed
 // (every cell but those with x >= 22 m and y >= 22 m, seen empty): centred on
 // the UAV, its window (+-20 m) holds nothing left to learn and the plan
