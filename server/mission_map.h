@@ -71,6 +71,9 @@ class MissionMap {
     // The shared start map's conditioned covariances, while the map is it.
     std::shared_ptr<ConditionedCache> conditioned;
     const FieldGrid* field = nullptr;  // the whole field, when map is a window
+    // With a search area the window holds none of: core's TransitArea, the
+    // area's stand-in for this plan (a field mask); empty otherwise.
+    std::vector<std::uint8_t> transit;
     // What map's covariance is, for the team's conditioning chain: the
     // version it was read at and the block of the field's cells it covers.
     CovarianceKey key;

@@ -20,11 +20,13 @@
 #include "tests/core/mapping/gmrf_reference.h"
 #include "tests/server/label_shots.h"
 #include "tests/server/service_fixture.h"
+#include "tests/support/sanitizers.h"
 
 namespace oaipp::server {
 namespace {
 
 using ::oaipp::testing::DenseFieldCovariance;
+using ::oaipp::testing::UnlessSanitized;
 
 using testing::AddLabelShots;
 using testing::CreateWithSpec;
@@ -283,50 +285,60 @@ TEST(LargeFieldServiceTest, APlanOnAWideFieldIsInsideTheVolumeAndClear) {
 
 // A search area beyond the window's reach (x >= 45 m on a 75 m long field,
 // the UAV at x = -4 m) draws OA-IPP's plans to it (core's TransitArea):
-// flown leg after leg from where the last ended, every leg ends further
-// east until one takes a shot above the area, within kLegs legs; every
-// sample stays in the flight volume.
+// flown leg after leg from where the last ended, for seeds 1-5, every leg
+// until one takes a shot above the area ends at least 10 m further east,
+// and that happens within four legs; every sample stays in the flight
+// volume. (Without the stand-in the window's lead alone drifts east too,
+// but slower and not on every leg: seeds 1 and 2 then gain 6.9 and 8.4 m
+// on their first legs.)
 TEST(LargeFieldServiceTest, AFarSearchAreaDrawsThePlansToIt) {
-  constexpr int kLegs = 8;
+  constexpr int kLegs = 4;
   InProcessService s({.max_missions = 8, .max_cells_per_mission = 10000});
-  v1::MissionSpec spec = SparseSpec();
-  spec.mutable_field()->set_x_min_m(-7.5);
-  spec.mutable_field()->set_x_max_m(67.5);  // 100 x 20 cells at 0.75 m
-  spec.set_budget_s(600);
-  spec.mutable_planner()->set_generations(4);
-  v1::Ring& far = *spec.add_search_areas()->mutable_outer();
-  for (const double v : {45.0, -7.5, 67.5, -7.5, 67.5, 7.5, 45.0, 7.5}) far.add_xy_m(v);
-  ASSERT_TRUE(CreateWithSpec(s.stub(), "far", spec).ok());
-  v1::PlanPathRequest request = testing::PlanFromCorner("far");
-  double x = request.state().position_m().x();
-  bool over_area = false;
-  int legs = 0;
-  while (!over_area && legs < kLegs) {
-    ++legs;
-    grpc::ClientContext context;
-    v1::PlanPathResponse path;
-    const grpc::Status status = s.stub().PlanPath(&context, request, &path);
-    ASSERT_TRUE(status.ok()) << status.error_message();
-    ASSERT_GT(path.trajectory().samples_size(), 0);
-    for (const v1::TrajectorySample& p : path.trajectory().samples()) {
-      const v1::Vector3& q = p.position_m();
-      EXPECT_TRUE(q.x() >= -7.5 && q.x() <= 67.5 && q.y() >= -7.5 && q.y() <= 7.5 && q.z() >= 2.0 &&
-                  q.z() <= 26.0)
-          << q.ShortDebugString();
+  for (int seed = 1; seed <= UnlessSanitized(5); ++seed) {
+    v1::MissionSpec spec = SparseSpec();
+    spec.mutable_field()->set_x_min_m(-7.5);
+    spec.mutable_field()->set_x_max_m(67.5);  // 100 x 20 cells at 0.75 m
+    spec.set_budget_s(600);
+    spec.mutable_planner()->set_generations(4);
+    spec.mutable_planner()->set_seed(static_cast<std::uint32_t>(seed));
+    v1::Ring& far = *spec.add_search_areas()->mutable_outer();
+    for (const double v : {45.0, -7.5, 67.5, -7.5, 67.5, 7.5, 45.0, 7.5}) far.add_xy_m(v);
+    const std::string id = absl::StrCat("far-", seed);
+    ASSERT_TRUE(CreateWithSpec(s.stub(), id, spec).ok());
+    v1::PlanPathRequest request = testing::PlanFromCorner(id);
+    double x = request.state().position_m().x();
+    bool over_area = false;
+    int legs = 0;
+    while (!over_area && legs < kLegs) {
+      ++legs;
+      grpc::ClientContext context;
+      v1::PlanPathResponse path;
+      const grpc::Status status = s.stub().PlanPath(&context, request, &path);
+      ASSERT_TRUE(status.ok()) << status.error_message();
+      ASSERT_GT(path.trajectory().samples_size(), 0);
+      for (const v1::TrajectorySample& p : path.trajectory().samples()) {
+        const v1::Vector3& q = p.position_m();
+        EXPECT_TRUE(q.x() >= -7.5 && q.x() <= 67.5 && q.y() >= -7.5 && q.y() <= 7.5 &&
+                    q.z() >= 2.0 && q.z() <= 26.0)
+            << q.ShortDebugString();
+      }
+      for (const v1::MeasurementPose& pose : path.measurement_poses()) {
+        over_area = over_area || pose.position_m().x() >= 45.0;
+      }
+      const v1::TrajectorySample& end = *path.trajectory().samples().rbegin();
+      if (!over_area) {
+        EXPECT_GE(end.position_m().x(), x + 10.0) << id << " leg " << legs;
+      }
+      x = end.position_m().x();
+      const double t = request.state().mission_time_s() + path.trajectory().duration_s();
+      request.clear_state();
+      *request.mutable_state()->mutable_position_m() = end.position_m();
+      *request.mutable_state()->mutable_velocity_m_s() = end.velocity_m_s();
+      request.mutable_state()->set_mission_time_s(t);
     }
-    for (const v1::MeasurementPose& pose : path.measurement_poses()) {
-      over_area = over_area || pose.position_m().x() >= 45.0;
-    }
-    const v1::TrajectorySample& end = *path.trajectory().samples().rbegin();
-    EXPECT_GT(end.position_m().x(), x + 1.0) << "leg " << legs;
-    x = end.position_m().x();
-    const double t = request.state().mission_time_s() + path.trajectory().duration_s();
-    request.clear_state();
-    *request.mutable_state()->mutable_position_m() = end.position_m();
-    *request.mutable_state()->mutable_velocity_m_s() = end.velocity_m_s();
-    request.mutable_state()->set_mission_time_s(t);
+    EXPECT_TRUE(over_area) << id << ": no shot above the area after " << legs
+                           << " legs, at x = " << x;
   }
-  EXPECT_TRUE(over_area) << "no shot above the area after " << legs << " legs, at x = " << x;
 }
 
 }  // namespace
