@@ -388,34 +388,52 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
   const double margin = std::max(kFenceMargin_m, limits.uav_radius_m);
   const Vec2 lo = config.field_min_W - Vec2(margin, margin);
   const Vec2 hi = config.field_max_W + Vec2(margin, margin);
-  nlohmann::json inclusion = nlohmann::json::array();
+  nlohmann::json field_fence = nlohmann::json::array();
   for (const Vec2& c :
        {Vec2(lo.x(), lo.y()), Vec2(hi.x(), lo.y()), Vec2(hi.x(), hi.y()), Vec2(lo.x(), hi.y())}) {
-    inclusion.push_back(LatLon(frame, c));
+    field_fence.push_back(LatLon(frame, c));
   }
   nlohmann::json polygons = nlohmann::json::array(
-      {{{"inclusion", true}, {"version", 1}, {"polygon", std::move(inclusion)}}});
+      {{{"inclusion", true}, {"version", 1}, {"polygon", std::move(field_fence)}}});
   nlohmann::json circles = nlohmann::json::array();
-  for (std::size_t o = 0; o < obstacles.size(); ++o) {
-    if (overflown[o]) continue;
-    if (const auto* b = std::get_if<Box>(&obstacles[o].shape)) {
-      nlohmann::json polygon = nlohmann::json::array();
-      for (const Vec2& c :
-           Rectangle(b->centre_W.head<2>(), 0.5 * b->size_m.head<2>(), b->yaw_rad)) {
-        polygon.push_back(LatLon(frame, c));
-      }
-      polygons.push_back({{"inclusion", false}, {"version", 1}, {"polygon", std::move(polygon)}});
-    } else if (const auto* prism = std::get_if<Prism>(&obstacles[o].shape)) {
-      nlohmann::json polygon = nlohmann::json::array();
-      for (const Vec2& c : prism->footprint()) polygon.push_back(LatLon(frame, c));
-      polygons.push_back({{"inclusion", false}, {"version", 1}, {"polygon", std::move(polygon)}});
+  const auto polygon_of = [&](const std::vector<Vec2>& ring, bool inclusion) {
+    nlohmann::json polygon = nlohmann::json::array();
+    for (const Vec2& c : ring) polygon.push_back(LatLon(frame, c));
+    polygons.push_back({{"inclusion", inclusion}, {"version", 1}, {"polygon", std::move(polygon)}});
+  };
+  const auto circle_of = [&](const Vec2& centre_W, double radius_m, bool inclusion) {
+    circles.push_back({{"inclusion", inclusion},
+                       {"version", 1},
+                       {"circle", {{"center", LatLon(frame, centre_W)}, {"radius", radius_m}}}});
+  };
+  // A shape's column, fenced out.
+  const auto exclude = [&](const Shape& shape) {
+    if (const auto* b = std::get_if<Box>(&shape)) {
+      polygon_of(Rectangle(b->centre_W.head<2>(), 0.5 * b->size_m.head<2>(), b->yaw_rad), false);
+    } else if (const auto* prism = std::get_if<Prism>(&shape)) {
+      polygon_of(prism->footprint(), false);
     } else {
-      const auto& cyl = std::get<Cylinder>(obstacles[o].shape);
-      circles.push_back(
-          {{"inclusion", false},
-           {"version", 1},
-           {"circle",
-            {{"center", LatLon(frame, cyl.centre_W.head<2>())}, {"radius", cyl.radius_m}}}});
+      const auto& cyl = std::get<Cylinder>(shape);
+      circle_of(cyl.centre_W.head<2>(), cyl.radius_m, false);
+    }
+  };
+  for (std::size_t o = 0; o < obstacles.size(); ++o) {
+    if (!overflown[o]) exclude(obstacles[o].shape);
+  }
+  // The mission's own fence and no-fly zones, which every path keeps out
+  // of; a zone the path passes under or over is not fenced (a fence is a
+  // column), as an overflown obstacle is not.
+  if (const std::optional<Fence>& fence = config.airspace.fence(); fence.has_value()) {
+    if (!fence->polygon_W.empty()) {
+      polygon_of(fence->polygon_W, true);
+    } else {
+      circle_of(fence->centre_W, fence->radius_m, true);
+    }
+  }
+  for (const Obstacle& zone : config.airspace.zones()) {
+    if (std::none_of(dense.p_W.begin(), dense.p_W.end(),
+                     [&](const Vec3& p) { return Over(zone.shape, p); })) {
+      exclude(zone.shape);
     }
   }
   // One rally point: where the path starts, a point known to be clear.

@@ -132,6 +132,48 @@ absl::Status ResolveObstacle(const std::optional<GeoFrame>& frame, v1::Obstacle*
   return absl::OkStatus();
 }
 
+// A fence's geodetic ring or circle centre into metres, on the plane
+// East-North of the origin.
+absl::Status ResolveFence(const std::optional<GeoFrame>& frame, v1::Fence* fence,
+                          const std::string& field) {
+  if (fence->has_polygon()) {
+    if (fence->polygon().lat_lon_deg_size() > 2 * (kMaxPrismVertices + 1)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, ".polygon.lat_lon_deg: ", fence->polygon().lat_lon_deg_size(),
+                       " values, more than ", kMaxPrismVertices, " vertices"));
+    }
+    return ResolveRing(frame, fence->mutable_polygon(), field + ".polygon");
+  }
+  if (!fence->has_circle() || !fence->circle().has_centre_geo()) return absl::OkStatus();
+  v1::Circle* circle = fence->mutable_circle();
+  const std::string geo_field = field + ".circle.centre_geo";
+  if (circle->x_m() != 0.0 || circle->y_m() != 0.0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(geo_field, ": give x_m and y_m or the geodetic point, not both"));
+  }
+  if (!frame.has_value()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(geo_field, ": the mission has no geo_origin, so give x_m and y_m"));
+  }
+  OAIPP_ASSIGN_OR_RETURN(GeoPoint point, GeoPointFromProto(circle->centre_geo(), geo_field));
+  point.altitude_m = frame->origin().altitude_m;
+  const Vec3 p_W = frame->ToLocal(point);
+  if (!(p_W.head<2>().norm() <= kMaxDistance_m)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(geo_field, ": lies ", std::round(p_W.head<2>().norm() / 1000.0),
+                     " km from geo_origin (at most ", kMaxDistance_m / 1000.0, " km)"));
+  }
+  circle->set_x_m(p_W.x());
+  circle->set_y_m(p_W.y());
+  circle->clear_centre_geo();
+  return absl::OkStatus();
+}
+
+bool FenceHasGeo(const v1::Fence& fence) {
+  return (fence.has_polygon() && !fence.polygon().lat_lon_deg().empty()) ||
+         (fence.has_circle() && fence.circle().has_centre_geo());
+}
+
 bool ObstacleHasGeo(const v1::Obstacle& o) {
   return (o.has_box() && o.box().has_centre_geo()) ||
          (o.has_cylinder() && o.cylinder().has_centre_geo()) ||
@@ -239,6 +281,14 @@ absl::Status ResolveGeoFields(v1::MissionSpec* spec, absl::string_view field) {
     OAIPP_RETURN_IF_ERROR(ResolveObstacle(frame, spec->mutable_obstacles(i),
                                           absl::StrCat(field, ".obstacles[", i, "]")));
   }
+  for (int i = 0; i < spec->no_fly_zones_size(); ++i) {
+    OAIPP_RETURN_IF_ERROR(ResolveObstacle(frame, spec->mutable_no_fly_zones(i),
+                                          absl::StrCat(field, ".no_fly_zones[", i, "]")));
+  }
+  if (spec->has_fence()) {
+    OAIPP_RETURN_IF_ERROR(
+        ResolveFence(frame, spec->mutable_fence(), absl::StrCat(field, ".fence")));
+  }
   if (spec->has_start()) {
     v1::UavState* s = spec->mutable_start();
     OAIPP_RETURN_IF_ERROR(Resolve(frame, s, &v1::UavState::has_position_m,
@@ -320,6 +370,10 @@ bool HasGeoFields(const v1::MissionSpec& spec) {
   for (const v1::AreaPolygon& polygon : spec.search_areas()) {
     if (RingHasGeo(polygon)) return true;
   }
+  for (const v1::Obstacle& zone : spec.no_fly_zones()) {
+    if (ObstacleHasGeo(zone)) return true;
+  }
+  if (spec.has_fence() && FenceHasGeo(spec.fence())) return true;
   return spec.has_start() && spec.start().has_position_geo();
 }
 

@@ -33,6 +33,7 @@ MapBackend MissionConfig::ResolveMapBackend(std::int64_t max_dense_cells) const 
 absl::StatusOr<Environment> MissionConfig::MakeEnvironment() const {
   OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(FlightVolume(), esdf));
   OAIPP_RETURN_IF_ERROR(env.Apply({.add = obstacles}));
+  env.SetAirspace(airspace);
   return env;
 }
 

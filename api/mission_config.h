@@ -96,6 +96,8 @@ struct MissionConfig {
   // The search area (MissionSpec.search_areas, api/search_area.h); null:
   // the whole field. Shared and never changed, as prior_map.
   std::shared_ptr<const SearchArea> search_area;
+  // The closed airspace: MissionSpec.fence and .no_fly_zones (empty: none).
+  Airspace airspace;
   // Its mask as core's planners take it (PlanningContext::search_area):
   // empty without an area.
   [[nodiscard]] std::span<const std::uint8_t> SearchMask() const {
@@ -168,8 +170,8 @@ struct MissionConfig {
   // map_backend, or for kAuto: dense up to max_dense_cells, sparse above.
   [[nodiscard]] MapBackend ResolveMapBackend(
       std::int64_t max_dense_cells = kDefaultMaxDenseCells) const;
-  // The flight volume with the mission's obstacles and its ESDF. Errors as
-  // Environment::Create and Environment::Apply.
+  // The flight volume with the mission's obstacles and its ESDF, and its
+  // airspace. Errors as Environment::Create and Environment::Apply.
   [[nodiscard]] absl::StatusOr<Environment> MakeEnvironment() const;
   // Pinhole intrinsics of the default image (kDefaultImageWidthPx x
   // kDefaultImageHeightPx) for the field of view of `uav_id`'s camera

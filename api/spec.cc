@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "api/geodetic.h"
 #include "api/geometry.h"
+#include "api/internal/airspace_spec.h"
 #include "api/internal/checks.h"
 #include "api/internal/search_area_spec.h"
 #include "api/status.h"
@@ -577,6 +578,7 @@ absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
   OAIPP_RETURN_IF_ERROR(FillPlanner(spec.planner(), c));
   OAIPP_RETURN_IF_ERROR(FillObstacles(spec.obstacles(), c));
   OAIPP_RETURN_IF_ERROR(internal::FillSearchAreas(spec.search_areas(), c));
+  OAIPP_RETURN_IF_ERROR(internal::FillAirspace(spec, c));
   if (spec.team().empty()) {
     if (spec.has_count_teammate_shots()) {
       return absl::InvalidArgumentError(

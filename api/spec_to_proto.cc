@@ -2,6 +2,7 @@
 // what GetMission answers and what a snapshot keeps.
 #include "api/geodetic.h"
 #include "api/geometry.h"
+#include "api/internal/airspace_spec.h"
 #include "api/internal/search_area_spec.h"
 #include "api/spec.h"
 
@@ -100,6 +101,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
 
   for (const Obstacle& o : c.obstacles) *spec.add_obstacles() = ObstacleToProto(o);
   if (c.search_area != nullptr) internal::WriteSearchAreas(c.search_area->polygons, &spec);
+  internal::WriteAirspace(c.airspace, &spec);
   *spec.mutable_start() = UavStateToProto(c.start);
   if (!c.team.empty()) {
     for (const TeamMember& m : c.team) {

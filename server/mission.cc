@@ -95,8 +95,9 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   std::string world_key;
   if (caches.worlds != nullptr || caches.start_maps != nullptr) world_key = WorldKey(config);
   OAIPP_ASSIGN_OR_RETURN(Environment env, BuildWorld(config, world_key, caches));
-  // Every UAV must start where it may fly: clear of every obstacle by half
-  // its radius, as PlanPath asks of every state (exact distance).
+  // Every UAV must start where it may fly: clear of every obstacle, the
+  // fence and every no-fly zone by half its radius, as PlanPath asks of
+  // every state (exact distance).
   struct Start {
     std::string field;
     Vec3 position_W;
@@ -114,13 +115,18 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
   for (const auto& [field, start, needed] : starts) {
     const double clearance = env.SignedDistance(start);
     if (clearance < needed) {
-      return absl::InvalidArgumentError(absl::StrFormat(
-          "%s.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of clearance "
-          "(%s)",
-          field, start.x(), start.y(), start.z(),
-          clearance < 0 ? "inside an obstacle"
-                        : absl::StrFormat("%.3g m from an obstacle", clearance),
-          needed, ClearanceRuleName(config.planner.common.limits)));
+      // What is nearest: the fence, a no-fly zone or an obstacle.
+      const bool fence = env.airspace().FenceSignedDistance(start.head<2>()) <= clearance;
+      const bool zone = !fence && env.airspace().SignedDistance(start) <= clearance;
+      const char* what = fence ? "the fence" : zone ? "a no-fly zone" : "an obstacle";
+      const std::string where = clearance >= 0 ? absl::StrFormat("%.3g m from %s", clearance, what)
+                                : fence        ? std::string("outside the fence")
+                                               : absl::StrCat("inside ", what);
+      return absl::InvalidArgumentError(
+          absl::StrFormat("%s.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of "
+                          "clearance (%s)",
+                          field, start.x(), start.y(), start.z(), where, needed,
+                          ClearanceRuleName(config.planner.common.limits)));
     }
   }
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
@@ -434,7 +440,10 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
                                 .teammates = teammates,
                                 .min_separation_m = config_.min_separation_m,
                                 .field = field,
-                                .search_area = config_.SearchMask()};
+                                .search_area = plan_map.shared.transit.empty()
+                                                   ? config_.SearchMask()
+                                                   : std::span<const std::uint8_t>(
+                                                         plan_map.shared.transit)};
   absl::StatusOr<PlannedPath> path = planner->Plan(context, state, deadline);
   if (!path.ok() && !call.uav_id.empty())
     path = planning_.NamedForMember(path.status(), call.uav_id);

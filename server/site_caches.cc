@@ -33,6 +33,8 @@ std::string WorldKey(const api::MissionConfig& config) {
   *world.mutable_field() = spec.field();
   *world.mutable_flight() = spec.flight();
   *world.mutable_obstacles() = spec.obstacles();
+  *world.mutable_fence() = spec.fence();
+  *world.mutable_no_fly_zones() = spec.no_fly_zones();
   return absl::StrCat(world.SerializeAsString(), "|", config.esdf.max_voxels, "|",
                       config.esdf.voxel_size_m, "|", config.esdf.truncation_m);
 }

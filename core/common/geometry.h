@@ -40,6 +40,11 @@ struct Aabb {
   [[nodiscard]] Aabb Inflated(double margin_m) const {
     return {min_W.array() - margin_m, max_W.array() + margin_m};
   }
+  // The distance between the two boxes (0 when they meet): a lower bound on
+  // the distance between anything inside them.
+  [[nodiscard]] double Gap(const Aabb& other) const {
+    return (min_W - other.max_W).cwiseMax(other.min_W - max_W).cwiseMax(0.0).norm();
+  }
 };
 
 // True when every component is finite (no NaN, no infinity).

@@ -19,13 +19,6 @@ void Grow(Aabb& box, bool& empty, const Aabb& other) {
   box.max_W = box.max_W.cwiseMax(other.max_W);
 }
 
-// Distance from a segment to a box, a cheap lower bound used to skip
-// obstacles: the distance between the two bounding boxes.
-double AabbGap(const Aabb& a, const Aabb& b) {
-  const Vec3 gap = (a.min_W - b.max_W).cwiseMax(b.min_W - a.max_W).cwiseMax(0.0);
-  return gap.norm();
-}
-
 }  // namespace
 
 absl::StatusOr<Environment> Environment::Create(const Aabb& flight_volume,
@@ -38,6 +31,7 @@ Environment Environment::Clone() const {
   Environment copy(volume_, esdf_.Clone());
   copy.obstacles_ = obstacles_;
   copy.boxes_ = boxes_;
+  copy.airspace_ = airspace_;
   return copy;
 }
 
@@ -103,7 +97,7 @@ absl::Status Environment::Apply(const ObstacleChange& change) {
   return absl::OkStatus();
 }
 
-double Environment::SignedDistance(const Vec3& p_W) const {
+double Environment::ObstacleSignedDistance(const Vec3& p_W) const {
   double best = std::numeric_limits<double>::infinity();
   for (const auto& [id, obstacle] : obstacles_) {
     best = std::min(best, oaipp::SignedDistance(obstacle.shape, p_W));
@@ -111,13 +105,17 @@ double Environment::SignedDistance(const Vec3& p_W) const {
   return best;
 }
 
+double Environment::SignedDistance(const Vec3& p_W) const {
+  return std::min(airspace_.SignedDistance(p_W), ObstacleSignedDistance(p_W));
+}
+
 double Environment::SegmentClearance(const Vec3& a_W, const Vec3& b_W) const {
-  double best = std::numeric_limits<double>::infinity();
+  double best = airspace_.SegmentSignedDistance(a_W, b_W);
   const Aabb seg{a_W.cwiseMin(b_W), a_W.cwiseMax(b_W)};
   std::size_t i = 0;
   for (const auto& [id, obstacle] : obstacles_) {
     // The gap between bounding boxes bounds the distance from below.
-    if (AabbGap(seg, boxes_[i++]) <= std::max(best, 0.0)) {
+    if (seg.Gap(boxes_[i++]) <= std::max(best, 0.0)) {
       best = std::min(best, SegmentSignedDistance(obstacle.shape, a_W, b_W));
     }
   }
@@ -125,10 +123,11 @@ double Environment::SegmentClearance(const Vec3& a_W, const Vec3& b_W) const {
 }
 
 bool Environment::IsSegmentClear(const Vec3& a_W, const Vec3& b_W, double clearance_m) const {
+  if (!airspace_.empty() && airspace_.SegmentSignedDistance(a_W, b_W) <= clearance_m) return false;
   const Aabb seg{a_W.cwiseMin(b_W), a_W.cwiseMax(b_W)};
   std::size_t i = 0;
   for (const auto& [id, obstacle] : obstacles_) {
-    if (AabbGap(seg, boxes_[i++]) > clearance_m) continue;
+    if (seg.Gap(boxes_[i++]) > clearance_m) continue;
     if (SegmentSignedDistance(obstacle.shape, a_W, b_W) <= clearance_m) return false;
   }
   return true;

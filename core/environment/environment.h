@@ -1,11 +1,15 @@
-// The mission's known world: flight volume, obstacles and their ESDF
-// (docs/method.md §2).
+// The mission's known world: flight volume, obstacles and their ESDF, and
+// the airspace closed to it (an inclusion fence, no-fly zones;
+// core/environment/airspace.h) (docs/method.md §2).
 //
 // Environment keeps the obstacle set and the ESDF in step: every change is
 // validated as a whole before anything is applied, and the ESDF is updated
 // only in the region the change can affect. Exact queries (signed distance,
 // segment clearance, line of sight) use the obstacle geometry; fast
-// approximate ones use the ESDF.
+// approximate ones use the ESDF. The clearance queries (signed distance,
+// segment clearance, CloserThan, InCollision) count the closed airspace as
+// obstacles count, always exactly (it is cheap: a polygon's edges and a few
+// shapes); line of sight and the ESDF ignore it.
 //
 //   OAIPP_ASSIGN_OR_RETURN(Environment env, Environment::Create(volume, EsdfConfig{}));
 //   OAIPP_RETURN_IF_ERROR(env.Apply({.add = {tower}}));
@@ -21,6 +25,7 @@
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
 #include "core/common/geometry.h"
+#include "core/environment/airspace.h"
 #include "core/environment/esdf.h"
 #include "core/environment/obstacle.h"
 
@@ -55,16 +60,25 @@ class Environment final : public LineOfSight {
   [[nodiscard]] const Aabb& flight_volume() const { return volume_; }
   [[nodiscard]] const std::map<std::string, Obstacle>& obstacles() const { return obstacles_; }
   [[nodiscard]] const Esdf& esdf() const { return esdf_; }
+  // The closed airspace (none by default).
+  [[nodiscard]] const Airspace& airspace() const { return airspace_; }
+  void SetAirspace(Airspace airspace) { airspace_ = std::move(airspace); }
   // Shares the ESDF's values with an equal grid in `pool` (EsdfPool::Share);
   // true when it now shares another's.
   bool ShareEsdf(EsdfPool& pool) { return pool.Share(esdf_); }
 
-  // Exact signed distance to the nearest obstacle, metres; +infinity when
-  // the world is empty. Inside, the most negative of the obstacles' own
-  // signed distances (the exact union distance where obstacles don't overlap).
+  // Exact signed distance to the nearest obstacle or closed airspace,
+  // metres; +infinity when the world is empty. Inside, the most negative of
+  // their own signed distances (the exact union distance where they don't
+  // overlap).
   [[nodiscard]] double SignedDistance(const Vec3& p_W) const;
-  // True when p_W lies strictly inside some obstacle.
-  [[nodiscard]] bool IsInsideObstacle(const Vec3& p_W) const { return SignedDistance(p_W) < 0.0; }
+  // As SignedDistance, the obstacles' alone (the airspace left out).
+  [[nodiscard]] double ObstacleSignedDistance(const Vec3& p_W) const;
+  // True when p_W lies strictly inside some obstacle (never for the
+  // airspace: a zone covers no ground).
+  [[nodiscard]] bool IsInsideObstacle(const Vec3& p_W) const {
+    return ObstacleSignedDistance(p_W) < 0.0;
+  }
   // Exact smallest signed distance from the segment to any obstacle.
   [[nodiscard]] double SegmentClearance(const Vec3& a_W, const Vec3& b_W) const;
   // True when every point of the segment is more than clearance_m from
@@ -74,9 +88,11 @@ class Environment final : public LineOfSight {
   [[nodiscard]] bool InCollision(const Vec3& p_W, double uav_radius_m) const {
     return CloserThan(p_W, 0.5 * uav_radius_m);
   }
-  // By the ESDF: ESDF(p) < clearance_m (PlannerLimits::ObstacleClearance).
+  // By the ESDF: ESDF(p) < clearance_m (PlannerLimits::ObstacleClearance),
+  // or (exactly) closer than that to the closed airspace.
   [[nodiscard]] bool CloserThan(const Vec3& p_W, double clearance_m) const {
-    return esdf_.Distance(p_W) < clearance_m;
+    return esdf_.Distance(p_W) < clearance_m ||
+           (!airspace_.empty() && airspace_.SignedDistance(p_W) < clearance_m);
   }
   // LineOfSight: true when the segment meets no obstacle's interior. A point
   // on the ground under a building is therefore never visible.
@@ -93,6 +109,7 @@ class Environment final : public LineOfSight {
   std::map<std::string, Obstacle> obstacles_;  // ordered by id: deterministic iteration
   std::vector<Aabb> boxes_;                    // bounding boxes, same order as obstacles_
   Esdf esdf_;
+  Airspace airspace_;
 };
 
 }  // namespace oaipp

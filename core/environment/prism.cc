@@ -1,9 +1,11 @@
 #include "core/environment/prism.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <span>
 #include <string>
 #include <utility>
 
@@ -117,6 +119,12 @@ void ClipHalf(double c0, double c1, double& t0, double& t1) {
 
 }  // namespace
 
+double SegmentToSegmentDistance(const Vec2& a, const Vec2& b, const Vec2& c, const Vec2& d) {
+  if (SegmentsMeet(a, b, c, d)) return 0.0;
+  return std::min({SegmentDistance(a, c, d), SegmentDistance(b, c, d), SegmentDistance(c, a, b),
+                   SegmentDistance(d, a, b)});
+}
+
 double PolygonSignedDistance(const std::vector<Vec2>& polygon, const Vec2& p) {
   double nearest = std::numeric_limits<double>::infinity();
   bool inside = false;
@@ -132,21 +140,21 @@ double PolygonSignedDistance(const std::vector<Vec2>& polygon, const Vec2& p) {
   return inside ? -nearest : nearest;
 }
 
-absl::StatusOr<Prism> Prism::Create(std::vector<Vec2> footprint_W, double base_m, double top_m,
-                                    absl::string_view field) {
-  const std::string where = absl::StrCat(field, ".footprint");
-  if (footprint_W.size() > static_cast<std::size_t>(kMaxPrismVertices) + 1) {
+absl::StatusOr<std::vector<Vec2>> SimplePolygon(std::vector<Vec2> vertices_W,
+                                                absl::string_view field) {
+  const std::string where(field);
+  if (vertices_W.size() > static_cast<std::size_t>(kMaxPrismVertices) + 1) {
     return absl::InvalidArgumentError(
-        absl::StrCat(where, ": ", footprint_W.size(), " vertices, more than ", kMaxPrismVertices));
+        absl::StrCat(where, ": ", vertices_W.size(), " vertices, more than ", kMaxPrismVertices));
   }
-  for (std::size_t i = 0; i < footprint_W.size(); ++i) {
-    if (!AllFinite(footprint_W[i])) {
+  for (std::size_t i = 0; i < vertices_W.size(); ++i) {
+    if (!AllFinite(vertices_W[i])) {
       return absl::InvalidArgumentError(absl::StrCat(where, "[", i, "]: must be finite"));
     }
   }
   // Repeated vertices (a closing one, or doubled in the data) say nothing.
   std::vector<Vec2> ring;
-  for (const Vec2& v : footprint_W) {
+  for (const Vec2& v : vertices_W) {
     if (ring.empty() || v != ring.back()) ring.push_back(v);
   }
   while (ring.size() > 1 && ring.front() == ring.back()) ring.pop_back();
@@ -157,13 +165,6 @@ absl::StatusOr<Prism> Prism::Create(std::vector<Vec2> footprint_W, double base_m
   if (ring.size() > static_cast<std::size_t>(kMaxPrismVertices)) {
     return absl::InvalidArgumentError(
         absl::StrCat(where, ": ", ring.size(), " vertices, more than ", kMaxPrismVertices));
-  }
-  if (!std::isfinite(base_m)) {
-    return absl::InvalidArgumentError(absl::StrCat(field, ".base_m: must be finite"));
-  }
-  if (!std::isfinite(top_m) || !(top_m > base_m)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat(field, ".top_m: must be finite and above base_m (", base_m, ")"));
   }
   const std::size_t n = ring.size();
   // Simple: edges meet only where they follow each other, at their shared
@@ -197,11 +198,31 @@ absl::StatusOr<Prism> Prism::Create(std::vector<Vec2> footprint_W, double base_m
     return absl::InvalidArgumentError(absl::StrCat(where, ": encloses no area"));
   }
   if (twice_area < 0.0) std::reverse(ring.begin(), ring.end());
+  return ring;
+}
+
+absl::StatusOr<Prism> Prism::Create(std::vector<Vec2> footprint_W, double base_m, double top_m,
+                                    absl::string_view field) {
+  const std::string where = absl::StrCat(field, ".footprint");
+  absl::StatusOr<std::vector<Vec2>> simple = SimplePolygon(std::move(footprint_W), where);
+  if (!simple.ok()) return simple.status();
+  std::vector<Vec2> ring = *std::move(simple);
+  if (!std::isfinite(base_m)) {
+    return absl::InvalidArgumentError(absl::StrCat(field, ".base_m: must be finite"));
+  }
+  if (!std::isfinite(top_m) || !(top_m > base_m)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, ".top_m: must be finite and above base_m (", base_m, ")"));
+  }
   Prism prism;
   prism.triangles_ = Triangulate(ring);
   if (prism.triangles_.empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat(where, ": too nearly degenerate to cut into triangles"));
+  }
+  for (const auto& t : prism.triangles_) {
+    prism.triangle_bounds_.push_back(
+        {t[0].cwiseMin(t[1]).cwiseMin(t[2]), t[0].cwiseMax(t[1]).cwiseMax(t[2])});
   }
   prism.lo_ = prism.hi_ = ring.front();
   for (const Vec2& v : ring) {
@@ -229,7 +250,9 @@ bool Prism::SegmentHits(const Vec3& a_W, const Vec3& b_W, double min_overlap) co
   ClipHalf(a_W.z() - base_m_, d.z(), z0, z1);
   ClipHalf(top_m_ - a_W.z(), -d.z(), z0, z1);
   if (z1 - z0 <= min_overlap) return false;
-  std::vector<std::pair<double, double>> inside;
+  // No allocation: this runs for every checked segment near a building.
+  std::array<std::pair<double, double>, kMaxPrismVertices> intervals;
+  std::size_t count = 0;
   for (const auto& t : triangles_) {
     double t0 = z0, t1 = z1;
     for (int k = 0; k < 3 && t0 < t1; ++k) {
@@ -237,8 +260,9 @@ bool Prism::SegmentHits(const Vec3& a_W, const Vec3& b_W, double min_overlap) co
       // Cross(e, a + s d - v) >= 0, linear in s.
       ClipHalf(Cross(e, a_W.head<2>() - t[k]), Cross(e, d.head<2>()), t0, t1);
     }
-    if (t1 > t0) inside.emplace_back(t0, t1);
+    if (t1 > t0) intervals[count++] = {t0, t1};
   }
+  const std::span<std::pair<double, double>> inside(intervals.data(), count);
   std::sort(inside.begin(), inside.end());
   // The union's longest run: neighbouring triangles' intervals meet.
   double run_start = 0.0, run_end = -1.0;
@@ -259,17 +283,15 @@ double Prism::SegmentSignedDistance(const Vec3& a_W, const Vec3& b_W) const {
   const Vec3 seg_lo = a_W.cwiseMin(b_W), seg_hi = a_W.cwiseMax(b_W);
   // Each triangle's prism at a lower bound (the gap between its box and the
   // segment's), nearest first, so that far triangles are never searched.
-  std::vector<std::pair<double, std::size_t>> order;
-  order.reserve(triangles_.size());
+  // No allocation: this runs for every checked segment near a building.
+  std::array<std::pair<double, std::size_t>, kMaxPrismVertices> bounds;
   for (std::size_t i = 0; i < triangles_.size(); ++i) {
-    const auto& t = triangles_[i];
-    const Vec3 lo(std::min({t[0].x(), t[1].x(), t[2].x()}),
-                  std::min({t[0].y(), t[1].y(), t[2].y()}), base_m_);
-    const Vec3 hi(std::max({t[0].x(), t[1].x(), t[2].x()}),
-                  std::max({t[0].y(), t[1].y(), t[2].y()}), top_m_);
+    const auto& [lo2, hi2] = triangle_bounds_[i];
+    const Vec3 lo(lo2.x(), lo2.y(), base_m_), hi(hi2.x(), hi2.y(), top_m_);
     const Vec3 gap = (lo - seg_hi).cwiseMax(seg_lo - hi).cwiseMax(0.0);
-    order.emplace_back(gap.norm(), i);
+    bounds[i] = {gap.norm(), i};
   }
+  const std::span<std::pair<double, std::size_t>> order(bounds.data(), triangles_.size());
   std::sort(order.begin(), order.end());
   double best = std::numeric_limits<double>::infinity();
   for (const auto& [bound, i] : order) {

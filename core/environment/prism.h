@@ -66,9 +66,22 @@ class Prism {
   std::vector<Vec2> footprint_;
   double base_m_ = 0.0;
   double top_m_ = 0.0;
-  std::vector<std::array<Vec2, 3>> triangles_;
-  Vec2 lo_ = Vec2::Zero(), hi_ = Vec2::Zero();  // the footprint's bounds
+  std::vector<std::array<Vec2, 3>> triangles_;        // at most kMaxPrismVertices - 2
+  std::vector<std::array<Vec2, 2>> triangle_bounds_;  // each triangle's (lo, hi)
+  Vec2 lo_ = Vec2::Zero(), hi_ = Vec2::Zero();        // the footprint's bounds
 };
+
+// `vertices_W` checked as a simple polygon (3 to kMaxPrismVertices finite
+// vertices once each, a repeated closing vertex dropped; no two edges
+// crossing or touching; non-zero area) and returned counter-clockwise.
+// InvalidArgument naming `field` and the reason otherwise.
+[[nodiscard]] absl::StatusOr<std::vector<Vec2>> SimplePolygon(std::vector<Vec2> vertices_W,
+                                                              absl::string_view field);
+
+// The distance between the closed segments [a, b] and [c, d] (0 when they
+// meet).
+[[nodiscard]] double SegmentToSegmentDistance(const Vec2& a, const Vec2& b, const Vec2& c,
+                                              const Vec2& d);
 
 // Signed distance from p to a simple polygon (either orientation), negative
 // inside: the nearest edge's distance, signed by the even-odd rule.

@@ -69,9 +69,30 @@ absl::StatusOr<std::vector<Vec3>> DetourAround(const Environment& environment, c
   // higher of the two heights; Dijkstra from `from` to `to`.
   const double z = std::max(from.z(), to.z());
   std::vector<Vec3> nodes{from, to};
-  for (const auto& [id, obstacle] : environment.obstacles()) {
-    for (const Vec3& c : InflatedCorners(obstacle.shape, clearance_m * 1.05 + 0.05, z)) {
+  const auto add_corners = [&](const Shape& shape) {
+    for (const Vec3& c : InflatedCorners(shape, clearance_m * 1.05 + 0.05, z)) {
       if (box.Contains(c) && environment.SignedDistance(c) > clearance_m) nodes.push_back(c);
+    }
+  };
+  for (const auto& [id, obstacle] : environment.obstacles()) add_corners(obstacle.shape);
+  for (const Obstacle& zone : environment.airspace().zones()) add_corners(zone.shape);
+  // A polygon fence's corners moved inside by the same margin from both of
+  // their edges (where the offset edges meet): the way round a corner that
+  // juts in.
+  if (const std::optional<Fence>& fence = environment.airspace().fence(); fence.has_value()) {
+    const std::vector<Vec2>& ring = fence->polygon_W;  // counter-clockwise
+    const double g = clearance_m * 1.05 + 0.05;
+    for (std::size_t i = 0; i < ring.size(); ++i) {
+      const Vec2& prev = ring[(i + ring.size() - 1) % ring.size()];
+      const Vec2& next = ring[(i + 1) % ring.size()];
+      const Vec2 e1 = (ring[i] - prev).normalized(), e2 = (next - ring[i]).normalized();
+      const Vec2 n1(-e1.y(), e1.x()), n2(-e2.y(), e2.x());  // inward normals
+      if (!(1.0 + n1.dot(n2) > 1e-6)) continue;             // a fold: no corner
+      const Vec2 c = ring[i] + g * (n1 + n2) / (1.0 + n1.dot(n2));
+      const Vec3 node(c.x(), c.y(), z);
+      if (box.Contains(node) && environment.SignedDistance(node) > clearance_m) {
+        nodes.push_back(node);
+      }
     }
   }
   const int n = static_cast<int>(nodes.size());
@@ -205,10 +226,24 @@ absl::StatusOr<PlannedPath> LawnmowerPlanner::Plan(const PlanningContext& missio
     const int corner = config_.start_corner >= 0
                            ? config_.start_corner
                            : static_cast<int>(MixSeed(common_.seed, 0.0) & 3U);
+    // Inside a fence, the lanes run over the cells a clearance and a cell
+    // inside it (of the search area, if any): lanes across the whole field
+    // would end where the UAV may not go.
+    std::vector<std::uint8_t> inside;
+    if (env.airspace().fence().has_value()) {
+      const FieldGrid& grid = scorer.field();
+      const double margin = common_.limits.ObstacleClearance() + grid.resolution_m();
+      inside.assign(static_cast<std::size_t>(grid.num_cells()), 0);
+      for (int c = 0; c < grid.num_cells(); ++c) {
+        const bool in_area = mission.search_area.empty() || mission.search_area[c] != 0;
+        inside[c] = in_area && env.airspace().FenceSignedDistance(grid.CellCentreXY(c)) >= margin;
+      }
+    }
     pattern_ = Pattern(scorer.field(), scorer.waypoint_box(), mission.camera, config_.altitude_m,
-                       corner, mission.search_area);
+                       corner, inside.empty() ? mission.search_area : inside);
     if (pattern_.empty()) {
-      return absl::FailedPreconditionError("lawnmower: the search area holds no cell of the field");
+      return absl::FailedPreconditionError(
+          "lawnmower: the search area holds no cell of the field inside the fence");
     }
   }
   // Back and forth: after the last point the pattern is flown in reverse.

@@ -94,8 +94,10 @@ class RandomPlanner final : public Planner {
   RandomConfig config_;
 };
 
-// Shortest route at the height of `from` and `to` around obstacles, through
-// the corners of their footprints inflated by clearance_m: the points to
+// Shortest route at the height of `from` and `to` around obstacles and
+// no-fly zones, through the corners of their footprints inflated by
+// clearance_m and a polygon fence's corners moved inside by as much: the
+// points to
 // insert between `from` and `to` (empty when the straight segment is
 // clear). NotFound when no route exists inside `box`.
 [[nodiscard]] absl::StatusOr<std::vector<Vec3>> DetourAround(const Environment& environment,

@@ -93,9 +93,10 @@ absl::StatusOr<PolynomialTrajectory> BrakeWithRamps(const UavState& state, doubl
 }
 
 // The gradient of the exact signed distance at p_W (central differences):
-// the direction away from the nearest obstacle; zero without obstacles.
+// the direction away from the nearest obstacle or closed airspace; zero
+// without either.
 Vec3 DistanceGradient(const Environment& environment, const Vec3& p_W) {
-  if (environment.obstacles().empty()) return Vec3::Zero();
+  if (environment.obstacles().empty() && environment.airspace().empty()) return Vec3::Zero();
   constexpr double h = 1e-4;
   Vec3 g;
   for (int a = 0; a < 3; ++a) {
@@ -143,6 +144,14 @@ absl::Status CheckStraightStop(const Environment& environment, const UavState& s
     }
   }
   const double clearance = limits.ObstacleClearance();
+  if (const double d = environment.airspace().SegmentSignedDistance(stop.from_W, stop.stop_W);
+      d < clearance) {
+    return FieldError(absl::StatusCode::kFailedPrecondition,
+                      absl::StrFormat("$0: %s and would come within %.2f m of the closed airspace "
+                                      "(the fence or a no-fly zone; closer than %s = %g m)",
+                                      how, std::max(d, 0.0), ClearanceRuleName(limits), clearance),
+                      {"state.velocity_W_m_s", "limits.max_accel_m_s2"});
+  }
   for (const auto& [id, obstacle] : environment.obstacles()) {
     const double d = SegmentSignedDistance(obstacle.shape, stop.from_W, stop.stop_W);
     if (d < clearance) {

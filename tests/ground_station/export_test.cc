@@ -89,8 +89,8 @@ bool InPolygon(const std::vector<Vec2>& poly, const Vec2& p) {
 class GroundStationTest : public ::testing::Test {
  protected:
   // A mission near Zurich: a shed given by latitude/longitude, a tall mast
-  // in local metres, the start by latitude/longitude.
-  void CreateMission() {
+  // in local metres, the start by latitude/longitude; then `edit`.
+  void CreateMission(const std::function<void(v1::MissionSpec&)>& edit = {}) {
     v1::CreateMissionRequest request;
     request.set_mission_id("zurich");
     v1::MissionSpec& spec = *request.mutable_spec();
@@ -112,6 +112,7 @@ class GroundStationTest : public ::testing::Test {
     mast->mutable_cylinder()->set_height_m(30.0);
     *spec.mutable_start()->mutable_position_geo() = Geo(47.397742, 8.545594, 498.0);
     spec.mutable_planner()->set_generations(8);
+    if (edit) edit(spec);
     v1::Mission mission;
     grpc::ClientContext context;
     const grpc::Status status = service_.stub().CreateMission(&context, request, &mission);
@@ -311,6 +312,71 @@ TEST_F(GroundStationTest, ThePlanFileHasQGroundControlsFieldsAndFollowsThePath) 
   EXPECT_EQ(plan.at("rallyPoints").at("version"), 2);
   ASSERT_EQ(plan.at("rallyPoints").at("points").size(), 1u);
   EXPECT_EQ(plan.at("rallyPoints").at("points")[0].size(), 3u);
+}
+
+// The mission's own fence is fenced in (a circle given in WGS84) and its
+// no-fly zones out, but for one the path passes under (its floor is above
+// the flight ceiling): no point of the path is outside the fence's circle
+// or in the tower's.
+TEST_F(GroundStationTest, TheMissionsFenceIsFencedInAndItsZonesOut) {
+  CreateMission([](v1::MissionSpec& spec) {
+    v1::Circle& circle = *spec.mutable_fence()->mutable_circle();
+    *circle.mutable_centre_geo() = Geo(47.397742, 8.545594, 0.0);
+    circle.set_radius_m(14.0);
+    v1::Obstacle& tower = *spec.add_no_fly_zones();
+    tower.set_id("tower");
+    tower.mutable_cylinder()->mutable_centre_m()->set_x(8);
+    tower.mutable_cylinder()->mutable_centre_m()->set_y(-8);
+    tower.mutable_cylinder()->mutable_centre_m()->set_z(20);
+    tower.mutable_cylinder()->set_radius_m(1.5);
+    tower.mutable_cylinder()->set_height_m(40);
+    v1::Obstacle& high = *spec.add_no_fly_zones();
+    high.set_id("high");
+    for (const double v : {-15.0, -15.0, 15.0, -15.0, 15.0, 15.0, -15.0, 15.0}) {
+      high.mutable_prism()->mutable_footprint()->add_xy_m(v);
+    }
+    high.mutable_prism()->set_base_m(28.0);
+    high.mutable_prism()->set_top_m(60.0);
+  });
+  const v1::PlanPathResponse path = Plan();
+  ASSERT_GT(path.trajectory().segments_size(), 0);
+  v1::ExportPathRequest request;
+  request.set_name("missions/zurich");
+  *request.mutable_path() = path;
+  v1::ExportPathResponse out;
+  const grpc::Status status = Export(request, &out);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const json plan = json::parse(out.qgc_plan_json());
+  const api::GeoFrame frame = *api::GeoFrame::FromOrigin(kOrigin);
+  const json& fence = plan.at("geoFence");
+  int inclusion_polygons = 0, exclusion_polygons = 0;
+  for (const json& poly : fence.at("polygons")) {
+    (poly.at("inclusion").get<bool>() ? inclusion_polygons : exclusion_polygons) += 1;
+  }
+  EXPECT_EQ(inclusion_polygons, 1);  // the field's; "high" is not fenced
+  std::vector<std::pair<Vec2, double>> in, out_of;
+  for (const json& c : fence.at("circles")) {
+    const json& centre = c.at("circle").at("center");
+    const Vec2 local =
+        frame.ToLocal({centre[0].get<double>(), centre[1].get<double>(), kOrigin.altitude_m})
+            .head<2>();
+    (c.at("inclusion").get<bool>() ? in : out_of)
+        .emplace_back(local, c.at("circle").at("radius").get<double>());
+  }
+  ASSERT_EQ(in.size(), 1u);
+  const Vec2 start_local = frame.ToLocal({47.397742, 8.545594, kOrigin.altitude_m}).head<2>();
+  EXPECT_LT((in[0].first - start_local).norm(), 0.01);
+  EXPECT_EQ(in[0].second, 14.0);
+  // The mast and the tower (the shed is a polygon or overflown).
+  ASSERT_EQ(out_of.size(), 2u);
+  EXPECT_TRUE(std::any_of(out_of.begin(), out_of.end(), [](const auto& c) {
+    return (c.first - Vec2(8, -8)).norm() < 0.01 && c.second == 1.5;
+  }));
+  for (double t = 0.0; t <= path.trajectory().duration_s(); t += 0.01) {
+    const Vec2 p = Eval(path.trajectory(), t, 0).head<2>();
+    ASSERT_LT((p - in[0].first).norm(), in[0].second) << "t = " << t;
+    for (const auto& [centre, radius] : out_of) ASSERT_GT((p - centre).norm(), radius);
+  }
 }
 
 // A team's export is per UAV: each path names its uav_id, and its .plan's
