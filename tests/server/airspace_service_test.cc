@@ -167,20 +167,9 @@ TEST(AirspaceServiceTest, PathsStayInsideTheFenceAndOutOfEveryZone) {
     const std::string id = absl::StrCat("fenced-", trial);
     const grpc::Status made = CreateWithSpec(service.stub(), id, spec);
     ASSERT_TRUE(made.ok()) << id << ": " << made.error_message();
-    v1::PlanPathResponse path;
-    Point from = start;
-    for (int leg = 0; leg < 3; ++leg) {
-      const grpc::Status s =
-          PlanFor(service.stub(), id, "", At(from, 10.0 * leg), absl::StrCat("p", leg), &path);
-      if (!s.ok()) {
-        EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << s.error_message();
-        break;
-      }
-      ++plans;
+    plans += FlyLegs(service.stub(), id, start, 3, [&](const v1::PlanPathResponse& path, int leg) {
       EXPECT_GE(ClosestToAirspace(spec, path), 1.0 + 0.5 - 1e-9) << id << " leg " << leg;
-      from =
-          PositionAt(Flight{.path = path}, path.start_mission_s() + path.trajectory().duration_s());
-    }
+    });
   }
   EXPECT_GE(plans, 2 * trials);
 }

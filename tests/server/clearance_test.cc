@@ -134,15 +134,7 @@ TEST(ClearanceTest, PathsKeepTheBodyAndTrackingErrorOrThePapersHalfRadius) {
       *create.mutable_spec() = spec;
       v1::Mission created;
       ASSERT_TRUE(service.stub().CreateMission(&c, create, &created).ok()) << id;
-      v1::PlanPathResponse path;
-      Point from = start;
-      for (int leg = 0; leg < 3; ++leg) {
-        const grpc::Status s =
-            PlanFor(service.stub(), id, "", At(from, 10.0 * leg), absl::StrCat("p", leg), &path);
-        if (!s.ok()) {
-          EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << s.error_message();
-          break;
-        }
+      FlyLegs(service.stub(), id, start, 3, [&](const v1::PlanPathResponse& path, int leg) {
         const double closest = ClosestToObstacles(spec, path);
         if (preset.empty()) {
           ++body_plans;
@@ -153,9 +145,7 @@ TEST(ClearanceTest, PathsKeepTheBodyAndTrackingErrorOrThePapersHalfRadius) {
           closest_paper = std::min(closest_paper, closest);
           EXPECT_GE(closest, 0.5 - 1e-9) << id << " leg " << leg;
         }
-        from = PositionAt(Flight{.path = path},
-                          path.start_mission_s() + path.trajectory().duration_s());
-      }
+      });
       grpc::ClientContext d;
       v1::DeleteMissionRequest del;
       del.set_name("missions/" + id);
@@ -239,20 +229,9 @@ TEST(ClearanceTest, PathsKeepClearOfLShapedPrismBuildings) {
     v1::Mission created;
     const grpc::Status made = service.stub().CreateMission(&c, create, &created);
     ASSERT_TRUE(made.ok()) << id << ": " << made.error_message();
-    v1::PlanPathResponse path;
-    Point from = start;
-    for (int leg = 0; leg < 3; ++leg) {
-      const grpc::Status s =
-          PlanFor(service.stub(), id, "", At(from, 10.0 * leg), absl::StrCat("p", leg), &path);
-      if (!s.ok()) {
-        EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << s.error_message();
-        break;
-      }
-      ++plans;
+    plans += FlyLegs(service.stub(), id, start, 3, [&](const v1::PlanPathResponse& path, int leg) {
       EXPECT_GE(ClosestToObstacles(parts, path), 1.0 + 0.5 - 1e-9) << id << " leg " << leg;
-      from =
-          PositionAt(Flight{.path = path}, path.start_mission_s() + path.trajectory().duration_s());
-    }
+    });
   }
   EXPECT_GE(plans, 2 * trials);
 }

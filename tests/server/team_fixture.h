@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -124,6 +125,30 @@ inline double ClosestApproach(const Flight& a, const Flight& b, double from) {
     closest = std::min(closest, std::hypot(p.x - q.x, p.y - q.y, p.z - q.z));
   }
   return closest;
+}
+
+// Flies up to `legs` plans of the single-UAV mission `id` from `start`, each
+// from where the last ended, 10 s of mission time apart, calling
+// check(path, leg) on each. A plan refused FAILED_PRECONDITION (no safe
+// path from there) ends the flight; any other refusal fails the test.
+// Returns the plans made.
+inline int FlyLegs(v1::MissionService::Stub& stub, const std::string& id, const Point& start,
+                   int legs, const std::function<void(const v1::PlanPathResponse&, int)>& check) {
+  v1::PlanPathResponse path;
+  Point from = start;
+  int plans = 0;
+  for (int leg = 0; leg < legs; ++leg) {
+    const grpc::Status s =
+        PlanFor(stub, id, "", At(from, 10.0 * leg), absl::StrCat("p", leg), &path);
+    if (!s.ok()) {
+      EXPECT_EQ(s.error_code(), grpc::StatusCode::FAILED_PRECONDITION) << s.error_message();
+      break;
+    }
+    ++plans;
+    check(path, leg);
+    from = PositionAt(Flight{.path = path}, EndOf(Flight{.path = path}));
+  }
+  return plans;
 }
 
 // A test with a folder of its own for a SQLite store (Open), removed after.

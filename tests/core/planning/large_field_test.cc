@@ -225,14 +225,20 @@ TEST(LargeFieldTest, TheWindowLeadsTowardsTheOnlyUnobservedSquare) {
 // a UAV in the middle of a field whose area is the north-east corner's
 // square (cells 100-119 each way, centre (50, 50)) is led towards it, by
 // WindowCentre and by the window the service plans in.
+// The field's square [40, 60]^2 m as a search area (cells 100-119 each way).
+std::vector<std::uint8_t> CornerArea(const FieldGrid& grid) {
+  std::vector<std::uint8_t> area(static_cast<std::size_t>(grid.num_cells()), 0);
+  for (int r = 100; r < 120; ++r) {
+    for (int c = 100; c < 120; ++c) area[static_cast<std::size_t>(grid.Index(r, c))] = 1;
+  }
+  return area;
+}
+
 TEST(LargeFieldTest, TheWindowLeadsIntoTheSearchArea) {
   auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
   ASSERT_TRUE(grid.ok());
   const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/true, {});
-  std::vector<std::uint8_t> area(static_cast<std::size_t>(grid->num_cells()), 0);
-  for (int r = 100; r < 120; ++r) {
-    for (int c = 100; c < 120; ++c) area[static_cast<std::size_t>(grid->Index(r, c))] = 1;
-  }
+  const std::vector<std::uint8_t> area = CornerArea(*grid);
   const Vec2 uav(0.0, 0.0);
   const Vec2 expected = uav + Vec2(50.0, 50.0).normalized() * (large.lead_fraction * 20.0);
   const Eigen::VectorXd none = Eigen::VectorXd::Zero(grid->num_cells());
@@ -261,10 +267,7 @@ TEST(TransitAreaTest, AFarAreaIsStoodInForByTheWindowsCellsNearestIt) {
   auto grid = FieldGrid::FromBounds({-kHalfField, -kHalfField}, {kHalfField, kHalfField}, 1.0);
   ASSERT_TRUE(grid.ok());
   const LargeFieldPlanning large = LargeFieldPlanning::ForField(*grid, /*lead=*/true, {});
-  std::vector<std::uint8_t> area(static_cast<std::size_t>(grid->num_cells()), 0);
-  for (int r = 100; r < 120; ++r) {
-    for (int c = 100; c < 120; ++c) area[static_cast<std::size_t>(grid->Index(r, c))] = 1;
-  }
+  const std::vector<std::uint8_t> area = CornerArea(*grid);
   const Vec2 uav(0.0, 0.0);
   const absl::StatusOr<FieldWindow> window = PlanningWindow(*grid, nullptr, 1.5, uav, large, area);
   ASSERT_TRUE(window.ok()) << window.status();
