@@ -425,25 +425,24 @@ absl::StatusOr<PlannedPath> Mission::Plan(const UavState& state,
   const std::vector<Teammate> teammates =
       planning.TeammatesOf(call.uav_id, state.mission_time_s, plan_map.mission_time_s,
                            plan_map.fused_shots, roster_, &versions);
-  const PlanningContext context{.environment = env.get(),
-                                .map = map.get(),
-                                .camera = kit.camera,
-                                .noise = kit.noise,
-                                .next_shot_mission_s = next_shot,
-                                .remaining_budget_s = config_.budget_s - elapsed,
-                                .cancelled = call.cancelled,
-                                .search_fraction = call.search_fraction,
-                                .conditioned = conditioned.get(),
-                                .chain = config_.team.size() >= 2
-                                             ? ChainedPrefix{&planning.chain(), plan_map.shared.key}
-                                             : ChainedPrefix{},
-                                .teammates = teammates,
-                                .min_separation_m = config_.min_separation_m,
-                                .field = field,
-                                .search_area = plan_map.shared.transit.empty()
-                                                   ? config_.SearchMask()
-                                                   : std::span<const std::uint8_t>(
-                                                         plan_map.shared.transit)};
+  const PlanningContext context{
+      .environment = env.get(),
+      .map = map.get(),
+      .camera = kit.camera,
+      .noise = kit.noise,
+      .next_shot_mission_s = next_shot,
+      .remaining_budget_s = config_.budget_s - elapsed,
+      .cancelled = call.cancelled,
+      .search_fraction = call.search_fraction,
+      .conditioned = conditioned.get(),
+      .chain = config_.team.size() >= 2 ? ChainedPrefix{&planning.chain(), plan_map.shared.key}
+                                        : ChainedPrefix{},
+      .teammates = teammates,
+      .min_separation_m = config_.min_separation_m,
+      .field = field,
+      .search_area = plan_map.shared.transit.empty()
+                         ? config_.SearchMask()
+                         : std::span<const std::uint8_t>(plan_map.shared.transit)};
   absl::StatusOr<PlannedPath> path = planner->Plan(context, state, deadline);
   if (!path.ok() && !call.uav_id.empty())
     path = planning_.NamedForMember(path.status(), call.uav_id);

@@ -127,8 +127,8 @@ absl::StatusOr<MissionMap::ForPlan> MissionMap::Window(const LargeFieldMap::Targ
   plan.map = std::make_shared<const GpMap>(std::move(local));
   plan.field = &grid_;
   if (options.lead_fraction > 0.0) {
-    plan.transit = TransitArea(grid_, window, config.SearchMask(), centre_W,
-                               0.25 * options.half_width_m);
+    plan.transit =
+        TransitArea(grid_, window, config.SearchMask(), centre_W, 0.25 * options.half_width_m);
   }
   return plan;
 }
