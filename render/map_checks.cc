@@ -64,6 +64,13 @@ absl::Status ValidateOverlay(const Overlay& overlay) {
       !s.ok()) {
     return s;
   }
+  if (absl::Status s = CheckPolygons("overlay.fence_rings", overlay.fence_rings); !s.ok()) {
+    return s;
+  }
+  if (absl::Status s = CheckPolygons("overlay.no_fly_footprints", overlay.no_fly_footprints);
+      !s.ok()) {
+    return s;
+  }
   for (std::size_t i = 0; i < overlay.targets.size(); ++i) {
     if (absl::Status s = CheckPoint("overlay.targets(min)", i, overlay.targets[i].first); !s.ok())
       return s;

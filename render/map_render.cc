@@ -40,7 +40,9 @@ const cv::Scalar kTargetColour(0, 200, 0);
 const cv::Scalar kPathColour(0, 0, 230);
 const cv::Scalar kPlannedColour(230, 0, 230);
 const cv::Scalar kDetectionColour(0, 140, 255);
-constexpr double kObstacleFillAlpha = 0.6;  // share of grey over the map
+const cv::Scalar kFenceColour(0, 230, 255);    // yellow
+const cv::Scalar kNoFlyColour(180, 105, 255);  // pink
+constexpr double kObstacleFillAlpha = 0.6;     // share of grey over the map
 
 constexpr int kSubpixelBits = 4;  // fixed-point shift for overlay drawing
 constexpr double kSubpixel = 1 << kSubpixelBits;
@@ -50,6 +52,8 @@ constexpr double kSubpixel = 1 << kSubpixelBits;
 
 enum class LegendKind {
   kSearchArea,
+  kFence,
+  kNoFly,
   kObstacle,
   kTarget,
   kPath,
@@ -124,6 +128,8 @@ std::vector<LegendItem> LegendItems(const Overlay& overlay) {
   if (!overlay.search_area_rings.empty()) {
     items.push_back({LegendKind::kSearchArea, "search area"});
   }
+  if (!overlay.fence_rings.empty()) items.push_back({LegendKind::kFence, "fence"});
+  if (!overlay.no_fly_footprints.empty()) items.push_back({LegendKind::kNoFly, "no-fly zone"});
   if (!overlay.obstacle_footprints.empty()) items.push_back({LegendKind::kObstacle, "obstacle"});
   if (!overlay.targets.empty()) items.push_back({LegendKind::kTarget, "target"});
   if (!overlay.path.empty()) {
@@ -325,11 +331,15 @@ void DrawOverlay(cv::Mat& canvas, const PixelRect& plot, const MapGrid& grid, in
     shaded.copyTo(area, mask);
     cv::polylines(area, polygons, true, kObstacleEdge, g.line_px, cv::LINE_AA, kSubpixelBits);
   }
-  if (!overlay.search_area_rings.empty()) {
+  const auto outlines = [&](const std::vector<std::vector<Vec2>>& world, const cv::Scalar& colour) {
+    if (world.empty()) return;
     std::vector<std::vector<cv::Point>> rings;
-    for (const auto& ring : overlay.search_area_rings) rings.push_back(points(ring));
-    cv::polylines(area, rings, true, kWhite, g.line_px, cv::LINE_AA, kSubpixelBits);
-  }
+    for (const auto& ring : world) rings.push_back(points(ring));
+    cv::polylines(area, rings, true, colour, g.line_px, cv::LINE_AA, kSubpixelBits);
+  };
+  outlines(overlay.search_area_rings, kWhite);
+  outlines(overlay.no_fly_footprints, kNoFlyColour);
+  outlines(overlay.fence_rings, kFenceColour);
   for (const auto& [lo, hi] : overlay.targets) {
     cv::rectangle(area, PlotPoint(grid, k, plot.height, lo), PlotPoint(grid, k, plot.height, hi),
                   kTargetColour, g.line_px, cv::LINE_8, kSubpixelBits);
@@ -436,6 +446,12 @@ void DrawLegend(cv::Mat& canvas, const Geometry& g) {
       case LegendKind::kSearchArea:  // outlined: the legend's ground is white
         cv::rectangle(canvas, swatch, kBlack, g.line_px + 2);
         cv::rectangle(canvas, swatch, kWhite, g.line_px);
+        break;
+      case LegendKind::kFence:
+        cv::rectangle(canvas, swatch, kFenceColour, g.line_px);
+        break;
+      case LegendKind::kNoFly:
+        cv::rectangle(canvas, swatch, kNoFlyColour, g.line_px);
         break;
       case LegendKind::kObstacle:
         cv::rectangle(canvas, swatch, kObstacleFill, cv::FILLED);

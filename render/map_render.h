@@ -71,6 +71,10 @@ struct Overlay {
   // A search area's rings, outer rings and holes alike (closed, >= 3
   // vertices each). White outlines.
   std::vector<std::vector<Vec2>> search_area_rings;
+  // The fence the UAV stays inside (closed, >= 3 vertices). Yellow outline.
+  std::vector<std::vector<Vec2>> fence_rings;
+  // No-fly zones' ground footprints (closed, >= 3 vertices). Pink outlines.
+  std::vector<std::vector<Vec2>> no_fly_footprints;
   // Ground rectangles (min corner, max corner). Green outlines.
   std::vector<std::pair<Vec2, Vec2>> targets;
   // A polyline, e.g. the flown path. Red, with a white dot at its start.

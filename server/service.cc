@@ -360,6 +360,10 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
     if (snapshot.config.search_area != nullptr) {
       overlay.search_area_rings = snapshot.config.search_area->Rings();
     }
+    if (const Airspace& air = snapshot.config.airspace; !air.empty()) {
+      if (air.fence().has_value()) overlay.fence_rings = {air.FenceOutline()};
+      overlay.no_fly_footprints = air.ZoneFootprints();
+    }
     const render::MapGrid grid{.nx = response->nx(),
                                .ny = response->ny(),
                                .resolution_m = response->resolution_m(),

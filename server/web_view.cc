@@ -264,6 +264,21 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
     const double top = BoundingBox(o.shape).max_W.z();
     obstacles.push_back({{"id", o.id}, {"polygon", std::move(polygon)}, {"top_m", Short(top)}});
   }
+  // Where to search and where not to fly: rings as [x, y] lists.
+  const auto rings = [](const std::vector<std::vector<Vec2>>& from) {
+    json out = json::array();
+    for (const std::vector<Vec2>& ring : from) {
+      json points = json::array();
+      for (const Vec2& c : ring) points.push_back({Short(c.x()), Short(c.y())});
+      out.push_back(std::move(points));
+    }
+    return out;
+  };
+  json area =
+      s.config.search_area != nullptr ? rings(s.config.search_area->Rings()) : json::array();
+  json fence = s.config.airspace.fence().has_value() ? rings({s.config.airspace.FenceOutline()})
+                                                     : json::array();
+  json no_fly = rings(s.config.airspace.ZoneFootprints());
   // Every UAV's own lines, in the spec's team order (its colour on the page).
   json uavs = json::array();
   const auto add_uav = [&](const std::string& uav_id) {
@@ -302,6 +317,9 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
                     {"mean", std::move(mean)},
                     {"std", std::move(std_dev)},
                     {"obstacles", std::move(obstacles)},
+                    {"search_area", std::move(area)},
+                    {"fence", std::move(fence)},
+                    {"no_fly_zones", std::move(no_fly)},
                     {"uavs", std::move(uavs)},
                     {"detections", std::move(detections)},
                     {"found", std::move(found_cells)},

@@ -36,6 +36,10 @@ absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
   if (simulation.config().search_area != nullptr) {
     overlay.search_area_rings = simulation.config().search_area->Rings();
   }
+  if (const Airspace& air = simulation.config().airspace; !air.empty()) {
+    if (air.fence().has_value()) overlay.fence_rings = {air.FenceOutline()};
+    overlay.no_fly_footprints = air.ZoneFootprints();
+  }
   overlay.targets = simulation.TargetRectangles();
   const auto ground = [](const std::vector<Vec3>& points_W) {
     std::vector<Vec2> xy;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <set>
 #include <utility>
 
@@ -41,6 +42,24 @@ absl::StatusOr<Airspace> Airspace::Create(std::optional<Fence> fence, std::vecto
   }
   air.zones_ = std::move(zones);
   return air;
+}
+
+std::vector<Vec2> Airspace::FenceOutline() const {
+  if (!fence_.has_value()) return {};
+  if (!fence_->polygon_W.empty()) return fence_->polygon_W;
+  std::vector<Vec2> ring;
+  constexpr int kSides = 64;
+  for (int k = 0; k < kSides; ++k) {
+    const double a = 2.0 * std::numbers::pi * k / kSides;
+    ring.push_back(fence_->centre_W + fence_->radius_m * Vec2(std::cos(a), std::sin(a)));
+  }
+  return ring;
+}
+
+std::vector<std::vector<Vec2>> Airspace::ZoneFootprints() const {
+  std::vector<std::vector<Vec2>> footprints;
+  for (const Obstacle& zone : zones_) footprints.push_back(GroundFootprint(zone.shape));
+  return footprints;
 }
 
 double Airspace::FenceSignedDistance(const Vec2& p_W) const {

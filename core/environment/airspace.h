@@ -56,6 +56,11 @@ class Airspace {
   // stays outside the closed airspace, <= 0 otherwise (then possibly less
   // deep than the true one).
   [[nodiscard]] double SegmentSignedDistance(const Vec3& a_W, const Vec3& b_W) const;
+  // For pictures: the fence's outline (a circle as a regular 64-gon
+  // through it; empty without a fence) and each zone's ground footprint
+  // (GroundFootprint).
+  [[nodiscard]] std::vector<Vec2> FenceOutline() const;
+  [[nodiscard]] std::vector<std::vector<Vec2>> ZoneFootprints() const;
   // The fence's signed distance alone (+infinity without a fence).
   [[nodiscard]] double FenceSignedDistance(const Vec2& p_W) const;
 

@@ -238,6 +238,57 @@ TEST_F(WebViewTest, ThePictureDataFollowsAMeasurement) {
   EXPECT_GT(m.at("mean")[seen].get<double>(), m.at("mean")[seen + 1].get<double>());
 }
 
+// The search area, the fence and the no-fly zones come with the picture
+// data as rings in metres: the area's outer ring and hole as given, a
+// circular fence as 64 points on its circle, a zone's footprint.
+TEST_F(WebViewTest, TheAreaTheFenceAndTheZonesAreInThePictureData) {
+  v1::MissionSpec spec;
+  v1::AreaPolygon& area = *spec.add_search_areas();
+  for (const double v : {-10.0, -10.0, 10.0, -10.0, 10.0, 10.0, -10.0, 10.0}) {
+    area.mutable_outer()->add_xy_m(v);
+  }
+  v1::Ring& hole = *area.add_holes();
+  for (const double v : {-2.0, -2.0, -2.0, 2.0, 2.0, 2.0, 2.0, -2.0}) hole.add_xy_m(v);
+  v1::Circle& circle = *spec.mutable_fence()->mutable_circle();
+  circle.set_x_m(1.0);
+  circle.set_y_m(-1.0);
+  circle.set_radius_m(14.0);
+  v1::Obstacle& zone = *spec.add_no_fly_zones();
+  zone.set_id("school");
+  zone.mutable_box()->mutable_centre_m()->set_x(6);
+  zone.mutable_box()->mutable_centre_m()->set_y(6);
+  zone.mutable_box()->mutable_centre_m()->set_z(30);
+  zone.mutable_box()->mutable_size_m()->set_x(2);
+  zone.mutable_box()->mutable_size_m()->set_y(4);
+  zone.mutable_box()->mutable_size_m()->set_z(20);
+  const absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(spec);
+  ASSERT_TRUE(config.ok()) << config.status();
+  ASSERT_TRUE(registry_.Create("fenced", *config, "", "", "alpha").ok());
+  httplib::Result r = Get("/api/missions/fenced", "token-a");
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  const json m = json::parse(r->body);
+  ASSERT_EQ(m.at("search_area").size(), 2u);  // the outer ring and the hole
+  EXPECT_EQ(m.at("search_area")[0].size(), 4u);
+  EXPECT_EQ(m.at("search_area")[1].size(), 4u);
+  ASSERT_EQ(m.at("fence").size(), 1u);
+  ASSERT_EQ(m.at("fence")[0].size(), 64u);
+  for (const json& p : m.at("fence")[0]) {
+    EXPECT_NEAR(std::hypot(p[0].get<double>() - 1.0, p[1].get<double>() + 1.0), 14.0, 1e-3);
+  }
+  ASSERT_EQ(m.at("no_fly_zones").size(), 1u);
+  ASSERT_EQ(m.at("no_fly_zones")[0].size(), 4u);
+  for (const json& p : m.at("no_fly_zones")[0]) {
+    EXPECT_EQ(std::abs(p[0].get<double>() - 6.0), 1.0);
+    EXPECT_EQ(std::abs(p[1].get<double>() - 6.0), 2.0);
+  }
+  // Without any: empty lists.
+  const json plain = json::parse(Get("/api/missions/survey", "token-a")->body);
+  EXPECT_TRUE(plain.at("search_area").empty());
+  EXPECT_TRUE(plain.at("fence").empty());
+  EXPECT_TRUE(plain.at("no_fly_zones").empty());
+}
+
 TEST_F(WebViewTest, TheEventStreamNamesWhatHappened) {
   httplib::Client client("127.0.0.1", view_.port());
   client.set_read_timeout(10, 0);

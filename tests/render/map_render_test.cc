@@ -361,6 +361,33 @@ TEST(MapRenderTest, SearchAreaRingsAreWhiteOutlinesThatShadeNothing) {
   }
 }
 
+// The fence in yellow, a no-fly zone in pink: outlines on their edges, the
+// map untouched inside and out.
+TEST(MapRenderTest, TheFenceAndNoFlyZonesAreOutlinedInTheirColours) {
+  Overlay overlay;
+  overlay.fence_rings = {Square(-12, -12, 12, 12)};
+  overlay.no_fly_footprints = {Square(-9, 1, 1, 5)};
+  const MapLayout layout = LayoutOrDie(kGrid, overlay);
+  const cv::Mat image = RenderOrDie(kGrid, Flat(0.0, 0.0), overlay);
+  const auto near = [](const cv::Vec3b& want) {
+    return [want](const cv::Vec3b& got) { return cv::norm(got, want, cv::NORM_INF) <= 40; };
+  };
+  for (const Panel panel : {Panel::kMean, Panel::kStdDev}) {
+    for (const Vec2& edge : {Vec2(0, -12), Vec2(12, 0), Vec2(0, 12), Vec2(-12, 0)}) {
+      const cv::Point on = PixelOf(WorldToPixel(kGrid, layout, panel, edge));
+      EXPECT_TRUE(AnyNear(image, on, 1, near(cv::Vec3b(0, 230, 255)))) << edge.transpose();
+    }
+    for (const Vec2& edge : {Vec2(-4, 1), Vec2(1, 3), Vec2(-4, 5), Vec2(-9, 3)}) {
+      const cv::Point on = PixelOf(WorldToPixel(kGrid, layout, panel, edge));
+      EXPECT_TRUE(AnyNear(image, on, 1, near(cv::Vec3b(180, 105, 255)))) << edge.transpose();
+    }
+    const cv::Point inside = PixelOf(WorldToPixel(kGrid, layout, panel, Vec2(-4, 3)));
+    const cv::Point outside = PixelOf(WorldToPixel(kGrid, layout, panel, Vec2(-4, -3)));
+    EXPECT_EQ(At(image, inside.x, inside.y), Viridis(0));
+    EXPECT_EQ(At(image, outside.x, outside.y), Viridis(0));
+  }
+}
+
 TEST(MapRenderTest, SameInputsGiveTheSameBytes) {
   MapLayers layers = Flat(0.0, 1.0);
   for (int i = 0; i < kN * kN; ++i) {
@@ -411,6 +438,12 @@ TEST(MapRenderTest, BadInputsAreNamed) {
   Overlay open_ring;
   open_ring.search_area_rings = {Square(-9, 1, 1, 5), {Vec2(0, 0), Vec2(1, 1)}};
   EXPECT_THAT(error(kGrid, ok, open_ring), HasSubstr("overlay.search_area_rings[1]"));
+  Overlay open_fence;
+  open_fence.fence_rings = {{Vec2(0, 0), Vec2(1, 1)}};
+  EXPECT_THAT(error(kGrid, ok, open_fence), HasSubstr("overlay.fence_rings[0]"));
+  Overlay nan_zone;
+  nan_zone.no_fly_footprints = {{Vec2(0, 0), Vec2(1, 1), Vec2(std::nan(""), 0)}};
+  EXPECT_THAT(error(kGrid, ok, nan_zone), HasSubstr("overlay.no_fly_footprints[0]"));
   Overlay nan_path;
   nan_path.path = {Vec2(0, 0), Vec2(std::nan(""), 1)};
   EXPECT_THAT(error(kGrid, ok, nan_path), HasSubstr("overlay.path[1]"));
