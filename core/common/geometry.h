@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "Eigen/Core"
 #include "absl/status/status.h"
@@ -88,5 +89,18 @@ class LineOfSight {
 
 constexpr double kPi = 3.14159265358979323846;
 [[nodiscard]] constexpr double DegToRad(double deg) { return deg * kPi / 180.0; }
+
+// A circle drawn as a regular polygon of `sides` vertices, counter-clockwise
+// from the +x direction (for pictures and exports, not for distances).
+[[nodiscard]] inline std::vector<Vec2> CircleAsPolygon(const Vec2& centre_W, double radius_m,
+                                                       int sides) {
+  std::vector<Vec2> ring;
+  ring.reserve(static_cast<std::size_t>(sides));
+  for (int k = 0; k < sides; ++k) {
+    const double a = 2.0 * kPi * k / sides;
+    ring.push_back(centre_W + radius_m * Vec2(std::cos(a), std::sin(a)));
+  }
+  return ring;
+}
 
 }  // namespace oaipp

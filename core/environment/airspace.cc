@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <set>
 #include <utility>
 
@@ -47,13 +46,7 @@ absl::StatusOr<Airspace> Airspace::Create(std::optional<Fence> fence, std::vecto
 std::vector<Vec2> Airspace::FenceOutline() const {
   if (!fence_.has_value()) return {};
   if (!fence_->polygon_W.empty()) return fence_->polygon_W;
-  std::vector<Vec2> ring;
-  constexpr int kSides = 64;
-  for (int k = 0; k < kSides; ++k) {
-    const double a = 2.0 * std::numbers::pi * k / kSides;
-    ring.push_back(fence_->centre_W + fence_->radius_m * Vec2(std::cos(a), std::sin(a)));
-  }
-  return ring;
+  return CircleAsPolygon(fence_->centre_W, fence_->radius_m, 64);
 }
 
 std::vector<std::vector<Vec2>> Airspace::ZoneFootprints() const {
@@ -70,7 +63,14 @@ double Airspace::FenceSignedDistance(const Vec2& p_W) const {
 
 double Airspace::SignedDistance(const Vec3& p_W) const {
   double best = FenceSignedDistance(p_W.head<2>());
-  for (const Obstacle& zone : zones_) best = std::min(best, oaipp::SignedDistance(zone.shape, p_W));
+  const Aabb point{p_W, p_W};
+  for (std::size_t i = 0; i < zones_.size(); ++i) {
+    // As for segments: a zone whose box is farther than the best so far
+    // cannot be nearer.
+    if (point.Gap(zone_boxes_[i]) <= std::max(best, 0.0)) {
+      best = std::min(best, oaipp::SignedDistance(zones_[i].shape, p_W));
+    }
+  }
   return best;
 }
 

@@ -147,11 +147,7 @@ std::vector<Vec2> GroundFootprint(const Shape& shape) {
   } else if (const Prism* prism = std::get_if<Prism>(&shape)) {
     corners = prism->footprint();
   } else if (const Cylinder* cyl = std::get_if<Cylinder>(&shape)) {
-    constexpr int kSides = 32;
-    for (int i = 0; i < kSides; ++i) {
-      const double a = 2.0 * kPi * i / kSides;
-      corners.push_back(cyl->centre_W.head<2>() + cyl->radius_m * Vec2(std::cos(a), std::sin(a)));
-    }
+    corners = CircleAsPolygon(cyl->centre_W.head<2>(), cyl->radius_m, 32);
   }
   return corners;
 }
