@@ -436,8 +436,11 @@ absl::StatusOr<v1::ExportPathResponse> ExportPath(const MissionConfig& config,
       exclude(zone.shape);
     }
   }
-  // One rally point: where the path starts, a point known to be clear.
-  const GeoPoint start = frame.ToGeo(traj.Position(0.0));
+  // One rally point: the mission's home (MissionSpec.home), where every way
+  // home ends; without one, where the path starts, a point known to be
+  // clear.
+  const GeoPoint start = frame.ToGeo(config.planner.home.has_value() ? config.planner.home->home_W
+                                                                     : traj.Position(0.0));
   const nlohmann::json plan = {
       {"fileType", "Plan"},
       {"version", 1},

@@ -297,6 +297,13 @@ absl::Status ResolveGeoFields(v1::MissionSpec* spec, absl::string_view field) {
                                   absl::StrCat(field, ".start.position_geo"), "position_m"));
     s->clear_position_geo();
   }
+  if (spec->has_home()) {
+    v1::Home* h = spec->mutable_home();
+    OAIPP_RETURN_IF_ERROR(Resolve(frame, h, &v1::Home::has_position_m, &v1::Home::has_position_geo,
+                                  &v1::Home::position_geo, &v1::Home::mutable_position_m,
+                                  absl::StrCat(field, ".home.position_geo"), "position_m"));
+    h->clear_position_geo();
+  }
   for (int i = 0; i < spec->team_size(); ++i) {
     if (!spec->team(i).has_start()) continue;
     v1::UavState* s = spec->mutable_team(i)->mutable_start();
@@ -374,6 +381,7 @@ bool HasGeoFields(const v1::MissionSpec& spec) {
     if (ObstacleHasGeo(zone)) return true;
   }
   if (spec.has_fence() && FenceHasGeo(spec.fence())) return true;
+  if (spec.has_home() && spec.home().has_position_geo()) return true;
   return spec.has_start() && spec.start().has_position_geo();
 }
 

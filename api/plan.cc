@@ -10,10 +10,10 @@
 
 namespace oaipp::api {
 
-void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
-  out->Clear();
-  const PolynomialTrajectory& trajectory = path.trajectory;
-  v1::Trajectory& t = *out->mutable_trajectory();
+namespace {
+
+// `trajectory` into *t: segments, duration and samples.
+void WriteTrajectory(const PolynomialTrajectory& trajectory, v1::Trajectory& t) {
   const double duration_s = trajectory.Duration();
   t.set_duration_s(duration_s);
   std::vector<PolynomialTrajectory::SegmentCoefficients> sent;
@@ -44,7 +44,13 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
       *s.mutable_velocity_m_s() = ToProto(as_sent->Velocity(sample.t_s));
     }
   }
+}
 
+}  // namespace
+
+void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
+  out->Clear();
+  WriteTrajectory(path.trajectory, *out->mutable_trajectory());
   for (const Vec3& c : path.control_waypoints_W) *out->add_control_waypoints_m() = ToProto(c);
   for (const MeasurementPose& pose : path.measurement_poses) {
     v1::MeasurementPose& p = *out->add_measurement_poses();
@@ -67,6 +73,11 @@ void PlannedPathToProto(const PlannedPath& path, v1::PlanPathResponse* out) {
   stats.set_search_fraction(path.stats.search_fraction);
   stats.set_queued_s(path.stats.queued_s);
   stats.set_search_budget_s(path.stats.search_budget_s);
+  if (path.way_home.has_value()) WriteTrajectory(*path.way_home, *out->mutable_way_home());
+  if (path.remaining_after_return_s.has_value()) {
+    out->set_remaining_after_return_s(*path.remaining_after_return_s);
+  }
+  out->set_returning_home(path.returning_home);
   if (!path.team.uav_id.empty()) {
     out->set_uav_id(path.team.uav_id);
     out->set_plan_version(path.team.plan_version);
@@ -145,6 +156,13 @@ absl::StatusOr<PlannedPath> PlannedPathFromProto(const v1::PlanPathResponse& res
                                        : 1.0,
                 .queued_s = response.stats().queued_s(),
                 .search_budget_s = response.stats().search_budget_s()};
+  if (response.has_way_home()) {
+    OAIPP_ASSIGN_OR_RETURN(path.way_home, TrajectoryFromProto(response.way_home()));
+  }
+  if (response.has_remaining_after_return_s()) {
+    path.remaining_after_return_s = response.remaining_after_return_s();
+  }
+  path.returning_home = response.returning_home();
   path.team.uav_id = response.uav_id();
   path.team.plan_version = response.plan_version();
   path.team.start_mission_s = response.start_mission_s();

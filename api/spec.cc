@@ -12,6 +12,7 @@
 #include "api/geometry.h"
 #include "api/internal/airspace_spec.h"
 #include "api/internal/checks.h"
+#include "api/internal/home_spec.h"
 #include "api/internal/search_area_spec.h"
 #include "api/status.h"
 #include "core/common/status_macros.h"
@@ -391,7 +392,6 @@ absl::Status CheckStart(const UavState& start, const MissionConfig& c,
 
 absl::Status FillStart(const v1::MissionSpec& spec, MissionConfig& c) {
   if (!spec.has_start()) {
-    c.start = UavState{};
     const Vec2 centre = 0.5 * (c.field_min_W + c.field_max_W);
     c.start.position_W = Vec3(centre.x(), centre.y(), MissionConfig::kDefaultStartAltitude_m);
     if (const Aabb volume = c.FlightVolume(); !volume.Contains(c.start.position_W)) {
@@ -590,6 +590,7 @@ absl::StatusOr<MissionConfig> MissionSpecToConfig(const v1::MissionSpec& spec) {
   }
   c.budget_s = OrDefault(spec.has_budget_s(), spec.budget_s(), kDefaults.budget_s);
   OAIPP_RETURN_IF_ERROR(CheckPositive("spec.budget_s", c.budget_s));
+  OAIPP_RETURN_IF_ERROR(internal::FillHome(spec, c));
   if (spec.has_geo_origin()) {
     OAIPP_ASSIGN_OR_RETURN(c.geo_origin, GeoPointFromProto(spec.geo_origin(), "spec.geo_origin"));
   }

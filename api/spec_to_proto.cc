@@ -3,6 +3,7 @@
 #include "api/geodetic.h"
 #include "api/geometry.h"
 #include "api/internal/airspace_spec.h"
+#include "api/internal/home_spec.h"
 #include "api/internal/search_area_spec.h"
 #include "api/spec.h"
 
@@ -116,6 +117,7 @@ v1::MissionSpec ConfigToMissionSpec(const MissionConfig& c) {
     spec.set_silent_after_s(c.silent_after_s);
   }
   spec.set_budget_s(c.budget_s);
+  internal::WriteHome(c, &spec);
   if (c.geo_origin.has_value()) *spec.mutable_geo_origin() = GeoPointToProto(*c.geo_origin);
   return spec;
 }

@@ -86,6 +86,9 @@ absl::Status ValidateOverlay(const Overlay& overlay) {
       if (absl::Status s = CheckPoint(name, i, (*points)[i]); !s.ok()) return s;
     }
   }
+  if (overlay.home.has_value()) {
+    if (absl::Status s = CheckPoint("overlay.home", 0, *overlay.home); !s.ok()) return s;
+  }
   for (std::size_t p = 0; p < overlay.team_paths.size(); ++p) {
     const std::vector<Vec2>& points = overlay.team_paths[p].points;
     for (std::size_t i = 0; i < points.size(); ++i) {

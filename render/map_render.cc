@@ -59,7 +59,8 @@ enum class LegendKind {
   kPath,
   kPlannedPath,
   kDetection,
-  kTeamPath
+  kTeamPath,
+  kHome
 };
 
 struct LegendItem {
@@ -140,6 +141,7 @@ std::vector<LegendItem> LegendItems(const Overlay& overlay) {
   }
   if (!overlay.planned_path.empty()) items.push_back({LegendKind::kPlannedPath, "planned path"});
   if (!overlay.detections.empty()) items.push_back({LegendKind::kDetection, "detection"});
+  if (overlay.home.has_value()) items.push_back({LegendKind::kHome, "home"});
   return items;
 }
 
@@ -311,6 +313,25 @@ void DrawDetection(cv::Mat& image, cv::Point centre_fixed, int radius_px) {
   cv::circle(image, centre_fixed, r, kBlack, 1, cv::LINE_AA, kSubpixelBits);
 }
 
+// A landing pad: a white square, black edged, with a black H, about
+// 2.5 radius_px across.
+void DrawHome(cv::Mat& image, cv::Point centre_fixed, int radius_px) {
+  const int r = (radius_px + radius_px / 4) << kSubpixelBits;
+  const cv::Point half(r, r);
+  cv::rectangle(image, centre_fixed - half, centre_fixed + half, kWhite, cv::FILLED, cv::LINE_AA,
+                kSubpixelBits);
+  cv::rectangle(image, centre_fixed - half, centre_fixed + half, kBlack, 1, cv::LINE_AA,
+                kSubpixelBits);
+  const int h = r / 2;
+  const int w = std::max(2, radius_px / 2);
+  for (const int side : {-h, h}) {
+    cv::line(image, centre_fixed + cv::Point(side, -h), centre_fixed + cv::Point(side, h), kBlack,
+             w, cv::LINE_AA, kSubpixelBits);
+  }
+  cv::line(image, centre_fixed + cv::Point(-h, 0), centre_fixed + cv::Point(h, 0), kBlack, w,
+           cv::LINE_AA, kSubpixelBits);
+}
+
 void DrawOverlay(cv::Mat& canvas, const PixelRect& plot, const MapGrid& grid, int k,
                  const Overlay& overlay, const Geometry& g) {
   cv::Mat area = canvas(ToCv(plot));  // drawing here clips to the plot
@@ -365,6 +386,9 @@ void DrawOverlay(cv::Mat& canvas, const PixelRect& plot, const MapGrid& grid, in
   }
   for (const Vec2& p : overlay.detections) {
     DrawDetection(area, PlotPoint(grid, k, plot.height, p), dot_px - 1);
+  }
+  if (overlay.home.has_value()) {
+    DrawHome(area, PlotPoint(grid, k, plot.height, *overlay.home), dot_px + 1);
   }
 }
 
@@ -474,6 +498,9 @@ void DrawLegend(cv::Mat& canvas, const Geometry& g) {
         break;
       case LegendKind::kDetection:
         DrawDetection(canvas, fixed((left + right) / 2), dot_px - 1);
+        break;
+      case LegendKind::kHome:
+        DrawHome(canvas, fixed((left + right) / 2), dot_px + 1);
         break;
     }
     PutText(canvas, item.text, swatch.x + swatch.width + g.pad, mid, HAlign::kLeft, VAlign::kMiddle,

@@ -36,6 +36,7 @@
 
 #include "absl/status/statusor.h"
 #include "core/common/geometry.h"
+#include "core/common/ground_outlines.h"
 
 namespace oaipp::render {
 
@@ -63,18 +64,14 @@ struct MapLayers {
 };
 
 // Drawn over both panels, clipped to the panel; all optional, world metres.
-// Every coordinate must be finite.
-struct Overlay {
-  // Closed polygons (vertices in order, >= 3 each; the closing edge is
-  // implied), e.g. box corners or a cylinder as a polygon. Grey.
-  std::vector<std::vector<Vec2>> obstacle_footprints;
-  // A search area's rings, outer rings and holes alike (closed, >= 3
-  // vertices each). White outlines.
-  std::vector<std::vector<Vec2>> search_area_rings;
-  // The fence the UAV stays inside (closed, >= 3 vertices). Yellow outline.
-  std::vector<std::vector<Vec2>> fence_rings;
-  // No-fly zones' ground footprints (closed, >= 3 vertices). Pink outlines.
-  std::vector<std::vector<Vec2>> no_fly_footprints;
+// Every coordinate must be finite. The world's outlines
+// (core/common/ground_outlines.h) are drawn as: obstacles grey, the search
+// area's rings white, the fence yellow, no-fly zones pink, home a white
+// landing pad with a black H.
+struct Overlay : GroundOutlines {
+  Overlay() = default;
+  // The world's outlines, nothing else yet.
+  explicit Overlay(GroundOutlines ground) : GroundOutlines(std::move(ground)) {}
   // Ground rectangles (min corner, max corner). Green outlines.
   std::vector<std::pair<Vec2, Vec2>> targets;
   // A polyline, e.g. the flown path. Red, with a white dot at its start.

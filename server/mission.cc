@@ -90,6 +90,50 @@ absl::StatusOr<Environment> Mission::BuildWorld(const MissionConfig& config,
   });
 }
 
+namespace {
+
+// OK when `p_W` keeps `needed` from every obstacle, the fence and every
+// no-fly zone (exact distance); else InvalidArgument naming `field` and
+// saying what is nearest.
+absl::Status CheckClear(const Environment& env, const Vec3& p_W, double needed,
+                        absl::string_view field, const char* rule) {
+  const double clearance = env.SignedDistance(p_W);
+  if (clearance >= needed) return absl::OkStatus();
+  const bool fence = env.airspace().FenceSignedDistance(p_W.head<2>()) <= clearance;
+  const bool zone = !fence && env.airspace().SignedDistance(p_W) <= clearance;
+  const char* what = fence ? "the fence" : zone ? "a no-fly zone" : "an obstacle";
+  const std::string where = clearance >= 0 ? absl::StrFormat("%.3g m from %s", clearance, what)
+                            : fence        ? std::string("outside the fence")
+                                           : absl::StrCat("inside ", what);
+  return absl::InvalidArgumentError(absl::StrFormat(
+      "%s.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of clearance (%s)", field,
+      p_W.x(), p_W.y(), p_W.z(), where, needed, rule));
+}
+
+// A home the UAV can land at and reach (MissionSpec.home): clear by its
+// clearance, with a clear column down to the ground, and a way home from
+// the start.
+absl::Status CheckHome(const MissionConfig& config, const Environment& env) {
+  if (!config.planner.home.has_value()) return absl::OkStatus();
+  const Vec3& home = config.planner.home->home_W;
+  const PlannerLimits& limits = config.planner.common.limits;
+  const double needed = limits.ObstacleClearance();
+  OAIPP_RETURN_IF_ERROR(CheckClear(env, home, needed, "spec.home", ClearanceRuleName(limits)));
+  if (!env.IsSegmentClear(home, Vec3(home.x(), home.y(), 0.0), needed)) {
+    return absl::InvalidArgumentError(absl::StrFormat(
+        "spec.home.position_m: the landing from (%.3g, %.3g, %.3g) straight down to the ground "
+        "passes closer than %.3g m (%s) to an obstacle or a no-fly zone",
+        home.x(), home.y(), home.z(), needed, ClearanceRuleName(limits)));
+  }
+  if (absl::Status way = PlanWayHome(env, config.start, home, limits).status(); !way.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("spec.home.position_m: unreachable from spec.start: ", way.message()));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
 absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, MissionConfig config,
                                                          const SiteCaches& caches) {
   std::string world_key;
@@ -113,22 +157,10 @@ absl::StatusOr<std::shared_ptr<Mission>> Mission::Create(std::string id, Mission
                       config.team[i].kit.limits.ObstacleClearance()});
   }
   for (const auto& [field, start, needed] : starts) {
-    const double clearance = env.SignedDistance(start);
-    if (clearance < needed) {
-      // What is nearest: the fence, a no-fly zone or an obstacle.
-      const bool fence = env.airspace().FenceSignedDistance(start.head<2>()) <= clearance;
-      const bool zone = !fence && env.airspace().SignedDistance(start) <= clearance;
-      const char* what = fence ? "the fence" : zone ? "a no-fly zone" : "an obstacle";
-      const std::string where = clearance >= 0 ? absl::StrFormat("%.3g m from %s", clearance, what)
-                                : fence        ? std::string("outside the fence")
-                                               : absl::StrCat("inside ", what);
-      return absl::InvalidArgumentError(
-          absl::StrFormat("%s.position_m: (%.3g, %.3g, %.3g) is %s; the UAV needs %.3g m of "
-                          "clearance (%s)",
-                          field, start.x(), start.y(), start.z(), where, needed,
-                          ClearanceRuleName(config.planner.common.limits)));
-    }
+    OAIPP_RETURN_IF_ERROR(
+        CheckClear(env, start, needed, field, ClearanceRuleName(config.planner.common.limits)));
   }
+  OAIPP_RETURN_IF_ERROR(CheckHome(config, env));
   OAIPP_ASSIGN_OR_RETURN(FieldGrid grid, config.MakeGrid());
   OAIPP_ASSIGN_OR_RETURN(std::unique_ptr<Planner> planner, MakePlanner(config.planner));
   if (config.ResolveMapBackend() == api::MapBackend::kSparse) {

@@ -18,6 +18,7 @@
 #include "api/export.h"
 #include "api/geodetic.h"
 #include "api/geometry.h"
+#include "api/ground_outlines.h"
 #include "api/map.h"
 #include "api/measurement.h"
 #include "api/metadata.h"
@@ -353,17 +354,7 @@ grpc::Status MissionServiceImpl::GetMap(grpc::ServerContext* context,
     }));
     if (!request->include_png()) return absl::OkStatus();
     const MissionSnapshot snapshot = mission->Snapshot();
-    render::Overlay overlay;
-    for (const Obstacle& o : snapshot.obstacles) {
-      overlay.obstacle_footprints.push_back(GroundFootprint(o.shape));
-    }
-    if (snapshot.config.search_area != nullptr) {
-      overlay.search_area_rings = snapshot.config.search_area->Rings();
-    }
-    if (const Airspace& air = snapshot.config.airspace; !air.empty()) {
-      if (air.fence().has_value()) overlay.fence_rings = {air.FenceOutline()};
-      overlay.no_fly_footprints = air.ZoneFootprints();
-    }
+    render::Overlay overlay(api::GroundOutlinesOf(snapshot.config, snapshot.obstacles));
     const render::MapGrid grid{.nx = response->nx(),
                                .ny = response->ny(),
                                .resolution_m = response->resolution_m(),

@@ -13,6 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
+#include "api/ground_outlines.h"
 #include "api/map.h"
 #include "core/common/status_macros.h"
 #include "httplib.h"
@@ -255,30 +256,31 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
     }
     detections = std::vector<int>(detected.begin(), detected.end());
   }
-  json obstacles = json::array();
-  for (const Obstacle& o : s.obstacles) {
-    json polygon = json::array();
-    for (const Vec2& c : GroundFootprint(o.shape)) {
-      polygon.push_back({Short(c.x()), Short(c.y())});
-    }
-    const double top = BoundingBox(o.shape).max_W.z();
-    obstacles.push_back({{"id", o.id}, {"polygon", std::move(polygon)}, {"top_m", Short(top)}});
-  }
-  // Where to search and where not to fly: rings as [x, y] lists.
-  const auto rings = [](const std::vector<std::vector<Vec2>>& from) {
+  // The world as the map picture draws it (api/ground_outlines.h), rings
+  // as [x, y] lists; obstacles with their tops.
+  const GroundOutlines ground = api::GroundOutlinesOf(s.config, s.obstacles);
+  const auto ring = [](const std::vector<Vec2>& from) {
+    json points = json::array();
+    for (const Vec2& c : from) points.push_back({Short(c.x()), Short(c.y())});
+    return points;
+  };
+  const auto rings = [&](const std::vector<std::vector<Vec2>>& from) {
     json out = json::array();
-    for (const std::vector<Vec2>& ring : from) {
-      json points = json::array();
-      for (const Vec2& c : ring) points.push_back({Short(c.x()), Short(c.y())});
-      out.push_back(std::move(points));
-    }
+    for (const std::vector<Vec2>& r : from) out.push_back(ring(r));
     return out;
   };
-  json area =
-      s.config.search_area != nullptr ? rings(s.config.search_area->Rings()) : json::array();
-  json fence = s.config.airspace.fence().has_value() ? rings({s.config.airspace.FenceOutline()})
-                                                     : json::array();
-  json no_fly = rings(s.config.airspace.ZoneFootprints());
+  json obstacles = json::array();
+  for (std::size_t i = 0; i < s.obstacles.size(); ++i) {
+    const Obstacle& o = s.obstacles[i];
+    const double top = BoundingBox(o.shape).max_W.z();
+    obstacles.push_back(
+        {{"id", o.id}, {"polygon", ring(ground.obstacle_footprints[i])}, {"top_m", Short(top)}});
+  }
+  json area = rings(ground.search_area_rings);
+  json fence = rings(ground.fence_rings);
+  json no_fly = rings(ground.no_fly_footprints);
+  json home = nullptr;
+  if (ground.home.has_value()) home = {Short(ground.home->x()), Short(ground.home->y())};
   // Every UAV's own lines, in the spec's team order (its colour on the page).
   json uavs = json::array();
   const auto add_uav = [&](const std::string& uav_id) {
@@ -320,6 +322,7 @@ absl::StatusOr<std::string> WebView::MissionJson(const std::string& id,
                     {"search_area", std::move(area)},
                     {"fence", std::move(fence)},
                     {"no_fly_zones", std::move(no_fly)},
+                    {"home", std::move(home)},
                     {"uavs", std::move(uavs)},
                     {"detections", std::move(detections)},
                     {"found", std::move(found_cells)},

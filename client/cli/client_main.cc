@@ -296,6 +296,11 @@ int Run(const std::string& path) {
                 result->closest_approach_m, result->min_separation_m,
                 result->separation_violations);
   }
+  for (const oaipp::client::UavRecord& u : result->uavs) {
+    if (!u.landed_with_s.has_value()) continue;
+    std::printf("%s%sflew home: %.1f s of flight time left once landed\n", u.uav_id.c_str(),
+                u.uav_id.empty() ? "" : ": ", *u.landed_with_s);
+  }
   std::printf(
       "done: %d plans (%.1f s planning), RSE %.3f -> %.3f, %d/%d targets found, "
       "%d collisions; wrote %s/steps.csv and %s/map.png\n",

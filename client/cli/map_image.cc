@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "api/ground_outlines.h"
 #include "core/common/status_macros.h"
 #include "opencv2/imgcodecs.hpp"
 #include "opencv2/imgproc.hpp"
@@ -29,17 +30,9 @@ absl::StatusOr<std::string> RenderMissionPng(const v1::GetMapResponse& map,
   layers.mean.assign(map.mean().begin(), map.mean().end());
   layers.std_dev.reserve(static_cast<std::size_t>(map.variance_size()));
   for (double v : map.variance()) layers.std_dev.push_back(std::sqrt(std::max(0.0, v)));
-  render::Overlay overlay;
-  for (const auto& [id, o] : simulation.environment().obstacles()) {
-    overlay.obstacle_footprints.push_back(GroundFootprint(o.shape));
-  }
-  if (simulation.config().search_area != nullptr) {
-    overlay.search_area_rings = simulation.config().search_area->Rings();
-  }
-  if (const Airspace& air = simulation.config().airspace; !air.empty()) {
-    if (air.fence().has_value()) overlay.fence_rings = {air.FenceOutline()};
-    overlay.no_fly_footprints = air.ZoneFootprints();
-  }
+  std::vector<Obstacle> obstacles;
+  for (const auto& [id, o] : simulation.environment().obstacles()) obstacles.push_back(o);
+  render::Overlay overlay(api::GroundOutlinesOf(simulation.config(), obstacles));
   overlay.targets = simulation.TargetRectangles();
   const auto ground = [](const std::vector<Vec3>& points_W) {
     std::vector<Vec2> xy;

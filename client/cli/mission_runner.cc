@@ -14,6 +14,7 @@
 #include "api/plan.h"
 #include "client/cli/map_image.h"
 #include "core/common/status_macros.h"
+#include "core/trajectory/min_snap.h"
 #include "sim/flight.h"
 
 namespace oaipp::client {
@@ -41,7 +42,7 @@ struct Pilot {
   v1::UavState state;  // at the end of the last path flown (the start before any)
   std::mt19937_64 rng;
   sim::Flight flight;
-  bool done = false;  // the budget is spent
+  bool done = false;  // the budget is spent, or it has flown home
   // After a path cut short at a shot: the shot after it (see RunScenario).
   std::optional<double> next_shot_s;
 
@@ -319,7 +320,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     }
     // t < fly: a report at the path's last step leaves it at its end, as
     // without the option.
-    const bool cut = reported && replan_on_detection && t < pilot.fly &&
+    const bool cut = reported && replan_on_detection && t < pilot.fly && !path.returning_home() &&
                      pilot.FollowingShotS() < t0 + budget - 1e-9;
     if (!cut && t < pilot.fly) return absl::OkStatus();
     // The path ends here.
@@ -334,11 +335,19 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
       ++result.uavs[i].paths_cut;
       *state.mutable_acceleration_m_s2() = api::ToProto(traj.Acceleration(t));
       pilot.next_shot_s = pilot.FollowingShotS();
-    } else {
+    } else if (AtRest(traj.Velocity(t), traj.Acceleration(t))) {
       state.clear_acceleration_m_s2();  // at the path's end, at rest
+    } else {
+      // A path cut short so that its way home fits ends moving.
+      *state.mutable_acceleration_m_s2() = api::ToProto(traj.Acceleration(t));
     }
     state.set_mission_time_s(state.mission_time_s() + t);
     pilot.trajectory.reset();
+    if (path.returning_home() && !cut) {
+      // Home, at rest above the landing spot: the autopilot lands it.
+      pilot.done = true;
+      result.uavs[i].landed_with_s = path.remaining_after_return_s();
+    }
     return absl::OkStatus();
   };
   // The UAV due first acts; the earlier in the team on a tie.

@@ -22,6 +22,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -66,6 +67,9 @@ struct UavRecord {
   int shots = 0;
   double path_length_m = 0.0;
   int collisions = 0;
+  // With spec.home: set once it has flown the way home (then it is done),
+  // to the flight seconds the server said would be left once landed.
+  std::optional<double> landed_with_s;
 };
 
 struct RunResult {

@@ -224,6 +224,13 @@ struct PlannedPath {
     std::map<std::string, int> shots_counted = {};
   };
   TeamStamp team = {};
+  // Set where the mission has a home (core/planning/return_home.h): the way
+  // home from this path's end, and the flight seconds left after this path,
+  // that way home and the landing; or, when returning_home, this path is the
+  // way home and remaining_after_return_s what is left once landed.
+  std::optional<PolynomialTrajectory> way_home = std::nullopt;
+  std::optional<double> remaining_after_return_s = std::nullopt;
+  bool returning_home = false;
 };
 
 class Planner {

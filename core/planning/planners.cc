@@ -70,7 +70,10 @@ absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config
   }
   if (planner == nullptr) return absl::InvalidArgumentError("planner.kind: unknown");
   // Every kind may stop first from a moving start it cannot plan from.
-  return std::make_unique<StopFirstPlanner>(std::move(planner), common.limits);
+  planner = std::make_unique<StopFirstPlanner>(std::move(planner), common.limits);
+  if (!config.home.has_value()) return planner;
+  OAIPP_RETURN_IF_ERROR(config.home->Validate());
+  return std::make_unique<ReturnHomePlanner>(std::move(planner), common, *config.home);
 }
 
 }  // namespace oaipp

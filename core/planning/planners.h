@@ -5,11 +5,13 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "absl/status/statusor.h"
 #include "core/planning/baseline_planners.h"
 #include "core/planning/oaipp_planner.h"
+#include "core/planning/return_home.h"
 
 namespace oaipp {
 
@@ -36,11 +38,15 @@ struct PlannerConfig {
   OaIppConfig oaipp = {};
   LawnmowerConfig lawnmower = {};
   RandomConfig random = {};
+  // The mission's home and reserve (MissionSpec.home); unset: plans need not
+  // leave a way home.
+  std::optional<HomeConfig> home = std::nullopt;
 };
 
 // A fresh planner (its own state) for one mission, wrapped in a
 // StopFirstPlanner (core/planning/stop_first.h) so that it also answers from
-// moving starts it cannot plan from directly. The objective follows `kind`
+// moving starts it cannot plan from directly, and, with a home, in a
+// ReturnHomePlanner around that. The objective follows `kind`
 // (ObjectiveFor). InvalidArgument for a bad configuration.
 [[nodiscard]] absl::StatusOr<std::unique_ptr<Planner>> MakePlanner(const PlannerConfig& config);
 

@@ -379,6 +379,39 @@ TEST_F(GroundStationTest, TheMissionsFenceIsFencedInAndItsZonesOut) {
   }
 }
 
+// With a home (MissionSpec.home, given by latitude and longitude), the
+// .plan's one rally point is that home, its altitude relative to the
+// planned home position; and the plan leaves a way home, ending there.
+TEST_F(GroundStationTest, TheRallyPointIsTheMissionsHome) {
+  const v1::GeoPoint home_geo = Geo(47.397742 + 0.00005, 8.545594 - 0.00009, 494.0);
+  CreateMission([&](v1::MissionSpec& spec) {
+    *spec.mutable_home()->mutable_position_geo() = home_geo;
+    spec.mutable_home()->set_reserve_s(10);
+  });
+  const v1::PlanPathResponse path = Plan();
+  ASSERT_GT(path.trajectory().segments_size(), 0);
+  ASSERT_TRUE(path.has_way_home());
+  const api::GeoFrame frame = *api::GeoFrame::FromOrigin(kOrigin);
+  const Vec3 home_local =
+      frame.ToLocal({home_geo.latitude_deg(), home_geo.longitude_deg(), home_geo.altitude_m()});
+  const double last = path.way_home().duration_s();
+  EXPECT_LT((Eval(path.way_home(), last, 0) - home_local).norm(), 1e-6);
+  v1::ExportPathRequest request;
+  request.set_name("missions/zurich");
+  *request.mutable_path() = path;
+  v1::ExportPathResponse out;
+  const grpc::Status status = Export(request, &out);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  const json plan = json::parse(out.qgc_plan_json());
+  const json& planned_home = plan.at("mission").at("plannedHomePosition");
+  const json& points = plan.at("rallyPoints").at("points");
+  ASSERT_EQ(points.size(), 1u);
+  EXPECT_NEAR(points[0][0].get<double>(), home_geo.latitude_deg(), 1e-9);
+  EXPECT_NEAR(points[0][1].get<double>(), home_geo.longitude_deg(), 1e-9);
+  EXPECT_NEAR(points[0][2].get<double>(), home_geo.altitude_m() - planned_home[2].get<double>(),
+              1e-3);
+}
+
 // A team's export is per UAV: each path names its uav_id, and its .plan's
 // home is the ground under that UAV's own start (given here by latitude and
 // longitude), not the mission's. A path without a uav_id, or naming a UAV

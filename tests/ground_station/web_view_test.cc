@@ -240,7 +240,8 @@ TEST_F(WebViewTest, ThePictureDataFollowsAMeasurement) {
 
 // The search area, the fence and the no-fly zones come with the picture
 // data as rings in metres: the area's outer ring and hole as given, a
-// circular fence as 64 points on its circle, a zone's footprint.
+// circular fence as 64 points on its circle, a zone's footprint; and the
+// home as a point.
 TEST_F(WebViewTest, TheAreaTheFenceAndTheZonesAreInThePictureData) {
   v1::MissionSpec spec;
   v1::AreaPolygon& area = *spec.add_search_areas();
@@ -261,6 +262,9 @@ TEST_F(WebViewTest, TheAreaTheFenceAndTheZonesAreInThePictureData) {
   zone.mutable_box()->mutable_size_m()->set_x(2);
   zone.mutable_box()->mutable_size_m()->set_y(4);
   zone.mutable_box()->mutable_size_m()->set_z(20);
+  spec.mutable_home()->mutable_position_m()->set_x(-3.5);
+  spec.mutable_home()->mutable_position_m()->set_y(4.25);
+  spec.mutable_home()->mutable_position_m()->set_z(8);
   const absl::StatusOr<api::MissionConfig> config = api::MissionSpecToConfig(spec);
   ASSERT_TRUE(config.ok()) << config.status();
   ASSERT_TRUE(registry_.Create("fenced", *config, "", "", "alpha").ok());
@@ -282,8 +286,11 @@ TEST_F(WebViewTest, TheAreaTheFenceAndTheZonesAreInThePictureData) {
     EXPECT_EQ(std::abs(p[0].get<double>() - 6.0), 1.0);
     EXPECT_EQ(std::abs(p[1].get<double>() - 6.0), 2.0);
   }
-  // Without any: empty lists.
+  EXPECT_EQ(m.at("home")[0].get<double>(), -3.5);
+  EXPECT_EQ(m.at("home")[1].get<double>(), 4.25);
+  // Without any: empty lists, no home.
   const json plain = json::parse(Get("/api/missions/survey", "token-a")->body);
+  EXPECT_TRUE(plain.at("home").is_null());
   EXPECT_TRUE(plain.at("search_area").empty());
   EXPECT_TRUE(plain.at("fence").empty());
   EXPECT_TRUE(plain.at("no_fly_zones").empty());

@@ -388,6 +388,25 @@ TEST(MapRenderTest, TheFenceAndNoFlyZonesAreOutlinedInTheirColours) {
   }
 }
 
+// Home: a white pad with a black H at its point, in both panels, the map
+// untouched 3 m away.
+TEST(MapRenderTest, HomeIsAWhitePadWithABlackH) {
+  Overlay overlay;
+  overlay.home = Vec2(4, -6);
+  const MapLayout layout = LayoutOrDie(kGrid, overlay);
+  const cv::Mat image = RenderOrDie(kGrid, Flat(0.0, 0.0), overlay);
+  const auto is_black = [](const cv::Vec3b& got) {
+    return cv::norm(got, cv::Vec3b(0, 0, 0), cv::NORM_INF) <= 60;
+  };
+  for (const Panel panel : {Panel::kMean, Panel::kStdDev}) {
+    const cv::Point centre = PixelOf(WorldToPixel(kGrid, layout, panel, Vec2(4, -6)));
+    EXPECT_TRUE(AnyNear(image, centre, 1, is_black));  // the H's bar
+    EXPECT_TRUE(AnyNear(image, centre, 6, IsWhite));   // the pad
+    const cv::Point away = PixelOf(WorldToPixel(kGrid, layout, panel, Vec2(4, -3)));
+    EXPECT_EQ(At(image, away.x, away.y), Viridis(0));
+  }
+}
+
 TEST(MapRenderTest, SameInputsGiveTheSameBytes) {
   MapLayers layers = Flat(0.0, 1.0);
   for (int i = 0; i < kN * kN; ++i) {
@@ -444,6 +463,9 @@ TEST(MapRenderTest, BadInputsAreNamed) {
   Overlay nan_zone;
   nan_zone.no_fly_footprints = {{Vec2(0, 0), Vec2(1, 1), Vec2(std::nan(""), 0)}};
   EXPECT_THAT(error(kGrid, ok, nan_zone), HasSubstr("overlay.no_fly_footprints[0]"));
+  Overlay nan_home;
+  nan_home.home = Vec2(std::nan(""), 0);
+  EXPECT_THAT(error(kGrid, ok, nan_home), HasSubstr("overlay.home"));
   Overlay nan_path;
   nan_path.path = {Vec2(0, 0), Vec2(std::nan(""), 1)};
   EXPECT_THAT(error(kGrid, ok, nan_path), HasSubstr("overlay.path[1]"));
