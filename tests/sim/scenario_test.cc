@@ -7,6 +7,7 @@
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "sim/simulation.h"
+#include "tests/support/sanitizers.h"
 
 namespace oaipp::sim {
 namespace {
@@ -137,6 +138,9 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(scenario.ok()) << entry.path() << ": " << scenario.status();
     const std::string stem = entry.path().stem().string();
     EXPECT_TRUE(scenario->name() == stem || scenario->name() == "e5-" + stem) << entry.path();
+    // Under the sanitizers every file is parsed but only every fourth world
+    // built (each builds its ESDF; the release stage builds them all).
+    if (::oaipp::testing::kSanitized && files % 4 != 1) continue;
     auto sim = Simulation::Create(*scenario);
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
