@@ -69,7 +69,13 @@ absl::StatusOr<std::vector<Vec3>> DetourAround(const Environment& environment, c
   // higher of the two heights; Dijkstra from `from` to `to`.
   const double z = std::max(from.z(), to.z());
   std::vector<Vec3> nodes{from, to};
+  // Every segment of the graph lies between these heights: a shape wholly
+  // above or below them (by the clearance) is in no segment's way.
+  const double z_low = std::min(from.z(), to.z()) - clearance_m;
+  const double z_high = z + clearance_m;
   const auto add_corners = [&](const Shape& shape) {
+    const Aabb bounds = BoundingBox(shape);
+    if (bounds.max_W.z() < z_low || bounds.min_W.z() > z_high) return;
     for (const Vec3& c : InflatedCorners(shape, clearance_m * 1.05 + 0.05, z)) {
       if (box.Contains(c) && environment.SignedDistance(c) > clearance_m) nodes.push_back(c);
     }
@@ -95,25 +101,34 @@ absl::StatusOr<std::vector<Vec3>> DetourAround(const Environment& environment, c
       }
     }
   }
+  // A*: the straight distance to `to` never overestimates what is left and
+  // obeys the triangle inequality, so the first time `to` is taken from the
+  // queue its route is the shortest, and nodes far off the way are never
+  // expanded (each expansion tests segments against every obstacle).
   const int n = static_cast<int>(nodes.size());
   std::vector<double> dist(n, std::numeric_limits<double>::infinity());
+  std::vector<double> to_go(n);
+  for (int v = 0; v < n; ++v) to_go[v] = (nodes[v] - nodes[1]).norm();
   std::vector<int> parent(n, -1);
+  std::vector<bool> done(n, false);
   using Item = std::pair<double, int>;
   std::priority_queue<Item, std::vector<Item>, std::greater<>> queue;
   dist[0] = 0.0;
-  queue.push({0.0, 0});
+  queue.push({to_go[0], 0});
   while (!queue.empty()) {
-    const auto [d, u] = queue.top();
+    const int u = queue.top().second;
     queue.pop();
-    if (d > dist[u]) continue;
+    if (done[u]) continue;
+    done[u] = true;
     if (u == 1) break;
     for (int v = 1; v < n; ++v) {
+      if (done[v]) continue;
       const double w = (nodes[v] - nodes[u]).norm();
       if (dist[u] + w >= dist[v]) continue;
       if (!environment.IsSegmentClear(nodes[u], nodes[v], clearance_m)) continue;
       dist[v] = dist[u] + w;
       parent[v] = u;
-      queue.push({dist[v], v});
+      queue.push({dist[v] + to_go[v], v});
     }
   }
   if (parent[1] < 0) {

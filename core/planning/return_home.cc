@@ -173,32 +173,50 @@ std::optional<PlannedPath> ReturnHomePlanner::CutForHome(const PlanningContext& 
                                                          const PlannedPath& path) const {
   const PolynomialTrajectory& whole = path.trajectory;
   const double allowed = mission.remaining_budget_s - home_.LandingSeconds() - home_.reserve_s;
-  for (int k = kCutSteps - 1; k >= 1; --k) {
+  // The way home from k / kCutSteps of the plan, if it fits.
+  const auto fits = [&](int k) -> std::optional<WayHome> {
     const double t = whole.Duration() * k / kCutSteps;
-    if (t >= allowed) continue;
+    if (t >= allowed) return std::nullopt;
     const UavState at{.position_W = whole.Position(t),
                       .velocity_W_m_s = whole.Velocity(t),
                       .accel_W_m_s2 = whole.Acceleration(t),
                       .mission_time_s = state.mission_time_s + t};
     absl::StatusOr<WayHome> back =
         PlanWayHome(*mission.environment, at, home_.home_W, common_.limits);
-    if (!back.ok() || t + back->trajectory.Duration() > allowed) continue;
-    absl::StatusOr<PolynomialTrajectory> prefix = PrefixOf(whole, t);
-    if (!prefix.ok()) continue;
-    absl::StatusOr<PathScorer> scorer = PathScorer::Create(mission, state, common_);
-    if (!scorer.ok()) return std::nullopt;
-    ScoredPath scored = scorer->ScoreTrajectory(*std::move(prefix));
-    if (!scored.ok() || !scorer->CheckExact(*scored.trajectory).ok()) continue;
-    std::vector<Vec3> waypoints(scored.trajectory->Waypoints().begin() + 1,
-                                scored.trajectory->Waypoints().end());
-    PlannerStats stats = path.stats;
-    stats.stop_reason = "cut_for_home";
-    PlannedPath cut = scorer->Finish(std::move(scored), waypoints, std::move(stats));
-    cut.remaining_after_return_s = allowed + home_.reserve_s - t - back->trajectory.Duration();
-    cut.way_home = std::move(back->trajectory);
-    return cut;
+    if (!back.ok() || t + back->trajectory.Duration() > allowed) return std::nullopt;
+    return *std::move(back);
+  };
+  // Bisection over k in [1, kCutSteps - 1] for the latest that fits (a way
+  // home is the costly part: three are tried, not seven). Fitting is nearly
+  // monotone in k (later cuts leave less time); where it is not, a cut that
+  // fits is still found, if not always the latest.
+  int lo = 0, hi = kCutSteps;  // lo fits (0: none yet), hi does not
+  std::optional<WayHome> best;
+  while (hi - lo > 1) {
+    const int k = (lo + hi) / 2;
+    if (std::optional<WayHome> back = fits(k)) {
+      lo = k;
+      best = std::move(back);
+    } else {
+      hi = k;
+    }
   }
-  return std::nullopt;
+  if (lo == 0) return std::nullopt;
+  const double t = whole.Duration() * lo / kCutSteps;
+  absl::StatusOr<PolynomialTrajectory> prefix = PrefixOf(whole, t);
+  if (!prefix.ok()) return std::nullopt;
+  absl::StatusOr<PathScorer> scorer = PathScorer::Create(mission, state, common_);
+  if (!scorer.ok()) return std::nullopt;
+  ScoredPath scored = scorer->ScoreTrajectory(*std::move(prefix));
+  if (!scored.ok() || !scorer->CheckExact(*scored.trajectory).ok()) return std::nullopt;
+  std::vector<Vec3> waypoints(scored.trajectory->Waypoints().begin() + 1,
+                              scored.trajectory->Waypoints().end());
+  PlannerStats stats = path.stats;
+  stats.stop_reason = "cut_for_home";
+  PlannedPath cut = scorer->Finish(std::move(scored), waypoints, std::move(stats));
+  cut.remaining_after_return_s = allowed + home_.reserve_s - t - best->trajectory.Duration();
+  cut.way_home = std::move(best->trajectory);
+  return cut;
 }
 
 }  // namespace oaipp

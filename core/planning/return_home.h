@@ -74,11 +74,12 @@ struct WayHome {
 //   duration + way home from its end + landing <= remaining budget - reserve_s;
 // then PlannedPath::way_home is that way home and remaining_after_return_s
 // what is left after it and the landing. Otherwise the longest prefix of it
-// (in eighths of its duration) that meets the same rule, with the way home
-// from where the prefix ends (braking first: the UAV moves there), is
-// returned instead (stop_reason "cut_for_home"), so that the search goes on
-// as long as the budget allows. Failing that, the returned path is the
-// way home from `state` (returning_home true, stop_reason "way_home"),
+// that a bisection over eighths of its duration finds to meet the same rule,
+// with the way home from where the prefix ends (braking first: the UAV moves
+// there), is returned instead (stop_reason "cut_for_home"), so that the
+// search goes on as long as the budget allows. Failing that, the returned
+// path is the way home from `state` (returning_home true, stop_reason
+// "way_home"),
 // whose remaining_after_return_s may be below the reserve, or negative,
 // when even going home at once does not fit: the UAV should still go.
 // The inner planner's errors pass through unchanged; FailedPrecondition
@@ -98,11 +99,12 @@ class ReturnHomePlanner final : public Planner {
   }
 
  private:
-  // Prefixes tried: k / kCutSteps of the inner plan, longest first.
+  // Prefixes tried: k / kCutSteps of the inner plan.
   static constexpr int kCutSteps = 8;
-  // The inner plan `path` from `state` cut at the latest k / kCutSteps of
-  // its duration where the way home from there (braking first) fits, scored
-  // again (stop_reason "cut_for_home"); nullopt when no cut fits.
+  // The inner plan `path` from `state` cut at a k / kCutSteps of its
+  // duration where the way home from there (braking first) fits, the latest
+  // a bisection over k finds, scored again (stop_reason "cut_for_home");
+  // nullopt when none is found.
   [[nodiscard]] std::optional<PlannedPath> CutForHome(const PlanningContext& mission,
                                                       const UavState& state,
                                                       const PlannedPath& path) const;

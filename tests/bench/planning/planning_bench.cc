@@ -34,6 +34,10 @@
 //   0.75 m cells; `answer_ms` is the median time to its anytime answer over
 //   5 calls, `eval_ms` the median of one full evaluation of a one-waypoint
 //   path, `answered` the calls that returned a path.
+// - BM_WayHome/buildings: PlanWayHome (core/planning/return_home.h) across
+//   a 200 x 200 m field of that many random buildings (5-15 m wide, 10-60 m
+//   tall under a 40 m ceiling), from 8 seeded rest points to a home in a
+//   corner; `median_ms` and `max_ms` per way home, `found` of 8.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -42,6 +46,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/strings/str_cat.h"
 #include "core/mapping/dense_backend.h"
 #include "core/planning/planners.h"
 #include "tests/core/planning/scenes.h"
@@ -410,6 +415,55 @@ void BM_ReplanScaling(benchmark::State& state) {
   if (!worlds->contains(side)) worlds->emplace(side, MakeWorld(side));
   Replan(state, worlds->at(side), static_cast<int>(state.range(0)));
 }
+void BM_WayHome(benchmark::State& state) {
+  const int buildings = static_cast<int>(state.range(0));
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> xy(-90.0, 90.0), size(5.0, 15.0), height(10.0, 60.0);
+  std::vector<Obstacle> obstacles;
+  const Vec3 home(-95, -95, 10);
+  for (int i = 0; static_cast<int>(obstacles.size()) < buildings && i < 100 * buildings; ++i) {
+    const double h = height(rng);
+    Box box{.centre_W = {xy(rng), xy(rng), 0.5 * h}, .size_m = {size(rng), size(rng), h}};
+    if ((box.centre_W.head<2>() - home.head<2>()).norm() < 20.0) continue;
+    obstacles.push_back({absl::StrCat("b", i), box});
+  }
+  absl::StatusOr<Environment> env =
+      Environment::Create({{-100, -100, 2}, {100, 100, 40}}, {.voxel_size_m = 1.0});
+  if (!env.ok() || !env->Apply({.add = obstacles}).ok()) {
+    state.SkipWithError("world");
+    return;
+  }
+  PlannerLimits limits;
+  limits.obstacle_rule = PlannerLimits::ObstacleRule::kBody;
+  std::vector<UavState> starts;
+  std::uniform_real_distribution<double> far(20.0, 95.0);
+  while (starts.size() < 8) {
+    const Vec3 p(far(rng), far(rng), 10 + 10 * (starts.size() % 3));
+    if (env->SignedDistance(p) > 3.0) starts.push_back({.position_W = p});
+  }
+  std::vector<double> seconds;
+  int found = 0;
+  for (auto _ : state) {
+    for (const UavState& start : starts) {
+      const auto t0 = std::chrono::steady_clock::now();
+      absl::StatusOr<WayHome> back = PlanWayHome(*env, start, home, limits);
+      seconds.push_back(
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      found += back.ok() ? 1 : 0;
+    }
+  }
+  state.counters["median_ms"] = 1e3 * Median(seconds);
+  state.counters["max_ms"] = 1e3 * *std::max_element(seconds.begin(), seconds.end());
+  state.counters["found"] = found / static_cast<double>(state.iterations());
+}
+BENCHMARK(BM_WayHome)
+    ->ArgName("buildings")
+    ->Arg(10)
+    ->Arg(100)
+    ->Arg(300)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+
 BENCHMARK(BM_ReplanScaling)
     ->ArgNames({"waypoints", "field_m"})
     ->Args({3, 30})
