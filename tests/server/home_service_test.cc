@@ -227,9 +227,44 @@ TEST(HomeServiceTest, TheHomeComesBackWithItsDefaultsAndFromWgs84) {
   EXPECT_EQ(back.landing_speed_m_s(), 1.0);
 }
 
-class HomeRefusalTest : public testing::TeamStoreTest {};
+class HomeStoreTest : public testing::TeamStoreTest {};
 
-TEST_F(HomeRefusalTest, BadHomesAreRefusedNamingTheField) {
+// The home survives a restart (from the log): the spec comes back with it,
+// and a plan retried after the restart gets its first answer, way home
+// included, bit for bit.
+TEST_F(HomeStoreTest, TheHomeAndThePlansWaysHomeSurviveARestart) {
+  const RegistryLimits limits = FreshStore(0);
+  std::unique_ptr<MissionStore> store = Open();
+  v1::MissionSpec spec = testing::TeamSpec({});
+  spec.set_preset("");
+  spec.clear_min_separation_m();
+  *spec.mutable_start() = At({-10, -10, 10}, 0);
+  spec.set_budget_s(40);
+  *spec.mutable_home()->mutable_position_m() = At({10, 10, 6}, 0).position_m();
+  spec.mutable_home()->set_reserve_s(5);
+  spec.mutable_planner()->set_kind(v1::PLANNER_KIND_RANDOM);
+  v1::PlanPathResponse first, again;
+  {
+    InProcessService before(limits, 2, 64, store.get());
+    ASSERT_TRUE(CreateWithSpec(before.stub(), "h", spec).ok());
+    ASSERT_TRUE(PlanFor(before.stub(), "h", "", At({-10, -10, 10}, 0), "p1", &first).ok());
+    ASSERT_TRUE(first.has_way_home());
+  }
+  InProcessService after(limits, 2, 64, store.get());
+  ASSERT_TRUE(after.recovered().ok());
+  EXPECT_EQ(*after.recovered(), 1);
+  grpc::ClientContext context;
+  v1::GetMissionRequest get;
+  get.set_name("missions/h");
+  v1::Mission mission;
+  ASSERT_TRUE(after.stub().GetMission(&context, get, &mission).ok());
+  EXPECT_EQ(mission.spec().home().position_m().x(), 10.0);
+  EXPECT_EQ(mission.spec().home().reserve_s(), 5.0);
+  ASSERT_TRUE(PlanFor(after.stub(), "h", "", At({-10, -10, 10}, 0), "p1", &again).ok());
+  EXPECT_EQ(again.SerializeAsString(), first.SerializeAsString());
+}
+
+TEST_F(HomeStoreTest, BadHomesAreRefusedNamingTheField) {
   v1::MissionSpec base = testing::TeamSpec({});
   base.clear_obstacles();
   base.set_preset("");
