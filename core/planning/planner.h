@@ -17,6 +17,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <span>
 #include <string>
@@ -258,6 +259,24 @@ class Planner {
     if (state.empty()) return absl::OkStatus();
     return absl::InvalidArgumentError(absl::StrCat("planner state: ", name(), " keeps no state"));
   }
+};
+
+// A planner around another (StopFirstPlanner, ReturnHomePlanner): its name
+// and what it carries from plan to plan are the inner planner's.
+class WrappingPlanner : public Planner {
+ public:
+  explicit WrappingPlanner(std::unique_ptr<Planner> inner) : inner_(std::move(inner)) {}
+  [[nodiscard]] absl::string_view name() const override { return inner_->name(); }
+  [[nodiscard]] std::string SaveState() const override { return inner_->SaveState(); }
+  [[nodiscard]] absl::Status RestoreState(absl::string_view state) override {
+    return inner_->RestoreState(state);
+  }
+
+ protected:
+  [[nodiscard]] Planner& inner() { return *inner_; }
+
+ private:
+  std::unique_ptr<Planner> inner_;
 };
 
 }  // namespace oaipp

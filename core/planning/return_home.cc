@@ -130,7 +130,7 @@ absl::StatusOr<PlannedPath> ReturnHomePlanner::Plan(const PlanningContext& missi
   // What must stay unspent after the way home: the landing and the reserve.
   const double kept = home_.LandingSeconds() + home_.reserve_s;
   if (mission.remaining_budget_s > kept) {
-    absl::StatusOr<PlannedPath> path = inner_->Plan(mission, state, deadline);
+    absl::StatusOr<PlannedPath> path = inner().Plan(mission, state, deadline);
     if (!path.ok()) return path.status();
     absl::StatusOr<WayHome> back =
         PlanWayHome(env, EndOf(path->trajectory, state.mission_time_s), home_.home_W, limits);

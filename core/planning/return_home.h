@@ -84,19 +84,14 @@ struct WayHome {
 // when even going home at once does not fit: the UAV should still go.
 // The inner planner's errors pass through unchanged; FailedPrecondition
 // naming "home" when there is no way home at all.
-class ReturnHomePlanner final : public Planner {
+class ReturnHomePlanner final : public WrappingPlanner {
  public:
   ReturnHomePlanner(std::unique_ptr<Planner> inner, PlannerCommon common, HomeConfig home)
-      : inner_(std::move(inner)), common_(std::move(common)), home_(home) {}
+      : WrappingPlanner(std::move(inner)), common_(std::move(common)), home_(home) {}
 
-  [[nodiscard]] absl::string_view name() const override { return inner_->name(); }
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
                                                  const UavState& state,
                                                  absl::Time deadline) override;
-  [[nodiscard]] std::string SaveState() const override { return inner_->SaveState(); }
-  [[nodiscard]] absl::Status RestoreState(absl::string_view state) override {
-    return inner_->RestoreState(state);
-  }
 
  private:
   // Prefixes tried: k / kCutSteps of the inner plan.
@@ -109,7 +104,6 @@ class ReturnHomePlanner final : public Planner {
                                                       const UavState& state,
                                                       const PlannedPath& path) const;
 
-  std::unique_ptr<Planner> inner_;
   PlannerCommon common_;
   HomeConfig home_;
 };

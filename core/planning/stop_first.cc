@@ -221,13 +221,13 @@ absl::StatusOr<PolynomialTrajectory> Concatenate(const PolynomialTrajectory& fir
 
 absl::StatusOr<PlannedPath> StopFirstPlanner::Plan(const PlanningContext& mission,
                                                    const UavState& state, absl::Time deadline) {
-  if (!Moving(state)) return inner_->Plan(mission, state, deadline);
+  if (!Moving(state)) return inner().Plan(mission, state, deadline);
   const absl::Time started = absl::Now();
   // The direct attempt gets half the time, so that stopping first has some.
   const absl::Time direct_deadline = deadline == absl::InfiniteFuture() || deadline <= started
                                          ? deadline
                                          : started + (deadline - started) / 2;
-  absl::StatusOr<PlannedPath> direct = inner_->Plan(mission, state, direct_deadline);
+  absl::StatusOr<PlannedPath> direct = inner().Plan(mission, state, direct_deadline);
   if (direct.ok() ||
       !(absl::IsFailedPrecondition(direct.status()) || absl::IsDeadlineExceeded(direct.status()))) {
     return direct;
@@ -256,7 +256,7 @@ absl::StatusOr<PlannedPath> StopFirstPlanner::Plan(const PlanningContext& missio
   PlanningContext after_stop = mission;
   after_stop.next_shot_mission_s = shots.next_shot_mission_s;
   after_stop.remaining_budget_s = mission.remaining_budget_s - t_brake;
-  absl::StatusOr<PlannedPath> planned = inner_->Plan(after_stop, rest, deadline);
+  absl::StatusOr<PlannedPath> planned = inner().Plan(after_stop, rest, deadline);
   if (!planned.ok()) {
     return absl::Status(planned.status().code(),
                         absl::StrCat("no safe path from the UAV's state (",

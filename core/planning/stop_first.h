@@ -61,12 +61,11 @@ struct StraightStop {
 [[nodiscard]] absl::StatusOr<PolynomialTrajectory> Concatenate(const PolynomialTrajectory& first,
                                                                const PolynomialTrajectory& second);
 
-class StopFirstPlanner final : public Planner {
+class StopFirstPlanner final : public WrappingPlanner {
  public:
   StopFirstPlanner(std::unique_ptr<Planner> inner, const PlannerLimits& limits)
-      : inner_(std::move(inner)), limits_(limits) {}
+      : WrappingPlanner(std::move(inner)), limits_(limits) {}
 
-  [[nodiscard]] absl::string_view name() const override { return inner_->name(); }
   // As the inner planner. From a moving start, a FailedPrecondition or
   // DeadlineExceeded of the direct attempt (which gets half the time left
   // when the deadline is finite) leads to the stop-first attempt; its
@@ -75,13 +74,8 @@ class StopFirstPlanner final : public Planner {
   [[nodiscard]] absl::StatusOr<PlannedPath> Plan(const PlanningContext& mission,
                                                  const UavState& state,
                                                  absl::Time deadline) override;
-  [[nodiscard]] std::string SaveState() const override { return inner_->SaveState(); }
-  [[nodiscard]] absl::Status RestoreState(absl::string_view state) override {
-    return inner_->RestoreState(state);
-  }
 
  private:
-  std::unique_ptr<Planner> inner_;
   PlannerLimits limits_;
 };
 

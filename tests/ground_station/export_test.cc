@@ -136,6 +136,18 @@ class GroundStationTest : public ::testing::Test {
     return service_.stub().ExportPath(&context, request, out);
   }
 
+  // The .plan of `path` with the default options, parsed (an empty object,
+  // and the test failed, if the export was refused).
+  json ExportedPlan(const v1::PlanPathResponse& path) {
+    v1::ExportPathRequest request;
+    request.set_name("missions/zurich");
+    *request.mutable_path() = path;
+    v1::ExportPathResponse out;
+    const grpc::Status status = Export(request, &out);
+    EXPECT_TRUE(status.ok()) << status.error_message();
+    return status.ok() ? json::parse(out.qgc_plan_json()) : json::object();
+  }
+
   InProcessService service_;
   v1::Mission mission_;
 };
@@ -340,13 +352,7 @@ TEST_F(GroundStationTest, TheMissionsFenceIsFencedInAndItsZonesOut) {
   });
   const v1::PlanPathResponse path = Plan();
   ASSERT_GT(path.trajectory().segments_size(), 0);
-  v1::ExportPathRequest request;
-  request.set_name("missions/zurich");
-  *request.mutable_path() = path;
-  v1::ExportPathResponse out;
-  const grpc::Status status = Export(request, &out);
-  ASSERT_TRUE(status.ok()) << status.error_message();
-  const json plan = json::parse(out.qgc_plan_json());
+  const json plan = ExportedPlan(path);
   const api::GeoFrame frame = *api::GeoFrame::FromOrigin(kOrigin);
   const json& fence = plan.at("geoFence");
   int inclusion_polygons = 0, exclusion_polygons = 0;
@@ -396,13 +402,7 @@ TEST_F(GroundStationTest, TheRallyPointIsTheMissionsHome) {
       frame.ToLocal({home_geo.latitude_deg(), home_geo.longitude_deg(), home_geo.altitude_m()});
   const double last = path.way_home().duration_s();
   EXPECT_LT((Eval(path.way_home(), last, 0) - home_local).norm(), 1e-6);
-  v1::ExportPathRequest request;
-  request.set_name("missions/zurich");
-  *request.mutable_path() = path;
-  v1::ExportPathResponse out;
-  const grpc::Status status = Export(request, &out);
-  ASSERT_TRUE(status.ok()) << status.error_message();
-  const json plan = json::parse(out.qgc_plan_json());
+  const json plan = ExportedPlan(path);
   const json& planned_home = plan.at("mission").at("plannedHomePosition");
   const json& points = plan.at("rallyPoints").at("points");
   ASSERT_EQ(points.size(), 1u);

@@ -1,7 +1,7 @@
 // This folder's own geometry for airspace checks (tests/server/
 // airspace_service_test.cc, home_service_test.cc): distances to a fence
 // ring, a zone and a box computed here, independent of the server's code,
-// seeded random fences and zones, and a trajectory's derivatives.
+// and seeded random fences and zones.
 #pragma once
 
 #include <algorithm>
@@ -134,29 +134,6 @@ inline double ToBox(const v1::Obstacle& obstacle, const Point& p) {
                        std::abs(p.z - b.centre_m().z()) - 0.5 * b.size_m().z()};
   const double outside = std::hypot(std::max(d[0], 0.0), std::max(d[1], 0.0), std::max(d[2], 0.0));
   return outside > 0.0 ? outside : std::max({d[0], d[1], d[2]});
-}
-
-// The order-th derivative (0: position) of a trajectory at t seconds from
-// its start (clamped to it), by this file's own Horner sums.
-inline Point DerivativeAt(const v1::Trajectory& traj, double t, int order) {
-  double tau = std::clamp(t, 0.0, traj.duration_s());
-  int k = 0;
-  while (k + 1 < traj.segments_size() && tau > traj.segments(k).duration_s()) {
-    tau -= traj.segments(k).duration_s();
-    ++k;
-  }
-  const v1::PolynomialSegment& seg = traj.segments(k);
-  tau = std::min(tau, seg.duration_s());
-  const auto poly = [&](const google::protobuf::RepeatedField<double>& c) {
-    double v = 0.0;
-    for (int i = c.size() - 1; i >= order; --i) {
-      double factor = 1.0;
-      for (int j = 0; j < order; ++j) factor *= i - j;
-      v = v * tau + factor * c.Get(i);
-    }
-    return v;
-  };
-  return {poly(seg.x_coefficients()), poly(seg.y_coefficients()), poly(seg.z_coefficients())};
 }
 
 }  // namespace oaipp::server::testing

@@ -91,10 +91,10 @@ struct Flight {
   Point hold{};
 };
 
-inline Point PositionAt(const Flight& f, double t) {
-  const v1::Trajectory& traj = f.path.trajectory();
-  if (traj.segments_size() == 0) return f.hold;
-  double tau = std::clamp(t - f.path.start_mission_s(), 0.0, traj.duration_s());
+// The order-th derivative (0: position) of a trajectory at t seconds from
+// its start (clamped to it), by this file's own Horner sums.
+inline Point DerivativeAt(const v1::Trajectory& traj, double t, int order) {
+  double tau = std::clamp(t, 0.0, traj.duration_s());
   int k = 0;
   while (k + 1 < traj.segments_size() && tau > traj.segments(k).duration_s()) {
     tau -= traj.segments(k).duration_s();
@@ -102,12 +102,22 @@ inline Point PositionAt(const Flight& f, double t) {
   }
   const v1::PolynomialSegment& seg = traj.segments(k);
   tau = std::min(tau, seg.duration_s());
-  auto poly = [tau](const google::protobuf::RepeatedField<double>& c) {
+  const auto poly = [&](const google::protobuf::RepeatedField<double>& c) {
     double v = 0.0;
-    for (int i = c.size() - 1; i >= 0; --i) v = v * tau + c.Get(i);
+    for (int i = c.size() - 1; i >= order; --i) {
+      double factor = 1.0;
+      for (int j = 0; j < order; ++j) factor *= i - j;
+      v = v * tau + factor * c.Get(i);
+    }
     return v;
   };
   return {poly(seg.x_coefficients()), poly(seg.y_coefficients()), poly(seg.z_coefficients())};
+}
+
+inline Point PositionAt(const Flight& f, double t) {
+  const v1::Trajectory& traj = f.path.trajectory();
+  if (traj.segments_size() == 0) return f.hold;
+  return DerivativeAt(traj, t - f.path.start_mission_s(), 0);
 }
 
 inline double EndOf(const Flight& f) {
