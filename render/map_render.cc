@@ -323,7 +323,7 @@ void DrawHome(cv::Mat& image, cv::Point centre_fixed, int radius_px) {
   cv::rectangle(image, centre_fixed - half, centre_fixed + half, kBlack, 1, cv::LINE_AA,
                 kSubpixelBits);
   const int h = r / 2;
-  const int w = std::max(2, radius_px / 2);
+  const int w = std::max(2, radius_px / 4);
   for (const int side : {-h, h}) {
     cv::line(image, centre_fixed + cv::Point(side, -h), centre_fixed + cv::Point(side, h), kBlack,
              w, cv::LINE_AA, kSubpixelBits);
@@ -388,7 +388,7 @@ void DrawOverlay(cv::Mat& canvas, const PixelRect& plot, const MapGrid& grid, in
     DrawDetection(area, PlotPoint(grid, k, plot.height, p), dot_px - 1);
   }
   if (overlay.home.has_value()) {
-    DrawHome(area, PlotPoint(grid, k, plot.height, *overlay.home), dot_px + 1);
+    DrawHome(area, PlotPoint(grid, k, plot.height, *overlay.home), dot_px + 3);
   }
 }
 
