@@ -139,7 +139,7 @@ std::int64_t Mission::MemoryBytes() const {
   if (env == nullptr) return map_bytes;
   const Esdf& esdf = env->esdf();
   std::int64_t users = esdf.SharedBy();
-  if (worlds_ != nullptr && worlds_->HoldsGrid(esdf.values().data())) --users;
+  if (worlds_ != nullptr && worlds_->HoldsGrid(esdf.grid_id())) --users;
   return map_bytes +
          static_cast<std::int64_t>(esdf.MemoryBytes()) / std::max<std::int64_t>(1, users);
 }

@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "core/environment/esdf.h"
+#include "core/environment/obstacle.h"
 
 namespace oaipp::server {
 
@@ -22,8 +24,13 @@ MemoryEstimate EstimateMissionBytes(const api::MissionConfig& config) {
     const double copies = config.team.size() >= 2 ? 3.0 : 2.0;
     e.map_bytes = static_cast<std::int64_t>(copies * 8.0 * cells * (cells + 1.0));
   }
-  // The ESDF: 4 bytes a voxel.
-  const double voxels = static_cast<double>(Esdf::VoxelCount(config.FlightVolume(), config.esdf));
+  // The ESDF: 4 bytes a voxel held (its block table, and the blocks within
+  // reach of an obstacle's surface).
+  std::vector<const Shape*> shapes;
+  shapes.reserve(config.obstacles.size());
+  for (const Obstacle& o : config.obstacles) shapes.push_back(&o.shape);
+  const double voxels =
+      static_cast<double>(Esdf::HeldVoxelBound(config.FlightVolume(), config.esdf, shapes));
   e.esdf_bytes = static_cast<std::int64_t>(std::min(2.0 * 4.0 * voxels, 1e18));
   // Each CMA-ES sample: its waypoints, the trajectory and its scored poses
   // (a population of 2,000,000 was seen holding 787 MB, about 400 bytes a

@@ -73,6 +73,20 @@ absl::Status Environment::Apply(const ObstacleChange& change) {
     }
   }
 
+  // The ESDF's memory follows the obstacles' surroundings: bounded before
+  // anything changes.
+  std::vector<const Shape*> next;
+  for (const auto& [id, obstacle] : obstacles_) {
+    if (!seen.contains(id)) next.push_back(&obstacle.shape);
+  }
+  for (const Obstacle& o : change.replace) next.push_back(&o.shape);
+  for (const Obstacle& o : change.add) next.push_back(&o.shape);
+  if (const std::int64_t held = esdf_.HeldVoxelBound(next); held > esdf_.max_voxels()) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("obstacles: the distance field around them could need ", held,
+                     " voxels, over the limit of ", esdf_.max_voxels(), "; use a larger voxel"));
+  }
+
   Aabb changed;
   bool empty = true;
   for (const std::string& id : change.remove) {

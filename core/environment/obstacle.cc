@@ -17,11 +17,18 @@ double BoxDistanceFromExcess(const V& q) {
   return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
 }
 
-Vec3 ToBoxFrame(const Box& box, const Vec3& p_W) {
-  const double c = std::cos(box.yaw_rad);
-  const double s = std::sin(box.yaw_rad);
+Vec3 ToBoxFrame(const Box& box, double c, double s, const Vec3& p_W) {
   const Vec3 d = p_W - box.centre_W;
   return {c * d.x() + s * d.y(), -s * d.x() + c * d.y(), d.z()};
+}
+
+Vec3 ToBoxFrame(const Box& box, const Vec3& p_W) {
+  return ToBoxFrame(box, std::cos(box.yaw_rad), std::sin(box.yaw_rad), p_W);
+}
+
+double BoxSignedDistance(const Box& box, double c, double s, const Vec3& p_W) {
+  const Vec3 q = ToBoxFrame(box, c, s, p_W).cwiseAbs() - 0.5 * box.size_m;
+  return BoxDistanceFromExcess(q);
 }
 
 // Intersects the parameter interval [t0, t1] with {t : lo <= a + t d <= hi}.
@@ -70,14 +77,41 @@ absl::Status ValidateObstacle(const Obstacle& obstacle) {
 
 double SignedDistance(const Shape& shape, const Vec3& p_W) {
   if (const Box* box = std::get_if<Box>(&shape)) {
-    const Vec3 q = ToBoxFrame(*box, p_W).cwiseAbs() - 0.5 * box->size_m;
-    return BoxDistanceFromExcess(q);
+    return BoxSignedDistance(*box, std::cos(box->yaw_rad), std::sin(box->yaw_rad), p_W);
   }
   if (const Prism* prism = std::get_if<Prism>(&shape)) return prism->SignedDistance(p_W);
   const Cylinder& cyl = std::get<Cylinder>(shape);
   const double r = (p_W.head<2>() - cyl.centre_W.head<2>()).norm();
   const Vec2 q(r - cyl.radius_m, std::abs(p_W.z() - cyl.centre_W.z()) - 0.5 * cyl.height_m);
   return BoxDistanceFromExcess(q);
+}
+
+ShapeDistance::ShapeDistance(const Shape& shape) : shape_(&shape) {
+  if (const Box* box = std::get_if<Box>(&shape)) {
+    cos_yaw_ = std::cos(box->yaw_rad);
+    sin_yaw_ = std::sin(box->yaw_rad);
+  }
+}
+
+double ShapeDistance::operator()(const Vec3& p_W) const {
+  if (const Box* box = std::get_if<Box>(shape_)) {
+    return BoxSignedDistance(*box, cos_yaw_, sin_yaw_, p_W);
+  }
+  return SignedDistance(*shape_, p_W);
+}
+
+double ShapeDistance::Column(const Vec2& xy_W) const {
+  if (const Prism* prism = std::get_if<Prism>(shape_)) {
+    return PolygonSignedDistance(prism->footprint(), xy_W);
+  }
+  return 0.0;  // unused: boxes and cylinders are cheap whole
+}
+
+double ShapeDistance::AtHeight(double column, const Vec3& p_W) const {
+  if (const Prism* prism = std::get_if<Prism>(shape_)) {
+    return prism->SignedDistanceAbove(column, p_W.z());
+  }
+  return (*this)(p_W);
 }
 
 Aabb BoundingBox(const Shape& shape) {

@@ -53,6 +53,23 @@ struct Obstacle {
 // negative inside. Precondition: the shape is valid.
 [[nodiscard]] double SignedDistance(const Shape& shape, const Vec3& p_W);
 
+// SignedDistance for many points of one shape (building a distance field):
+// what depends only on the shape (a box's yaw) is worked out once. Values
+// equal SignedDistance's bit for bit. Holds a pointer to `shape`.
+class ShapeDistance {
+ public:
+  explicit ShapeDistance(const Shape& shape);
+  [[nodiscard]] double operator()(const Vec3& p_W) const;
+  // For many points on one vertical line: Column(x, y) once, then
+  // AtHeight(column, p_W) for each point, equal to operator()(p_W).
+  [[nodiscard]] double Column(const Vec2& xy_W) const;
+  [[nodiscard]] double AtHeight(double column, const Vec3& p_W) const;
+
+ private:
+  const Shape* shape_;
+  double cos_yaw_ = 1.0, sin_yaw_ = 0.0;
+};
+
 // Tight world-axis-aligned bounding box of the shape.
 [[nodiscard]] Aabb BoundingBox(const Shape& shape);
 

@@ -236,8 +236,11 @@ absl::StatusOr<Prism> Prism::Create(std::vector<Vec2> footprint_W, double base_m
 }
 
 double Prism::SignedDistance(const Vec3& p_W) const {
-  return Combine(PolygonSignedDistance(footprint_, p_W.head<2>()),
-                 std::max(base_m_ - p_W.z(), p_W.z() - top_m_));
+  return SignedDistanceAbove(PolygonSignedDistance(footprint_, p_W.head<2>()), p_W.z());
+}
+
+double Prism::SignedDistanceAbove(double footprint_distance, double z_m) const {
+  return Combine(footprint_distance, std::max(base_m_ - z_m, z_m - top_m_));
 }
 
 Aabb Prism::BoundingBox() const {

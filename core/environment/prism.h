@@ -51,6 +51,10 @@ class Prism {
   // for any product of a plane set and an interval, |(max(d, 0), max(h,
   // 0))| outside and max(d, h) inside.
   [[nodiscard]] double SignedDistance(const Vec3& p_W) const;
+  // As SignedDistance(p_W), given the footprint's 2-D signed distance at
+  // p_W's x, y (PolygonSignedDistance(footprint(), xy)): for many points on
+  // one vertical line.
+  [[nodiscard]] double SignedDistanceAbove(double footprint_distance, double z_m) const;
   [[nodiscard]] Aabb BoundingBox() const;
   // Whether a_W -> b_W runs inside over a parameter interval longer than
   // min_overlap (the union of the intervals inside each triangle's prism).

@@ -11,9 +11,9 @@ absl::StatusOr<Environment> WorldCache::Get(
   return (*world)->Clone();
 }
 
-bool WorldCache::HoldsGrid(const float* values) const {
+bool WorldCache::HoldsGrid(const void* grid_id) const {
   return worlds_.AnyHeld(
-      [&](const Environment& world) { return world.esdf().values().data() == values; });
+      [&](const Environment& world) { return world.esdf().grid_id() == grid_id; });
 }
 
 std::int64_t WorldCache::builds() const { return worlds_.computations(); }

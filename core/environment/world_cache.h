@@ -36,7 +36,7 @@ class WorldCache {
   [[nodiscard]] std::int64_t builds() const;
   // True when a world held here uses the ESDF values at `values` (so that
   // memory accounting does not count the cache as one more user).
-  [[nodiscard]] bool HoldsGrid(const float* values) const;
+  [[nodiscard]] bool HoldsGrid(const void* grid_id) const;
 
  private:
   SingleFlightCache<std::string, Environment> worlds_;

@@ -7,6 +7,7 @@
 
 #include "absl/strings/str_replace.h"
 #include "absl/time/clock.h"
+#include "api/geometry.h"
 #include "api/spec.h"
 #include "gtest/gtest.h"
 #include "tests/server/service_fixture.h"
@@ -353,19 +354,23 @@ TEST_F(TenantTest, PlansQueuedOrRunningArePerTenant) {
 
 // Memory admission: estimated from the spec, refused before allocating.
 TEST(HardeningTest, MemoryBeyondTheLimitsIsRefusedBeforeAllocating) {
-  // 1300 m of altitude makes the small mission's ESDF alone ~0.6 GB (0.2 m
-  // voxels, 4 bytes each, twice).
+  // A wall 14 m long and 1300 m tall makes the small mission's ESDF alone
+  // ~140 MB: the blocks around the wall's surface (0.2 m voxels, 4 bytes
+  // each, twice).
   const MemoryEstimate small = EstimateMissionBytes(*api::MissionSpecToConfig(SmallSpec()));
   // Room for three small missions and a half.
   const std::int64_t total = 3 * small.total() + small.total() / 2;
   InProcessService s({.max_missions = 8,
                       .max_cells_per_mission = 1600,
-                      .max_mission_memory_bytes = 200 << 20,
+                      .max_mission_memory_bytes = 100 << 20,
                       .max_memory_bytes = total});
   v1::CreateMissionRequest tall;
   tall.set_mission_id("tall");
   *tall.mutable_spec() = SmallSpec();
   tall.mutable_spec()->mutable_flight()->set_max_altitude_m(1300);
+  v1::Box* wall = tall.mutable_spec()->mutable_obstacles(0)->mutable_box();
+  *wall->mutable_centre_m() = api::ToProto(Vec3(0, -2, 650));
+  *wall->mutable_size_m() = api::ToProto(Vec3(14, 1, 1300));
   grpc::ClientContext context;
   v1::Mission mission;
   const grpc::Status status = s.stub().CreateMission(&context, tall, &mission);

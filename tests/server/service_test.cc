@@ -80,13 +80,13 @@ TEST(ServiceTest, CreateGetListDelete) {
 
 // Missions over the same obstacles share one ESDF: each counts half of it
 // while two hold it, and a mission whose obstacles change gets its own again
-// without changing the other's.
+// without changing the other's (alpha counts its grid whole again).
 TEST(ServiceTest, MissionsOverTheSameObstaclesShareOneEsdf) {
   InProcessService s;
   const std::int64_t map = 8 * 400 * 401;  // mean and covariance of 20 x 20 cells
   const std::int64_t alone = CreateSmall(s.stub(), "alpha").map_bytes();
   const std::int64_t esdf = alone - map;
-  ASSERT_GT(esdf, 1'000'000);
+  ASSERT_GT(esdf, 100'000);
   EXPECT_EQ(CreateSmall(s.stub(), "beta").map_bytes(), map + esdf / 2);
   const auto bytes = [&](const std::string& id) {
     grpc::ClientContext context;
@@ -112,7 +112,8 @@ TEST(ServiceTest, MissionsOverTheSameObstaclesShareOneEsdf) {
     ASSERT_TRUE(s.stub().UpdateObstacles(&context, update, &updated).ok());
   }
   EXPECT_EQ(bytes("alpha"), alone);
-  EXPECT_EQ(bytes("beta"), alone);
+  // Beta's grid is its own now, and holds the blocks around b2 as well.
+  EXPECT_GT(bytes("beta"), alone);
 }
 
 // Page tokens are opaque and stable: deleting missions between pages

@@ -10,11 +10,15 @@
 // it now is). It prints medians, 95th percentiles and the process's peak
 // memory, for docs/benchmarks.md.
 //
+// With --server it flies against a running oaipp-server instead, and with
+// --server_pid it reports that process's peak memory (VmHWM).
+//
 //   build/tests/bench/server/large_field_mission --shots=40
 #include <sys/resource.h>
 
 #include <chrono>
 #include <cstdio>
+#include <fstream>
 #include <iostream>
 #include <random>
 #include <string>
@@ -22,6 +26,7 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/strings/str_cat.h"
 #include "api/geometry.h"
 #include "api/measurement.h"
 #include "api/plan.h"
@@ -35,6 +40,8 @@
 
 ABSL_FLAG(int, shots, 40, "measurements to fuse (the plans needed for them are flown)");
 ABSL_FLAG(std::string, scenario, OAIPP_SCENARIO_DIR "/e6.json", "the scenario to fly");
+ABSL_FLAG(std::string, server, "", "a running server's address (empty: one in process)");
+ABSL_FLAG(int, server_pid, 0, "that server's process id, for its peak memory (0: not reported)");
 
 namespace oaipp {
 namespace {
@@ -51,16 +58,24 @@ int Run() {
     std::cerr << "scenario: " << simulation.status() << "\n";
     return 2;
   }
-  server::ServerOptions options;
-  options.listen = "";
-  options.metrics_listen = "";
-  absl::StatusOr<std::unique_ptr<server::Server>> server =
-      server::Server::Start(options, {.planning_threads = 1, .planning_queue = 4});
-  if (!server.ok()) {
-    std::cerr << "server: " << server.status() << "\n";
-    return 2;
+  std::unique_ptr<server::Server> in_process;
+  std::shared_ptr<grpc::Channel> channel;
+  if (absl::GetFlag(FLAGS_server).empty()) {
+    server::ServerOptions options;
+    options.listen = "";
+    options.metrics_listen = "";
+    absl::StatusOr<std::unique_ptr<server::Server>> server =
+        server::Server::Start(options, {.planning_threads = 1, .planning_queue = 4});
+    if (!server.ok()) {
+      std::cerr << "server: " << server.status() << "\n";
+      return 2;
+    }
+    in_process = *std::move(server);
+    channel = in_process->InProcessChannel();
+  } else {
+    channel = grpc::CreateChannel(absl::GetFlag(FLAGS_server), grpc::InsecureChannelCredentials());
   }
-  auto stub = v1::MissionService::NewStub((*server)->InProcessChannel());
+  auto stub = v1::MissionService::NewStub(channel);
   std::vector<double> create_ms, plan_ms, add_ms, variances_ms;
 
   Clock::time_point start = Clock::now();
@@ -169,7 +184,13 @@ int Run() {
   std::printf("mission memory (GetMission map_bytes): %.0f MB; process peak RSS: %.0f MB\n",
               static_cast<double>(after.map_bytes()) / 1e6,
               static_cast<double>(usage.ru_maxrss) / 1024.0);
-  (*server)->Shutdown(absl::Seconds(5));
+  if (const int pid = absl::GetFlag(FLAGS_server_pid); pid > 0) {
+    std::ifstream status(absl::StrCat("/proc/", pid, "/status"));
+    for (std::string line; std::getline(status, line);) {
+      if (line.rfind("VmHWM:", 0) == 0) std::printf("server process peak: %s\n", line.c_str() + 6);
+    }
+  }
+  if (in_process != nullptr) in_process->Shutdown(absl::Seconds(5));
   return 0;
 }
 

@@ -17,7 +17,7 @@ TEST(EnvironmentTest, ChangesAreAtomicAndErrorsNameTheCause) {
   auto env = Environment::Create(testing::E1Volume());
   ASSERT_TRUE(env.ok());
   ASSERT_TRUE(env->Apply({.add = {E1Building()}}).ok());
-  const std::vector<float> before(env->esdf().values().begin(), env->esdf().values().end());
+  const std::vector<float> before = env->esdf().DenseValues();
 
   const absl::Status dup = env->Apply({.add = {{"new", Cylinder{{5, 5, 2}, 1, 4}}, E1Building()}});
   EXPECT_EQ(dup.code(), absl::StatusCode::kAlreadyExists);
@@ -34,7 +34,7 @@ TEST(EnvironmentTest, ChangesAreAtomicAndErrorsNameTheCause) {
 
   // None of the failed changes touched anything.
   EXPECT_EQ(env->obstacles().size(), 1u);
-  EXPECT_TRUE(std::equal(before.begin(), before.end(), env->esdf().values().begin()));
+  EXPECT_EQ(env->esdf().DenseValues(), before);
 }
 
 TEST(EnvironmentTest, CollisionFollowsHalfUavRadius) {

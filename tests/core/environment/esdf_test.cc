@@ -4,6 +4,7 @@
 #include <random>
 
 #include "core/environment/environment.h"
+#include "core/environment/prism.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "tests/core/environment/test_worlds.h"
@@ -131,7 +132,8 @@ TEST(EsdfTest, IncrementalUpdatesEqualAFullRebuild) {
   ASSERT_TRUE(env.ok());
   const std::vector<Obstacle> obstacles = testing::RandomObstacles(42, 12);
   // Add one by one, then replace two, then remove three.
-  std::int64_t smallest_update = env->esdf().values().size();
+  const std::int64_t all_voxels = Esdf::VoxelCount(testing::E1Volume(), {.voxel_size_m = 0.25});
+  std::int64_t smallest_update = all_voxels;
   for (const Obstacle& o : obstacles) {
     ASSERT_TRUE(env->Apply({.add = {o}}).ok());
     smallest_update = std::min(smallest_update, env->esdf().last_recomputed_voxels());
@@ -148,21 +150,23 @@ TEST(EsdfTest, IncrementalUpdatesEqualAFullRebuild) {
   auto fresh = Esdf::Create(testing::E1Volume(), {.voxel_size_m = 0.25});
   ASSERT_TRUE(fresh.ok());
   fresh->Rebuild(shapes);
-  ASSERT_EQ(fresh->values().size(), env->esdf().values().size());
+  const std::vector<float> want = fresh->DenseValues();
+  const std::vector<float> got = env->esdf().DenseValues();
+  ASSERT_EQ(want.size(), got.size());
   std::int64_t differing = 0;
-  for (std::size_t i = 0; i < fresh->values().size(); ++i) {
-    differing += fresh->values()[i] != env->esdf().values()[i];
-  }
+  for (std::size_t i = 0; i < want.size(); ++i) differing += want[i] != got[i];
   EXPECT_EQ(differing, 0);
+  EXPECT_TRUE(fresh->SameValues(env->esdf()));
   // A small obstacle's update touched only part of the grid.
-  EXPECT_LT(smallest_update, static_cast<std::int64_t>(fresh->values().size()) / 2);
+  EXPECT_LT(smallest_update, all_voxels / 2);
 }
 
 TEST(EsdfTest, EmptyWorldIsTruncationEverywhere) {
   auto esdf = Esdf::Create(testing::E1Volume(), {.voxel_size_m = 0.5, .truncation_m = 2.0});
   ASSERT_TRUE(esdf.ok());
   esdf->Rebuild({});
-  for (float v : esdf->values()) ASSERT_EQ(v, 2.0f);
+  for (float v : esdf->DenseValues()) ASSERT_EQ(v, 2.0f);
+  EXPECT_EQ(esdf->allocated_blocks(), 0);
   EXPECT_DOUBLE_EQ(esdf->Distance({0, 0, 10}), 2.0);
 }
 
@@ -207,10 +211,92 @@ TEST(EsdfTest, BadConfigurationsAreRefused) {
             absl::StatusCode::kResourceExhausted);
 }
 
-// Each grid's values, copied out: what a reader of the grid sees.
-std::vector<float> Values(const Environment& env) {
-  return {env.esdf().values().begin(), env.esdf().values().end()};
+// Memory follows the obstacles, not the volume: a square kilometre at the
+// default 0.2 m voxel (5.5e9 voxels spanned) holds only the blocks around its
+// buildings, and its values there follow the exact distance as a small
+// grid's do.
+TEST(EsdfTest, ASquareKilometreHoldsOnlyTheBlocksAroundItsBuildings) {
+  const Aabb volume{{-500, -500, 0}, {500, 500, 40}};
+  auto env = Environment::Create(volume);
+  ASSERT_TRUE(env.ok()) << env.status();
+  absl::StatusOr<Prism> hall = Prism::Create(
+      {{300, 300}, {316, 300}, {316, 306}, {306, 306}, {306, 318}, {300, 318}}, 0.0, 12.0);
+  ASSERT_TRUE(hall.ok());
+  const std::vector<Obstacle> buildings = {{"house", Box{{-200, 100, 4}, {10, 12, 8}, 0.4}},
+                                           {"hall", *hall},
+                                           {"mast", Cylinder{{0, -450, 15}, 1.0, 30}}};
+  ASSERT_TRUE(env->Apply({.add = buildings}).ok());
+  const Esdf& esdf = env->esdf();
+  EXPECT_GT(Esdf::VoxelCount(volume, {}), 5'000'000'000);
+  // Each building's surroundings: at most its bounding box grown by the
+  // truncation and a block on every side, in blocks of 8^3 voxels.
+  double bound_m3 = 0.0;
+  for (const Obstacle& o : buildings) {
+    const Vec3 size = BoundingBox(o.shape).Size() + Vec3::Constant(2 * (2.0 + 1.6 + 0.4));
+    bound_m3 += size.prod();
+  }
+  const double block_m3 = std::pow(8 * 0.2, 3);
+  EXPECT_GT(esdf.allocated_blocks(), 0);
+  EXPECT_LE(esdf.allocated_blocks(), bound_m3 / block_m3);
+  // The bound used for admission holds what was allocated.
+  std::vector<const Shape*> shapes;
+  for (const auto& [id, o] : env->obstacles()) shapes.push_back(&o.shape);
+  EXPECT_GE(esdf.HeldVoxelBound(shapes), esdf.allocated_blocks() * Esdf::kBlockVoxels);
+  // Values near each building, against the exact distance.
+  const double half_diag = 0.5 * std::sqrt(3.0) * esdf.voxel_size_m();
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> off(-4, 4);
+  double worst = 0.0;
+  for (const Obstacle& o : buildings) {
+    const Aabb box = BoundingBox(o.shape);
+    for (int n = 0; n < 3000; ++n) {
+      const Vec3 p =
+          0.5 * (box.min_W + box.max_W) +
+          Vec3(0.5 * box.Size().x() + off(rng), off(rng), 0.0).cwiseProduct(Vec3(1, 1, 0)) +
+          Vec3(0, 0, std::clamp(off(rng) + 4, 0.5, 39.0));
+      const Vec3 c = (p - esdf.origin_W()) / esdf.voxel_size_m();
+      const int i = static_cast<int>(c.x()), j = static_cast<int>(c.y()),
+                k = static_cast<int>(c.z());
+      const double exact = Clamped(SignedDistance(o.shape, esdf.VoxelCentre(i, j, k)), 2.0);
+      worst = std::max(worst, std::abs(esdf.Value(i, j, k) - exact));
+    }
+  }
+  EXPECT_LE(worst, half_diag + 1e-5);
+  // Far from every building: free space, no block held.
+  EXPECT_EQ(esdf.Distance({100, -100, 20}), 2.0);
 }
+
+// The grid is built by tiles on several threads; the values do not depend
+// on how many.
+TEST(EsdfTest, ValuesDoNotDependOnTheBuildThreads) {
+  std::vector<Obstacle> obstacles = testing::RandomObstacles(9, 12);
+  auto one = Environment::Create(testing::E1Volume(), {.build_threads = 1});
+  auto three = Environment::Create(testing::E1Volume(), {.build_threads = 3});
+  ASSERT_TRUE(one.ok() && three.ok());
+  ASSERT_TRUE(one->Apply({.add = obstacles}).ok());
+  ASSERT_TRUE(three->Apply({.add = obstacles}).ok());
+  EXPECT_TRUE(one->esdf().SameValues(three->esdf()));
+  EXPECT_EQ(one->esdf().DenseValues(), three->esdf().DenseValues());
+  EXPECT_EQ(Environment::Create(testing::E1Volume(), {.build_threads = 0}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+// An obstacle set whose surroundings would need more voxels than the limit
+// is refused, naming the obstacles, and nothing changes.
+TEST(EsdfTest, ObstaclesBeyondTheVoxelLimitAreRefused) {
+  auto env = Environment::Create(testing::E1Volume(), {.max_voxels = 400'000});
+  ASSERT_TRUE(env.ok()) << env.status();
+  ASSERT_TRUE(env->Apply({.add = {{"small", Box{{0, 0, 2}, {1, 1, 4}, 0}}}}).ok());
+  const std::vector<float> before = env->esdf().DenseValues();
+  const absl::Status big = env->Apply({.add = {{"wall", Box{{5, 0, 13}, {1, 28, 26}, 0}}}});
+  EXPECT_EQ(big.code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(big.message()), ::testing::StartsWith("obstacles:"));
+  EXPECT_EQ(env->obstacles().size(), 1u);
+  EXPECT_EQ(env->esdf().DenseValues(), before);
+}
+
+// Each grid's values, copied out: what a reader of the grid sees.
+std::vector<float> Values(const Environment& env) { return env.esdf().DenseValues(); }
 
 TEST(EsdfPoolTest, EqualWorldsShareOneGridAndChangesCopyIt) {
   EsdfPool pool;
@@ -222,14 +308,14 @@ TEST(EsdfPoolTest, EqualWorldsShareOneGridAndChangesCopyIt) {
   EXPECT_TRUE(b.ShareEsdf(pool));
   EXPECT_FALSE(other.ShareEsdf(pool));
   EXPECT_FALSE(a.ShareEsdf(pool));  // already the pooled grid
-  EXPECT_EQ(a.esdf().values().data(), b.esdf().values().data());
-  EXPECT_NE(a.esdf().values().data(), other.esdf().values().data());
+  EXPECT_EQ(a.esdf().grid_id(), b.esdf().grid_id());
+  EXPECT_NE(a.esdf().grid_id(), other.esdf().grid_id());
   EXPECT_EQ(a.esdf().SharedBy(), 2);
   EXPECT_EQ(pool.size(), 2);
 
   // A change to b copies its grid first: a still reads what it built.
   ASSERT_TRUE(b.Apply({.add = {{.id = "new", .shape = Box{{3, 3, 5}, {2, 2, 10}, 0.0}}}}).ok());
-  EXPECT_NE(a.esdf().values().data(), b.esdf().values().data());
+  EXPECT_NE(a.esdf().grid_id(), b.esdf().grid_id());
   EXPECT_EQ(Values(a), before);
   EXPECT_EQ(a.esdf().SharedBy(), 1);
   EXPECT_LT(b.esdf().Distance({3, 3, 5}), 0.0);
@@ -237,7 +323,7 @@ TEST(EsdfPoolTest, EqualWorldsShareOneGridAndChangesCopyIt) {
 
   // A clone shares until it changes, too.
   Environment c = a.Clone();
-  EXPECT_EQ(a.esdf().values().data(), c.esdf().values().data());
+  EXPECT_EQ(a.esdf().grid_id(), c.esdf().grid_id());
   ASSERT_TRUE(c.Apply({.remove = {a.obstacles().begin()->first}}).ok());
   EXPECT_EQ(Values(a), before);
 
@@ -253,7 +339,7 @@ TEST(EsdfPoolTest, GridsOfEqualValuesButAnotherPlaceAreNotShared) {
   auto a = Environment::Create({{0, 0, 2}, {10, 10, 12}}, {.voxel_size_m = 0.5});
   auto b = Environment::Create({{5, 0, 2}, {15, 10, 12}}, {.voxel_size_m = 0.5});
   ASSERT_TRUE(a.ok() && b.ok());
-  ASSERT_EQ(a->esdf().values().size(), b->esdf().values().size());
+  ASSERT_EQ(a->esdf().DenseValues(), b->esdf().DenseValues());
   EXPECT_FALSE(a->ShareEsdf(pool));
   EXPECT_FALSE(b->ShareEsdf(pool));
   EXPECT_EQ(pool.size(), 2);
