@@ -1,7 +1,5 @@
 #include "api/internal/home_spec.h"
 
-#include <cmath>
-
 #include "absl/strings/str_cat.h"
 #include "api/geometry.h"
 #include "api/internal/checks.h"

@@ -143,8 +143,8 @@ absl::StatusOr<PlannedPath> ReturnHomePlanner::Plan(const PlanningContext& missi
         return path;
       }
     }
-    // The longest of its prefixes (in eighths) whose way home, braking first,
-    // fits: the search goes on as long as the budget allows.
+    // Else a prefix whose way home, braking first, fits: the longest such
+    // eighth of the plan's duration, found by bisection.
     if (std::optional<PlannedPath> cut = CutForHome(mission, state, *path)) return *std::move(cut);
   }
   // No room for more search: the plan is the way home from here.
