@@ -173,10 +173,15 @@ class Mission {
   // measurement and obstacle change) and by the remembered answers to
   // request_ids (bounded: the oldest go first); read without a lock.
   [[nodiscard]] std::int64_t LogBytes() const { return log_.bytes() + answers_.bytes(); }
-  // Changes that would take LogBytes() past `bytes` are refused with
-  // RESOURCE_EXHAUSTED before anything is applied or stored. The registry
-  // sets it from the mission's memory budget; no limit until then.
-  void set_log_limit(std::int64_t bytes) { log_.set_limit(bytes); }
+  // Set by the registry before the mission is published: the memory it was
+  // admitted with (EstimateMissionBytes, worked out once), and the log's
+  // limit: changes that would take LogBytes() past it are refused with
+  // RESOURCE_EXHAUSTED before anything is applied or stored (none unset).
+  void set_memory_budget(std::int64_t estimate, std::int64_t log_limit) {
+    estimate_ = estimate;
+    log_.set_limit(log_limit);
+  }
+  [[nodiscard]] std::int64_t memory_estimate() const { return estimate_; }
   // Reads a dense map under the reader lock (settled first, see
   // SettleMap); on a sparse map (config().map_backend) it calls nothing.
   void ReadMap(const std::function<void(const GpMap&)>& reader) const;
@@ -285,6 +290,7 @@ class Mission {
   // written, so mutations under mu_ and plans under planning_'s lock share
   // one order) and the applied changes.
   MissionLog log_;
+  std::int64_t estimate_ = 0;  // set once, before the mission is published
 
   // When to ask for the next snapshot.
   SnapshotPolicy snapshots_;

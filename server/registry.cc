@@ -168,7 +168,7 @@ absl::StatusOr<std::shared_ptr<Mission>> MissionRegistry::Create(std::string mis
   absl::StatusOr<std::shared_ptr<Mission>> mission =
       Mission::Create(key, std::move(config), caches_.view());
   if (mission.ok()) {
-    (*mission)->set_log_limit(LogLimit(estimate));
+    (*mission)->set_memory_budget(estimate, LogLimit(estimate));
     WatchForSnapshots(**mission);
   }
   if (mission.ok() && store_ != nullptr) {
@@ -234,7 +234,7 @@ std::int64_t MissionRegistry::ReservedBytes() const {
   std::int64_t total = 0;
   for (const auto& [key, mission] : missions_) {
     if (mission != nullptr) {
-      total += EstimateMissionBytes(mission->config()).total() + mission->LogBytes();
+      total += mission->memory_estimate() + mission->LogBytes();
     }
   }
   for (const auto& [key, bytes] : building_bytes_) total += bytes;

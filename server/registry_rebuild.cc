@@ -122,7 +122,8 @@ std::shared_ptr<Mission> MissionRegistry::Finish(ReadBack read, const StoredMiss
   Mission& mission = *read.mission;
   // Set after the replay: what was stored is rebuilt even if the limit has
   // shrunk since.
-  mission.set_log_limit(LogLimit(EstimateMissionBytes(mission.config()).total()));
+  const std::int64_t estimate = EstimateMissionBytes(mission.config()).total();
+  mission.set_memory_budget(estimate, LogLimit(estimate));
   mission.set_create_time(absl::FromUnixMicros(m.create_time_unix_us));
   mission.lease().set_epoch(m.epoch);
   mission.set_last_change_time(absl::FromUnixMicros(read.last_write_us));

@@ -203,7 +203,10 @@ void ForEachBlock(const std::vector<std::int32_t>& slots, const std::vector<floa
 }  // namespace
 
 bool Esdf::SameValues(const Esdf& other) const {
-  if (dims_ != other.dims_) return false;
+  if (dims_ != other.dims_ || origin_W_ != other.origin_W_ || voxel_m_ != other.voxel_m_ ||
+      truncation_m_ != other.truncation_m_) {
+    return false;
+  }
   if (grid_ == other.grid_) return true;
   const Grid& a = *grid_;
   const Grid& b = *other.grid_;

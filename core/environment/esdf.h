@@ -143,7 +143,8 @@ class Esdf {
   [[nodiscard]] float Value(int i, int j, int k) const;
   // Every value, x fastest, then y, then z (for tests and small grids).
   [[nodiscard]] std::vector<float> DenseValues() const;
-  // True when both grids hold the same value at every voxel, bit for bit.
+  // True when both grids cover the same voxels and hold the same value at
+  // every one, bit for bit.
   [[nodiscard]] bool SameValues(const Esdf& other) const;
   // Identifies the values held (equal for grids that share them).
   [[nodiscard]] const void* grid_id() const { return grid_.get(); }

@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <exception>
 #include <limits>
 #include <map>
+#include <system_error>
 #include <thread>
 
 #include "absl/synchronization/mutex.h"
@@ -225,7 +227,7 @@ void Esdf::Recompute(std::span<const Shape* const> shapes, const VoxelBox& block
   };
   std::vector<Tile> tiles;
   std::vector<std::int32_t> owner(kinds.size(), -1);  // the tile that computes a block
-  std::int64_t near_blocks = 0;
+  std::int64_t new_blocks = 0;                        // near blocks not held yet
   for (const auto& [id, cluster] : clusters) {
     for (int tk = cluster.lo[2]; tk < cluster.hi[2]; tk += kTile) {
       for (int tj = cluster.lo[1]; tj < cluster.hi[1]; tj += kTile) {
@@ -239,7 +241,7 @@ void Esdf::Recompute(std::span<const Shape* const> shapes, const VoxelBox& block
                 const std::size_t l = local(i, j, k);
                 if (kinds[l] != kNearBlock || owner[l] >= 0) continue;
                 owner[l] = static_cast<std::int32_t>(tiles.size());
-                ++near_blocks;
+                if (grid.slots[BlockIndex(i, j, k)] < 0) ++new_blocks;
                 const std::array<int, 3> at{i, j, k};
                 for (int a = 0; a < 3; ++a) {
                   used.lo[a] = std::min(used.lo[a], at[a]);
@@ -260,38 +262,55 @@ void Esdf::Recompute(std::span<const Shape* const> shapes, const VoxelBox& block
       }
     }
   }
-  // Room for every near block at once: reserved address space costs no
-  // memory until written, and the blocks are never moved while growing.
-  grid.blocks.reserve(grid.blocks.size() + static_cast<std::size_t>(near_blocks) * kBlockVoxels);
+  // Room for the blocks the freed ones cannot take, at once: the pool grows
+  // by one move at most, never by doubling.
+  const std::int64_t shortfall = new_blocks - static_cast<std::int64_t>(grid.unused.size());
+  if (shortfall > 0) {
+    grid.blocks.reserve(grid.blocks.size() + static_cast<std::size_t>(shortfall) * kBlockVoxels);
+  }
 
   // Tiles are independent: computed by build_threads workers, stored one at
   // a time. The values do not depend on the order.
+  // A worker that fails (out of memory) stops the others; the failure is
+  // thrown once every thread has joined.
   absl::Mutex store_mu;
+  std::exception_ptr failure;
   std::atomic<std::size_t> next{0};
   auto work = [&] {
-    Scratch scratch;
-    for (std::size_t t = next++; t < tiles.size(); t = next++) {
-      const Tile& tile = tiles[t];
-      Compute(reaching, tile.voxels, scratch);
-      absl::MutexLock lock(&store_mu);
-      for (int k = tile.blocks.lo[2]; k < tile.blocks.hi[2]; ++k) {
-        for (int j = tile.blocks.lo[1]; j < tile.blocks.hi[1]; ++j) {
-          for (int i = tile.blocks.lo[0]; i < tile.blocks.hi[0]; ++i) {
-            if (owner[local(i, j, k)] == static_cast<std::int32_t>(t)) {
-              StoreBlock(grid, i, j, k, scratch.values, tile.voxels);
+    try {
+      Scratch scratch;
+      for (std::size_t t = next++; t < tiles.size(); t = next++) {
+        const Tile& tile = tiles[t];
+        Compute(reaching, tile.voxels, scratch);
+        absl::MutexLock lock(&store_mu);
+        for (int k = tile.blocks.lo[2]; k < tile.blocks.hi[2]; ++k) {
+          for (int j = tile.blocks.lo[1]; j < tile.blocks.hi[1]; ++j) {
+            for (int i = tile.blocks.lo[0]; i < tile.blocks.hi[0]; ++i) {
+              if (owner[local(i, j, k)] == static_cast<std::int32_t>(t)) {
+                StoreBlock(grid, i, j, k, scratch.values, tile.voxels);
+              }
             }
           }
         }
       }
+    } catch (...) {
+      next = tiles.size();
+      absl::MutexLock lock(&store_mu);
+      if (failure == nullptr) failure = std::current_exception();
     }
   };
   const int helpers = static_cast<int>(std::min<std::size_t>(
                           static_cast<std::size_t>(std::max(1, build_threads_)), tiles.size())) -
                       1;
   std::vector<std::thread> threads;
-  for (int h = 0; h < helpers; ++h) threads.emplace_back(work);
+  try {
+    for (int h = 0; h < helpers; ++h) threads.emplace_back(work);
+  } catch (const std::system_error&) {
+    // No more threads to be had: the ones started and this one do it all.
+  }
   work();
   for (std::thread& t : threads) t.join();
+  if (failure != nullptr) std::rethrow_exception(failure);
 }
 
 void Esdf::Compute(std::span<const Shape* const> shapes, const VoxelBox& out,
