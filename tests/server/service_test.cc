@@ -804,10 +804,14 @@ TEST(ServiceTest, PlansQueuedTogetherShareTheTimeUntilTheBound) {
     EXPECT_LE(stats.search_budget_s(), std::max(kBoundS - stats.queued_s(), kBoundS / 100) + 1e-6)
         << i << ": queued " << stats.queued_s() << " s";
   }
-  // One planning thread, so the first answered was the first to start. It
-  // had the 3 others queued behind it, all asked before it started: at
-  // most a quarter of the bound was its.
-  EXPECT_LE(paths[answered[0]].stats().search_budget_s(), kBoundS / kPlans + 1e-6);
+  // One planning thread: the first to start waited least. It had the 3
+  // others queued behind it, all asked before it started: at most a
+  // quarter of the bound was its. (The order the answers reach their
+  // callers need not be the order the plans ran in on a loaded machine.)
+  const auto first = std::min_element(paths.begin(), paths.end(), [](const auto& a, const auto& b) {
+    return a.stats().queued_s() < b.stats().queued_s();
+  });
+  EXPECT_LE(first->stats().search_budget_s(), kBoundS / kPlans + 1e-6);
 }
 
 // The planner is anytime: with far more generations than fit before the
