@@ -1,5 +1,6 @@
 #include "sim/scenario.h"
 
+#include <cmath>
 #include <fstream>
 #include <sstream>
 
@@ -43,6 +44,11 @@ absl::StatusOr<v1::Scenario> ParseScenario(absl::string_view json, absl::string_
       google::protobuf::util::JsonStringToMessage(std::string(json), &scenario, options);
   if (!status.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(source, ": ", status.message().as_string()));
+  }
+  if (scenario.has_path_budget_m() &&
+      !(scenario.path_budget_m() > 0 && std::isfinite(scenario.path_budget_m()))) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(source, ": path_budget_m: must be > 0 and finite"));
   }
   // Targets given by latitude/longitude become local rectangles here, so
   // that everything after sees local metres only (as the server does).

@@ -29,5 +29,7 @@ int Fail(const absl::Status& status);
 
 // `oaipp-client eval EXPERIMENT`: its exit status.
 int Eval(const std::string& experiment);
+// `oaipp-client eval E8` (client/cli/e8_command.cc): its exit status.
+int EvalE8();
 
 }  // namespace oaipp::client::cli

@@ -155,7 +155,7 @@ absl::StatusOr<Experiment> MakeExperiment(const std::string& name,
                                             PlannerKind::kLawnmower, PlannerKind::kRandom});
   } else {
     return absl::InvalidArgumentError(absl::StrCat("eval: unknown experiment '", name,
-                                                   "' (E1, E2, E3, E4, E5, E6, E7 or PRIOR)"));
+                                                   "' (E1, E2, E3, E4, E5, E6, E7, E8 or PRIOR)"));
   }
   oaipp::client::ConfirmationOptions confirm;
   OAIPP_ASSIGN_OR_RETURN(confirm.weight, NonNegativeFlag("--confirmation_weight",
@@ -224,6 +224,7 @@ std::string DefaultScenario(const std::string& experiment) {
 }  // namespace
 
 int Eval(const std::string& experiment) {
+  if (experiment == "E8") return EvalE8();
   std::string scenario_path = absl::GetFlag(FLAGS_scenario);
   if (scenario_path.empty()) scenario_path = DefaultScenario(experiment);
   absl::StatusOr<oaipp::v1::Scenario> scenario = LoadScenario(scenario_path);

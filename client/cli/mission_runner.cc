@@ -233,9 +233,15 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     ++result.uavs[i].shots;
     record.uav_id = pilot.uav_id;
     record.mission_time_s = shot.mission_time_s();
-    record_flight();
-    OAIPP_RETURN_IF_ERROR(measure_record());
-    const std::vector<double> target_means = sim.TargetMeans(mean);
+    // With final_map_only the map is not read here, so the sightings carry
+    // no mean after the shot (NaN).
+    if (!scenario.final_map_only()) {
+      record_flight();
+      OAIPP_RETURN_IF_ERROR(measure_record());
+    }
+    const std::vector<double> target_means = scenario.final_map_only()
+                                                 ? std::vector<double>(before.size(), std::nan(""))
+                                                 : sim.TargetMeans(mean);
     for (std::size_t k = 0; k < before.size(); ++k) {
       if (result.sightings[k].in_view == before[k].in_view) continue;
       result.sighting_log.push_back({.target = static_cast<int>(k),
@@ -255,7 +261,9 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
   // camera would fire again where it is.
   const auto plan = [&](std::size_t i) -> absl::Status {
     Pilot& pilot = pilots[i];
-    if (pilot.state.mission_time_s() - t0 >= budget - 1e-9) {
+    if (pilot.state.mission_time_s() - t0 >= budget - 1e-9 ||
+        (scenario.has_path_budget_m() &&
+         pilot.flight.path_length_m() >= scenario.path_budget_m())) {
       pilot.done = true;
       return absl::OkStatus();
     }

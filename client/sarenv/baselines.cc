@@ -316,4 +316,13 @@ absl::StatusOr<std::vector<Polyline>> PlanBaseline(Baseline baseline, const Sear
   return absl::InvalidArgumentError("unknown baseline");
 }
 
+uint64_t DatasetSeed(uint64_t seed, int dataset) {
+  return seed * 1000000 + static_cast<uint64_t>(dataset) * 1000;
+}
+
+uint64_t BaselineSeed(uint64_t dataset_seed, Baseline baseline, int n_drones) {
+  return dataset_seed + 10 * static_cast<uint64_t>(n_drones) +
+         (baseline == Baseline::kRandomWalk ? 2 : 1);
+}
+
 }  // namespace oaipp::sarenv

@@ -67,4 +67,11 @@ struct BaselineOptions {
     Baseline baseline, const SearchArea& area, int n_drones, double budget_m, uint64_t seed,
     const BaselineOptions& options = {});
 
+// The seeds oaipp-sarenv and E8 draw with (std::mt19937_64): dataset N's
+// victims use DatasetSeed(seed, N) = seed * 1000000 + N * 1000, and a
+// randomized baseline's plan for n drones on it
+// DatasetSeed + 10 n + 1 (Greedy) or + 2 (RandomWalk).
+[[nodiscard]] uint64_t DatasetSeed(uint64_t seed, int dataset);
+[[nodiscard]] uint64_t BaselineSeed(uint64_t dataset_seed, Baseline baseline, int n_drones);
+
 }  // namespace oaipp::sarenv

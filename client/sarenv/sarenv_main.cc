@@ -216,15 +216,14 @@ int main(int argc, char** argv) {
         return Fail(s);
       }
     }
-    const uint64_t dataset_seed = seed * 1000000 + static_cast<uint64_t>(number) * 1000;
+    const uint64_t dataset_seed = oaipp::sarenv::DatasetSeed(seed, number);
     const std::vector<oaipp::sarenv::PointXY> victims =
         oaipp::sarenv::DrawVictims(*area, absl::GetFlag(FLAGS_victims), dataset_seed);
     for (const Baseline algorithm : algorithms) {
       const std::string algo(oaipp::sarenv::BaselineName(algorithm));
       for (const int n : *agents) {
         const auto t0 = std::chrono::steady_clock::now();
-        const uint64_t plan_seed =
-            dataset_seed + 10 * n + (algorithm == Baseline::kRandomWalk ? 2 : 1);
+        const uint64_t plan_seed = oaipp::sarenv::BaselineSeed(dataset_seed, algorithm, n);
         absl::StatusOr<std::vector<oaipp::sarenv::Polyline>> paths =
             oaipp::sarenv::PlanBaseline(algorithm, *area, n, budget, plan_seed, planner_options);
         if (!paths.ok()) return Fail(paths.status());

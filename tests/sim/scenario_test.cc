@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <string>
 
+#include "absl/strings/str_cat.h"
 #include "gmock/gmock.h"
 #include "gtest/gtest.h"
 #include "sim/simulation.h"
@@ -282,6 +283,14 @@ TEST(ScenarioTest, BadContentNamesTheField) {
   ASSERT_TRUE(s.ok());
   EXPECT_THAT(Simulation::Create(*s).status().message(), HasSubstr("resolution_m"));
   EXPECT_EQ(LoadScenarioFile("/nonexistent.json").status().code(), absl::StatusCode::kNotFound);
+  for (const char* budget : {"0", "-5", "\"Infinity\""}) {
+    EXPECT_THAT(ParseScenario(absl::StrCat(R"({"path_budget_m": )", budget, "}"), "s.json")
+                    .status()
+                    .message(),
+                HasSubstr("s.json: path_budget_m: must be > 0 and finite"))
+        << budget;
+  }
+  EXPECT_TRUE(ParseScenario(R"({"path_budget_m": 2000})", "s.json").ok());
 }
 
 }  // namespace

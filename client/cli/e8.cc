@@ -1,0 +1,265 @@
+#include "client/cli/e8.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "api/limits.h"
+
+namespace oaipp::client {
+namespace {
+
+constexpr absl::string_view kOaIpp = "OA-IPP";
+
+// Mean and standard error of the mean (0 for fewer than two values).
+struct MeanSe {
+  double mean = 0.0;
+  double se = 0.0;
+};
+
+MeanSe Summarise(const std::vector<double>& values) {
+  MeanSe out;
+  if (values.empty()) return out;
+  for (const double v : values) out.mean += v;
+  out.mean /= static_cast<double>(values.size());
+  if (values.size() < 2) return out;
+  double ss = 0.0;
+  for (const double v : values) ss += (v - out.mean) * (v - out.mean);
+  out.se =
+      std::sqrt(ss / static_cast<double>(values.size() - 1) / static_cast<double>(values.size()));
+  return out;
+}
+
+double Metric(const sarenv::PathMetrics& m, int which) {
+  switch (which) {
+    case 0:
+      return m.likelihood;
+    case 1:
+      return m.time_discounted;
+    case 2:
+      return m.victims_found_pct;
+    default:
+      return m.area_covered_km2;
+  }
+}
+
+}  // namespace
+
+absl::StatusOr<v1::Scenario> E8Scenario(const sarenv::SearchArea& area, int agents, double budget_m,
+                                        const E8Settings& settings) {
+  if (agents < 1 || agents > api::kMaxTeam) {
+    return absl::InvalidArgumentError(absl::StrCat("agents: must lie in [1, ", api::kMaxTeam, "]"));
+  }
+  if (!(budget_m > 0) || !std::isfinite(budget_m)) {
+    return absl::InvalidArgumentError("budget_m: must be > 0 and finite");
+  }
+  const double cell = area.CellSizeX_m();
+  if (area.heatmap.rows != area.heatmap.cols || area.heatmap.rows < 1 ||
+      !(std::abs(cell - area.CellSizeY_m()) < 1e-9) || !(cell > 0)) {
+    return absl::InvalidArgumentError(
+        "area: E8 flies a square crop of square cells (a disc's bounding square)");
+  }
+  if (!(settings.altitude_m > 2) || !(settings.max_speed_m_s > 0) ||
+      !(settings.shot_spacing_m > 0) || !(settings.discount_per_m > 0) ||
+      !(settings.discount_per_m <= 1) || !(settings.team_spacing_m > 0)) {
+    return absl::InvalidArgumentError(
+        "settings: altitude > 2 m, speed and shot spacing > 0, discount in (0, 1], team spacing "
+        "> 0");
+  }
+  // The grid's cell to a nanometre: the crop's extent over its shape is
+  // 30 m up to rounding, and the service wants a whole number of cells.
+  const double resolution = std::round(cell * 1e9) / 1e9;
+  const double half = 0.5 * resolution * static_cast<double>(area.heatmap.cols);
+
+  v1::Scenario scenario;
+  scenario.set_name(absl::StrCat("e8-", area.name, "-n", agents));
+  scenario.set_seed(settings.seed);
+  scenario.set_send_cell_labels(true);
+  scenario.set_path_budget_m(budget_m / agents);
+  scenario.set_final_map_only(true);
+  scenario.mutable_detector()->set_fp_per_image_at_10m(0.0);
+
+  v1::MissionSpec& m = *scenario.mutable_mission();
+  v1::FieldSpec& field = *m.mutable_field();
+  field.set_x_min_m(-half);
+  field.set_y_min_m(-half);
+  field.set_x_max_m(half);
+  field.set_y_max_m(half);
+  field.set_resolution_m(resolution);
+  field.set_map_backend(v1::MAP_BACKEND_SPARSE);
+  m.mutable_gp()->set_length_scale_m(settings.length_scale_m);
+  v1::PriorMap& prior = *m.mutable_gp()->mutable_prior_map();
+  prior.set_units(v1::PRIOR_MAP_UNITS_PROBABILITY);
+  prior.mutable_values()->Assign(area.heatmap.values.begin(), area.heatmap.values.end());
+  // A camera that sees whoever is in view (the benchmark's): label noise
+  // far below the prior's variance, so a shot clears what it saw.
+  v1::SensorSpec& sensor = *m.mutable_sensor();
+  sensor.set_fov_x_deg(settings.fov_deg);
+  sensor.set_fov_y_deg(settings.fov_deg);
+  sensor.set_noise_a_var(1e-3);
+  sensor.set_noise_b_per_m(0.05);
+  sensor.set_rate_hz(settings.max_speed_m_s / settings.shot_spacing_m);
+  v1::FlightSpec& flight = *m.mutable_flight();
+  flight.set_min_altitude_m(settings.altitude_m - 2.0);
+  flight.set_max_altitude_m(settings.altitude_m + 2.0);
+  flight.set_max_speed_m_s(settings.max_speed_m_s);
+  flight.set_max_accel_m_s2(settings.max_accel_m_s2);
+  flight.set_esdf_voxel_m(2.0);  // no obstacles: the voxel only sizes the empty grid's table
+  // Time is not what the benchmark budgets: enough never to bind before
+  // the path budget at a third of full speed on average.
+  m.set_budget_s(budget_m / agents / (settings.max_speed_m_s / 3.0) + 60.0);
+  v1::PlannerSpec& planner = *m.mutable_planner();
+  planner.set_kind(v1::PLANNER_KIND_OAIPP_DETECTION);
+  planner.set_seed(settings.seed);
+  planner.set_num_waypoints(settings.num_waypoints);
+  planner.set_h_sat_m(10.0 * settings.altitude_m);
+  planner.set_detection_discount(std::pow(settings.discount_per_m, settings.shot_spacing_m));
+  const auto start_at = [&](double x) {
+    v1::UavState s;
+    s.mutable_position_m()->set_x(x);
+    s.mutable_position_m()->set_y(0.0);
+    s.mutable_position_m()->set_z(settings.altitude_m);
+    return s;
+  };
+  if (agents == 1) {
+    *m.mutable_start() = start_at(0.0);
+  } else {
+    for (int k = 0; k < agents; ++k) {
+      v1::TeamMember& member = *m.add_team();
+      member.set_uav_id(absl::StrCat("uav-", k + 1));
+      *member.mutable_start() = start_at(settings.team_spacing_m * (k - 0.5 * (agents - 1)));
+    }
+  }
+  return scenario;
+}
+
+std::vector<sarenv::Polyline> FlownPathsInCrs(const RunResult& run,
+                                              const sarenv::SearchArea& area) {
+  std::vector<sarenv::Polyline> paths;
+  for (const UavRecord& uav : run.uavs) {
+    sarenv::Polyline line;
+    line.reserve(uav.flown_path_W.size());
+    for (const Vec3& p : uav.flown_path_W) {
+      line.push_back({p.x() + area.center_x_m, p.y() + area.center_y_m});
+    }
+    paths.push_back(std::move(line));
+  }
+  return paths;
+}
+
+std::string E8Csv(const std::vector<E8Row>& rows) {
+  std::string csv =
+      "dataset,algorithm,n_agents,budget_m,likelihood,time_discounted,victims_found_pct,"
+      "area_covered_km2,total_path_length_km,plans,planning_s,flight_wall_s\n";
+  for (const E8Row& r : rows) {
+    absl::StrAppendFormat(&csv, "%s,%s,%d,%.0f,%.17g,%.17g,%.17g,%.17g,%.17g,%d,%.3f,%.3f\n",
+                          r.dataset, r.algorithm, r.agents, r.budget_m, r.metrics.likelihood,
+                          r.metrics.time_discounted, r.metrics.victims_found_pct,
+                          r.metrics.area_covered_km2, r.metrics.total_path_length_km, r.plans,
+                          r.planning_s, r.flight_wall_s);
+  }
+  return csv;
+}
+
+std::string E8SummaryMarkdown(const std::vector<E8Row>& rows) {
+  // (agents, budget) -> algorithm -> dataset -> metrics, algorithms in the
+  // order first seen.
+  using Key = std::pair<int, double>;
+  std::map<Key, std::map<std::string, std::map<std::string, const E8Row*>>> groups;
+  std::vector<std::string> order;
+  for (const E8Row& r : rows) {
+    groups[{r.agents, r.budget_m}][r.algorithm][r.dataset] = &r;
+    if (std::find(order.begin(), order.end(), r.algorithm) == order.end())
+      order.push_back(r.algorithm);
+  }
+  std::string md;
+  for (const auto& [key, by_algorithm] : groups) {
+    const auto [agents, budget] = key;
+    absl::StrAppendFormat(&md, "### n = %d, %.0f km in all\n\n", agents, budget / 1000.0);
+    md += "| algorithm | datasets | likelihood | time-discounted | victims found % | area km^2 |\n";
+    md += "| --- | --- | --- | --- | --- | --- |\n";
+    for (const std::string& algorithm : order) {
+      const auto it = by_algorithm.find(algorithm);
+      if (it == by_algorithm.end()) continue;
+      absl::StrAppendFormat(&md, "| %s | %d |", algorithm, it->second.size());
+      for (int which = 0; which < 4; ++which) {
+        std::vector<double> v;
+        for (const auto& [dataset, row] : it->second) v.push_back(Metric(row->metrics, which));
+        const MeanSe s = Summarise(v);
+        absl::StrAppendFormat(&md, which == 1 ? " %.5f +- %.5f |" : " %.4f +- %.4f |", s.mean,
+                              1.96 * s.se);
+      }
+      md += "\n";
+    }
+    const auto oa = by_algorithm.find(std::string(kOaIpp));
+    if (oa == by_algorithm.end()) {
+      md += "\n";
+      continue;
+    }
+    md +=
+        "\nOA-IPP minus each baseline, paired by dataset: mean difference (standard error, "
+        "differences in standard errors):\n\n";
+    md += "| baseline | likelihood | time-discounted | victims found % | area km^2 |\n";
+    md += "| --- | --- | --- | --- | --- |\n";
+    for (const std::string& algorithm : order) {
+      if (algorithm == kOaIpp) continue;
+      const auto base = by_algorithm.find(algorithm);
+      if (base == by_algorithm.end()) continue;
+      absl::StrAppendFormat(&md, "| %s |", algorithm);
+      for (int which = 0; which < 4; ++which) {
+        std::vector<double> d;
+        for (const auto& [dataset, row] : oa->second) {
+          const auto b = base->second.find(dataset);
+          if (b != base->second.end())
+            d.push_back(Metric(row->metrics, which) - Metric(b->second->metrics, which));
+        }
+        const MeanSe s = Summarise(d);
+        const double z = s.se > 0 ? s.mean / s.se : 0.0;
+        absl::StrAppendFormat(&md, which == 1 ? " %+.5f (%.5f, %+.1f) |" : " %+.4f (%.4f, %+.1f) |",
+                              s.mean, s.se, z);
+      }
+      md += "\n";
+    }
+    // E8's targets (docs/experiments.md).
+    const auto paired_z = [&](const std::string& baseline, int which) {
+      const auto base = by_algorithm.find(baseline);
+      if (base == by_algorithm.end()) return std::nan("");
+      std::vector<double> d;
+      for (const auto& [dataset, row] : oa->second) {
+        const auto b = base->second.find(dataset);
+        if (b != base->second.end())
+          d.push_back(Metric(row->metrics, which) - Metric(b->second->metrics, which));
+      }
+      const MeanSe s = Summarise(d);
+      return s.se > 0 ? s.mean / s.se : (s.mean > 0 ? INFINITY : 0.0);
+    };
+    double best_victims = 0.0;
+    std::string best_name;
+    for (const auto& [algorithm, by_dataset] : by_algorithm) {
+      if (algorithm == kOaIpp) continue;
+      std::vector<double> v;
+      for (const auto& [dataset, row] : by_dataset) v.push_back(row->metrics.victims_found_pct);
+      if (const double m = Summarise(v).mean; m > best_victims || best_name.empty()) {
+        best_victims = m;
+        best_name = algorithm;
+      }
+    }
+    std::vector<double> own;
+    for (const auto& [dataset, row] : oa->second) own.push_back(row->metrics.victims_found_pct);
+    const double own_victims = Summarise(own).mean;
+    const double z_td = paired_z("Greedy", 1);
+    const double z_lik = paired_z("Spiral", 0);
+    absl::StrAppendFormat(
+        &md,
+        "\nTargets: time-discounted above Greedy by %.1f SE (> 2: %s); likelihood above Spiral "
+        "by %.1f SE (> 2: %s); victims found %.1f %% against %s's %.1f %% (%s).\n\n",
+        z_td, z_td > 2 ? "met" : "not met", z_lik, z_lik > 2 ? "met" : "not met", own_victims,
+        best_name, best_victims, own_victims >= best_victims ? "met" : "not met");
+  }
+  return md;
+}
+
+}  // namespace oaipp::client

@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""E8's pictures: per dataset, the lost-person map with OA-IPP's flown paths, a panel per team size.
+
+    python3 client/plots/plot_e8.py out/eval/E8
+
+Reads OUT/paths/N_map.npy + N_map.json (the crop), N_nK_OA-IPP.csv (each UAV's path in the
+crop's CRS) and N_nK_Greedy.csv (Greedy's paths at the largest budget), and writes OUT/e8_N.png.
+The first 20 % of each OA-IPP path (the smallest budget of the default run) is drawn bold.
+"""
+import csv
+import glob
+import json
+import os
+import re
+import sys
+from collections import defaultdict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+
+def read_paths(path):
+    lines = defaultdict(list)
+    with open(path) as f:
+        for row in csv.DictReader(f):
+            lines[row["uav"]].append((float(row["x_m"]), float(row["y_m"])))
+    return [np.array(v) for v in lines.values()]
+
+
+def main():
+    out = sys.argv[1]
+    maps = sorted(glob.glob(os.path.join(out, "paths", "*_map.npy")),
+                  key=lambda p: int(os.path.basename(p).split("_")[0]))
+    for npy in maps:
+        number = os.path.basename(npy).split("_")[0]
+        meta = json.load(open(npy[:-4] + ".json"))
+        heat = np.load(npy)
+        x0, y0, x1, y1 = meta["bounds"]
+        cx, cy = meta["center_x_m"], meta["center_y_m"]
+        extent = [(x0 - cx) / 1000, (x1 - cx) / 1000, (y0 - cy) / 1000, (y1 - cy) / 1000]
+        runs = {}
+        for p in glob.glob(os.path.join(out, "paths", f"{number}_n*_OA-IPP.csv")):
+            runs[int(re.search(r"_n(\d+)_", p).group(1))] = p
+        if not runs:
+            continue
+        sizes = sorted(runs)
+        fig, axes = plt.subplots(1, len(sizes), figsize=(5.2 * len(sizes), 5.2), squeeze=False)
+        shown = np.where(heat > 0, heat, np.nan)
+        for ax, n in zip(axes[0], sizes):
+            ax.imshow(shown, origin="lower", extent=extent, cmap="magma", interpolation="nearest")
+            greedy = os.path.join(out, "paths", f"{number}_n{n}_Greedy.csv")
+            if os.path.exists(greedy):
+                for line in read_paths(greedy):
+                    ax.plot((line[:, 0] - cx) / 1000, (line[:, 1] - cy) / 1000, color="0.6",
+                            lw=0.5, alpha=0.7)
+            colours = plt.cm.tab10.colors
+            for k, line in enumerate(read_paths(runs[n])):
+                xs, ys = (line[:, 0] - cx) / 1000, (line[:, 1] - cy) / 1000
+                seg = np.hypot(np.diff(xs), np.diff(ys))
+                run = np.concatenate([[0], np.cumsum(seg)])
+                first = run <= 0.2 * run[-1]
+                ax.plot(xs, ys, color=colours[k % 10], lw=0.4, alpha=0.6)
+                ax.plot(xs[first], ys[first], color=colours[k % 10], lw=1.6)
+            ax.plot([0], [0], "wo", ms=5, mec="k")
+            ax.set_title(f"dataset {number}, n = {n}")
+            ax.set_xlabel("east of the last known point [km]")
+            ax.set_ylabel("north [km]")
+        fig.suptitle("OA-IPP's paths (bold: the first fifth) over the lost-person map; grey: Greedy")
+        fig.tight_layout()
+        fig.savefig(os.path.join(out, f"e8_{number}.png"), dpi=110)
+        plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
