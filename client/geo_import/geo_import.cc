@@ -36,6 +36,11 @@ std::string PartName(const Feature& f, std::size_t part) {
   return absl::StrCat("polygon ", part + 1, " of ", f.polygons_in_geometry, ": ");
 }
 
+// "1 hole", "2 holes".
+std::string Count(std::size_t n, absl::string_view one, absl::string_view many) {
+  return absl::StrCat(n, " ", n == 1 ? one : many);
+}
+
 void DropRejected(absl::string_view field, const Feature& f, std::vector<std::string>& dropped) {
   for (const std::string& why : f.rejected) {
     dropped.push_back(absl::StrCat(field, ": ", f.label, ": ", why, "; dropped"));
@@ -119,8 +124,8 @@ absl::StatusOr<v1::Fence> ReadFence(const std::string& path, absl::string_view f
   }
   if (!polygon->holes.empty()) {
     return absl::InvalidArgumentError(
-        absl::StrCat(field, ": the polygon has ", polygon->holes.size(),
-                     " holes; a fence is one ring (give holes as no_fly_zones)"));
+        absl::StrCat(field, ": the polygon has ", Count(polygon->holes.size(), "hole", "holes"),
+                     "; a fence is one ring (give holes as no_fly_zones)"));
   }
   if (polygon->outer.size() > kMaxRingVertices) {
     return absl::InvalidArgumentError(absl::StrCat(field, ": the polygon has ",
@@ -196,8 +201,8 @@ absl::StatusOr<std::vector<v1::Obstacle>> ReadNoFlyZones(const std::string& path
       zone.mutable_prism()->set_top_m(*ceiling_m);
       if (!p.holes.empty()) {
         dropped.push_back(absl::StrCat(field, ": ", f.label, ": ", PartName(f, k), "its ",
-                                       p.holes.size(),
-                                       " holes are closed (a zone is a prism without holes)"));
+                                       Count(p.holes.size(), "hole is", "holes are"),
+                                       " closed (a zone is a prism without holes)"));
       }
     }
     return absl::OkStatus();
@@ -245,8 +250,10 @@ absl::StatusOr<std::vector<v1::Obstacle>> ReadBuildings(const std::string& path,
       prism.set_base_m(0.0);
       prism.set_top_m(height.height_m);
       if (!p.holes.empty()) {
-        dropped.push_back(absl::StrCat(field, ": ", f.label, ": ", id, ": its ", p.holes.size(),
-                                       " holes (courtyards) are closed: a prism has none"));
+        dropped.push_back(
+            absl::StrCat(field, ": ", f.label, ": ", id, ": its ",
+                         Count(p.holes.size(), "hole (a courtyard) is", "holes (courtyards) are"),
+                         " closed: a prism has none"));
       }
       if (height.source == HeightSource::kDefault) {
         dropped.push_back(absl::StrCat(field, ": ", f.label, ": ", id, ": default height ",
@@ -260,8 +267,8 @@ absl::StatusOr<std::vector<v1::Obstacle>> ReadBuildings(const std::string& path,
   });
   if (!read.ok()) return read;
   if (not_buildings > 0) {
-    dropped.push_back(absl::StrCat(field, ": ", not_buildings,
-                                   " features without a building tag skipped (the first: feature ",
+    dropped.push_back(absl::StrCat(field, ": ", Count(not_buildings, "feature", "features"),
+                                   " without a building tag skipped (the first: feature ",
                                    first_not_building, ")"));
   }
   return buildings;

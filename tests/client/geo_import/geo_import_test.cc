@@ -192,7 +192,7 @@ TEST_F(GeoImportTest, TheFenceIsTheFilesOnePolygon) {
               HasSubstr("search_files.fence: feature 2: a second polygon"));
   const std::string holed = Write("holed.geojson", GeoJson({Polygon({kL, kHole})}));
   EXPECT_THAT(ReadFence(holed, "search_files.fence", dropped_).status().message(),
-              HasSubstr("search_files.fence: the polygon has 1 holes"));
+              HasSubstr("search_files.fence: the polygon has 1 hole;"));
   const std::string crossed = Write("crossed.geojson", GeoJson({Polygon({kBowtie})}));
   EXPECT_THAT(ReadFence(crossed, "search_files.fence", dropped_).status().message(),
               HasSubstr("search_files.fence: feature 1: its outer ring crosses"));
@@ -223,6 +223,25 @@ TEST_F(GeoImportTest, NoFlyZonesTakeFloorCeilingAndRadiusFromTheirProperties) {
   EXPECT_EQ(c.height_m(), 40.0);
   EXPECT_EQ(c.radius_m(), 7.5);
   EXPECT_THAT(dropped_, IsEmpty());
+}
+
+TEST_F(GeoImportTest, AMultiPartZoneGetsAnIdPerPartAndItsHoleClosed) {
+  const std::string path =
+      Write("zones.geojson",
+            GeoJson({Polygon({Square(0, 0, 1)}), MultiPolygon({Square(0, 4, 1), Square(0, 6, 1)}),
+                     Polygon({kL, kHole}, R"("name": "range")")}));
+  absl::StatusOr<std::vector<v1::Obstacle>> zones =
+      ReadNoFlyZones(path, "search_files.no_fly_zones", 0.0, dropped_);
+  ASSERT_TRUE(zones.ok()) << zones.status();
+  ASSERT_THAT(*zones, SizeIs(4));
+  EXPECT_EQ((*zones)[0].id(), "zone-1");
+  EXPECT_EQ((*zones)[1].id(), "zone-2-1");
+  EXPECT_EQ((*zones)[2].id(), "zone-2-2");
+  ExpectRing((*zones)[2].prism().footprint(), Square(0, 6, 1));
+  EXPECT_EQ((*zones)[3].id(), "zone-3");
+  ExpectRing((*zones)[3].prism().footprint(), kL);  // the outer ring, hole closed
+  EXPECT_THAT(dropped_, ElementsAre("search_files.no_fly_zones: feature 3 (range): its 1 hole is "
+                                    "closed (a zone is a prism without holes)"));
 }
 
 TEST_F(GeoImportTest, AKmlNoFlyZoneReadsItsExtendedData) {

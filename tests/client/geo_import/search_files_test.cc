@@ -168,8 +168,9 @@ TEST_F(SearchFilesTest, TheDemoPassesTheServersValidationWithItsBuildings) {
     EXPECT_LT(o.prism().top_m(), config->max_altitude_m) << o.id() << " leaves no room above";
   }
   // The courtyard, the car park and the untagged houses are listed.
-  EXPECT_THAT(absl::StrJoin(dropped_, "\n"), HasSubstr("relation/77"));
-  EXPECT_THAT(absl::StrJoin(dropped_, "\n"), HasSubstr("1 features without a building tag"));
+  EXPECT_THAT(absl::StrJoin(dropped_, "\n"),
+              HasSubstr("relation/77): building-53: its 1 hole (a courtyard) is closed"));
+  EXPECT_THAT(absl::StrJoin(dropped_, "\n"), HasSubstr("1 feature without a building tag"));
   EXPECT_THAT(absl::StrJoin(dropped_, "\n"), HasSubstr("default height 10 m"));
 }
 
