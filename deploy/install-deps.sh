@@ -57,6 +57,8 @@ packages=(
   # for the datasets' UTM frames; GEOS also checks and rasterises search
   # areas (api/search_area.h)
   libgeos-dev libproj-dev proj-data
+  # a search team's map files (client/geo_import/): GeoJSON, KML, GeoPackage through GDAL
+  libgdal-dev
 )
 
 missing=()

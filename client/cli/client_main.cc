@@ -24,6 +24,7 @@
 #include "client/cli/map_image.h"
 #include "client/cli/mission_runner.h"
 #include "client/cli/prior_map_file.h"
+#include "client/cli/search_files.h"
 #include "core/common/status_macros.h"
 #include "sim/random_world.h"
 #include "sim/scenario.h"
@@ -165,12 +166,16 @@ absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel() {
   return Client::OpenChannel(absl::GetFlag(FLAGS_server), Options());
 }
 
-// The scenario file at `path`, with --replan_on_detection and --detector_noise
-// applied.
+// The scenario file at `path`, its prior map and map files read, with
+// --replan_on_detection and --detector_noise applied.
 absl::StatusOr<oaipp::v1::Scenario> LoadScenario(const std::string& path) {
   absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
   if (scenario.ok()) {
     if (absl::Status read = ReadPriorMapFile(*scenario, path); !read.ok()) return read;
+    // What the map files held that the mission does not get, one line each.
+    std::vector<std::string> dropped;
+    if (absl::Status read = ReadSearchFiles(*scenario, path, dropped); !read.ok()) return read;
+    for (const std::string& line : dropped) std::fprintf(stderr, "%s\n", line.c_str());
   }
   if (scenario.ok() && absl::GetFlag(FLAGS_replan_on_detection)) {
     scenario->set_replan_on_detection(true);
@@ -329,6 +334,13 @@ absl::StatusOr<oaipp::v1::GeoPoint> ParseGeoOrigin(const std::string& text) {
 int Export(const std::string& path) {
   absl::StatusOr<oaipp::v1::Scenario> scenario = oaipp::sim::LoadScenarioFile(path);
   if (!scenario.ok()) return Fail(scenario.status());
+  // The map files' fence, zones and buildings shape the exported geofence.
+  std::vector<std::string> dropped;
+  if (absl::Status read = oaipp::client::cli::ReadSearchFiles(*scenario, path, dropped);
+      !read.ok()) {
+    return Fail(read);
+  }
+  for (const std::string& line : dropped) std::fprintf(stderr, "%s\n", line.c_str());
   oaipp::v1::MissionSpec spec = scenario->mission();
   if (const std::string origin = absl::GetFlag(FLAGS_geo_origin); !origin.empty()) {
     absl::StatusOr<oaipp::v1::GeoPoint> g = ParseGeoOrigin(origin);

@@ -23,8 +23,10 @@ int Fail(const absl::Status& status);
 [[nodiscard]] ClientOptions Options();
 // A channel to --server with Options().
 [[nodiscard]] absl::StatusOr<std::shared_ptr<grpc::Channel>> OpenChannel();
-// The scenario file at `path`, with --replan_on_detection and
-// --detector_noise (--detector_false_positives) applied.
+// The scenario file at `path`, its prior map file and map files
+// (search_files) read, with --replan_on_detection and --detector_noise
+// (--detector_false_positives) applied; the map files' dropped lines go to
+// stderr.
 [[nodiscard]] absl::StatusOr<v1::Scenario> LoadScenario(const std::string& path);
 
 // `oaipp-client eval EXPERIMENT`: its exit status.

@@ -146,7 +146,7 @@ TEST(ScenarioTest, EveryCommittedScenarioLoads) {
     ASSERT_TRUE(sim.ok()) << entry.path() << ": " << sim.status();
     EXPECT_GT(sim->num_targets(), 0) << entry.path();
   }
-  EXPECT_EQ(files, 27);
+  EXPECT_EQ(files, 28);
   // e6-team4: E6 with a team of 4 in place of its start.
   auto e6 = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6.json");
   auto e6_team = LoadScenarioFile(OAIPP_SCENARIO_DIR "/e6-team4.json");

@@ -1,0 +1,67 @@
+// Map files written by the tests from geometry the tests define: RFC 7946
+// GeoJSON and KML 2.2 as text, and GeoPackages through GDAL itself.
+// Vertices are (lat, lon) degrees; a ring is written closed (its first
+// vertex repeated) unless asked not to be.
+//
+//   const Ring square = {{47.0, 8.0}, {47.0, 8.1}, {47.1, 8.1}, {47.1, 8.0}};
+//   WriteText(dir / "b.geojson",
+//             GeoJson({Polygon({square}, R"("building": "yes", "height": "12 m")")}));
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace oaipp::client::geo_import::test_files {
+
+struct LatLonDeg {
+  double lat = 0.0;
+  double lon = 0.0;
+};
+using Ring = std::vector<LatLonDeg>;
+
+struct GeoFeature {
+  // "Polygon" (rings[0] outer, the rest holes), "MultiPolygon" (each ring
+  // its own polygon), "Point" (rings[0][0]) or "LineString" (rings[0]).
+  std::string type = "Polygon";
+  std::vector<Ring> rings;
+  // JSON members of "properties", without the braces.
+  std::string properties;
+  bool close_rings = true;
+};
+
+// Features: rings[0] outer, the rest holes; each ring its own polygon;
+// a ring written without its closing vertex; properties as JSON members.
+[[nodiscard]] GeoFeature Polygon(std::vector<Ring> rings, std::string properties = "");
+[[nodiscard]] GeoFeature MultiPolygon(std::vector<Ring> polygons, std::string properties = "");
+[[nodiscard]] GeoFeature Unclosed(Ring ring);
+[[nodiscard]] GeoFeature Point(LatLonDeg at, std::string properties = "");
+[[nodiscard]] GeoFeature LineString(Ring line);
+
+// A FeatureCollection; coordinates as [lon, lat] printed so that they read
+// back to the same doubles.
+[[nodiscard]] std::string GeoJson(const std::vector<GeoFeature>& features);
+
+// A KML 2.2 Document with one Placemark per feature ("Polygon" or "Point"),
+// named `name`, with ExtendedData Data elements from `data` pairs.
+struct KmlPlacemark {
+  std::string name;
+  std::string type = "Polygon";
+  std::vector<Ring> rings;
+  std::vector<std::pair<std::string, std::string>> data;
+};
+[[nodiscard]] KmlPlacemark KmlPolygon(std::string name, std::vector<Ring> rings,
+                                      std::vector<std::pair<std::string, std::string>> data = {});
+[[nodiscard]] std::string Kml(const std::vector<KmlPlacemark>& placemarks);
+
+void WriteText(const std::filesystem::path& path, const std::string& text);
+
+// A GeoPackage with one polygon layer in the CRS `epsg`, written through
+// GDAL's GPKG driver; rings as (x, y) in that CRS's easting/northing.
+struct XyRing {
+  std::vector<std::pair<double, double>> xy;
+};
+void WriteGeoPackage(const std::filesystem::path& path, int epsg,
+                     const std::vector<std::vector<XyRing>>& polygons);
+
+}  // namespace oaipp::client::geo_import::test_files
