@@ -21,7 +21,7 @@
 #include "client/cli/mission_runner.h"
 #include "client/sarenv/dataset.h"
 #include "client/sarenv/metrics.h"
-#include "oaipp/v1/scenario.pb.h"
+#include "sim/scenario.h"
 
 namespace oaipp::client {
 
