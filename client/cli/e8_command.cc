@@ -1,12 +1,9 @@
 // oaipp-client eval E8: OA-IPP through the service on the SAREnv datasets
 // against the benchmark's five baselines (client/cli/e8.h), written to --out
 // as metrics.csv, summary.md, each flight's paths and a picture per
-// dataset (docs/experiments.md, E8).
-//
-// Each dataset and team size is flown once, to the largest of --budgets_m;
-// the smaller budgets score the first part of each UAV's path (the planner
-// never sees the distance budget, so a shorter flight would have flown the
-// same first part).
+// dataset (docs/experiments.md, E8). Every dataset, team size and budget is
+// a flight of its own: a team's UAVs plan around each other, so a team
+// that stops at a smaller budget flies differently before it stops.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -37,8 +34,7 @@ ABSL_FLAG(std::string, datasets, "1-10", "eval E8: datasets, numbers and ranges 
 ABSL_FLAG(std::string, sarenv_size, "medium", "eval E8: the disc's size (small, medium, large)");
 ABSL_FLAG(std::string, agents, "1,2,5", "eval E8: team sizes, comma-separated (1..16)");
 ABSL_FLAG(std::string, budgets_m, "20000,100000",
-          "eval E8: total path budgets of the team, metres, comma-separated; each team flies "
-          "the largest, the others score the first part of its paths");
+          "eval E8: total path budgets of the team, metres, comma-separated; each is flown");
 ABSL_FLAG(uint64_t, victim_seed, 1,
           "eval E8: the base seed of the victims and of Greedy's and RandomWalk's steps (as "
           "oaipp-sarenv --seed)");
@@ -46,6 +42,7 @@ ABSL_FLAG(int, e8_waypoints, 3, "eval E8: OA-IPP's waypoints per plan, the UAV's
 ABSL_FLAG(double, e8_speed_m_s, 15.0, "eval E8: the UAVs' top speed, m/s");
 ABSL_FLAG(double, e8_length_scale_m, 9.0, "eval E8: the map's length scale, metres");
 ABSL_FLAG(double, e8_shot_spacing_m, 60.0, "eval E8: metres between shots at top speed");
+ABSL_FLAG(double, e8_fov_deg, 45.0, "eval E8: the planner's camera's field of view, both axes");
 
 namespace oaipp::client::cli {
 namespace {
@@ -80,6 +77,7 @@ struct Place {
 struct Flight {
   const Place* place = nullptr;
   int agents = 0;
+  double budget_m = 0.0;
   std::vector<sarenv::Polyline> paths;  // in the CRS, whole
   int plans = 0;
   double planning_s = 0.0;
@@ -122,6 +120,7 @@ int EvalE8() {
   }
   if (budgets.empty()) return Fail(absl::InvalidArgumentError("--budgets_m: empty"));
   std::sort(budgets.begin(), budgets.end());
+  budgets.erase(std::unique(budgets.begin(), budgets.end()), budgets.end());
   const int parallel = absl::GetFlag(FLAGS_parallel);
   if (parallel < 1) return Fail(absl::InvalidArgumentError("--parallel: must be >= 1"));
   E8Settings settings;
@@ -129,6 +128,7 @@ int EvalE8() {
   settings.max_speed_m_s = absl::GetFlag(FLAGS_e8_speed_m_s);
   settings.length_scale_m = absl::GetFlag(FLAGS_e8_length_scale_m);
   settings.shot_spacing_m = absl::GetFlag(FLAGS_e8_shot_spacing_m);
+  settings.fov_deg = absl::GetFlag(FLAGS_e8_fov_deg);
   const uint64_t seed = absl::GetFlag(FLAGS_victim_seed);
 
   std::vector<Place> places;
@@ -148,16 +148,21 @@ int EvalE8() {
   std::vector<Flight> flights;
   for (const Place& p : places) {
     for (const int n : *agents) {
-      Flight f;
-      f.place = &p;
-      f.agents = n;
-      flights.push_back(std::move(f));
+      for (const double budget : budgets) {
+        Flight f;
+        f.place = &p;
+        f.agents = n;
+        f.budget_m = budget;
+        flights.push_back(std::move(f));
+      }
     }
   }
-  // Check every scenario before flying any.
+  // Every mission checked as the server will check it before any flies.
   for (const Flight& f : flights) {
-    absl::StatusOr<v1::Scenario> s = E8Scenario(f.place->area, f.agents, budgets.back(), settings);
-    if (!s.ok()) return Fail(s.status());
+    absl::StatusOr<v1::Scenario> s = E8Scenario(f.place->area, f.agents, f.budget_m, settings);
+    absl::StatusOr<sim::Simulation> checked =
+        s.ok() ? sim::Simulation::Create(*s) : absl::StatusOr<sim::Simulation>(s.status());
+    if (!checked.ok()) return Fail(checked.status());
   }
   absl::StatusOr<std::shared_ptr<grpc::Channel>> channel = OpenChannel();
   if (!channel.ok()) return Fail(channel.status());
@@ -173,8 +178,7 @@ int EvalE8() {
     for (std::size_t j = next++; j < flights.size(); j = next++) {
       Flight& f = flights[j];
       const auto t0 = std::chrono::steady_clock::now();
-      absl::StatusOr<v1::Scenario> s =
-          E8Scenario(f.place->area, f.agents, budgets.back(), settings);
+      absl::StatusOr<v1::Scenario> s = E8Scenario(f.place->area, f.agents, f.budget_m, settings);
       absl::StatusOr<sim::Simulation> sim =
           s.ok() ? sim::Simulation::Create(*s) : absl::StatusOr<sim::Simulation>(s.status());
       absl::StatusOr<RunResult> run =
@@ -192,8 +196,10 @@ int EvalE8() {
       double km = 0;
       for (const sarenv::Polyline& line : f.paths) km += sarenv::PolylineLength_m(line) / 1000;
       std::fprintf(
-          stderr, "[%d/%zu] dataset %d, n = %d: %s%.1f km, %d plans, %.0f s (%.0f s in all)\n",
-          finished, flights.size(), f.place->number, f.agents,
+          stderr,
+          "[%d/%zu] dataset %d, n = %d, %.0f km: %s%.1f km flown, %d plans, %.0f s (%.0f s in "
+          "all)\n",
+          finished, flights.size(), f.place->number, f.agents, f.budget_m / 1000,
           f.error.empty() ? "" : ("FAILED: " + f.error + "; ").c_str(), km, f.plans, f.wall_s,
           std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
     }
@@ -205,7 +211,9 @@ int EvalE8() {
 
   std::string out = absl::GetFlag(FLAGS_out);
   if (out.empty()) out = "out/eval/E8";
-  std::filesystem::create_directories(out + "/paths");
+  std::error_code ec;
+  std::filesystem::create_directories(out + "/paths", ec);
+  if (ec) return Fail(absl::PermissionDeniedError(absl::StrCat("--out: ", ec.message())));
   std::vector<E8Row> rows;
   int failed = 0;
   for (const Flight& f : flights) {
@@ -213,22 +221,25 @@ int EvalE8() {
       ++failed;
       continue;
     }
-    const std::string stem =
-        absl::StrCat(out, "/paths/", f.place->number, "_n", f.agents, "_OA-IPP.csv");
-    std::ofstream(stem) << PathsCsv(f.paths, 10);
-    for (const double budget : budgets) {
-      absl::StatusOr<sarenv::PathMetrics> m = sarenv::EvaluatePaths(
-          f.place->area, sarenv::CutToBudget(f.paths, budget), f.place->victims);
-      if (!m.ok()) return Fail(m.status());
-      rows.push_back({.dataset = std::to_string(f.place->number),
-                      .algorithm = "OA-IPP",
-                      .agents = f.agents,
-                      .budget_m = budget,
-                      .metrics = *m,
-                      .plans = f.plans,
-                      .planning_s = f.planning_s,
-                      .flight_wall_s = f.wall_s});
+    std::ofstream(absl::StrFormat("%s/paths/%d_n%d_%.0fkm_OA-IPP.csv", out, f.place->number,
+                                  f.agents, f.budget_m / 1000))
+        << PathsCsv(f.paths, 10);
+    absl::StatusOr<sarenv::PathMetrics> m = sarenv::EvaluatePaths(
+        f.place->area, sarenv::CutToBudget(f.paths, f.budget_m), f.place->victims);
+    if (!m.ok()) return Fail(m.status());
+    E8Row row;
+    row.dataset = std::to_string(f.place->number);
+    row.algorithm = "OA-IPP";
+    row.agents = f.agents;
+    row.budget_m = f.budget_m;
+    row.metrics = *m;
+    row.plans = f.plans;
+    row.planning_s = f.planning_s;
+    row.flight_wall_s = f.wall_s;
+    for (const sarenv::Polyline& line : f.paths) {
+      if (sarenv::PolylineLength_m(line) < f.budget_m / f.agents - 1e-6) row.short_of_budget = true;
     }
+    rows.push_back(std::move(row));
   }
   for (const Place& p : places) {
     const std::string stem = absl::StrCat(out, "/paths/", p.number);
@@ -253,21 +264,31 @@ int EvalE8() {
           row.budget_m = budget;
           row.metrics = *m;
           rows.push_back(std::move(row));
-          if (budget == budgets.back() && b == Baseline::kGreedy) {
-            std::ofstream(absl::StrCat(stem, "_n", n, "_Greedy.csv")) << PathsCsv(*paths, 1);
+          if (b == Baseline::kGreedy) {
+            std::ofstream(absl::StrFormat("%s_n%d_%.0fkm_Greedy.csv", stem, n, budget / 1000))
+                << PathsCsv(*paths, 1);
           }
         }
       }
     }
   }
-  std::ofstream(out + "/metrics.csv") << E8Csv(rows);
+  std::ofstream csv(out + "/metrics.csv");
+  csv << E8Csv(rows);
   std::string summary = E8SummaryMarkdown(rows);
   if (failed > 0) absl::StrAppend(&summary, "\n", failed, " flight(s) failed; see the log.\n");
-  std::ofstream(out + "/summary.md") << summary;
+  std::ofstream md(out + "/summary.md");
+  md << summary;
+  if (!csv || !md)
+    return Fail(absl::PermissionDeniedError(absl::StrCat("--out: cannot write ", out)));
   std::printf("%s\n", summary.c_str());
-  const std::string plot = absl::StrCat("/usr/bin/python3 client/plots/plot_e8.py ", out);
+  // The folder goes to the script as one argument, quoted for the shell.
+  std::string quoted = "'";
+  for (const char c : out) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  quoted += "'";
+  const std::string plot = absl::StrCat("/usr/bin/python3 client/plots/plot_e8.py ", quoted);
   if (std::system(plot.c_str()) != 0) {
-    std::fprintf(stderr, "warning: the pictures were not drawn (%s)\n", plot.c_str());
+    std::fprintf(stderr, "warning: the pictures were not drawn (%s; run it from the repository)\n",
+                 plot.c_str());
   }
   std::printf("wrote to %s: metrics.csv, summary.md, paths/, e8_*.png\n", out.c_str());
   return failed == 0 ? 0 : 1;

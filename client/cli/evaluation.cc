@@ -145,6 +145,10 @@ absl::StatusOr<EvalResult> RunEvaluation(const std::string& address,
   result.trials.resize(jobs.size());
   absl::StatusOr<v1::Scenario> first = variants.front().scenario(options.first_trial);
   if (!first.ok()) return first.status();
+  if (first->final_map_only()) {
+    return absl::InvalidArgumentError(
+        "final_map_only: eval's curves need the map after every shot; leave it unset");
+  }
   const double budget =
       first->mission().has_budget_s() ? first->mission().budget_s() : api::MissionConfig{}.budget_s;
   for (double t = 0; t <= budget + 1e-9; t += options.grid_s) result.grid_s.push_back(t);

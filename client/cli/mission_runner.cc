@@ -333,7 +333,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     if (!cut && t < pilot.fly) return absl::OkStatus();
     // The path ends here.
     const PolynomialTrajectory& traj = *pilot.trajectory;
-    record_flight();
+    if (!scenario.final_map_only()) record_flight();  // else once, at the end
     v1::UavState& state = pilot.state;
     *state.mutable_position_m() = api::ToProto(traj.Position(t));
     *state.mutable_velocity_m_s() = api::ToProto(traj.Velocity(t));
@@ -367,6 +367,7 @@ absl::StatusOr<RunResult> RunScenario(Client& client, const v1::Scenario& scenar
     if (pilots[next].done) break;
     OAIPP_RETURN_IF_ERROR(pilots[next].trajectory.has_value() ? step(next) : plan(next));
   }
+  record_flight();
   record.uav_id.clear();
   record.mission_time_s = t0;
   for (const Pilot& pilot : pilots) {

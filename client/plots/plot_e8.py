@@ -3,9 +3,9 @@
 
     python3 client/plots/plot_e8.py out/eval/E8
 
-Reads OUT/paths/N_map.npy + N_map.json (the crop), N_nK_OA-IPP.csv (each UAV's path in the
-crop's CRS) and N_nK_Greedy.csv (Greedy's paths at the largest budget), and writes OUT/e8_N.png.
-The first 20 % of each OA-IPP path (the smallest budget of the default run) is drawn bold.
+Reads OUT/paths/N_map.npy + N_map.json (the crop), N_nK_BKkm_OA-IPP.csv (each UAV's path in the
+crop's CRS, flown to a budget of B km) and N_nK_BKkm_Greedy.csv, and writes OUT/e8_N.png: the
+flight to the smallest budget bold, to the largest thin, Greedy's to the smallest in grey.
 """
 import csv
 import glob
@@ -41,34 +41,34 @@ def main():
         x0, y0, x1, y1 = meta["bounds"]
         cx, cy = meta["center_x_m"], meta["center_y_m"]
         extent = [(x0 - cx) / 1000, (x1 - cx) / 1000, (y0 - cy) / 1000, (y1 - cy) / 1000]
-        runs = {}
-        for p in glob.glob(os.path.join(out, "paths", f"{number}_n*_OA-IPP.csv")):
-            runs[int(re.search(r"_n(\d+)_", p).group(1))] = p
+        runs = defaultdict(dict)  # team size -> budget km -> file
+        for p in glob.glob(os.path.join(out, "paths", f"{number}_n*km_OA-IPP.csv")):
+            m = re.search(r"_n(\d+)_(\d+)km_", p)
+            runs[int(m.group(1))][int(m.group(2))] = p
         if not runs:
             continue
         sizes = sorted(runs)
         fig, axes = plt.subplots(1, len(sizes), figsize=(5.2 * len(sizes), 5.2), squeeze=False)
         shown = np.where(heat > 0, heat, np.nan)
+        colours = plt.cm.tab10.colors
         for ax, n in zip(axes[0], sizes):
             ax.imshow(shown, origin="lower", extent=extent, cmap="magma", interpolation="nearest")
-            greedy = os.path.join(out, "paths", f"{number}_n{n}_Greedy.csv")
+            small, large = min(runs[n]), max(runs[n])
+            greedy = os.path.join(out, "paths", f"{number}_n{n}_{small}km_Greedy.csv")
             if os.path.exists(greedy):
                 for line in read_paths(greedy):
-                    ax.plot((line[:, 0] - cx) / 1000, (line[:, 1] - cy) / 1000, color="0.6",
-                            lw=0.5, alpha=0.7)
-            colours = plt.cm.tab10.colors
-            for k, line in enumerate(read_paths(runs[n])):
-                xs, ys = (line[:, 0] - cx) / 1000, (line[:, 1] - cy) / 1000
-                seg = np.hypot(np.diff(xs), np.diff(ys))
-                run = np.concatenate([[0], np.cumsum(seg)])
-                first = run <= 0.2 * run[-1]
-                ax.plot(xs, ys, color=colours[k % 10], lw=0.4, alpha=0.6)
-                ax.plot(xs[first], ys[first], color=colours[k % 10], lw=1.6)
+                    ax.plot((line[:, 0] - cx) / 1000, (line[:, 1] - cy) / 1000, color="0.75",
+                            lw=0.8)
+            for budget, width in ([(large, 0.4)] if large != small else []) + [(small, 1.4)]:
+                for k, line in enumerate(read_paths(runs[n][budget])):
+                    ax.plot((line[:, 0] - cx) / 1000, (line[:, 1] - cy) / 1000,
+                            color=colours[k % 10], lw=width, alpha=0.5 if width < 1 else 1.0)
             ax.plot([0], [0], "wo", ms=5, mec="k")
-            ax.set_title(f"dataset {number}, n = {n}")
+            title = f"dataset {number}, n = {n}: {small} km bold"
+            ax.set_title(title + (f", {large} km thin" if large != small else ""))
             ax.set_xlabel("east of the last known point [km]")
             ax.set_ylabel("north [km]")
-        fig.suptitle("OA-IPP's paths (bold: the first fifth) over the lost-person map; grey: Greedy")
+        fig.suptitle("OA-IPP's flown paths over the lost-person map (a colour per UAV); grey: Greedy")
         fig.tight_layout()
         fig.savefig(os.path.join(out, f"e8_{number}.png"), dpi=110)
         plt.close(fig)
