@@ -6,6 +6,7 @@
 
 #include "absl/container/flat_hash_set.h"
 #include "absl/strings/str_cat.h"
+#include "api/limits.h"
 #include "client/geo_import/geo_import.h"
 
 namespace oaipp::client::cli {
@@ -105,6 +106,16 @@ absl::Status Read(v1::Scenario& scenario, const std::string& scenario_path,
     absl::StatusOr<std::vector<v1::Obstacle>> buildings = geo_import::ReadBuildings(
         Resolve(files.buildings(), scenario_path), "search_files.buildings", rules, dropped);
     if (!buildings.ok()) return buildings.status();
+    // The server would refuse the whole spec (spec.obstacles); said here,
+    // the message names the file that overflowed.
+    const std::size_t total =
+        static_cast<std::size_t>(mission.obstacles_size()) + buildings->size();
+    if (total > static_cast<std::size_t>(api::kMaxObstacles)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "search_files.buildings: ", buildings->size(), " buildings and the mission's ",
+          mission.obstacles_size(), " obstacles make ", total, " obstacles; a mission has at most ",
+          api::kMaxObstacles));
+    }
     if (absl::Status s = Append(*std::move(buildings), *mission.mutable_obstacles(), ids,
                                 "search_files.buildings");
         !s.ok()) {

@@ -24,10 +24,11 @@ namespace oaipp::client::cli {
 // name the field ("search_files.area: ..."): InvalidArgument when the
 // mission has no geo_origin, when it sets search_areas beside
 // search_files.area or a fence beside search_files.fence, when an imported
-// id is already an obstacle's or a zone's, when metres_per_level or
-// default_building_height_m is not > 0 and finite, or when a file holds
-// nothing usable; NotFound when a file is missing. The rings themselves are
-// checked again by the server.
+// id is already an obstacle's or a zone's, when the buildings and the
+// mission's own obstacles are more than api::kMaxObstacles (1000), when
+// metres_per_level or default_building_height_m is not > 0 and finite, or
+// when a file holds nothing usable; NotFound when a file is missing. The
+// rings themselves are checked again by the server.
 [[nodiscard]] absl::Status ReadSearchFiles(v1::Scenario& scenario, const std::string& scenario_path,
                                            std::vector<std::string>& dropped);
 

@@ -24,16 +24,17 @@ void ToRing(const LatLonRing& ring, v1::Ring& out) {
   }
 }
 
-// "zone-3", or "zone-3-2" for the second polygon of feature 3's several.
-std::string PartId(absl::string_view prefix, const Feature& f, std::size_t part) {
+// "zone-3", or "zone-3-2" for the second polygon of feature 3's several
+// (the second in the geometry, whether or not the first was usable).
+std::string PartId(absl::string_view prefix, const Feature& f, const LatLonPolygon& p) {
   if (f.polygons_in_geometry <= 1) return absl::StrCat(prefix, "-", f.number);
-  return absl::StrCat(prefix, "-", f.number, "-", part + 1);
+  return absl::StrCat(prefix, "-", f.number, "-", p.part);
 }
 
 // "polygon 2 of 3: " when the feature has several, else "".
-std::string PartName(const Feature& f, std::size_t part) {
+std::string PartName(const Feature& f, const LatLonPolygon& p) {
   if (f.polygons_in_geometry <= 1) return "";
-  return absl::StrCat("polygon ", part + 1, " of ", f.polygons_in_geometry, ": ");
+  return absl::StrCat("polygon ", p.part, " of ", f.polygons_in_geometry, ": ");
 }
 
 // "1 hole", "2 holes".
@@ -187,20 +188,19 @@ absl::StatusOr<std::vector<v1::Obstacle>> ReadNoFlyZones(const std::string& path
       cylinder.set_height_m(*ceiling_m - *floor_m);
       return absl::OkStatus();
     }
-    for (std::size_t k = 0; k < f.polygons.size(); ++k) {
-      const LatLonPolygon& p = f.polygons[k];
+    for (const LatLonPolygon& p : f.polygons) {
       if (p.outer.size() > kMaxRingVertices) {
-        return absl::InvalidArgumentError(absl::StrCat(field, ": ", f.label, ": ", PartName(f, k),
+        return absl::InvalidArgumentError(absl::StrCat(field, ": ", f.label, ": ", PartName(f, p),
                                                        p.outer.size(), " vertices, more than ",
                                                        kMaxRingVertices));
       }
       v1::Obstacle& zone = zones.emplace_back();
-      zone.set_id(PartId("zone", f, k));
+      zone.set_id(PartId("zone", f, p));
       ToRing(p.outer, *zone.mutable_prism()->mutable_footprint());
       zone.mutable_prism()->set_base_m(*floor_m);
       zone.mutable_prism()->set_top_m(*ceiling_m);
       if (!p.holes.empty()) {
-        dropped.push_back(absl::StrCat(field, ": ", f.label, ": ", PartName(f, k), "its ",
+        dropped.push_back(absl::StrCat(field, ": ", f.label, ": ", PartName(f, p), "its ",
                                        Count(p.holes.size(), "hole is", "holes are"),
                                        " closed (a zone is a prism without holes)"));
       }
@@ -234,12 +234,11 @@ absl::StatusOr<std::vector<v1::Obstacle>> ReadBuildings(const std::string& path,
     if (f.polygons.empty()) return absl::OkStatus();
     const BuildingHeight height =
         OsmBuildingHeight(f.Property("height"), f.Property("building:levels"), rules);
-    for (std::size_t k = 0; k < f.polygons.size(); ++k) {
-      const LatLonPolygon& p = f.polygons[k];
-      const std::string id = PartId("building", f, k);
+    for (const LatLonPolygon& p : f.polygons) {
+      const std::string id = PartId("building", f, p);
       if (p.outer.size() > kMaxRingVertices) {
         dropped.push_back(absl::StrCat(
-            field, ": ", f.label, ": ", PartName(f, k), "its footprint has ", p.outer.size(),
+            field, ": ", f.label, ": ", PartName(f, p), "its footprint has ", p.outer.size(),
             " vertices, more than the API's ", kMaxRingVertices, "; dropped"));
         continue;
       }

@@ -3,8 +3,11 @@
 // fence, no-fly zones and OpenStreetMap building footprints. Every ring is
 // given as WGS84 latitude/longitude (Ring.lat_lon_deg), which the server
 // places on the mission's local frame, so the mission needs a geo_origin.
-// A file in another CRS is transformed to WGS84. docs/search-files.md says
-// what is read, with which property names and defaults.
+// A file in another CRS is transformed to WGS84; a GeoPackage or Shapefile
+// layer without a CRS is an error (only GeoJSON and KML are WGS84 without
+// saying so). Tables without geometry (a GeoPackage's layer_styles) are
+// not read. docs/search-files.md says what is read, with which property
+// names and defaults.
 //
 // What cannot be used is left out and said, one line per thing, in
 // `dropped` ("search_files.buildings: feature 7 (way/4711): its outer ring
@@ -43,9 +46,10 @@ inline constexpr double kDefaultZoneCeilingM = 1000.0;
 
 // Every usable Polygon and MultiPolygon part, holes kept, one AreaPolygon
 // each. Dropped: polygons that fail the checks (a ring not closed, fewer
-// than 3 distinct vertices, no area, edges that cross or touch, a hole
-// outside its ring), features that are not polygons. InvalidArgument when
-// none is left.
+// than 3 distinct vertices, no area, a ring that crosses or touches itself,
+// a hole outside its ring or meeting it or another hole along an edge, a
+// vertex outside WGS84's ranges), features that are not polygons.
+// InvalidArgument when none is left.
 [[nodiscard]] absl::StatusOr<std::vector<v1::AreaPolygon>> ReadSearchArea(
     const std::string& path, absl::string_view field, std::vector<std::string>& dropped);
 

@@ -15,7 +15,9 @@
 #include <system_error>
 #include <utility>
 
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 
 namespace oaipp::client::geo_import::internal {
 namespace {
@@ -99,7 +101,9 @@ std::string RingName(int ring) {
 
 // Why `polygon` cannot be used, or "" when it can: every ring closed, with
 // three distinct vertices and some area, and the polygon valid by GEOS (no
-// ring crosses or touches itself or another, holes inside the outer ring).
+// ring crosses or touches itself; holes inside the outer ring, not inside
+// each other, meeting it or each other at single points at most, which
+// leave the inside in one piece).
 std::string CheckPolygon(const OGRPolygon& polygon) {
   if (polygon.IsEmpty() || polygon.getExteriorRing() == nullptr) return "it is empty";
   const int holes = polygon.getNumInteriorRings();
@@ -116,7 +120,46 @@ std::string CheckPolygon(const OGRPolygon& polygon) {
     OGRLineString line(*ring);
     if (!line.IsSimple()) return absl::StrCat(RingName(r), " crosses or touches itself");
   }
-  return "a hole crosses the outer ring or another hole, or lies outside it";
+  return "a hole crosses or runs along the outer ring or another hole, lies outside the outer "
+         "ring or inside another hole, or cuts the inside apart";
+}
+
+// Why (lon_deg, lat_deg) cannot be a WGS84 position, or "": the numbers of
+// a projected layer read without its CRS (UTM metres, 465000) land here.
+std::string CheckWgs84(double lon_deg, double lat_deg) {
+  if (std::isfinite(lat_deg) && std::isfinite(lon_deg) && lat_deg >= -90.0 && lat_deg <= 90.0 &&
+      lon_deg >= -180.0 && lon_deg <= 180.0) {
+    return "";
+  }
+  return absl::StrFormat(
+      "(longitude %.9g, latitude %.9g) is not in WGS84's [-180, 180] x [-90, 90] degrees", lon_deg,
+      lat_deg);
+}
+
+// The layers a map is in: an attribute-only table (QGIS saves its styles in
+// a GeoPackage's layer_styles; a Shapefile may be a lone .dbf) has no
+// geometry column and holds no map features.
+bool HasGeometry(OGRLayer& layer) { return wkbFlatten(layer.GetGeomType()) != wkbNone; }
+
+// Drivers whose files say their CRS, so that a layer without one is not
+// known to be WGS84; GeoJSON (RFC 7946) and KML are WGS84 by definition.
+bool NeedsCrs(GDALDataset& dataset) {
+  const GDALDriver* driver = dataset.GetDriver();
+  if (driver == nullptr) return true;
+  const absl::string_view name = driver->GetDescription();
+  return name != "GeoJSON" && name != "LIBKML" && name != "KML";
+}
+
+// Whether a layer's CRS says nothing: none at all, or one of the stand-ins
+// GDAL's GPKG driver gives for the GeoPackage standard's undefined SRSs
+// (srs_id 0, a geographic CRS on WGS84's ellipsoid that would pass for
+// WGS84; srs_id -1, a local CRS).
+bool Undefined(const OGRSpatialReference* srs) {
+  if (srs == nullptr) return true;
+  const char* name = srs->GetName();
+  if (name == nullptr) return false;
+  return absl::EqualsIgnoreCase(name, "Undefined geographic SRS") ||
+         absl::EqualsIgnoreCase(name, "Undefined cartesian SRS");
 }
 
 }  // namespace
@@ -169,13 +212,13 @@ struct VectorFile::Impl {
   // Appends the usable polygons of `geometry` to `out`.
   void AddGeometry(const OGRGeometry& geometry, OGRCoordinateTransformation* ct,
                    Feature& out) const;
-  // `polygon` into latitude and longitude; false when the transform fails.
-  bool ToLatLon(const OGRPolygon& polygon, OGRCoordinateTransformation* ct,
-                LatLonPolygon& out) const;
+  // `polygon` into latitude and longitude; why not, or "".
+  std::string ToLatLon(const OGRPolygon& polygon, OGRCoordinateTransformation* ct,
+                       LatLonPolygon& out) const;
 };
 
-bool VectorFile::Impl::ToLatLon(const OGRPolygon& polygon, OGRCoordinateTransformation* ct,
-                                LatLonPolygon& out) const {
+std::string VectorFile::Impl::ToLatLon(const OGRPolygon& polygon, OGRCoordinateTransformation* ct,
+                                       LatLonPolygon& out) const {
   const int holes = polygon.getNumInteriorRings();
   for (int r = 0; r <= holes; ++r) {
     const OGRLinearRing& ring =
@@ -189,12 +232,14 @@ bool VectorFile::Impl::ToLatLon(const OGRPolygon& polygon, OGRCoordinateTransfor
     }
     if (ct != nullptr &&
         !ct->Transform(static_cast<int>(x.size()), x.data(), y.data(), nullptr, nullptr)) {
-      return false;
+      return "it could not be transformed to WGS84";
     }
     LatLonRing lat_lon;
     lat_lon.reserve(x.size());
     for (std::size_t i = 0; i < x.size(); ++i) {
-      if (!std::isfinite(x[i]) || !std::isfinite(y[i])) return false;
+      if (std::string why = CheckWgs84(x[i], y[i]); !why.empty()) {
+        return absl::StrCat(RingName(r), "'s vertex ", i + 1, " ", why);
+      }
       lat_lon.push_back({.lat_deg = y[i], .lon_deg = x[i]});
     }
     if (r == 0) {
@@ -203,7 +248,7 @@ bool VectorFile::Impl::ToLatLon(const OGRPolygon& polygon, OGRCoordinateTransfor
       out.holes.push_back(std::move(lat_lon));
     }
   }
-  return true;
+  return "";
 }
 
 void VectorFile::Impl::AddGeometry(const OGRGeometry& geometry, OGRCoordinateTransformation* ct,
@@ -223,6 +268,8 @@ void VectorFile::Impl::AddGeometry(const OGRGeometry& geometry, OGRCoordinateTra
     double x = point.getX(), y = point.getY();
     if (ct != nullptr && !ct->Transform(1, &x, &y, nullptr, nullptr)) {
       out.rejected.push_back("its point could not be transformed to WGS84");
+    } else if (std::string why = CheckWgs84(x, y); !why.empty()) {
+      out.rejected.push_back(absl::StrCat("its point ", why));
     } else {
       out.point = LatLon{.lat_deg = y, .lon_deg = x};
     }
@@ -252,10 +299,11 @@ void VectorFile::Impl::AddGeometry(const OGRGeometry& geometry, OGRCoordinateTra
       continue;
     }
     LatLonPolygon p;
-    if (!ToLatLon(*polygons[i], ct, p)) {
-      out.rejected.push_back(name + "it could not be transformed to WGS84");
+    if (std::string why = ToLatLon(*polygons[i], ct, p); !why.empty()) {
+      out.rejected.push_back(name + why);
       continue;
     }
+    p.part = static_cast<int>(i) + 1;
     out.polygons.push_back(std::move(p));
   }
 }
@@ -290,10 +338,21 @@ absl::StatusOr<VectorFile> VectorFile::Open(const std::string& path, absl::strin
   wgs84.importFromEPSG(4326);
   wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
   const int layers = impl->dataset->GetLayerCount();
+  const bool needs_crs = NeedsCrs(*impl->dataset);
   for (int i = 0; i < layers; ++i) {
-    const OGRSpatialReference* srs = impl->dataset->GetLayer(i)->GetSpatialRef();
-    // No CRS: GeoJSON (RFC 7946) and KML are WGS84 by definition.
-    if (srs == nullptr || srs->IsSame(&wgs84)) {
+    OGRLayer& layer = *impl->dataset->GetLayer(i);
+    const OGRSpatialReference* srs = layer.GetSpatialRef();
+    if (!HasGeometry(layer) || (srs == nullptr && !needs_crs)) {
+      impl->to_wgs84.emplace_back();
+      continue;
+    }
+    if (Undefined(srs)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          field, ": ", Bounded(path, 300), ": layer ", i + 1, " (", Bounded(layer.GetName(), 60),
+          ") has no coordinate reference system (a Shapefile needs its .prj, a GeoPackage layer "
+          "a defined SRS); only GeoJSON and KML are WGS84 without saying so"));
+    }
+    if (srs->IsSame(&wgs84)) {
       impl->to_wgs84.emplace_back();
       continue;
     }
@@ -320,6 +379,7 @@ absl::Status VectorFile::ForEach(const std::function<absl::Status(const Feature&
   int number = 0;
   for (int i = 0; i < dataset.GetLayerCount(); ++i) {
     OGRLayer& layer = *dataset.GetLayer(i);
+    if (!HasGeometry(layer)) continue;
     OGRCoordinateTransformation* ct = impl_->to_wgs84[static_cast<std::size_t>(i)].get();
     layer.ResetReading();
     while (true) {

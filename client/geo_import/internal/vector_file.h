@@ -35,22 +35,30 @@ using LatLonRing = std::vector<LatLon>;
 struct LatLonPolygon {
   LatLonRing outer;
   std::vector<LatLonRing> holes;
+  // 1-based place among the polygons of the feature's geometry, counting
+  // those that failed the checks: a feature's second polygon is part 2 even
+  // when its first was dropped.
+  int part = 1;
 };
 
 // One feature of the file, as far as the importers need it.
 struct Feature {
-  // 1-based place in the file, counting every layer's features in order.
+  // 1-based place in the file, counting in order the features of every
+  // layer that has a geometry column (attribute-only tables, such as the
+  // layer_styles a QGIS-saved GeoPackage holds, are not read).
   int number = 0;
   // "feature 12" or "feature 12 (way/4711)": the number and the feature's
   // OSM id or name, cut to a bounded length and to printable characters.
   std::string label;
   // The polygons of a Polygon, MultiPolygon or of a GeometryCollection's
   // polygon members that passed the checks (closed rings of at least three
-  // distinct vertices, enclosing area, a valid polygon by GEOS).
+  // distinct vertices, enclosing area, a valid polygon by GEOS, every vertex
+  // a finite latitude in [-90, 90] and longitude in [-180, 180] once in
+  // WGS84), in the geometry's order.
   std::vector<LatLonPolygon> polygons;
   // How many polygons the geometry held, checked or not.
   int polygons_in_geometry = 0;
-  // A Point geometry.
+  // A Point geometry, checked as a polygon's vertices are.
   std::optional<LatLon> point;
   // One reason per polygon or geometry part that was not usable ("polygon 2
   // of 3: its outer ring crosses itself", "a LineString is not a polygon").
@@ -70,7 +78,10 @@ class VectorFile {
  public:
   // Opens `path` as GeoJSON, KML, GeoPackage or an ESRI Shapefile.
   // NotFound when there is no such file; InvalidArgument when GDAL reads it
-  // as none of those, or when a layer's CRS cannot be transformed to WGS84.
+  // as none of those, when a layer's CRS cannot be transformed to WGS84, or
+  // when a GeoPackage or Shapefile layer has no CRS (a Shapefile without
+  // its .prj, a GeoPackage layer with an undefined SRS): only GeoJSON and
+  // KML are WGS84 by definition.
   // Errors start with `field` and never quote more than a bounded piece of
   // the file.
   [[nodiscard]] static absl::StatusOr<VectorFile> Open(const std::string& path,
@@ -82,8 +93,8 @@ class VectorFile {
   VectorFile& operator=(const VectorFile&) = delete;
   ~VectorFile();
 
-  // Calls `visit` on every feature of every layer, in file order; stops at
-  // the first error `visit` returns, and returns it.
+  // Calls `visit` on every feature of every layer with a geometry column,
+  // in file order; stops at the first error `visit` returns, and returns it.
   [[nodiscard]] absl::Status ForEach(const std::function<absl::Status(const Feature&)>& visit);
 
  private:

@@ -133,19 +133,46 @@ void WriteText(const std::filesystem::path& path, const std::string& text) {
 
 void WriteGeoPackage(const std::filesystem::path& path, int epsg,
                      const std::vector<std::vector<XyRing>>& polygons) {
+  XyFile file;
+  file.epsg = epsg;
+  file.polygons = polygons;
+  WriteXyFile(path, file);
+}
+
+void WriteXyFile(const std::filesystem::path& path, const XyFile& file) {
   GDALAllRegister();
   std::filesystem::remove(path);
-  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GPKG");
-  if (driver == nullptr) throw std::runtime_error("GDAL has no GPKG driver");
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName(file.driver.c_str());
+  if (driver == nullptr) throw std::runtime_error("GDAL has no driver " + file.driver);
   GDALDatasetUniquePtr dataset(
       driver->Create(path.string().c_str(), 0, 0, 0, GDT_Unknown, nullptr));
   if (dataset == nullptr) throw std::runtime_error("cannot create " + path.string());
+  if (file.attribute_rows > 0) {
+    OGRLayer* styles = dataset->CreateLayer("layer_styles", nullptr, wkbNone, nullptr);
+    if (styles == nullptr) throw std::runtime_error("cannot create an attribute table");
+    OGRFieldDefn name("styleName", OFTString);
+    styles->CreateField(&name);
+    for (int i = 0; i < file.attribute_rows; ++i) {
+      OGRFeature row(styles->GetLayerDefn());
+      row.SetField("styleName", absl::StrCat("style ", i + 1).c_str());
+      if (styles->CreateFeature(&row) != OGRERR_NONE) {
+        throw std::runtime_error("cannot write a row");
+      }
+    }
+  }
   OGRSpatialReference srs;
-  srs.importFromEPSG(epsg);
-  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-  OGRLayer* layer = dataset->CreateLayer("area", &srs, wkbPolygon, nullptr);
+  if (file.epsg != 0) {
+    srs.importFromEPSG(file.epsg);
+    srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  }
+  OGRLayer* layer =
+      dataset->CreateLayer("area", file.epsg != 0 ? &srs : nullptr, wkbPolygon, nullptr);
   if (layer == nullptr) throw std::runtime_error("cannot create a layer");
-  for (const std::vector<XyRing>& rings : polygons) {
+  for (const auto& [key, value] : file.properties) {
+    OGRFieldDefn field(key.c_str(), OFTString);
+    layer->CreateField(&field);
+  }
+  for (const std::vector<XyRing>& rings : file.polygons) {
     OGRPolygon polygon;
     for (const XyRing& r : rings) {
       OGRLinearRing ring;
@@ -154,6 +181,9 @@ void WriteGeoPackage(const std::filesystem::path& path, int epsg,
       polygon.addRing(&ring);
     }
     OGRFeature feature(layer->GetLayerDefn());
+    for (const auto& [key, value] : file.properties) {
+      feature.SetField(key.c_str(), value.c_str());
+    }
     feature.SetGeometry(&polygon);
     if (layer->CreateFeature(&feature) != OGRERR_NONE) {
       throw std::runtime_error("cannot write a feature");

@@ -10,6 +10,7 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace oaipp::client::geo_import::test_files {
@@ -63,5 +64,20 @@ struct XyRing {
 };
 void WriteGeoPackage(const std::filesystem::path& path, int epsg,
                      const std::vector<std::vector<XyRing>>& polygons);
+
+// A file written through GDAL's `driver` ("GPKG" or "ESRI Shapefile") with
+// one polygon layer, each polygon a feature (rings[0] outer, the rest
+// holes) with `properties` as string fields. `epsg` 0 writes no CRS: a
+// Shapefile without its .prj, a GeoPackage layer with GDAL's undefined SRS.
+// `attribute_rows` > 0 first writes an attribute-only table layer_styles of
+// that many rows, as QGIS saves its styles into a GeoPackage.
+struct XyFile {
+  std::string driver = "GPKG";
+  int epsg = 0;
+  std::vector<std::vector<XyRing>> polygons;
+  std::vector<std::pair<std::string, std::string>> properties;
+  int attribute_rows = 0;
+};
+void WriteXyFile(const std::filesystem::path& path, const XyFile& file);
 
 }  // namespace oaipp::client::geo_import::test_files

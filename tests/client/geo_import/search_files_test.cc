@@ -148,6 +148,31 @@ TEST_F(SearchFilesTest, EachBadInputNamesItsField) {
   EXPECT_THAT(s.message(), HasSubstr("search_files.default_building_height_m: must be > 0"));
 }
 
+TEST_F(SearchFilesTest, BuildingsPastTheApisObstacleLimitAreAnError) {
+  // 999 houses on a 32 x 32 grid of 10 m squares, 20 m apart.
+  std::vector<GeoFeature> houses;
+  for (int i = 0; i < 999; ++i) {
+    houses.push_back(Polygon({Square(47.39 + 1.8e-4 * (i / 32), 8.54 + 2.6e-4 * (i % 32))},
+                             R"("building": "yes", "height": 8)"));
+  }
+  Write("maps/buildings.geojson", houses);
+  scenario_.mutable_search_files()->set_buildings("maps/buildings.geojson");
+  scenario_.mutable_mission()->add_obstacles()->set_id("tower");
+  const v1::Scenario one_own = scenario_;
+  scenario_.mutable_mission()->add_obstacles()->set_id("mast");
+  // 999 and 2 are 1001, one more than the API's 1000 obstacles of a mission
+  // (docs/limits.md).
+  const absl::Status over = Read();
+  EXPECT_EQ(over.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(over.message(), HasSubstr("search_files.buildings: 999 buildings and the mission's "
+                                        "2 obstacles make 1001 obstacles; a mission has at most "
+                                        "1000"));
+  // 999 and 1 fit exactly.
+  scenario_ = one_own;
+  ASSERT_TRUE(Read().ok()) << Read();
+  EXPECT_THAT(scenario_.mission().obstacles(), SizeIs(1000));
+}
+
 TEST_F(SearchFilesTest, TheDemoPassesTheServersValidationWithItsBuildings) {
   absl::StatusOr<v1::Scenario> demo = sim::LoadScenarioFile(kDemo);
   ASSERT_TRUE(demo.ok()) << demo.status();
