@@ -50,7 +50,8 @@ struct E8Settings {
 };
 
 // The scenario that flies `area` with `agents` UAVs (1..16) until each has
-// flown budget_m / agents (Scenario.path_budget_m). The world frame is the
+// flown 2 % more than budget_m / agents (Scenario.path_budget_m; scoring
+// cuts the path to the share). The world frame is the
 // area's CRS shifted so that the disc's centre is the origin; every UAV
 // starts there at rest at altitude_m (a team spread team_spacing_m apart
 // along x). No one stands in the field: the map learns only where the

@@ -70,7 +70,7 @@ def main():
             ax.set_ylabel("north [km]")
         fig.suptitle("OA-IPP's flown paths over the lost-person map (a colour per UAV); grey: Greedy")
         fig.tight_layout()
-        fig.savefig(os.path.join(out, f"e8_{number}.png"), dpi=110)
+        fig.savefig(os.path.join(out, f"e8_{number}.png"), dpi=80)
         plt.close(fig)
 
 
