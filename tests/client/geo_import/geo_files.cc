@@ -191,4 +191,25 @@ void WriteXyFile(const std::filesystem::path& path, const XyFile& file) {
   }
 }
 
+void FileFolderTest::SetUp() {
+  dir_ = std::filesystem::path(::testing::TempDir()) /
+         (prefix_ + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  std::filesystem::create_directories(dir_);
+}
+
+std::string FileFolderTest::Write(const std::string& name, const std::string& text) {
+  WriteText(dir_ / name, text);
+  return (dir_ / name).string();
+}
+
+void ExpectRing(const v1::Ring& ring, const Ring& expected) {
+  constexpr double kDegTol = 1e-9;
+  ASSERT_EQ(ring.lat_lon_deg_size(), 2 * static_cast<int>(expected.size()));
+  EXPECT_EQ(ring.xy_m_size(), 0);
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    EXPECT_NEAR(ring.lat_lon_deg(2 * i), expected[i].lat, kDegTol) << "vertex " << i;
+    EXPECT_NEAR(ring.lat_lon_deg(2 * i + 1), expected[i].lon, kDegTol) << "vertex " << i;
+  }
+}
+
 }  // namespace oaipp::client::geo_import::test_files

@@ -13,6 +13,9 @@
 #include <utility>
 #include <vector>
 
+#include "gtest/gtest.h"
+#include "oaipp/v1/mission_service.pb.h"
+
 namespace oaipp::client::geo_import::test_files {
 
 struct LatLonDeg {
@@ -79,5 +82,25 @@ struct XyFile {
   int attribute_rows = 0;
 };
 void WriteXyFile(const std::filesystem::path& path, const XyFile& file);
+
+// A folder of its own for each test, TempDir()/<prefix><the test's name>,
+// made before the test runs, and the lines a read says it dropped.
+class FileFolderTest : public ::testing::Test {
+ protected:
+  explicit FileFolderTest(std::string prefix) : prefix_(std::move(prefix)) {}
+  void SetUp() override;
+  // Writes `text` to the folder's file `name`; its path.
+  std::string Write(const std::string& name, const std::string& text);
+
+  std::filesystem::path dir_;
+  std::vector<std::string> dropped_;
+
+ private:
+  std::string prefix_;
+};
+
+// The ring is given as lat_lon_deg only, equal to `expected` vertex for
+// vertex within 1e-9 deg (about 0.1 mm).
+void ExpectRing(const v1::Ring& ring, const Ring& expected);
 
 }  // namespace oaipp::client::geo_import::test_files

@@ -21,6 +21,7 @@
 namespace oaipp::client::geo_import::checks {
 namespace {
 
+using test_files::ExpectRing;
 using test_files::GeoJson;
 using test_files::LatLonDeg;
 using test_files::MultiPolygon;
@@ -35,7 +36,6 @@ using ::testing::HasSubstr;
 using ::testing::IsEmpty;
 using ::testing::SizeIs;
 
-constexpr double kDegTol = 1e-9;
 
 // (north, east) steps of 1e-4 deg from a field near Zurich.
 constexpr LatLonDeg kBase{47.3977, 8.5456};
@@ -56,33 +56,14 @@ XyRing XySquare(double north, double east, double side) {
 const XyRing kUtmBlock = {
     .xy = {{465000, 5249000}, {465100, 5249000}, {465100, 5249080}, {465000, 5249080}}};
 
-class GeoImportChecksTest : public ::testing::Test {
+class GeoImportChecksTest : public test_files::FileFolderTest {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::path(::testing::TempDir()) /
-           ("geo_import_checks_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    std::filesystem::create_directories(dir_);
-  }
-  std::string Write(const std::string& name, const std::string& text) {
-    WriteText(dir_ / name, text);
-    return (dir_ / name).string();
-  }
+  GeoImportChecksTest() : FileFolderTest("geo_import_checks_") {}
   std::string WriteXy(const std::string& name, const XyFile& file) {
     test_files::WriteXyFile(dir_ / name, file);
     return (dir_ / name).string();
   }
-  std::filesystem::path dir_;
-  std::vector<std::string> dropped_;
 };
-
-void ExpectRing(const v1::Ring& ring, const Ring& expected) {
-  ASSERT_EQ(ring.lat_lon_deg_size(), 2 * static_cast<int>(expected.size()));
-  for (std::size_t i = 0; i < expected.size(); ++i) {
-    EXPECT_NEAR(ring.lat_lon_deg(2 * i), expected[i].lat, kDegTol) << "vertex " << i;
-    EXPECT_NEAR(ring.lat_lon_deg(2 * i + 1), expected[i].lon, kDegTol) << "vertex " << i;
-  }
-}
 
 TEST_F(GeoImportChecksTest, AShapefileWithoutItsPrjIsRefusedNotReadAsDegrees) {
   const XyFile block = {.driver = "ESRI Shapefile",

@@ -18,6 +18,7 @@
 namespace oaipp::client::geo_import {
 namespace {
 
+using test_files::ExpectRing;
 using test_files::GeoFeature;
 using test_files::GeoJson;
 using test_files::Kml;
@@ -62,31 +63,10 @@ const Ring kHole = {At(0.25, 0.5), At(0.25, 1.5), At(0.75, 1.5), At(0.75, 0.5)};
 // Edges (0)-(1) and (2)-(3) cross.
 const Ring kBowtie = {At(5, 0), At(6, 1), At(5, 1), At(6, 0)};
 
-class GeoImportTest : public ::testing::Test {
+class GeoImportTest : public test_files::FileFolderTest {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::path(::testing::TempDir()) /
-           ("geo_import_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    std::filesystem::create_directories(dir_);
-  }
-  std::string Write(const std::string& name, const std::string& text) {
-    WriteText(dir_ / name, text);
-    return (dir_ / name).string();
-  }
-  std::filesystem::path dir_;
-  std::vector<std::string> dropped_;
+  GeoImportTest() : FileFolderTest("geo_import_") {}
 };
-
-// The ring's lat_lon_deg equals `expected`, vertex for vertex.
-void ExpectRing(const v1::Ring& ring, const Ring& expected) {
-  ASSERT_EQ(ring.lat_lon_deg_size(), 2 * static_cast<int>(expected.size()));
-  EXPECT_EQ(ring.xy_m_size(), 0);
-  for (std::size_t i = 0; i < expected.size(); ++i) {
-    EXPECT_NEAR(ring.lat_lon_deg(2 * i), expected[i].lat, kDegTol) << "vertex " << i;
-    EXPECT_NEAR(ring.lat_lon_deg(2 * i + 1), expected[i].lon, kDegTol) << "vertex " << i;
-  }
-}
 
 TEST_F(GeoImportTest, GeoJsonAreaKeepsItsVerticesItsHoleAndItsConcavity) {
   const std::string path =
