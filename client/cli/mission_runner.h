@@ -2,8 +2,10 @@
 // the path in simulated time, let the camera fire at the planned shots,
 // send what the detector saw, replan at the path's end (or, with the
 // scenario's replan_on_detection, right after a shot with any report, from
-// the moving state there), until the flight budget is spent (planning time
-// is reported apart from flight time).
+// the moving state there), until the flight budget is spent or, with the
+// scenario's path_budget_m, the path is that long (planning time is
+// reported apart from flight time). The map is read after every shot for
+// the records, or only at the start and the end (final_map_only).
 //
 // A team scenario (mission.team) flies every member on the one mission
 // clock: each UAV steps its own path every 20 ms of flight, the step due
