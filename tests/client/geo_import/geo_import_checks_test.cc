@@ -36,7 +36,6 @@ using ::testing::HasSubstr;
 using ::testing::IsEmpty;
 using ::testing::SizeIs;
 
-
 // (north, east) steps of 1e-4 deg from a field near Zurich.
 constexpr LatLonDeg kBase{47.3977, 8.5456};
 LatLonDeg At(double north, double east) {
